@@ -1,0 +1,188 @@
+"""The `giraff-console` command line."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+from collections.abc import Sequence
+
+from giraff_console import __version__
+from giraff_console.clock import RealClock
+from giraff_console.link import DEFAULT_TIMEOUT_S, BoardLink, LinkError
+from giraff_console.protocol import (
+    BoardError,
+    GiraffError,
+    ModeBit,
+    Number,
+    ProtocolError,
+    format_value,
+    parse_command,
+)
+from giraff_console.sim import BoardConfig, GiraffBoard, Imperfections, PtyServer
+
+# Exit codes: a refused or garbled command, and a link that could not be used.
+EXIT_BOARD_ERROR = 1
+EXIT_LINK_ERROR = 3
+
+IN_PROCESS_SIMULATOR = "giraff-sim://"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="giraff-console",
+        description="Operator console for the Giraff telepresence robot, with a faithful "
+        "simulator of its motor board.",
+    )
+    parser.add_argument("--version", action="version", version=f"giraff-console {__version__}")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    sim = commands.add_parser(
+        "sim",
+        help="serve a simulated motor board on a pseudo-terminal",
+        description="Serve a simulated Giraff motor board on a new pseudo-terminal. The "
+        "device path is printed alone on the first line of standard output; any serial "
+        "program can then open it like a real board. Runs until SIGINT or SIGTERM. The "
+        "board keeps moving when a program closes the port, as a real board does.",
+    )
+    sim.add_argument(
+        "--pty",
+        action="store_true",
+        help="serve on a pseudo-terminal (the only transport; accepted for clarity)",
+    )
+    sim.add_argument(
+        "--pace", action="store_true", help="delay every byte as a 115200-baud line would"
+    )
+    sim.add_argument(
+        "--imperfect",
+        action="store_true",
+        help="model a real robot: distance errors, caster drift, stalls, ESTOP",
+    )
+    sim.add_argument("--seed", type=int, metavar="N", help="seed for --imperfect (default: random)")
+    sim.add_argument("--ca", action="store_true", help="print a Ca> line before the banner")
+    sim.add_argument("--hex-upper", action="store_true", help="upper-case hex in replies")
+    sim.add_argument(
+        "--set-reply",
+        choices=("value", "none", "labelled"),
+        default="value",
+        help="how a set is answered (default: value, as in the thesis)",
+    )
+    sim.add_argument("--auto-home", action="store_true", help="home the head at power-up")
+
+    send = commands.add_parser(
+        "send",
+        help="send controller commands and print the decoded replies",
+        description="Send each COMMAND to the board and print its decoded reply. Without "
+        "--port the built-in simulator answers.",
+        epilog='example: giraff-console send "set v 0.3" "get v" "get bulk_data"',
+    )
+    send.add_argument(
+        "--port",
+        metavar="PORT|URL",
+        help=f"serial device or pyserial URL (default: {IN_PROCESS_SIMULATOR})",
+    )
+    send.add_argument(
+        "--timeout",
+        type=float,
+        default=DEFAULT_TIMEOUT_S,
+        metavar="S",
+        help="seconds to wait for each reply (default: %(default)s)",
+    )
+    send.add_argument(
+        "--power-line",
+        choices=("dtr", "rts", "both", "none"),
+        default="dtr",
+        help="modem line that powers the board: dtr, or rts for FTDI cables",
+    )
+    send.add_argument(
+        "commands",
+        nargs="+",
+        metavar="COMMAND",
+        help='a controller command, e.g. "get bulk_data" or "set v 0.3"',
+    )
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    if args.command == "sim":
+        return run_sim(args)
+    if args.command == "send":
+        return run_send(args)
+    build_parser().print_help()
+    return 0
+
+
+def run_sim(args: argparse.Namespace) -> int:
+    imperfections = Imperfections.realistic(args.seed) if args.imperfect else Imperfections()
+    config = BoardConfig(
+        calibration_line=args.ca,
+        hex_upper=args.hex_upper,
+        set_reply=args.set_reply,
+        auto_home=args.auto_home,
+        imperfections=imperfections,
+    )
+    server = PtyServer(GiraffBoard(RealClock(), config), paced=args.pace)
+    signal.signal(signal.SIGTERM, lambda *_: server.stop())
+    signal.signal(signal.SIGINT, lambda *_: server.stop())
+    print(server.path, flush=True)
+    print(
+        f"giraff-console sim: board on {server.path}; Ctrl-C to stop", file=sys.stderr, flush=True
+    )
+    try:
+        server.serve_forever()
+    finally:
+        server.close()
+    return 0
+
+
+def run_send(args: argparse.Namespace) -> int:
+    try:
+        commands = [parse_command(text) for text in args.commands]
+        link = BoardLink.open(
+            args.port or IN_PROCESS_SIMULATOR, timeout=args.timeout, power_line=args.power_line
+        )
+    except LinkError as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_LINK_ERROR
+    except GiraffError as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_BOARD_ERROR
+    status = 0
+    try:
+        for command in commands:
+            print(f"> {command}")
+            try:
+                value = link.send(command).value
+            except (BoardError, ProtocolError) as error:
+                print(f"  {error}")
+                status = EXIT_BOARD_ERROR
+                continue
+            for line in describe(value):
+                print(f"  {line}")
+    except LinkError as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_LINK_ERROR
+    finally:
+        link.close()
+    return status
+
+
+def describe(value: object) -> list[str]:
+    """Lines that show a decoded reply: one per field for lists."""
+    if value is None:
+        return ["OK"]
+    if isinstance(value, dict):
+        width = max(len(name) for name in value)
+        return [f"{name:<{width}}  {describe_field(name, field)}" for name, field in value.items()]
+    assert isinstance(value, int | float)
+    return [format_value(value)]
+
+
+def describe_field(name: str, value: Number) -> str:
+    """A field's value; the mode bitmask also gets the names of its bits."""
+    text = format_value(value)
+    if name == "mode" and isinstance(value, int) and value:
+        bits = [bit.name for bit in ModeBit if value & bit]
+        text += f" ({', '.join(str(b) for b in bits)})"
+    return text

@@ -1,0 +1,67 @@
+"""The Giraff motor board's wire format: pure functions, no I/O (Appendix A)."""
+
+from giraff_console.protocol.codec import (
+    Command,
+    Number,
+    decode_value,
+    encode_command,
+    encode_float,
+    encode_get,
+    encode_int,
+    encode_set,
+    format_number,
+    parse_command,
+    parse_number,
+)
+from giraff_console.protocol.errors import (
+    ArgumentError,
+    BoardError,
+    BoardRebootedError,
+    CommandError,
+    GiraffError,
+    ProtocolError,
+    QueueRolloverError,
+    UnknownNameError,
+)
+from giraff_console.protocol.mode import ModeBit
+from giraff_console.protocol.replies import (
+    Reply,
+    ReplyValue,
+    board_error,
+    decode_line,
+    decode_list,
+    format_reply,
+    format_value,
+    parse_reply,
+)
+
+__all__ = [
+    "ArgumentError",
+    "BoardError",
+    "BoardRebootedError",
+    "Command",
+    "CommandError",
+    "GiraffError",
+    "ModeBit",
+    "Number",
+    "ProtocolError",
+    "QueueRolloverError",
+    "Reply",
+    "ReplyValue",
+    "UnknownNameError",
+    "board_error",
+    "decode_line",
+    "decode_list",
+    "decode_value",
+    "encode_command",
+    "encode_float",
+    "encode_get",
+    "encode_int",
+    "encode_set",
+    "format_number",
+    "format_reply",
+    "format_value",
+    "parse_command",
+    "parse_number",
+    "parse_reply",
+]

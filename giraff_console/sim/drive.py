@@ -1,0 +1,365 @@
+"""The board's wheel controller: move queue, motion, odometry counters, true pose.
+
+This follows the thesis's GiraffMotorSim (B.2) move for move: the same queue, the same
+preemption rules, the same counters and sign quirks. It also integrates the robot's
+true planar pose from the wheel speeds, which the wire never shows.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass, replace
+
+from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, WHEEL_BASE_M, gvr_from_speed
+from giraff_console.protocol.mode import ModeBit
+from giraff_console.sim.gear import NO_GEAR, GearEnvelope, plan_gear
+from giraff_console.sim.imperfections import ImperfectionModel, Mishap
+from giraff_console.sim.profile import VelocityProfile, plan_move
+
+# The board holds up to four moves, the running one included (B.1 GIRAFF_BUFFERS).
+QUEUE_SLOTS = 4
+# Ground truth is integrated in steps of at most this long.
+_STEP_S = 0.002
+
+
+class Style(enum.Enum):
+    """Movement style chosen with `set r` (A.4.2)."""
+
+    ROTATE = "rotate"
+    PATH = "path"
+    # With r < 0 the thesis saw rotations reported as wheel distances (B.2 StartRotate).
+    ROTATE_AS_DISTANCE = "rotate-as-distance"
+
+    @classmethod
+    def of(cls, r: float) -> Style:
+        if r == 0:
+            return cls.ROTATE
+        return cls.PATH if r > 0 else cls.ROTATE_AS_DISTANCE
+
+
+@dataclass
+class MoveParams:
+    """The parameters of one move; the defaults are the thesis simulator's (B.2)."""
+
+    v: float = 0.6
+    a: float = 0.6
+    r: float = 0.0
+    p: float = 0.0
+    vg: float = 1.0
+    vgr: float = 0.4
+    cdp: float = 0.0
+    mode: int = 0
+
+
+@dataclass(frozen=True)
+class TruePose:
+    """Where the robot really is: metres, and radians counter-clockwise from +x."""
+
+    x: float = 0.0
+    y: float = 0.0
+    heading: float = 0.0
+
+
+@dataclass
+class _Move:
+    params: MoveParams
+    style: Style
+    started: float
+    profile: VelocityProfile
+    gear: GearEnvelope
+    origin: float
+    position: float = 0.0
+    gear_ratio: float = 0.0
+
+
+class MoveRefused(ValueError):
+    """A move the board cannot plan, such as one with zero speed."""
+
+
+class Drive:
+    """Wheel motion of the simulated board, advanced on an injected clock."""
+
+    def __init__(self, imperfections: ImperfectionModel, now: float) -> None:
+        self.imperfections = imperfections
+        self.next = MoveParams()
+        self.estop = False
+        self.stalled = False
+        self.cdis = 0.0
+        self.cang = 0.0
+        self.cvg = 0.0
+        self.velocity = 0.0
+        self.left_odometer = 0.0
+        self.right_odometer = 0.0
+        self.pose = TruePose()
+        self._pending: list[MoveParams] = []
+        self._move: _Move | None = None
+        self._counter_style = Style.PATH
+        self._counter_absolute = False
+        self._motion_time = 0.0
+        self._last_clock = now
+        self._stall: Mishap | None = None
+        self._stall_left = 0.0
+        self._estop_at: float | None = None
+        self._estop_release: float | None = None
+
+    # -- commands -----------------------------------------------------------------------
+
+    @property
+    def slots_used(self) -> int:
+        return len(self._pending) + (self._move is not None)
+
+    def queue_move(self, now: float) -> bool:
+        """`set p`: start, preempt or buffer a move. False when the queue is full."""
+        self.advance(now)
+        if self.slots_used >= QUEUE_SLOTS:
+            return False
+        if self.next.v == 0 or self.next.a == 0:
+            raise MoveRefused("speed and acceleration must be non-zero")
+        buffered = self.next.mode & ModeBit.BUFFERED
+        # "Buffer next move": the bit applies to one move only (B.2 QueueMotion).
+        stored = replace(self.next, mode=self.next.mode & ModeBit.ABSOLUTE)
+        self.next = replace(stored)
+        if self.estop:
+            return True
+        if self._move is None or buffered:
+            self._pending.append(stored)
+            if self._move is None:
+                self._start_next()
+        else:
+            self._pending.clear()
+            self._start(stored)
+        return True
+
+    def queue_undock(self, distance: float, now: float) -> bool:
+        """`set undock`: back out `distance`, then rotate 180 degrees (A.4.9)."""
+        self.advance(now)
+        if self.slots_used > QUEUE_SLOTS - 2:
+            return False
+        if self.next.v == 0 or self.next.a == 0:
+            raise MoveRefused("speed and acceleration must be non-zero")
+        if self.estop:
+            return True
+        # The thesis's console sends -0.5 and its simulator negated it, driving forward;
+        # backing out is what the board documents, whatever the sign given.
+        back = replace(self.next, mode=0, r=1, p=-abs(distance), vg=0, vgr=0, cdp=0)
+        turn = replace(back, r=0, p=180)
+        self._pending += [back, turn]
+        if self._move is None:
+            self._start_next()
+        return True
+
+    def set_estop(self, active: bool, now: float) -> None:
+        """Raise or clear ESTOP; raising it stops the wheels and drops every move."""
+        self.advance(now)
+        self._estop_release = None
+        if active:
+            self._halt()
+        self.estop = active
+
+    def stall(self, seconds: float, now: float) -> None:
+        """Block the wheels for `seconds`: the move stays commanded, nothing turns."""
+        self.advance(now)
+        self._stall_left = max(self._stall_left, seconds)
+        self.stalled = self._move is not None
+
+    # -- readings -----------------------------------------------------------------------
+
+    @property
+    def style(self) -> Style:
+        return self._move.style if self._move else self._counter_style
+
+    def mode_bits(self) -> int:
+        """The readable `mode`: MOVING, ESTOP and the running move's ABSOLUTE bit."""
+        params = self._move.params if self._move else self.next
+        bits = params.mode & ModeBit.ABSOLUTE
+        if self._move is not None:
+            bits |= ModeBit.MOVING
+        if self.estop:
+            bits |= ModeBit.ESTOP
+        return bits
+
+    def reported_cdis(self) -> float:
+        return 0.0 if self.style is Style.ROTATE else self.cdis
+
+    def reported_cang(self) -> float:
+        """`cang` as the board sends it: opposite to the commanded rotation (A.2.2)."""
+        return -self.cang if self.style is Style.ROTATE else 0.0
+
+    def reported_gvr(self) -> float:
+        """`gvr` as the board sends it (A.2.2, A.2.3, §3.2.1.4)."""
+        speed = 0.0 if self.stalled else self.velocity
+        if self.style is Style.ROTATE:
+            return -speed * TURN_FACTOR_DEG_PER_M
+        return gvr_from_speed(speed, self.cvg)
+
+    # -- time ---------------------------------------------------------------------------
+
+    def advance(self, now: float) -> None:
+        """Bring the motion up to clock time `now`."""
+        elapsed = now - self._last_clock
+        if elapsed <= 0:
+            return
+        self._last_clock = now
+        if self._estop_release is not None and now >= self._estop_release:
+            self._estop_release = None
+            self.estop = False
+        while elapsed > 0:
+            if self._stall_left > 0:
+                blocked = min(self._stall_left, elapsed)
+                self._stall_left -= blocked
+                elapsed -= blocked
+                self.stalled = self._stall_left > 0 and self._move is not None
+                continue
+            step = elapsed
+            if self._stall is not None:
+                step = min(step, max(0.0, self._stall.after - self._motion_time))
+            if self._estop_at is not None:
+                step = min(step, max(0.0, self._estop_at - self._motion_time))
+            self._run_until(self._motion_time + step)
+            elapsed -= step
+            if self._stall is not None and self._motion_time >= self._stall.after:
+                self._stall_left, self._stall = self._stall.seconds, None
+                self.stalled = self._move is not None
+            if self._estop_at is not None and self._motion_time >= self._estop_at:
+                self.set_estop(True, self._last_clock)
+                self._estop_release = (
+                    self._last_clock - elapsed + self.imperfections.config.estop_seconds
+                )
+
+    def _run_until(self, target: float) -> None:
+        while self._move is not None:
+            end = self._move.started + self._move.profile.duration
+            if end > target:
+                self._integrate(self._move, target)
+                break
+            self._integrate(self._move, end)
+            self._finish()
+        self._motion_time = max(self._motion_time, target)
+
+    def _integrate(self, move: _Move, until: float) -> None:
+        """Advance the move, its counters, the odometers and the true pose to `until`."""
+        t = self._motion_time - move.started
+        t_end = until - move.started
+        steps = max(1, math.ceil((t_end - t) / _STEP_S))
+        for i in range(1, steps + 1):
+            position, velocity = move.profile.state_at(t + (t_end - t) * i / steps)
+            ds = position - move.position
+            if move.style is Style.PATH:
+                gear = move.gear.at(move.profile.arc_length_at(t + (t_end - t) * i / steps))
+                mean_gear = (gear + move.gear_ratio) / 2
+                left, right = ds * (1 + mean_gear), ds * (1 - mean_gear)
+                move.gear_ratio = gear
+            else:
+                # Positive rotation is clockwise: the left wheel goes forward.
+                left, right = ds, -ds
+            turn = (right - left) / WHEEL_BASE_M
+            centre = (left + right) / 2
+            if move.style is Style.PATH:
+                turn += self.imperfections.caster_turn(centre)
+            self._move_pose(centre, turn)
+            self.left_odometer += left
+            self.right_odometer += right
+            move.position = position
+            self.velocity = velocity
+        self._motion_time = until
+        self._update_counters(move)
+
+    def _move_pose(self, distance: float, turn: float) -> None:
+        pose = self.pose
+        mid = pose.heading + turn / 2
+        self.pose = TruePose(
+            pose.x + distance * math.cos(mid),
+            pose.y + distance * math.sin(mid),
+            pose.heading + turn,
+        )
+
+    def _update_counters(self, move: _Move) -> None:
+        if move.style is Style.ROTATE:
+            self.cang = move.origin + move.position * TURN_FACTOR_DEG_PER_M
+        else:
+            self.cdis = move.origin + move.position
+        self.cvg = move.gear_ratio
+
+    # -- starting and ending moves ------------------------------------------------------
+
+    def _start_next(self) -> None:
+        if self._pending:
+            self._start(self._pending.pop(0))
+
+    def _start(self, params: MoveParams) -> None:
+        style = Style.of(params.r)
+        current = self._move
+        same_style = current is not None and current.style is style
+        start_velocity = self.velocity if same_style else 0.0
+        start_gear = self.cvg if same_style and start_velocity != 0 else 0.0
+        if current is not None and current.style is not Style.PATH:
+            self.imperfections.rotated_in_place(current.position * TURN_FACTOR_DEG_PER_M)
+        absolute = bool(params.mode & ModeBit.ABSOLUTE) and style is not Style.ROTATE_AS_DISTANCE
+        # Relative moves count from their own start. Absolute moves count from when
+        # absolute mode was enabled, until the style changes (A.4.8).
+        if not (absolute and self._counter_absolute and style is self._counter_style):
+            self._reset_counters()
+        self._counter_style = style
+        self._counter_absolute = absolute
+        origin = self.cang if style is Style.ROTATE else self.cdis
+        relative = params.p - origin if absolute else params.p
+        cdp = params.cdp - origin if absolute else params.cdp
+        if style is not Style.PATH:
+            relative /= TURN_FACTOR_DEG_PER_M
+        if relative != 0:
+            relative += math.copysign(self.imperfections.distance_error(), relative)
+        profile = plan_move(relative, start_velocity, abs(params.v), abs(params.a))
+        gear = NO_GEAR
+        if style is Style.PATH:
+            gear = plan_gear(
+                direction=profile.direction,
+                start_vg=start_gear,
+                vg=params.vg,
+                vgr=params.vgr,
+                cdp=cdp,
+                length=profile.length,
+                curved=params.r > 50 and params.cdp != 0 and params.vg != 0,
+                reversal_at=profile.reversal_arc_length,
+            )
+        move = _Move(
+            params, style, self._motion_time, profile, gear, origin, gear_ratio=gear.at(0.0)
+        )
+        self._move = move
+        self._stall = self.imperfections.stall(profile.duration)
+        estop = self.imperfections.estop(profile.duration)
+        if self._stall is not None:
+            self._stall = Mishap(self._motion_time + self._stall.after, self._stall.seconds)
+        self._estop_at = None if estop is None else self._motion_time + estop.after
+        self._update_counters(move)
+
+    def _finish(self) -> None:
+        """The running move has reached its target: stop exactly there, start the next."""
+        move = self._move
+        assert move is not None
+        move.position = move.profile.final_position
+        move.gear_ratio = 0.0
+        self.velocity = 0.0
+        self._update_counters(move)
+        if move.style is not Style.PATH:
+            self.imperfections.rotated_in_place(move.position * TURN_FACTOR_DEG_PER_M)
+        self._move = None
+        self._stall = None
+        self._estop_at = None
+        self.stalled = False
+        self._start_next()
+
+    def _halt(self) -> None:
+        """Stop dead and forget every move, as ESTOP does."""
+        self._pending.clear()
+        self._move = None
+        self._stall = None
+        self._stall_left = 0.0
+        self._estop_at = None
+        self.velocity = 0.0
+        self.cvg = 0.0
+        self.stalled = False
+
+    def _reset_counters(self) -> None:
+        self.cdis = 0.0
+        self.cang = 0.0

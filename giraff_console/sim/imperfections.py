@@ -1,0 +1,95 @@
+"""What a real Giraff does that an ideal board would not: off by default, seedable.
+
+- The wheels rarely hit the requested distance exactly; the board reports what they
+  really did, a few millimetres off (§5.5).
+- The swivel casters must realign after turning in place, and turn the robot by up to
+  about 45 degrees more before they have (§3.2.1.5). The wheel odometry never sees it.
+- A wheel can stall: motion is commanded but the odometry stops changing (§2.3.2).
+- The board can raise ESTOP when something with the wheels is wrong (A.4.8).
+"""
+
+from __future__ import annotations
+
+import math
+import random
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Imperfections:
+    """Rates and sizes of the imperfections; the defaults describe an ideal board."""
+
+    move_error_m: float = 0.0
+    caster_drift_deg: float = 0.0
+    caster_settle_m: float = 0.3
+    stall_probability: float = 0.0
+    stall_seconds: tuple[float, float] = (0.5, 2.0)
+    estop_probability: float = 0.0
+    estop_seconds: float = 3.0
+    seed: int | None = None
+
+    @classmethod
+    def realistic(cls, seed: int | None = None) -> Imperfections:
+        """The `--imperfect` set: the thesis's observations at plausible rates."""
+        return cls(
+            move_error_m=0.003,
+            caster_drift_deg=20.0,
+            stall_probability=0.02,
+            estop_probability=0.005,
+            seed=seed,
+        )
+
+
+@dataclass(frozen=True)
+class Mishap:
+    """Something that will go wrong during a move, `after` seconds into it."""
+
+    after: float
+    seconds: float
+
+
+class ImperfectionModel:
+    """Draws the imperfections move by move from one seeded random stream."""
+
+    def __init__(self, config: Imperfections) -> None:
+        self.config = config
+        self._random = random.Random(config.seed)
+        self._caster_misalignment = 0.0
+
+    def distance_error(self) -> float:
+        """Metres by which the next move misses its target."""
+        sigma = self.config.move_error_m
+        if sigma <= 0:
+            return 0.0
+        return max(-3 * sigma, min(3 * sigma, self._random.gauss(0.0, sigma)))
+
+    def stall(self, move_seconds: float) -> Mishap | None:
+        """A stall during a move of `move_seconds`, or None."""
+        if self._random.random() >= self.config.stall_probability:
+            return None
+        low, high = self.config.stall_seconds
+        return Mishap(self._random.uniform(0, move_seconds), self._random.uniform(low, high))
+
+    def estop(self, move_seconds: float) -> Mishap | None:
+        """An ESTOP during a move of `move_seconds`, or None."""
+        if self._random.random() >= self.config.estop_probability:
+            return None
+        return Mishap(self._random.uniform(0, move_seconds), self.config.estop_seconds)
+
+    def rotated_in_place(self, degrees: float) -> None:
+        """Note a rotation in place: the casters are now out of line with the wheels."""
+        worst = math.radians(self.config.caster_drift_deg)
+        if worst <= 0 or degrees == 0:
+            return
+        share = min(1.0, abs(degrees) / 90.0) * self._random.uniform(0.3, 1.0)
+        # Clockwise rotation (positive `set p`) leaves the robot turning further clockwise.
+        self._caster_misalignment -= math.copysign(worst * share, degrees)
+
+    def caster_turn(self, distance: float) -> float:
+        """Extra heading change (radians) while the casters realign over `distance` metres."""
+        if self._caster_misalignment == 0.0 or distance == 0.0:
+            return 0.0
+        settled = 1.0 - math.exp(-abs(distance) / self.config.caster_settle_m)
+        turn = self._caster_misalignment * settled
+        self._caster_misalignment -= turn
+        return turn
