@@ -13,7 +13,6 @@ import contextlib
 import os
 import select
 import termios
-import threading
 import tty
 
 from giraff_console.clock import RealClock
@@ -24,7 +23,8 @@ from giraff_console.sim.line import BoardLine
 # finish configuring and flushing the port (pyserial flushes input when it opens).
 BOOT_DELAY_S = 0.05
 # With no program on the slave side the master reports a hang-up on every poll, so the
-# server checks for a new connection at this interval instead.
+# server checks for a new connection at this interval instead. A program that closes
+# and reopens the port faster than this is not greeted again; the link then probes.
 IDLE_POLL_S = 0.02
 
 
@@ -46,36 +46,46 @@ class PtyServer:
         # Never block on a program that stops reading; hold its bytes back instead.
         os.set_blocking(self._master, False)
         self._unsent = bytearray()
-        self._stopped = threading.Event()
+        # stop() may run in a signal handler, so it only sets a flag and writes to a
+        # pipe that wakes the loop: a threading.Event could deadlock there.
+        self._stop_requested = False
+        self._wake_read, self._wake_write = os.pipe()
+        os.set_blocking(self._wake_write, False)
         self._connected = False
         self._greet_at: float | None = None
 
     def stop(self) -> None:
         """Ask `serve_forever` to return; safe from another thread or a signal handler."""
-        self._stopped.set()
+        self._stop_requested = True
+        with contextlib.suppress(BlockingIOError):
+            os.write(self._wake_write, b"!")
 
     def close(self) -> None:
-        os.close(self._master)
+        for fd in (self._master, self._wake_read, self._wake_write):
+            os.close(fd)
 
     def serve_forever(self) -> None:
-        poller = select.poll()
-        poller.register(self._master, select.POLLIN)
-        while not self._stopped.is_set():
+        hangup = select.poll()
+        hangup.register(self._master, select.POLLIN)
+        while not self._stop_requested:
             now = self.clock.now()
-            wake = [
-                t for t in (self.line.next_event(whole_lines=True), self._greet_at) if t is not None
-            ]
+            wake = [t for t in (self.line.next_event(whole_lines=True), self._greet_at) if t]
             timeout = max(0.0, min(wake) - now) if wake else 0.2
-            events = poller.poll(timeout * 1000)
+            # select() waits to the microsecond; poll() only to the millisecond, which
+            # would cost a paced exchange about a millisecond per reply line.
+            readable, _, _ = select.select([self._master, self._wake_read], [], [], timeout)
+            if self._wake_read in readable:
+                continue
+            events = hangup.poll(0)
             if events and events[0][1] & select.POLLHUP and not events[0][1] & select.POLLIN:
                 self._hang_up()
-                self._stopped.wait(IDLE_POLL_S)
+                select.select([self._wake_read], [], [], IDLE_POLL_S)
                 continue
             now = self.clock.now()
             if not self._connected:
                 self._connected = True
                 self._greet_at = now + BOOT_DELAY_S
-            if events and events[0][1] & select.POLLIN:
+            if self._master in readable:
                 try:
                     self.line.receive(os.read(self._master, 4096), now)
                 except (BlockingIOError, InterruptedError):

@@ -1,0 +1,97 @@
+"""The link against `giraff-console sim --pty` running in another process."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+from giraff_console.link import BoardLink, LinkDisconnected
+from tests.conftest import start_sim_process, stop_sim_process
+
+
+def test_handshake_over_a_real_pty(sim_pty):
+    link = BoardLink.open(sim_pty)
+    assert link.version == "1.1.112p-sim, 2013-06-01"
+    link.close()
+    time.sleep(0.1)  # as long as a board's power line would stay low
+    again = BoardLink.open(sim_pty)  # every new connection is greeted
+    assert again.version == link.version
+    again.close()
+
+
+def test_send_prints_the_eight_bulk_fields_decoded(sim_pty):
+    result = subprocess.run(
+        [sys.executable, "-m", "giraff_console", "send", "--port", sim_pty, "get bulk_data"],
+        capture_output=True, text=True, timeout=10,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0] == "> get bulk_data"
+    fields = [line.split()[0] for line in lines[1:]]
+    assert fields == ["cang", "cdis", "gvr", "tilt_angle_from_home", "imdl", "imdr", "cvg", "mode"]
+    assert lines[4].split()[1] == "0.08727"  # the home tilt, decoded from F*
+
+
+def test_a_one_metre_move_stops_at_one_metre_after_3_3_seconds(sim_pty):
+    link = BoardLink.open(sim_pty)
+    for name, value in (("r", 1), ("a", 0.5), ("v", 0.4)):
+        link.set(name, value)
+    link.set("p", 1)
+    started = time.monotonic()
+    state = link.bulk()
+    while state.moving:
+        assert time.monotonic() - started < 6, "the move did not end"
+        time.sleep(0.005)
+        state = link.bulk()
+    elapsed = state.received_at - started
+    assert state.cdis == pytest.approx(1.000, abs=0.001)
+    assert elapsed == pytest.approx(3.3, abs=0.1)
+    link.close()
+
+
+def test_concurrent_callers_each_get_their_own_answer(sim_pty):
+    link = BoardLink.open(sim_pty)
+    link.set("v", 0.3)
+    link.set("a", 0.5)
+    errors: list[str] = []
+
+    def ask(name: str, expected: float) -> None:
+        for _ in range(100):
+            value = link.get(name)
+            if value != pytest.approx(expected):
+                errors.append(f"{name} gave {value}")
+
+    threads = [threading.Thread(target=ask, args=args) for args in (("v", 0.3), ("a", 0.5))]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert errors == []
+    link.close()
+
+
+def test_a_simulator_that_dies_is_a_disconnection_not_a_hang():
+    process, path = start_sim_process()
+    link = BoardLink.open(path)
+    stop_sim_process(process)
+    start = time.monotonic()
+    with pytest.raises(LinkDisconnected):
+        link.get("v")
+    assert time.monotonic() - start < 1.5
+
+
+def test_paced_simulator_answers_at_line_rate():
+    process, path = start_sim_process("--pace")
+    try:
+        link = BoardLink.open(path)
+        start = time.monotonic()
+        for _ in range(20):
+            link.bulk()
+        per_exchange = (time.monotonic() - start) / 20
+        assert 0.0139 <= per_exchange < 0.03
+    finally:
+        stop_sim_process(process)

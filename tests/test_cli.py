@@ -1,0 +1,81 @@
+"""The `giraff-console` command line, run as an operator would run it."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+
+import pytest
+
+from tests.conftest import start_sim_process, stop_sim_process
+
+
+def run(*args: str, timeout: float = 20) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "giraff_console", *args],
+        capture_output=True, text=True, timeout=timeout,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [([], "simulator"), (["sim"], "pseudo-terminal"), (["send"], "COMMAND")],
+)
+def test_every_command_explains_itself(args, expected):
+    result = run(*args, "--help")
+    assert result.returncode == 0
+    assert expected in result.stdout
+
+
+def test_send_without_a_port_uses_the_built_in_simulator():
+    result = run("send", "get bulk_data", "set v 0.3", "get v")
+    assert result.returncode == 0, result.stderr
+    out = result.stdout.splitlines()
+    assert out[0] == "> get bulk_data"
+    assert [line.split()[0] for line in out[1:9]] == [
+        "cang", "cdis", "gvr", "tilt_angle_from_home", "imdl", "imdr", "cvg", "mode",
+    ]  # fmt: skip
+    assert out[-2:] == ["> get v", "  0.30000"]
+
+
+def test_send_shows_mode_bits_by_name():
+    result = run("send", "set r 1", "set p 1", "get bulk_data")
+    assert "128 (MOVING)" in result.stdout
+
+
+def test_a_refused_command_is_reported_without_a_traceback():
+    result = run("send", "get nonsense")
+    assert result.returncode == 1
+    assert "board error: Unknown name: nonsense" in result.stdout
+    assert "Traceback" not in result.stderr
+
+
+@pytest.mark.parametrize("command", ["set v fast", "get v\rset p 9", "set v 1 2"])
+def test_malformed_commands_are_refused_before_anything_is_sent(command):
+    result = run("send", command)
+    assert result.returncode == 1
+    assert result.stderr.startswith("giraff-console: ")
+    assert "Traceback" not in result.stderr
+
+
+def test_a_missing_port_is_a_clear_link_error():
+    result = run("send", "--port", "/dev/no-such-giraff", "get v")
+    assert result.returncode == 3
+    assert "cannot open /dev/no-such-giraff" in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_sim_prints_only_its_path_first_and_stops_cleanly_on_signals(sig):
+    process, path = start_sim_process("--imperfect", "--seed", "3")
+    assert path.startswith("/dev/pts/")
+    assert stop_sim_process(process, sig) == 0
+    assert "Traceback" not in process.stderr.read()
+
+
+def test_console_script_is_installed():
+    from importlib.metadata import entry_points
+
+    scripts = {ep.name: ep.value for ep in entry_points(group="console_scripts")}
+    assert scripts.get("giraff-console") == "giraff_console.cli:main"

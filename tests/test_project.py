@@ -1,0 +1,43 @@
+"""The promises the repository makes about itself: quick start, CI and style."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def quick_start_commands() -> list[str]:
+    readme = (ROOT / "README.md").read_text()
+    section = readme.split("## Quick start", 1)[1].split("\n## ", 1)[0]
+    return [block.strip() for block in re.findall(r"```sh\n(.*?)```", section, re.S)]
+
+
+def test_the_quick_start_has_exactly_two_commands():
+    commands = quick_start_commands()
+    assert len(commands) == 2
+    assert all("\n" not in command for command in commands)
+    assert "giraff-console" in commands[0]
+    assert "pytest" in commands[1] and ".[test]" in commands[1]
+
+
+def test_ci_runs_the_readme_test_command_verbatim():
+    ci = (ROOT / ".ci" / "run").read_text()
+    assert quick_start_commands()[1] in ci.splitlines()
+
+
+def test_the_test_extra_pins_pytest_below_9_for_the_snapshot_plugin():
+    pyproject = (ROOT / "pyproject.toml").read_text()
+    assert '"pytest>=8,<9"' in pyproject
+
+
+def test_the_code_passes_ruff():
+    # ruff comes with the test extra.
+    result = subprocess.run(
+        [sys.executable, "-m", "ruff", "check", "giraff_console", "tests", "bench"],
+        cwd=ROOT, capture_output=True, text=True,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stdout + result.stderr
