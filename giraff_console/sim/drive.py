@@ -114,8 +114,7 @@ class Drive:
         self.advance(now)
         if self.slots_used >= QUEUE_SLOTS:
             return False
-        if self.next.v == 0 or self.next.a == 0:
-            raise MoveRefused("speed and acceleration must be non-zero")
+        self._check_plannable()
         buffered = self.next.mode & ModeBit.BUFFERED
         # "Buffer next move": the bit applies to one move only (B.2 QueueMotion).
         stored = replace(self.next, mode=self.next.mode & ModeBit.ABSOLUTE)
@@ -136,8 +135,7 @@ class Drive:
         self.advance(now)
         if self.slots_used > QUEUE_SLOTS - 2:
             return False
-        if self.next.v == 0 or self.next.a == 0:
-            raise MoveRefused("speed and acceleration must be non-zero")
+        self._check_plannable()
         if self.estop:
             return True
         # The thesis's console sends -0.5 and its simulator negated it, driving forward;
@@ -148,6 +146,10 @@ class Drive:
         if self._move is None:
             self._start_next()
         return True
+
+    def _check_plannable(self) -> None:
+        if self.next.v == 0 or self.next.a == 0:
+            raise MoveRefused("speed and acceleration must be non-zero")
 
     def set_estop(self, active: bool, now: float) -> None:
         """Raise or clear ESTOP; raising it stops the wheels and drops every move."""

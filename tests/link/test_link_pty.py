@@ -95,3 +95,33 @@ def test_paced_simulator_answers_at_line_rate():
         assert 0.0139 <= per_exchange < 0.03
     finally:
         stop_sim_process(process)
+
+
+def test_sim_options_reach_the_board_over_the_pty():
+    process, path = start_sim_process("--ca", "--hex-upper", "--set-reply", "none")
+    try:
+        link = BoardLink.open(path)
+        lines: list[str] = []
+        link.add_observer(lambda exchange: lines.extend(exchange.lines))
+        assert link.set("v", 0.3) is None  # answered with the prompt alone
+        assert link.get("v") == pytest.approx(0.3)
+        assert lines == ["F*9A99993E"]
+        link.close()
+    finally:
+        stop_sim_process(process)
+
+
+def test_imperfect_sim_misses_its_targets_by_millimetres():
+    process, path = start_sim_process("--imperfect", "--seed", "11")
+    try:
+        link = BoardLink.open(path)
+        for name, value in (("r", 1), ("a", 1.0), ("v", 0.5), ("p", 0.2)):
+            link.set(name, value)
+        deadline = time.monotonic() + 5
+        while link.bulk().moving and time.monotonic() < deadline:
+            time.sleep(0.02)
+        miss = abs(link.bulk().cdis - 0.2)
+        assert 0.0 < miss <= 0.009
+        link.close()
+    finally:
+        stop_sim_process(process)

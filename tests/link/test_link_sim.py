@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+import serial
 
 from giraff_console.link import BoardLink, Exchange, MotorState
 from giraff_console.protocol import QueueRolloverError, UnknownNameError
@@ -122,3 +123,14 @@ def test_a_failing_observer_does_not_break_the_link():
 
     link.add_observer(broken)
     assert link.get("v") == pytest.approx(0.6)
+
+
+@pytest.mark.parametrize(("power_line", "power_cycled"), [("rts", True), ("dtr", False)])
+def test_the_handshake_pulses_the_chosen_power_line(power_line, power_cycled):
+    port = serial.serial_for_url("giraff-sim://?clock=virtual&power=rts", timeout=0.05)
+    port.write(b"set r 1\rset p 5\r")
+    port.clock.advance(2.0)
+    link = BoardLink(port)
+    assert link.handshake(power_line=power_line) == "1.1.112p-sim, 2013-06-01"
+    moving = link.bulk().moving
+    assert moving is not power_cycled  # a power cycle stops the wheels

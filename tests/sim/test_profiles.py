@@ -286,3 +286,14 @@ def test_moving_bit_follows_the_motion(sim):
 def test_zero_speed_is_refused_rather_than_divided_by(sim):
     sim.run("set v 0")
     assert sim.cmd("set p 1") == "Error: Argument out of range"
+
+
+def test_negative_r_rotates_but_reports_wheel_metres(sim):
+    # B.2 StartRotate: "If r is negative, the motion don't seem to get converted back
+    # to angles, but are reported to the app as distances traveled by the wheels."
+    sim.run("set r -1", "set a 0.5", "set v 0.2", "set p 90")
+    sim.run_until_stopped()
+    state = sim.bulk()
+    assert state["cdis"] == pytest.approx(90 / TURN_FACTOR_DEG_PER_M, abs=1e-6)
+    assert state["cang"] == 0.0
+    assert math.degrees(sim.board.true_pose.heading) == pytest.approx(-90.0, abs=1e-6)
