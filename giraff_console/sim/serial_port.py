@@ -15,7 +15,9 @@ Options go in the query string, for example `giraff-sim://?pace=1&imperfect=1&se
 | trailing_comma  | 0, 1                     | end lists with a comma, as real boards do         |
 | auto_home       | 0, 1                     | start homing the head at power-up                 |
 
-The port exposes `board` (a `GiraffBoard`) and `clock` for tests.
+The port exposes `board` (a `GiraffBoard`) and `clock` for tests. Closing the port
+leaves the board running, as a real board carries on when its driver goes away;
+opening it again reaches the same board, which greets again.
 """
 
 from __future__ import annotations
@@ -43,6 +45,7 @@ class Serial(SerialBase):
         self._line: BoardLine | None = None
         self._power_line = "dtr"
         self._powered = False
+        self._paced = False
         super().__init__(*args, **kwargs)
 
     # -- opening ------------------------------------------------------------------------
@@ -52,9 +55,12 @@ class Serial(SerialBase):
             raise SerialException("Port is already open.")
         if self._port is None:
             raise SerialException("Port must be configured before it can be used.")
-        config, paced = self.from_url(self._port)
-        self.board = GiraffBoard(self.clock, config)
-        self._line = BoardLine(self.board, paced)
+        if self.board is None:
+            config, paced = self.from_url(self._port)
+            self.board = GiraffBoard(self.clock, config)
+            self._paced = paced
+        # Reopening reaches the same board, still running: a cable unplugged and back.
+        self._line = BoardLine(self.board, self._paced)
         self.is_open = True
         self._powered = False
         self._update_power()

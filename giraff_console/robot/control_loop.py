@@ -1,0 +1,238 @@
+"""The control loop: the one owner of the link (design.md).
+
+At a fixed rate, off the UI thread, it polls `bulk_data`, updates the odometry, runs
+teleop and publishes an immutable `Telemetry` snapshot. Anything else that must talk to
+the board, such as a typed command, is queued to it and runs between ticks. A key
+press wakes the loop at once, so the first motion command does not wait for a tick.
+
+When the board stops answering the loop reports LINK LOST and reconnects with
+back-off; the first thing it sends to a reconnected board is a stop.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import queue
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from giraff_console.clock import Clock
+from giraff_console.link import BoardLink, LinkError, MotorState
+from giraff_console.protocol.errors import GiraffError
+from giraff_console.robot.deadman import Deadman, Intent
+from giraff_console.robot.odometry import Odometry, Pose
+from giraff_console.robot.safety import stop_robot
+from giraff_console.robot.teleop import Teleop
+
+log = logging.getLogger(__name__)
+
+DEFAULT_RATE_HZ = 20.0
+BACKOFF_S = (0.5, 1.0, 2.0, 4.0)
+
+Connect = Callable[[], BoardLink]
+BoardJob = Callable[[BoardLink], object]
+JobDone = Callable[[object], None]
+
+
+class LinkState(enum.Enum):
+    CONNECTED = "connected"
+    LOST = "link lost"
+
+
+@dataclass(frozen=True)
+class Telemetry:
+    """What the console shows, as of one control tick."""
+
+    tick: int
+    time: float
+    link: LinkState
+    state: MotorState | None
+    pose: Pose
+    intent: Intent | None
+    speed: float
+    driving: bool
+    autopoll: bool
+    loop_hz: float
+    late_ms: float
+
+
+class ControlLoop:
+    """Runs the robot from its own thread; all methods are safe from any thread."""
+
+    def __init__(self, connect: Connect, *, teleop: Teleop, deadman: Deadman,
+                 rate_hz: float = DEFAULT_RATE_HZ, clock: Clock,
+                 publish: Callable[[Telemetry], None] = lambda t: None,
+                 report: Callable[[str], None] = lambda m: None) -> None:  # fmt: skip
+        self.connect = connect
+        self.teleop = teleop
+        self.deadman = deadman
+        self.period = 1.0 / rate_hz
+        self.clock = clock
+        self.publish = publish
+        self.report = report
+        self.odometry = Odometry()
+        self.autopoll = True
+        self.link: BoardLink | None = None
+        self._jobs: queue.SimpleQueue[tuple[BoardJob, Callable[[object], None]]] = (
+            queue.SimpleQueue()
+        )
+        self._wake = threading.Event()
+        self._running = False
+        self._thread: threading.Thread | None = None
+        self._tick = 0
+        self._state: MotorState | None = None
+        self._retry_at = 0.0
+        self._failures = 0
+        self._rate = 0.0
+        self._late = 0.0
+
+    # -- from other threads -------------------------------------------------------------
+
+    def start(self) -> None:
+        self._running = True
+        self._thread = threading.Thread(target=self._run, name="control-loop", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        """Stop the loop, stop the robot and close the port."""
+        self._running = False
+        self._wake.set()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout=5)
+        self.shutdown()
+
+    def shutdown(self) -> None:
+        """Stop the robot and close the port; safe to call more than once."""
+        link, self.link = self.link, None
+        if link is not None:
+            stop_robot(link)
+            link.close()
+
+    def press(self, intent: Intent) -> None:
+        self.deadman.press(intent)
+        self._wake.set()
+
+    def halt(self) -> None:
+        """Let go of the keys: teleop brakes to a stop on the next tick."""
+        self.deadman.release()
+        self._wake.set()
+
+    def submit(self, job: BoardJob, done: JobDone = lambda result: None) -> None:
+        """Run `job(link)` on the loop's thread; `done` gets its result or the GiraffError."""
+        self._jobs.put((job, done))
+        self._wake.set()
+
+    # -- the loop -----------------------------------------------------------------------
+
+    def _run(self) -> None:
+        next_tick = self.clock.now()
+        last = next_tick
+        while self._running:
+            now = self.clock.now()
+            self._late = max(0.0, now - next_tick)
+            self._rate = 1.0 / (now - last) if now > last else self._rate
+            last = now
+            try:
+                self.tick()
+            except Exception:
+                log.exception("control tick failed")
+                self.report("internal error in the control loop; stopping the robot")
+                self._drop_link()
+            next_tick = max(next_tick + self.period, self.clock.now())
+            self._wake.clear()
+            self._wake.wait(max(0.0, next_tick - self.clock.now()))
+
+    def tick(self) -> None:
+        """One control cycle; public so that tests can step the loop on a virtual clock."""
+        self._tick += 1
+        if self.link is None and not self._reconnect():
+            self._publish()
+            return
+        assert self.link is not None
+        try:
+            self._run_jobs(self.link)
+            intent = self.deadman.held()
+            if self.autopoll or intent is not None or self.teleop.active:
+                self._state = self.link.bulk()
+                self.odometry.update(self._state)
+                if self._state.estop and (intent or self.teleop.active):
+                    self.report("ESTOP raised by the board: teleop stopped")
+                    self.deadman.release()
+                for command in self.teleop.step(intent, self._state):
+                    self.link.send(command)
+        except LinkError as error:
+            self.report(f"LINK LOST: {error}")
+            self._drop_link()
+        except GiraffError as error:
+            self.report(f"board: {error}")
+        self._publish()
+
+    def _run_jobs(self, link: BoardLink) -> None:
+        while True:
+            try:
+                job, done = self._jobs.get_nowait()
+            except queue.Empty:
+                return
+            try:
+                result: object = job(link)
+            except LinkError:
+                raise
+            except GiraffError as error:
+                result = error
+            # Whatever the job sent, teleop must not trust its picture of the board.
+            self.teleop.forget_board()
+            done(result)
+
+    def _reconnect(self) -> bool:
+        now = self.clock.now()
+        if now < self._retry_at:
+            return False
+        try:
+            link = self.connect()
+            # Before anything else, the robot is told to stop (design.md).
+            if not stop_robot(link):
+                link.close()
+                raise LinkError("the board did not take the stop command")
+        except GiraffError as error:
+            delay = BACKOFF_S[min(self._failures, len(BACKOFF_S) - 1)]
+            self._failures += 1
+            self._retry_at = now + delay
+            if self._failures == 1 or self._failures % 10 == 0:
+                self.report(f"cannot reach the board ({error}); retrying every {delay:g} s")
+            return False
+        if self._failures:
+            self.report("link restored; robot commanded to stop")
+        self._failures = 0
+        self.link = link
+        self.teleop.forget_board()
+        # The board may have restarted its odometers: take the next sample as reference.
+        self.odometry.reset(self.odometry.pose)
+        self._state = None
+        return True
+
+    def _drop_link(self) -> None:
+        link, self.link = self.link, None
+        self.deadman.release()
+        self.teleop.forget_board()
+        self._retry_at = self.clock.now()
+        if link is not None:
+            link.close()
+
+    def _publish(self) -> None:
+        self.publish(
+            Telemetry(
+                tick=self._tick,
+                time=self.clock.now(),
+                link=LinkState.CONNECTED if self.link else LinkState.LOST,
+                state=self._state,
+                pose=self.odometry.pose,
+                intent=self.deadman.held(),
+                speed=self.teleop.speed,
+                driving=self.teleop.active,
+                autopoll=self.autopoll,
+                loop_hz=self._rate,
+                late_ms=self._late * 1e3,
+            )
+        )

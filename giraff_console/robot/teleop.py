@@ -1,0 +1,158 @@
+"""Keyboard driving with the thesis's lookahead scheme (§3.2.1.2, B.2 RunMotor).
+
+The board moves to a target and stops there, so driving "as long as a key is held"
+means keeping a target ahead of the robot: k times the braking distance, renewed every
+control tick. The board keeps executing the last `set p` if the console dies, so k
+bounds the runaway: k = 1.8 leaves at most 1.8 * 0.16 m = 0.29 m at 0.4 m/s and
+0.5 m/s^2 (design.md's safety rule is 0.3 m). When the deadman lets go, the target
+becomes the braking distance plus 10 ms of travel, which stops without the reversal a
+shorter target would cause.
+
+Forward plus a turn is curved motion with the gear ratio of B.2 CalcMove, capped below
+0.51 (§3.2.1.4); a turn alone rotates in place. Leaving a curve ramps the gear ratio
+down by `vgr` rather than forcing `vgr 0`, which would jerk (§3.2.1.4).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from giraff_console.link.motor_state import MotorState
+from giraff_console.protocol.codec import Command, Number
+from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, brake_distance
+from giraff_console.robot.deadman import Intent
+
+# r for curved motion (A.4.2 needs r > 50); the thesis's console used 1000.
+PATH_STYLE = 1000
+ROTATE_STYLE = 0
+
+
+@dataclass(frozen=True)
+class DriveLimits:
+    """Speeds and limits for teleop; checked against the safety rules on creation."""
+
+    speed: float = 0.4  # KBD_MOVE_SPEED (B.7)
+    max_speed: float = 0.4
+    accel: float = 0.5  # DEF_ACCEL (B.2)
+    turn_rate: float = 45.0  # KBD_TURN_SPEED, degrees per second (B.7)
+    max_gear: float = 0.5  # |vg| < 0.51 (§3.2.1.4)
+    gear_rate: float = 1.0  # DEF_VGACCEL, per metre (B.2)
+    lookahead: float = 1.8  # k: the target is k braking distances ahead
+    runaway: float = 0.3  # metres a dead console may let the robot go (design.md)
+    reaction: float = 0.01  # the thesis's 10 ms margin on stopping (§3.2.1.2)
+
+    def __post_init__(self) -> None:
+        if not 0 < self.speed <= self.max_speed:
+            raise ValueError("speed must be positive and at most max_speed")
+        if self.accel <= 0 or self.turn_rate <= 0 or self.gear_rate <= 0:
+            raise ValueError("acceleration, turn rate and gear rate must be positive")
+        if not 0 <= self.max_gear < 0.51:
+            raise ValueError("max_gear must be below 0.51 (§3.2.1.4)")
+        if self.lookahead <= 1:
+            raise ValueError("lookahead must exceed 1, or the board would brake and reverse")
+        if self.lookahead * brake_distance(self.max_speed, self.accel) > self.runaway:
+            raise ValueError(
+                f"at max_speed {self.max_speed} m/s a dead console would let the robot run "
+                f"{self.lookahead * brake_distance(self.max_speed, self.accel):.2f} m, "
+                f"over the {self.runaway} m limit"
+            )
+
+
+class Teleop:
+    """Turns the held intent and the latest motor state into board commands."""
+
+    def __init__(self, limits: DriveLimits | None = None) -> None:
+        self.limits = limits or DriveLimits()
+        self.speed = self.limits.speed
+        self._style: int | None = None
+        self._stopping = False
+        self._sent: dict[str, Number] = {}
+
+    def set_speed(self, speed: float) -> float:
+        """Change the driving speed within (0, max_speed]; returns the speed now set."""
+        self.speed = min(max(speed, 0.05), self.limits.max_speed)
+        return self.speed
+
+    def forget_board(self) -> None:
+        """The board may have changed behind our back (reconnect, raw commands)."""
+        self._sent.clear()
+        self._style = None
+        self._stopping = False
+
+    @property
+    def active(self) -> bool:
+        """True while teleop has the robot moving or stopping."""
+        return self._style is not None
+
+    def step(self, intent: Intent | None, state: MotorState) -> list[Command]:
+        """The commands for this control tick, in order."""
+        if not state.moving and self._stopping:
+            self._style, self._stopping = None, False
+        if state.estop:
+            self.forget_board()
+            return []
+        if intent is None:
+            return self._stop(state) if self._style is not None and state.moving else []
+        style = PATH_STYLE if intent.motion else ROTATE_STYLE
+        if self._style is not None and self._style != style:
+            # Change style only from a standstill, as the thesis did.
+            return self._stop(state) if state.moving else self._start(intent, style)
+        if self._style is None or self._stopping:
+            return self._start(intent, style)
+        return self._renew(intent)
+
+    # -- commands -----------------------------------------------------------------------
+
+    def _plan(self, intent: Intent, style: int) -> dict[str, Number]:
+        limits = self.limits
+        if style == ROTATE_STYLE:
+            wheel_speed = limits.turn_rate / TURN_FACTOR_DEG_PER_M
+            ahead = limits.lookahead * brake_distance(wheel_speed, limits.accel)
+            return {"v": wheel_speed, "p": intent.turn * ahead * TURN_FACTOR_DEG_PER_M}
+        ahead = limits.lookahead * brake_distance(self.speed, limits.accel)
+        gear = 0.0
+        if intent.turn:
+            # B.2 CalcMove: the ratio that turns at turn_rate while moving at speed.
+            gear = min(limits.turn_rate / (self.speed * TURN_FACTOR_DEG_PER_M), limits.max_gear)
+        plan: dict[str, Number] = {"v": self.speed, "vgr": limits.gear_rate}
+        if gear:
+            plan.update(vg=intent.turn * gear, vgr=intent.turn * limits.gear_rate)
+        # The ratio ramps back down from cdp: at the target while turning, at once if not.
+        plan["cdp"] = intent.motion * ahead if gear else 0
+        plan["p"] = intent.motion * ahead
+        return plan
+
+    def _start(self, intent: Intent, style: int) -> list[Command]:
+        self._style, self._stopping = style, False
+        # A full set-up every time: a typed command may have changed any of these.
+        plan = {"r": style, "mode": 0, "a": self.limits.accel, **self._plan(intent, style)}
+        self._sent = dict(plan)
+        return [Command("set", name, value) for name, value in plan.items()]
+
+    def _renew(self, intent: Intent) -> list[Command]:
+        assert self._style is not None
+        plan = self._plan(intent, self._style)
+        changed = [name for name, value in plan.items() if self._sent.get(name) != value]
+        self._sent.update(plan)
+        # The target is relative, so it is renewed every tick even when unchanged.
+        names = [name for name in changed if name != "p"] + ["p"]
+        return [Command("set", name, plan[name]) for name in names]
+
+    def _stop(self, state: MotorState) -> list[Command]:
+        """Brake to a stop: the braking distance plus the reaction margin (§3.2.1.2)."""
+        if self._stopping:
+            return []
+        self._stopping = True
+        limits = self.limits
+        if self._style == ROTATE_STYLE:
+            rate = -state.gvr  # degrees per second, in the sense of set p (A.2.2)
+            wheel = rate / TURN_FACTOR_DEG_PER_M
+            target = brake_distance(wheel, limits.accel) + wheel * limits.reaction
+            commands = [Command("set", "p", target * TURN_FACTOR_DEG_PER_M)]
+        else:
+            speed = state.speed
+            target = brake_distance(speed, limits.accel) + speed * limits.reaction
+            commands = [Command("set", "cdp", 0), Command("set", "p", target)]
+        for command in commands:
+            self._sent[command.name] = command.value  # type: ignore[assignment]
+        return commands

@@ -1,0 +1,182 @@
+"""Teleop through the control loop against the simulator on a virtual clock."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from giraff_console.link import BoardLink, LinkDisconnected
+from giraff_console.robot.control_loop import ControlLoop, LinkState
+from giraff_console.robot.deadman import Deadman, Intent
+from giraff_console.robot.teleop import DriveLimits, Teleop
+
+TICK = 0.05
+
+
+class Console:
+    """A control loop stepped by hand, with keys pressed as a terminal would repeat them."""
+
+    def __init__(self) -> None:
+        self.link = BoardLink.open("giraff-sim://?clock=virtual")
+        self.clock = self.link.port.clock
+        self.board = self.link.port.board
+        self.sent: list[str] = []
+        self.link.add_observer(lambda e: self.sent.append(e.command))
+        self.reports: list[str] = []
+        self.loop = ControlLoop(
+            lambda: self.link, teleop=Teleop(), deadman=Deadman(self.clock),
+            clock=self.clock, report=self.reports.append,
+        )  # fmt: skip
+
+    def run(self, seconds: float) -> None:
+        end = self.clock.now() + seconds
+        while self.clock.now() < end - 1e-9:
+            self.loop.tick()
+            self.clock.advance(TICK)
+
+    def hold(
+        self, intent: Intent, seconds: float, delay: float = 0.5, every: float = 0.033
+    ) -> None:
+        """Press, wait the initial repeat delay, then repeat every `every` s, ticking at 20 Hz."""
+        self.loop.press(intent)
+        start = self.clock.now()
+        next_press = start + delay
+        next_tick = start
+        while self.clock.now() < start + seconds:
+            if self.clock.now() >= next_tick:
+                self.loop.tick()
+                next_tick += TICK
+            if self.clock.now() >= next_press:
+                self.loop.press(intent)
+                next_press += every
+            self.clock.advance(max(0.0, min(next_tick, next_press) - self.clock.now()))
+
+    def moving(self) -> bool:
+        return self.link.bulk().moving
+
+
+@pytest.fixture
+def console() -> Console:
+    return Console()
+
+
+def test_holding_up_for_two_seconds_drives_0_6_to_1_0_metres(console):
+    console.hold(Intent.FORWARD, 2.0)
+    console.run(2.0)
+    assert not console.moving()
+    assert 0.6 <= console.board.true_pose.x <= 1.0
+    assert console.loop.odometry.pose.x == pytest.approx(console.board.true_pose.x, abs=1e-3)
+
+
+def test_releasing_stops_within_0_7_s_of_the_last_repeat(console):
+    console.hold(Intent.FORWARD, 2.0)
+    released = console.clock.now()
+    console.sent.clear()
+    while not any(c.startswith("set p") for c in console.sent):
+        console.run(TICK)
+    assert console.clock.now() - released <= 0.7
+    console.run(1.5)
+    assert not console.moving()
+    assert console.link.bulk().cdis > 0  # braked forward: no reversal
+
+
+def test_a_single_tap_stops_after_the_grace_period(console):
+    console.loop.press(Intent.FORWARD)
+    console.run(0.5)
+    assert console.moving()
+    console.run(2.0)
+    assert not console.moving()
+    assert console.board.true_pose.x < 0.25
+
+
+def test_a_console_that_dies_at_full_speed_lets_the_robot_run_at_most_0_3_m(console):
+    console.hold(Intent.FORWARD, 3.0)  # cruising at 0.4 m/s
+    assert console.link.bulk().speed == pytest.approx(0.4, abs=1e-6)
+    died_at = console.board.true_pose.x
+    console.clock.advance(10)  # no more ticks: the board runs on its last set p
+    assert console.board.true_pose.x - died_at <= 0.3
+
+
+def test_forward_right_drives_a_curve_with_the_gear_ratio_capped(console):
+    console.hold(Intent.FORWARD_RIGHT, 3.0)
+    state = console.link.bulk()
+    assert 0 < state.cvg < 0.51
+    assert console.board.true_pose.heading < -math.radians(10)  # turning clockwise
+    console.run(2.0)
+    assert not console.moving()
+
+
+def test_turning_alone_rotates_in_place(console):
+    console.hold(Intent.LEFT, 2.0)
+    console.run(2.0)
+    pose = console.board.true_pose
+    assert math.degrees(pose.heading) > 30  # counter-clockwise
+    assert math.hypot(pose.x, pose.y) < 1e-9
+
+
+def test_switching_from_driving_to_turning_stops_first(console):
+    console.hold(Intent.FORWARD, 1.5)
+    console.hold(Intent.RIGHT, 2.0)
+    console.run(2.0)
+    assert console.board.true_pose.heading < -math.radians(20)
+    assert not console.moving()
+
+
+def test_estop_stops_teleop_and_is_reported(console):
+    console.hold(Intent.FORWARD, 1.0)
+    console.board.set_estop(True)
+    console.hold(Intent.FORWARD, 0.5)
+    assert any("ESTOP" in report for report in console.reports)
+    assert not console.moving()
+
+
+def test_a_lost_link_is_reported_then_reconnected_with_a_stop_first(console):
+    telemetry = []
+    console.loop.publish = telemetry.append
+    port = console.link.port
+    cable = {"plugged": True}
+
+    def connect() -> BoardLink:
+        if not cable["plugged"]:
+            raise LinkDisconnected("cable unplugged")
+        if not port.is_open:
+            port.open()
+        link = BoardLink(port, clock=console.clock)
+        # No power pulse, as on a pty: a pulse would reboot the board and stop it anyway.
+        link.handshake(power_line="none", timeout=0.1)
+        link.add_observer(lambda e: console.sent.append(e.command))
+        return link
+
+    console.loop.connect = connect
+    console.hold(Intent.FORWARD, 2.0)
+    cable["plugged"] = False
+    port.close()  # the cable comes out while the robot cruises...
+    console.board.execute("set p 5")  # ...and the board has a long way to go
+    console.run(1.0)
+    assert telemetry[-1].link is LinkState.LOST
+    assert any("LINK LOST" in report for report in console.reports)
+    cable["plugged"] = True
+    console.sent.clear()
+    for _ in range(60):  # back-off: retries come at most 4 s apart
+        console.run(TICK)
+        if telemetry[-1].link is LinkState.CONNECTED:
+            break
+    assert telemetry[-1].link is LinkState.CONNECTED
+    assert console.sent[:3] == ["get bulk_data", "set mode 0", "set cdp 0"]
+    assert console.sent[3].startswith("set p ")
+    console.run(2.0)
+    assert not console.moving()
+
+
+def test_limits_refuse_speeds_that_break_the_runaway_rule():
+    with pytest.raises(ValueError, match=r"0\.3 m"):
+        DriveLimits(max_speed=0.6, speed=0.6)
+    with pytest.raises(ValueError):
+        DriveLimits(max_gear=0.6)
+
+
+def test_speed_keys_stay_within_the_caps():
+    teleop = Teleop()
+    assert teleop.set_speed(5) == 0.4
+    assert teleop.set_speed(-1) == 0.05
