@@ -12,8 +12,8 @@ one of the known failures of earlier drivers (wire-facts).
 from __future__ import annotations
 
 import contextlib
-import itertools
 import logging
+import secrets
 import threading
 
 import serial
@@ -23,8 +23,19 @@ from giraff_console.link.errors import LinkDisconnected, LinkError, LinkTimeout
 from giraff_console.link.exchange import Exchange, ExchangeKind, Observer
 from giraff_console.link.motor_state import MotorState
 from giraff_console.protocol.codec import Command, Number
-from giraff_console.protocol.errors import BoardRebootedError, GiraffError, ProtocolError
-from giraff_console.protocol.framing import BAUD_RATE, banner_version, is_banner, is_prompt
+from giraff_console.protocol.errors import (
+    BoardRebootedError,
+    GiraffError,
+    ProtocolError,
+    UnknownNameError,
+)
+from giraff_console.protocol.framing import (
+    BAUD_RATE,
+    CALIBRATION_LINE,
+    banner_version,
+    is_banner,
+    is_prompt,
+)
 from giraff_console.protocol.replies import ReplyValue, parse_reply
 
 log = logging.getLogger(__name__)
@@ -38,8 +49,6 @@ POWER_PULSE_S = 0.005
 _READ_SLICE_S = 0.05
 # No reply line is this long; a longer run without a line end is noise.
 _MAX_LINE_BYTES = 4096
-
-_sync_tokens = itertools.count(1)
 
 
 class BoardLink:
@@ -110,25 +119,28 @@ class BoardLink:
 
     def get(self, name: str) -> ReplyValue:
         """`get NAME`: a number, or a dict for list replies."""
-        return self.send(Command("get", name)).value
+        exchange = self.send(Command("get", name))
+        if exchange.value is None:
+            raise ProtocolError(f"no value in the reply to get {name}")
+        return exchange.value
 
     def command(self, name: str) -> None:
         """A bare command such as `home`."""
         self.send(Command("command", name))
 
-    def bulk(self) -> MotorState:
+    def bulk(self, *, automatic: bool = False) -> MotorState:
         """`get bulk_data` as a MotorState."""
-        exchange = self.send(Command("get", "bulk_data"))
+        exchange = self.send(Command("get", "bulk_data"), automatic=automatic)
         if not isinstance(exchange.value, dict):
             raise ProtocolError(f"bulk_data reply is not a list: {exchange.lines!r}")
         return MotorState.from_bulk(exchange.value, exchange.answered_at)
 
-    def send(self, command: Command) -> Exchange:
+    def send(self, command: Command, *, automatic: bool = False) -> Exchange:
         """Send one command and wait for its reply; raises the typed errors."""
         with self._lock:
             if self._needs_resync or self._unexpected_input():
                 self._resync()
-            return self._exchange(command.kind, command.text, command.wire)
+            return self._exchange(command.kind, command.text, command.wire, automatic)
 
     # -- connection ---------------------------------------------------------------------
 
@@ -166,6 +178,8 @@ class BoardLink:
             for name in lines[power_line]:
                 setattr(self.port, name, False)
             if lines[power_line]:
+                # Whatever the board said before it lost power is history.
+                self.port.reset_input_buffer()
                 self.clock.sleep(POWER_PULSE_S)
             for name in lines[power_line]:
                 setattr(self.port, name, True)
@@ -181,49 +195,68 @@ class BoardLink:
 
     # -- the wire -----------------------------------------------------------------------
 
-    def _exchange(self, kind: ExchangeKind, text: str, wire: bytes) -> Exchange:
+    def _exchange(
+        self, kind: ExchangeKind, text: str, wire: bytes, automatic: bool = False
+    ) -> Exchange:
         sent_at = self.clock.now()
         lines: list[str] = []
         try:
             self._write(wire)
             lines = self._read_until_prompt(sent_at + self.timeout)
             reply = parse_reply(lines)
+        except UnknownNameError as error:
+            if error.name != text.split()[-1]:
+                # An answer to some other command: the line is out of step.
+                self._needs_resync = True
+                error = ProtocolError(f"reply out of step: {error.line!r} to {text!r}")
+            now = self.clock.now()
+            self._notify(Exchange(kind, text, tuple(lines), None, error, sent_at, now, automatic))
+            raise error from None
         except GiraffError as error:
             if isinstance(error, (LinkError, BoardRebootedError)):
                 self._needs_resync = True
-            self._notify(Exchange(kind, text, tuple(lines), None, error, sent_at, self.clock.now()))
+            now = self.clock.now()
+            self._notify(Exchange(kind, text, tuple(lines), None, error, sent_at, now, automatic))
             raise
-        exchange = Exchange(kind, text, reply.lines, reply.value, None, sent_at, self.clock.now())
+        now = self.clock.now()
+        exchange = Exchange(kind, text, reply.lines, reply.value, None, sent_at, now, automatic)
         self._notify(exchange)
         return exchange
 
     def _resync(self) -> None:
-        """Discard everything up to the answer to a uniquely named probe."""
-        token = f"sync_{next(_sync_tokens)}"
+        """Discard everything up to the answer to a uniquely named probe.
+
+        Raises BoardRebootedError, once in step again, if what was discarded shows that
+        the board restarted: every setting, and the odometers, are back at power-up.
+        """
+        token = f"sync_{secrets.token_hex(4)}"
+        answer = f"Unknown name: {token}"
         sent_at = self.clock.now()
         deadline = sent_at + self.timeout
         discarded: list[str] = []
         self._write(f"get {token}\r".encode("ascii"))
-        answered = False
         while True:
             try:
                 lines = self._read_until_prompt(deadline)
             except LinkTimeout as error:
-                self._notify(
-                    Exchange(
-                        "resync", token, tuple(discarded), None, error, sent_at, self.clock.now()
-                    )
-                )
+                now = self.clock.now()
+                self._notify(Exchange("resync", token, tuple(discarded), None, error, sent_at, now))
                 raise LinkTimeout(f"no answer from the board on {self.port.port}") from None
-            if any(token in line for line in lines):
-                answered = True
-                discarded += [line for line in lines if token not in line]
+            if answer in lines:
+                discarded += [line for line in lines if line != answer]
                 break
             discarded += [*lines, "OK >"]
-        self._needs_resync = not answered
+        self._needs_resync = False
+        rebooted = [line for line in discarded if is_banner(line) or line == CALIBRATION_LINE]
+        error = BoardRebootedError(f"the board restarted: {rebooted[-1]!r}") if rebooted else None
         self._notify(
-            Exchange("resync", token, tuple(discarded), None, None, sent_at, self.clock.now())
+            Exchange("resync", token, tuple(discarded), None, error, sent_at, self.clock.now())
         )
+        banners = [line for line in rebooted if is_banner(line)]
+        if banners:
+            self.version = banner_version(banners[-1])
+        if error is not None:
+            raise error
 
     def _unexpected_input(self) -> bool:
         """Bytes that arrived between exchanges: a sign that the line is out of step."""

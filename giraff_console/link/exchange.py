@@ -18,6 +18,8 @@ class Exchange:
 
     `lines` are the reply lines before the prompt; `value` their decoded value. For a
     resync, `lines` are what was discarded. `error` is set when the exchange failed.
+    `automatic` marks traffic the console generates by itself, such as the odometry
+    poll, which the original kept out of its transcript and flagged in its log (B.2).
     """
 
     kind: ExchangeKind
@@ -27,6 +29,7 @@ class Exchange:
     error: GiraffError | None
     sent_at: float
     answered_at: float
+    automatic: bool = False
 
 
 Observer = Callable[[Exchange], None]

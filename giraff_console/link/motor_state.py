@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from giraff_console.protocol.codec import Number
@@ -21,7 +22,8 @@ class MotorState:
     - `cdis`: metres travelled in straight or curved motion.
     - `gvr`: the raw reading: m/s in straight motion, the left wheel's speed by the
       manufacturer's formula in curved motion (§3.2.1.4), minus degrees/s in rotation.
-    - `speed`: the overall speed in straight or curved motion, gvr * (1 - cvg).
+    - `speed`: the overall speed in straight or curved motion, gvr * (1 - cvg); None
+      when that cannot be known: at vg = 1 the board reports an infinite gvr (§3.2.1.4).
     - `imdl`, `imdr`: metres turned by the left and right wheels since power-up. Boards
       and logs without them give None, as does the tilt.
     """
@@ -29,7 +31,7 @@ class MotorState:
     cang: float
     cdis: float
     gvr: float
-    speed: float
+    speed: float | None
     cvg: float
     tilt: float | None
     imdl: float | None
@@ -60,11 +62,12 @@ class MotorState:
             return float(values[name]) if name in values else None
 
         gvr, cvg = float(values["gvr"]), float(values["cvg"])
+        speed = speed_from_gvr(gvr, cvg)
         return cls(
             cang=-float(values["cang"]),
             cdis=float(values["cdis"]),
             gvr=gvr,
-            speed=speed_from_gvr(gvr, cvg),
+            speed=speed if math.isfinite(speed) else None,
             cvg=cvg,
             tilt=optional("tilt_angle_from_home"),
             imdl=optional("imdl"),

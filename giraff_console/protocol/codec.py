@@ -26,28 +26,35 @@ _ASCII_INT = re.compile(r"[+-]?\d+\Z", re.ASCII)
 _ASCII_FLOAT = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\Z", re.ASCII)
 # No value the board sends is anywhere near this long; longer text is noise.
 _MAX_VALUE_CHARS = 40
+FLOAT32_MAX = 3.4028234663852886e38
+# Values go out with at most this many decimals, and below this magnitude: the board's
+# line buffer is small and nothing on the robot needs more (see format_number).
+DECIMALS = 9
+MAX_MAGNITUDE = 1e9
 
 CommandKind = Literal["set", "get", "command"]
 
 
 def format_number(value: Number) -> str:
-    """A number as plain decimal text: never exponent notation, never NaN or infinity.
+    """A number as short plain decimal text: no exponent, no NaN or infinity.
 
-    The board's parser reads plain decimals; `1e-05` must go out as `0.00001`.
+    The board's parser reads plain decimals; `1e-05` must go out as `0.00001`. Values
+    are rounded to nine decimals and must stay below 1e9 in magnitude, so that no
+    command outgrows the board's line buffer.
     """
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise CommandError(f"not a number: {value!r}")
-    if isinstance(value, int):
-        return str(value)
     if not math.isfinite(value):
         raise CommandError(f"refusing to send a non-finite value: {value!r}")
-    if value == 0:
-        return "0"
+    if abs(value) >= MAX_MAGNITUDE:
+        raise CommandError(f"refusing to send a value this large: {value!r}")
+    if isinstance(value, int):
+        return str(value)
     # repr() is the shortest text that reads back as the same float.
-    text = format(Decimal(repr(value)), "f")
+    text = format(round(Decimal(repr(value)), DECIMALS), "f")
     if "." in text:
         text = text.rstrip("0").rstrip(".")
-    return text
+    return "0" if text in ("", "-0") else text
 
 
 def parse_number(text: str) -> Number:
@@ -144,7 +151,12 @@ def parse_command(text: str) -> Command:
 
 
 def encode_float(value: float) -> str:
-    """A value in the board's float encoding, `F*` and little-endian hex."""
+    """A value in the board's float encoding, `F*` and little-endian hex.
+
+    Values beyond the float32 range become infinities, as they would on the board.
+    """
+    if math.isfinite(value) and abs(value) > FLOAT32_MAX:
+        value = math.copysign(math.inf, value)
     return "F*" + struct.pack("<f", value).hex()
 
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 from giraff_console.clock import Clock
 from giraff_console.link import BoardLink, LinkError, MotorState
-from giraff_console.protocol.errors import GiraffError
+from giraff_console.protocol.errors import BoardRebootedError, GiraffError
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.odometry import Odometry, Pose
 from giraff_console.robot.safety import stop_robot
@@ -155,7 +155,7 @@ class ControlLoop:
             self._run_jobs(self.link)
             intent = self.deadman.held()
             if self.autopoll or intent is not None or self.teleop.active:
-                self._state = self.link.bulk()
+                self._state = self.link.bulk(automatic=True)
                 self.odometry.update(self._state)
                 if self._state.estop and (intent or self.teleop.active):
                     self.report("ESTOP raised by the board: teleop stopped")
@@ -165,6 +165,12 @@ class ControlLoop:
         except LinkError as error:
             self.report(f"LINK LOST: {error}")
             self._drop_link()
+        except BoardRebootedError as error:
+            # Its odometers restarted from zero: keep the pose, take new references.
+            self.report(f"{error}; its settings are back at power-up")
+            self.odometry.reset(self.odometry.pose)
+            self.teleop.forget_board()
+            self.deadman.release()
         except GiraffError as error:
             self.report(f"board: {error}")
         self._publish()

@@ -15,6 +15,22 @@ log = logging.getLogger(__name__)
 STOP_ACCEL = 0.5
 # The thesis's 10 ms "reaction time" margin (§3.2.1.2).
 REACTION_S = 0.01
+# Assumed when the board's speed reading is unusable (gvr infinite at vg = 1): the
+# teleop cap, so that the stop target is never inside the real braking distance.
+UNKNOWN_SPEED = 0.4
+
+
+def path_stop_distance(speed: float | None, accel: float) -> float:
+    """Signed target that stops a path move: braking distance plus reaction margin."""
+    if speed is None:
+        speed = UNKNOWN_SPEED
+    return brake_distance(speed, accel) + speed * REACTION_S
+
+
+def rotation_stop_angle(gvr: float, accel: float) -> float:
+    """Signed `set p` in degrees that stops a rotation in place (gvr is -degrees/s, A.2.2)."""
+    wheel = -gvr / TURN_FACTOR_DEG_PER_M
+    return (brake_distance(wheel, accel) + wheel * REACTION_S) * TURN_FACTOR_DEG_PER_M
 
 
 def stop_commands(state: MotorState, accel: float = STOP_ACCEL) -> list[Command]:
@@ -28,10 +44,11 @@ def stop_commands(state: MotorState, accel: float = STOP_ACCEL) -> list[Command]
     if not state.moving:
         return []
     if state.cang != 0.0:
-        wheel = -state.gvr / TURN_FACTOR_DEG_PER_M
-        target = (brake_distance(wheel, accel) + wheel * REACTION_S) * TURN_FACTOR_DEG_PER_M
-        return [Command("set", "mode", 0), Command("set", "p", target)]
-    target = brake_distance(state.speed, accel) + state.speed * REACTION_S
+        return [
+            Command("set", "mode", 0),
+            Command("set", "p", rotation_stop_angle(state.gvr, accel)),
+        ]
+    target = path_stop_distance(state.speed, accel)
     return [Command("set", "mode", 0), Command("set", "cdp", 0), Command("set", "p", target)]
 
 

@@ -21,6 +21,7 @@ from giraff_console.link.motor_state import MotorState
 from giraff_console.protocol.codec import Command, Number
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, brake_distance
 from giraff_console.robot.deadman import Intent
+from giraff_console.robot.safety import path_stop_distance, rotation_stop_angle
 
 # r for curved motion (A.4.2 needs r > 50); the thesis's console used 1000.
 PATH_STYLE = 1000
@@ -39,7 +40,6 @@ class DriveLimits:
     gear_rate: float = 1.0  # DEF_VGACCEL, per metre (B.2)
     lookahead: float = 1.8  # k: the target is k braking distances ahead
     runaway: float = 0.3  # metres a dead console may let the robot go (design.md)
-    reaction: float = 0.01  # the thesis's 10 ms margin on stopping (§3.2.1.2)
 
     def __post_init__(self) -> None:
         if not 0 < self.speed <= self.max_speed:
@@ -145,13 +145,9 @@ class Teleop:
         self._stopping = True
         limits = self.limits
         if self._style == ROTATE_STYLE:
-            rate = -state.gvr  # degrees per second, in the sense of set p (A.2.2)
-            wheel = rate / TURN_FACTOR_DEG_PER_M
-            target = brake_distance(wheel, limits.accel) + wheel * limits.reaction
-            commands = [Command("set", "p", target * TURN_FACTOR_DEG_PER_M)]
+            commands = [Command("set", "p", rotation_stop_angle(state.gvr, limits.accel))]
         else:
-            speed = state.speed
-            target = brake_distance(speed, limits.accel) + speed * limits.reaction
+            target = path_stop_distance(state.speed, limits.accel)
             commands = [Command("set", "cdp", 0), Command("set", "p", target)]
         for command in commands:
             self._sent[command.name] = command.value  # type: ignore[assignment]

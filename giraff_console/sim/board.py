@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 from giraff_console.clock import Clock
-from giraff_console.protocol.codec import encode_float, encode_int
+from giraff_console.protocol.codec import FLOAT32_MAX, encode_float, encode_int
 from giraff_console.protocol.framing import CALIBRATION_LINE, LINE_END, PROMPT
 from giraff_console.protocol.mode import WRITABLE_MODE_MASK
 from giraff_console.sim.drive import Drive, MoveRefused, TruePose
@@ -126,6 +126,8 @@ class GiraffBoard:
         if not _PLAIN_DECIMAL.match(text):
             return "Error: Unknown argument"
         value = float(text)
+        if abs(value) > FLOAT32_MAX:
+            return "Error: Argument out of range"
         drive = self.drive
         if name == "mode":
             bits = int(value) & WRITABLE_MODE_MASK

@@ -11,7 +11,12 @@ import enum
 import math
 from dataclasses import dataclass, replace
 
-from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, WHEEL_BASE_M, gvr_from_speed
+from giraff_console.protocol.kinematics import (
+    TURN_FACTOR_DEG_PER_M,
+    WHEEL_BASE_M,
+    brake_distance,
+    gvr_from_speed,
+)
 from giraff_console.protocol.mode import ModeBit
 from giraff_console.sim.gear import NO_GEAR, GearEnvelope, plan_gear
 from giraff_console.sim.imperfections import ImperfectionModel, Mishap
@@ -19,8 +24,8 @@ from giraff_console.sim.profile import VelocityProfile, plan_move
 
 # The board holds up to four moves, the running one included (B.1 GIRAFF_BUFFERS).
 QUEUE_SLOTS = 4
-# Ground truth is integrated in steps of at most this long.
-_STEP_S = 0.002
+# Curves are integrated in steps of at most this much path.
+_STEP_M = 0.005
 
 
 class Style(enum.Enum):
@@ -206,18 +211,27 @@ class Drive:
         if self._estop_release is not None and now >= self._estop_release:
             self._estop_release = None
             self.estop = False
-        while elapsed > 0:
+        while elapsed > 0 or self._move_due():
             if self._stall_left > 0:
                 blocked = min(self._stall_left, elapsed)
                 self._stall_left -= blocked
                 elapsed -= blocked
                 self.stalled = self._stall_left > 0 and self._move is not None
+                if blocked == 0:
+                    break
                 continue
+            # Step to the next event: a mishap, or the end of the running move, after
+            # which the next move's own mishaps apply.
             step = elapsed
+            if self._move is not None:
+                step = min(
+                    step, self._move.started + self._move.profile.duration - self._motion_time
+                )
             if self._stall is not None:
-                step = min(step, max(0.0, self._stall.after - self._motion_time))
+                step = min(step, self._stall.after - self._motion_time)
             if self._estop_at is not None:
-                step = min(step, max(0.0, self._estop_at - self._motion_time))
+                step = min(step, self._estop_at - self._motion_time)
+            step = max(step, 0.0)
             self._run_until(self._motion_time + step)
             elapsed -= step
             if self._stall is not None and self._motion_time >= self._stall.after:
@@ -225,30 +239,42 @@ class Drive:
                 self.stalled = self._move is not None
             if self._estop_at is not None and self._motion_time >= self._estop_at:
                 self.set_estop(True, self._last_clock)
-                self._estop_release = (
-                    self._last_clock - elapsed + self.imperfections.config.estop_seconds
-                )
+                release = self._last_clock - elapsed + self.imperfections.config.estop_seconds
+                self._estop_release = release
+
+    def _move_due(self) -> bool:
+        """A running move whose end has been reached but not yet handled."""
+        move = self._move
+        return move is not None and move.started + move.profile.duration <= self._motion_time
 
     def _run_until(self, target: float) -> None:
-        while self._move is not None:
-            end = self._move.started + self._move.profile.duration
-            if end > target:
-                self._integrate(self._move, target)
-                break
-            self._integrate(self._move, end)
-            self._finish()
+        """Advance within the running move, finishing it if `target` reaches its end."""
+        move = self._move
+        if move is not None:
+            end = move.started + move.profile.duration
+            self._integrate(move, min(target, end))
+            if target >= end:
+                self._finish()
         self._motion_time = max(self._motion_time, target)
 
     def _integrate(self, move: _Move, until: float) -> None:
-        """Advance the move, its counters, the odometers and the true pose to `until`."""
+        """Advance the move, its counters, the odometers and the true pose to `until`.
+
+        Straight lines and rotations in place integrate exactly in one step; curves and
+        caster drift take steps of at most a few millimetres of path.
+        """
         t = self._motion_time - move.started
         t_end = until - move.started
-        steps = max(1, math.ceil((t_end - t) / _STEP_S))
+        steps = 1
+        if move.style is Style.PATH and (move.gear is not NO_GEAR or self.imperfections.misaligned):
+            travelled = move.profile.arc_length_at(t_end) - move.profile.arc_length_at(t)
+            steps = max(1, math.ceil(travelled / _STEP_M))
         for i in range(1, steps + 1):
-            position, velocity = move.profile.state_at(t + (t_end - t) * i / steps)
+            t_i = t + (t_end - t) * i / steps
+            position, velocity = move.profile.state_at(t_i)
             ds = position - move.position
             if move.style is Style.PATH:
-                gear = move.gear.at(move.profile.arc_length_at(t + (t_end - t) * i / steps))
+                gear = move.gear.at(move.profile.arc_length_at(t_i))
                 mean_gear = (gear + move.gear_ratio) / 2
                 left, right = ds * (1 + mean_gear), ds * (1 - mean_gear)
                 move.gear_ratio = gear
@@ -292,6 +318,9 @@ class Drive:
     def _start(self, params: MoveParams) -> None:
         style = Style.of(params.r)
         current = self._move
+        if current is not None and current.style is not style and self.velocity != 0:
+            self._brake_then(current, params)
+            return
         same_style = current is not None and current.style is style
         start_velocity = self.velocity if same_style else 0.0
         start_gear = self.cvg if same_style and start_velocity != 0 else 0.0
@@ -334,6 +363,31 @@ class Drive:
             self._stall = Mishap(self._motion_time + self._stall.after, self._stall.seconds)
         self._estop_at = None if estop is None else self._motion_time + estop.after
         self._update_counters(move)
+
+    def _brake_then(self, current: _Move, params: MoveParams) -> None:
+        """A move in another style while the wheels turn: brake at `a` first.
+
+        The thesis's simulator started the new style from standstill at once (B.2
+        StartRotate), which no robot can do; a robot that stops in no distance would also
+        flatter the console's safety tests.
+        """
+        accel = abs(current.params.a)
+        stop = brake_distance(self.velocity, accel)
+        profile = plan_move(
+            stop, self.velocity, max(abs(self.velocity), abs(current.params.v)), accel
+        )
+        gear = NO_GEAR
+        if current.style is Style.PATH:
+            gear = plan_gear(
+                direction=profile.direction, start_vg=self.cvg, vg=0.0, vgr=current.params.vgr,
+                cdp=0.0, length=profile.length, curved=False, reversal_at=None,
+            )  # fmt: skip
+        origin = self.cang if current.style is Style.ROTATE else self.cdis
+        self._move = _Move(current.params, current.style, self._motion_time, profile, gear, origin,
+                           gear_ratio=gear.at(0.0))  # fmt: skip
+        self._stall = None
+        self._estop_at = None
+        self._pending.insert(0, params)
 
     def _finish(self) -> None:
         """The running move has reached its target: stop exactly there, start the next."""

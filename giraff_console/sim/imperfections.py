@@ -85,6 +85,11 @@ class ImperfectionModel:
         # Clockwise rotation (positive `set p`) leaves the robot turning further clockwise.
         self._caster_misalignment -= math.copysign(worst * share, degrees)
 
+    @property
+    def misaligned(self) -> bool:
+        """True while the casters still have turning to do."""
+        return self._caster_misalignment != 0.0
+
     def caster_turn(self, distance: float) -> float:
         """Extra heading change (radians) while the casters realign over `distance` metres."""
         if self._caster_misalignment == 0.0 or distance == 0.0:
@@ -92,4 +97,6 @@ class ImperfectionModel:
         settled = 1.0 - math.exp(-abs(distance) / self.config.caster_settle_m)
         turn = self._caster_misalignment * settled
         self._caster_misalignment -= turn
+        if abs(self._caster_misalignment) < 1e-9:
+            self._caster_misalignment = 0.0  # realigned, to well below a micro-radian
         return turn

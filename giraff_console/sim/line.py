@@ -6,11 +6,18 @@ pseudo-terminal server, move bytes through a `BoardLine`.
 
 from __future__ import annotations
 
+import logging
+
+from giraff_console.protocol.framing import LINE_END, PROMPT
 from giraff_console.sim.board import GiraffBoard
 from giraff_console.sim.pacing import PacedStream
 
-# The board's input buffer; longer lines are cut, as a small AVR's would be.
+log = logging.getLogger(__name__)
+
+# The board's input buffer; a longer line is refused whole rather than run in part.
 MAX_COMMAND_BYTES = 256
+_TOO_LONG = b"Error: Line too long\r\n" + PROMPT.encode() + LINE_END
+_FAULT = b"ERROR: simulator fault\r\n" + PROMPT.encode() + LINE_END
 
 
 class BoardLine:
@@ -21,6 +28,7 @@ class BoardLine:
         self.to_board = PacedStream(paced)
         self.to_host = PacedStream(paced)
         self._partial = bytearray()
+        self._overflow = False
 
     def receive(self, data: bytes, now: float) -> None:
         """Bytes written by the host at `now`; they reach the board at line rate."""
@@ -30,12 +38,26 @@ class BoardLine:
         """Run every command whose CR has reached the board by `now`."""
         for byte in self.to_board.pop_due(now):
             if byte == 0x0D:
-                line = self._partial.decode("ascii", "replace")
-                self._partial.clear()
-                self.to_host.push(self.board.execute(line), now)
-            elif byte != 0x0A and len(self._partial) < MAX_COMMAND_BYTES:
-                # A stray LF (a host sending CR LF) is ignored rather than answered.
+                self.to_host.push(self._answer(), now)
+            elif byte == 0x0A:
+                continue  # a stray LF (a host sending CR LF) is ignored, not answered
+            elif len(self._partial) < MAX_COMMAND_BYTES:
                 self._partial.append(byte)
+            else:
+                self._overflow = True
+
+    def _answer(self) -> bytes:
+        line = self._partial.decode("ascii", "replace")
+        overflow, self._overflow = self._overflow, False
+        self._partial.clear()
+        if overflow:
+            return _TOO_LONG
+        try:
+            return self.board.execute(line)
+        except Exception:
+            # Whatever a client sends, a simulator serving it must not die of it.
+            log.exception("simulator fault on %r", line)
+            return _FAULT
 
     def power_on(self, now: float) -> None:
         """The board boots and greets (A.3)."""
@@ -51,6 +73,7 @@ class BoardLine:
         self.to_board.clear()
         self.to_host.clear()
         self._partial.clear()
+        self._overflow = False
 
     def next_event(self, whole_lines: bool) -> float | None:
         """When something next happens on the line, or None if nothing is in flight."""

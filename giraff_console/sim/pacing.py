@@ -79,8 +79,9 @@ class PacedStream:
         return None
 
     def clear(self) -> None:
-        """Drop everything still on the line."""
+        """Drop everything still on the line; the line is free at once."""
         self._chunks.clear()
+        self._line_free_at = -math.inf
 
     def __len__(self) -> int:
         return sum(len(data) for data, _ in self._chunks)

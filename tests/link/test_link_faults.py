@@ -147,3 +147,30 @@ def test_noise_before_the_banner_is_skipped(pty_pair):
         assert link.get("v") == pytest.approx(0.3)
     finally:
         board.stop()
+
+
+def test_a_stale_probe_answer_is_not_taken_for_the_current_one(scripted):
+    board, link = scripted()
+    link.get("v")
+    os.write(board.master, b"Unknown name: sync_1\r\nOK >\r\n")  # left over from long ago
+    time.sleep(0.05)
+    assert link.get("a") == pytest.approx(0.5)
+
+
+def test_an_unknown_name_for_another_command_means_out_of_step(scripted):
+    board, link = scripted(
+        lambda command: (
+            b"Unknown name: zz\r\nOK >\r\n" if command == "get v" else well_behaved(command)
+        )
+    )
+    with pytest.raises(ProtocolError, match="out of step"):
+        link.get("v")
+    before = len(board.commands)
+    assert link.get("a") == pytest.approx(0.5)
+    assert board.commands[before].startswith("get sync_")  # resynchronised first
+
+
+def test_a_get_answered_with_only_a_prompt_is_a_protocol_error(scripted):
+    _, link = scripted(lambda command: b"OK >\r\n" if command == "get v" else well_behaved(command))
+    with pytest.raises(ProtocolError, match="no value"):
+        link.get("v")

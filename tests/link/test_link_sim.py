@@ -6,7 +6,7 @@ import pytest
 import serial
 
 from giraff_console.link import BoardLink, Exchange, MotorState
-from giraff_console.protocol import QueueRolloverError, UnknownNameError
+from giraff_console.protocol import BoardRebootedError, QueueRolloverError, UnknownNameError
 from giraff_console.protocol.framing import BYTE_TIME_S
 
 
@@ -130,7 +130,38 @@ def test_the_handshake_pulses_the_chosen_power_line(power_line, power_cycled):
     port = serial.serial_for_url("giraff-sim://?clock=virtual&power=rts", timeout=0.05)
     port.write(b"set r 1\rset p 5\r")
     port.clock.advance(2.0)
-    link = BoardLink(port)
-    assert link.handshake(power_line=power_line) == "1.1.112p-sim, 2013-06-01"
-    moving = link.bulk().moving
-    assert moving is not power_cycled  # a power cycle stops the wheels
+    link = BoardLink(port, clock=port.clock)
+    version = link.handshake(power_line=power_line)
+    # Only a power cycle makes the board greet (the greeting from before is dropped)...
+    assert version == ("1.1.112p-sim, 2013-06-01" if power_cycled else None)
+    # ...and stops the wheels.
+    assert link.bulk().moving is not power_cycled
+
+
+def test_a_board_that_restarted_between_commands_is_reported():
+    link = open_link()
+    link.set("v", 0.25)
+    link.port.dtr = False  # a brown-out: the board loses power and comes back
+    link.port.dtr = True
+    with pytest.raises(BoardRebootedError):
+        link.get("v")
+    assert link.version == "1.1.112p-sim, 2013-06-01"
+    assert link.get("v") == pytest.approx(0.6)  # in step again, settings back at power-up
+
+
+def test_speed_is_unknown_when_gvr_is_infinite():
+    link = open_link()
+    for name, value in (
+        ("r", 1000),
+        ("a", 0.5),
+        ("v", 0.4),
+        ("vg", 1),
+        ("vgr", 1),
+        ("cdp", 5),
+        ("p", 3),
+    ):
+        link.set(name, value)
+    link.port.clock.advance(3.0)
+    state = link.bulk()
+    assert state.cvg == 1.0
+    assert state.speed is None

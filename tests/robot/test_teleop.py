@@ -180,3 +180,14 @@ def test_speed_keys_stay_within_the_caps():
     teleop = Teleop()
     assert teleop.set_speed(5) == 0.4
     assert teleop.set_speed(-1) == 0.05
+
+
+def test_a_board_that_restarts_keeps_the_pose_and_is_reported(console):
+    console.hold(Intent.FORWARD, 2.0)
+    console.run(2.0)
+    x = console.loop.odometry.pose.x
+    console.link.port.dtr = False
+    console.link.port.dtr = True  # the board reboots: odometers back to zero
+    console.run(0.2)
+    assert any("restarted" in report for report in console.reports)
+    assert console.loop.odometry.pose.x == pytest.approx(x, abs=1e-6)

@@ -8,6 +8,7 @@ import pytest
 
 from giraff_console.protocol import parse_reply
 from giraff_console.sim import HOME_TILT, BoardConfig, HomingState
+from giraff_console.sim.line import BoardLine
 from tests.conftest import SimBench
 
 
@@ -173,3 +174,24 @@ def test_true_pose_is_never_on_the_wire(sim):
     reply = parse_reply([sim.cmd("get bulk_data")]).value
     assert not {"x", "y", "heading"} & set(reply)
     assert math.isclose(sim.board.true_pose.x, 1.0)
+
+
+def test_values_beyond_float32_are_refused_and_the_board_carries_on(sim):
+    assert sim.cmd("set vg " + "4" * 40) == "Error: Argument out of range"
+    assert sim.value("get vg") == 1.0
+
+
+def test_an_overlong_line_is_refused_whole(sim):
+    board_line = BoardLine(sim.board, paced=False)
+    board_line.receive(b"set v 0." + b"1" * 300 + b"\r", now=0.0)
+    board_line.pump(0.0)
+    assert board_line.to_host.pop_due(0.0) == b"Error: Line too long\r\nOK >\r\n"
+    assert sim.value("get v") == pytest.approx(0.6)  # nothing of it was run
+
+
+def test_gvr_is_infinite_at_a_gear_ratio_of_one(sim):
+    # §3.2.1.4: v / (1 - vg) divides by zero; the board "probably" reports infinity.
+    sim.run("set r 1000", "set a 0.5", "set v 0.4", "set vg 1", "set vgr 1", "set cdp 5", "set p 3")
+    sim.advance(3.0)
+    assert sim.bulk()["cvg"] == 1.0
+    assert sim.bulk()["gvr"] == math.inf

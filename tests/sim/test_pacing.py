@@ -51,3 +51,11 @@ def test_a_paced_bulk_exchange_takes_its_line_time():
 def test_an_unpaced_exchange_takes_no_time():
     elapsed, _ = exchange_time("giraff-sim://?clock=virtual")
     assert elapsed == 0.0
+
+
+def test_dropped_traffic_does_not_delay_what_comes_next():
+    stream = PacedStream(paced=True)
+    stream.push(b"x" * 1000, at=0.0)
+    stream.clear()
+    stream.push(b"ok", at=0.001)
+    assert stream.pop_due(0.001 + 2 * BYTE_TIME_S) == b"ok"

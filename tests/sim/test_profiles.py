@@ -11,6 +11,7 @@ import math
 import pytest
 
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, TURN_RADIUS_M
+from giraff_console.sim import BoardConfig, Imperfections
 from tests.conftest import SimBench
 
 V, A = 0.4, 0.5  # the thesis's KBD_MOVE_SPEED and DEF_ACCEL
@@ -253,8 +254,7 @@ def test_buffered_moves_queue_in_four_slots(sim):
 def test_the_buffer_bit_applies_to_the_next_move_only(sim):
     straight(sim, 0.5)
     sim.run("set mode 4", "set p 0.5")
-    assert sim.value("get mode") & 4 == 0  # write-only, and already consumed
-    sim.run("set p 0.25")  # unbuffered: preempts and drops the queued move
+    sim.run("set p 0.25")  # the bit was used up: this preempts and drops the queued move
     sim.run_until_stopped()
     assert sim.bulk()["imdl"] < 0.5
 
@@ -297,3 +297,31 @@ def test_negative_r_rotates_but_reports_wheel_metres(sim):
     assert state["cdis"] == pytest.approx(90 / TURN_FACTOR_DEG_PER_M, abs=1e-6)
     assert state["cang"] == 0.0
     assert math.degrees(sim.board.true_pose.heading) == pytest.approx(-90.0, abs=1e-6)
+
+
+def test_switching_style_while_moving_brakes_before_turning(sim):
+    straight(sim, 10)
+    sim.advance(2.0)  # 0.64 m, cruising
+    sim.run("set r 0", "set p 90")
+    sim.run_until_stopped()
+    pose = sim.board.true_pose
+    assert pose.x == pytest.approx(0.64 + V**2 / (2 * A), abs=1e-6)
+    assert math.degrees(pose.heading) == pytest.approx(-90.0, abs=1e-6)
+
+
+@pytest.mark.parametrize("step", [0.5, 2.0, 3.0])
+def test_mishaps_in_queued_moves_do_not_depend_on_how_time_is_advanced(step):
+    # With seed 0 the first move runs clean and the second, queued, is cut by an ESTOP.
+    def bench() -> SimBench:
+        sim = SimBench(BoardConfig(imperfections=Imperfections(estop_probability=0.5, seed=0)))
+        sim.run("set r 1", "set a 0.5", "set v 0.4", "set p 0.3", "set mode 4", "set p 0.3")
+        return sim
+
+    fine, coarse = bench(), bench()
+    for _ in range(round(3.0 / 0.001)):
+        fine.advance(0.001)
+    for _ in range(round(3.0 / step)):
+        coarse.advance(step)
+    assert fine.bulk()["mode"] & 8
+    assert 0.3 < fine.board.true_pose.x < 0.6
+    assert coarse.board.true_pose.x == pytest.approx(fine.board.true_pose.x, abs=1e-9)

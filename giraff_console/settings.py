@@ -1,0 +1,103 @@
+"""Console settings: built-in defaults, overridden by a TOML file, then by the command line.
+
+The file is `$XDG_CONFIG_HOME/giraff-console/config.toml` (usually
+`~/.config/giraff-console/config.toml`). Every key is optional:
+
+    port = "/dev/ttyS0"        # serial device or pyserial URL; none: the simulator
+    power_line = "dtr"         # dtr, rts (FTDI cables), both or none
+    timeout = 1.0              # seconds to wait for each reply
+    control_rate = 20          # control-loop ticks per second
+
+    [teleop]
+    speed = 0.4                # m/s, the thesis's KBD_MOVE_SPEED
+    max_speed = 0.4            # cap for the speed keys; the runaway rule limits it
+    accel = 0.5                # m/s^2, the thesis's DEF_ACCEL
+    turn_rate = 45             # degrees per second, KBD_TURN_SPEED
+    grace = 0.55               # deadman: seconds after a first key press
+    repeat_timeout = 0.15      # deadman: seconds between key repeats
+    undock_distance = 0.3      # metres backed out by U
+"""
+
+from __future__ import annotations
+
+import os
+import tomllib
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+
+from giraff_console.link import DEFAULT_TIMEOUT_S
+from giraff_console.protocol.errors import GiraffError
+from giraff_console.robot.control_loop import DEFAULT_RATE_HZ
+from giraff_console.robot.deadman import DEFAULT_GRACE_S, DEFAULT_REPEAT_TIMEOUT_S
+from giraff_console.robot.teleop import DriveLimits
+
+
+class SettingsError(GiraffError):
+    """A settings file that cannot be used; the message names the file and the key."""
+
+
+@dataclass(frozen=True)
+class TeleopSettings:
+    speed: float = 0.4
+    max_speed: float = 0.4
+    accel: float = 0.5
+    turn_rate: float = 45.0
+    grace: float = DEFAULT_GRACE_S
+    repeat_timeout: float = DEFAULT_REPEAT_TIMEOUT_S
+    undock_distance: float = 0.3
+
+    def limits(self) -> DriveLimits:
+        return DriveLimits(
+            speed=self.speed, max_speed=self.max_speed, accel=self.accel, turn_rate=self.turn_rate
+        )
+
+
+@dataclass(frozen=True)
+class Settings:
+    port: str | None = None
+    power_line: str = "dtr"
+    timeout: float = DEFAULT_TIMEOUT_S
+    control_rate: float = DEFAULT_RATE_HZ
+    teleop: TeleopSettings = field(default_factory=TeleopSettings)
+    source: str = "built-in defaults"
+
+
+def config_path() -> Path:
+    base = os.environ.get("XDG_CONFIG_HOME") or os.path.join(os.path.expanduser("~"), ".config")
+    return Path(base) / "giraff-console" / "config.toml"
+
+
+def load_settings(path: Path | None = None) -> Settings:
+    """Read the settings file if there is one; SettingsError for anything wrong in it."""
+    path = path or config_path()
+    if not path.exists():
+        return Settings()
+    try:
+        data = tomllib.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
+        raise SettingsError(f"{path}: {error}") from None
+    teleop_data = data.pop("teleop", {})
+    if not isinstance(teleop_data, dict):
+        raise SettingsError(f"{path}: [teleop] must be a table")
+    try:
+        teleop = TeleopSettings(**_checked(path, "teleop.", TeleopSettings, teleop_data))
+        settings = Settings(**_checked(path, "", Settings, data), teleop=teleop, source=str(path))
+        if settings.power_line not in ("dtr", "rts", "both", "none"):
+            raise ValueError("power_line must be dtr, rts, both or none")
+        if settings.timeout <= 0 or settings.control_rate <= 0:
+            raise ValueError("timeout and control_rate must be positive")
+        teleop.limits()
+    except ValueError as error:
+        raise SettingsError(f"{path}: {error}") from None
+    return settings
+
+
+def _checked(path: Path, prefix: str, kind: type, data: dict) -> dict:
+    allowed = {f.name: f for f in fields(kind) if f.name not in ("teleop", "source")}
+    for key, value in data.items():
+        if key not in allowed:
+            raise SettingsError(f"{path}: unknown key {prefix}{key}")
+        expected = str if key in ("port", "power_line") else (int, float)
+        if not isinstance(value, expected) or isinstance(value, bool):
+            raise SettingsError(f"{path}: {prefix}{key} has the wrong type")
+    return data

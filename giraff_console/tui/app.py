@@ -1,0 +1,247 @@
+"""The operator console (§3.7, Figure 3.4, adapted to a terminal).
+
+A thin front end: keys and typed commands go to the control loop, snapshots and
+transcript lines come back as messages. The app never talks to the board itself.
+"""
+
+from __future__ import annotations
+
+import time
+
+from textual import on
+from textual.app import App, ComposeResult
+from textual.binding import Binding
+from textual.containers import Horizontal, Vertical
+from textual.widgets import Footer, Input
+
+from giraff_console.link import Exchange
+from giraff_console.protocol import CommandError, GiraffError, parse_command, parse_number
+from giraff_console.robot.command_guard import check_command
+from giraff_console.robot.control_loop import ControlLoop, Telemetry
+from giraff_console.robot.deadman import Intent
+from giraff_console.robot.safety import stop_robot
+from giraff_console.tui.command_line import CommandLine
+from giraff_console.tui.help_screen import HelpScreen
+from giraff_console.tui.main_view import MainView
+from giraff_console.tui.messages import ExchangeSeen, StatusNote, TelemetryUpdated
+from giraff_console.tui.status_log import StatusLog
+from giraff_console.tui.top_bar import TopBar
+from giraff_console.tui.transcript import Transcript
+
+# Keys 1-5 of the thesis (B.7 SetResolution).
+RESOLUTIONS = {1: (1600, 1200), 2: (1280, 960), 3: (1024, 768), 4: (800, 600), 5: (640, 480)}
+# T tilts the head up: the thesis's SetTilt(1), radians from home (B.7).
+TILT_UP = 1.0
+
+CONSOLE_COMMANDS = [
+    ("help", "show this screen"),
+    ("stop", "let go of the keys and stop the robot now"),
+    ("speed X", "set the driving speed in m/s, within the configured cap"),
+    ("quit", "stop the robot and leave"),
+    ("set NAME VALUE", "send a controller command, e.g. set v 0.3 (checked against the limits)"),
+    ("get NAME", "read a parameter, e.g. get bulk_data"),
+    ("home", "any other bare controller command"),
+    ("go, record, teach", "arrive with later issues"),
+]
+LATER = {"go": "planning", "record": "sessions", "teach": "sessions", "patrol": "sessions"}
+
+
+class GiraffConsole(App[None]):
+    """The operator's screen; `control` runs the robot."""
+
+    CSS_PATH = "app.tcss"
+    TITLE = "giraff-console"
+    BINDINGS = [
+        Binding("escape", "quit", "Quit", id="quit", tooltip="stop the robot and leave (also q)"),
+        Binding("q", "quit", "Quit", show=False, id="quit-q"),
+        Binding("up", "drive('FORWARD')", "Drive", key_display="↑↓←→", id="forward",
+                tooltip="hold to drive forward"),
+        Binding("down", "drive('BACKWARD')", "Back", show=False, id="backward",
+                tooltip="hold to drive backward"),
+        Binding("left", "drive('LEFT')", "Left", show=False, id="left",
+                tooltip="hold to turn left in place"),
+        Binding("right", "drive('RIGHT')", "Right", show=False, id="right",
+                tooltip="hold to turn right in place"),
+        Binding("home,left_square_bracket", "drive('FORWARD_LEFT')", "Fwd-left", show=False,
+                id="forward-left", tooltip="hold to drive forward curving left (Home or [)"),
+        Binding("pageup,right_square_bracket", "drive('FORWARD_RIGHT')", "Fwd-right", show=False,
+                id="forward-right", tooltip="hold to drive forward curving right (PgUp or ])"),
+        Binding("space", "halt", "Stop", id="stop", tooltip="stop now"),
+        Binding("plus,equals_sign", "speed(1)", "Faster", show=False, id="faster",
+                tooltip="drive 0.05 m/s faster, up to the cap"),
+        Binding("minus", "speed(-1)", "Slower", show=False, id="slower",
+                tooltip="drive 0.05 m/s slower"),
+        *[Binding(str(n), f"resolution({n})", f"{w}x{h}", show=False, id=f"resolution-{n}",
+                  tooltip=f"camera resolution {w}x{h}") for n, (w, h) in RESOLUTIONS.items()],
+        Binding("enter", "command_line", "Command", id="command",
+                tooltip="type a controller or console command"),
+        Binding("a", "toggle_poll", "Poll", show=False, id="poll",
+                tooltip="toggle the automatic odometry poll"),
+        Binding("b", "bulk", "Bulk", show=False, id="bulk", tooltip="request bulk_data"),
+        Binding("h", "home_head", "Home", show=False, id="home", tooltip="home the head"),
+        Binding("p", "later('playback')", "Play", show=False, id="play", tooltip="play back"),
+        Binding("r", "later('recording')", "Rec", show=False, id="record", tooltip="record"),
+        Binding("t", "tilt", "Tilt", show=False, id="tilt", tooltip="tilt the head up"),
+        Binding("u", "undock", "Undock", show=False, id="undock",
+                tooltip="back out of the dock and turn around"),
+        Binding("question_mark", "help", "Help", id="help", tooltip="this screen"),
+    ]  # fmt: skip
+
+    def __init__(self, control: ControlLoop, *, simulator: bool, undock_distance: float = 0.3,
+                 run_loop: bool = True, clock_text=None) -> None:  # fmt: skip
+        super().__init__()
+        self.control = control
+        self.simulator = simulator
+        self.undock_distance = undock_distance
+        self.run_loop = run_loop
+        self._clock_text = clock_text
+        self._board_r: float | None = None
+        self._frames: list[float] = []
+
+    def compose(self) -> ComposeResult:
+        yield TopBar(self.simulator, id="top")
+        with Horizontal(id="body"):
+            yield StatusLog(id="status")
+            with Vertical(id="centre"):
+                yield MainView(id="main")
+            yield Transcript(id="transcript")
+        command_line = CommandLine(id="command-line")
+        command_line.display = False
+        yield command_line
+        yield Footer()
+
+    def on_mount(self) -> None:
+        self.top_bar = self.query_one(TopBar)
+        self.main_view = self.query_one(MainView)
+        self.status_log = self.query_one(StatusLog)
+        self.transcript = self.query_one(Transcript)
+        self.command_line = self.query_one(CommandLine)
+        self.control.publish = lambda t: self.post_message(TelemetryUpdated(t))
+        self.control.report = lambda text: self.post_message(StatusNote(text))
+        self.control.observers.append(lambda e: self.post_message(ExchangeSeen(e)))
+        if self.simulator:
+            self.note("SIMULATOR: no robot is connected; the built-in simulated board answers")
+        if self.run_loop:
+            self.control.start()
+
+    def on_unmount(self) -> None:
+        self.control.stop()
+
+    # -- from the control loop ----------------------------------------------------------
+
+    def on_telemetry_updated(self, message: TelemetryUpdated) -> None:
+        now = time.monotonic()
+        self._frames = [t for t in self._frames if now - t < 1.0] + [now]
+        self.top_bar.ui_fps = float(len(self._frames))
+        self.top_bar.show(message.telemetry)
+        self.main_view.show(message.telemetry)
+
+    def on_exchange_seen(self, message: ExchangeSeen) -> None:
+        exchange: Exchange = message.exchange
+        if exchange.command.startswith("set r ") and exchange.error is None:
+            self._board_r = float(exchange.command.split()[2])
+        self.transcript.add(exchange)
+
+    def on_status_note(self, message: StatusNote) -> None:
+        self.note(message.text)
+
+    def note(self, text: str) -> None:
+        self.status_log.note(text, self._clock_text() if self._clock_text else None)
+
+    def show_telemetry(self, telemetry: Telemetry) -> None:
+        self.on_telemetry_updated(TelemetryUpdated(telemetry))
+
+    # -- keys ---------------------------------------------------------------------------
+
+    def action_drive(self, intent: str) -> None:
+        if not self.command_line.has_focus:
+            self.control.press(Intent[intent])
+
+    def action_halt(self) -> None:
+        self.control.halt()
+
+    def action_speed(self, step: int) -> None:
+        speed = self.control.teleop.set_speed(round(self.control.teleop.speed + 0.05 * step, 2))
+        self.note(f"driving speed {speed:.2f} m/s")
+
+    def action_resolution(self, key: int) -> None:
+        width, height = RESOLUTIONS[key]
+        self.note(f"camera {width}x{height} requested: the camera arrives with the camera issue")
+
+    def action_later(self, feature: str) -> None:
+        self.note(f"{feature} arrives with the sessions issue")
+
+    def action_command_line(self) -> None:
+        self.command_line.display = True
+        self.command_line.focus()
+
+    def action_toggle_poll(self) -> None:
+        self.control.autopoll = not self.control.autopoll
+        self.note(f"automatic odometry poll {'on' if self.control.autopoll else 'off'}")
+
+    def action_bulk(self) -> None:
+        self._board_job(lambda link: link.get("bulk_data"))
+
+    def action_home_head(self) -> None:
+        self._board_job(lambda link: link.command("home"))
+
+    def action_tilt(self) -> None:
+        self._board_job(lambda link: link.set("tilt_angle_from_home", TILT_UP))
+
+    def action_undock(self) -> None:
+        # The thesis's console sent a negative distance (B.2 Undock).
+        self._board_job(lambda link: link.set("undock", -self.undock_distance))
+
+    def action_help(self) -> None:
+        self.push_screen(HelpScreen(list(self.BINDINGS), CONSOLE_COMMANDS))
+
+    async def action_quit(self) -> None:
+        self.note("stopping the robot and leaving")
+        self.exit()
+
+    def _board_job(self, job) -> None:
+        def done(result: object) -> None:
+            if isinstance(result, GiraffError):
+                self.post_message(StatusNote(f"board: {result}"))
+
+        self.control.submit(job, done)
+
+    # -- the command line ---------------------------------------------------------------
+
+    @on(Input.Submitted, "#command-line")
+    def command_submitted(self, event: Input.Submitted) -> None:
+        text = event.value.strip()
+        self.command_line.remember(text)
+        self.command_line.action_close()
+        if text:
+            self.run_command(text)
+
+    def run_command(self, text: str) -> None:
+        """A console command, or a controller command checked against the limits."""
+        word, _, rest = text.partition(" ")
+        if word == "help":
+            self.action_help()
+        elif word == "quit":
+            self.exit()
+        elif word == "stop":
+            self.control.halt()
+            self.control.submit(stop_robot)
+            self.note("stop")
+        elif word == "speed":
+            try:
+                wanted = float(parse_number(rest))
+            except CommandError:
+                self.note("refused: usage: speed 0.3")
+                return
+            speed = self.control.teleop.set_speed(wanted)
+            self.note(f"driving speed {speed:.2f} m/s")
+        elif word in LATER:
+            self.note(f"{word} arrives with the {LATER[word]} issue")
+        else:
+            try:
+                command = parse_command(text)
+                check_command(command, self.control.teleop.limits, rotating=self._board_r == 0)
+            except CommandError as error:
+                self.note(f"refused: {error}")
+                return
+            self._board_job(lambda link: link.send(command))

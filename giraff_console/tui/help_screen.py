@@ -1,0 +1,47 @@
+"""The help screen: every key and every command, from the same tables the app uses."""
+
+from __future__ import annotations
+
+from rich.table import Table
+from textual.app import ComposeResult
+from textual.binding import Binding, BindingType
+from textual.containers import VerticalScroll
+from textual.screen import ModalScreen
+from textual.widgets import Static
+
+
+def _keys(binding: Binding) -> str:
+    return binding.key_display or " / ".join(binding.key.split(","))
+
+
+class HelpScreen(ModalScreen[None]):
+    """Lists the app's bindings and the console's commands; any of Esc, q or ? closes it."""
+
+    DEFAULT_CSS = """
+    HelpScreen { align: center middle; }
+    HelpScreen > VerticalScroll {
+        width: 90%; max-width: 100; height: 90%; border: round $accent; background: $surface;
+    }
+    """
+    BINDINGS = [Binding("escape,q,question_mark", "dismiss", "Close")]
+
+    def __init__(self, bindings: list[BindingType], commands: list[tuple[str, str]]) -> None:
+        super().__init__()
+        self._bindings = [b for b in bindings if isinstance(b, Binding)]
+        self._commands = commands
+
+    def compose(self) -> ComposeResult:
+        keys = Table(title="Keys", expand=True, show_edge=False)
+        keys.add_column("key", style="bold", no_wrap=True)
+        keys.add_column("does")
+        for binding in self._bindings:
+            keys.add_row(_keys(binding), binding.tooltip or binding.description)
+        commands = Table(title="Command line (Enter)", expand=True, show_edge=False)
+        commands.add_column("command", style="bold", no_wrap=True)
+        commands.add_column("does")
+        for name, does in self._commands:
+            commands.add_row(name, does)
+        with VerticalScroll():
+            yield Static(keys)
+            yield Static(commands)
+            yield Static("[dim]Esc, q or ? closes this screen.[/]")

@@ -1,0 +1,46 @@
+"""The top line: camera | pose | performance, with the badges that must not be missed."""
+
+from __future__ import annotations
+
+from rich.text import Text
+from textual.widgets import Static
+
+from giraff_console.link import MotorState
+from giraff_console.robot.control_loop import LinkState, Telemetry
+
+
+class TopBar(Static):
+    """One line, like the thesis's SetCameraInfo / SetPositionInfo / SetPerformanceInfo."""
+
+    DEFAULT_CSS = """
+    TopBar { height: 1; background: $panel; }
+    """
+
+    def __init__(self, simulator: bool, **kwargs) -> None:
+        super().__init__(**kwargs)
+        self.simulator = simulator
+        self.ui_fps = 0.0
+
+    def show(self, telemetry: Telemetry) -> None:
+        pose = telemetry.pose
+        text = Text(no_wrap=True, overflow="ellipsis")
+        for badge, style in self._badges(telemetry):
+            text.append(f" {badge} ", style=style)
+            text.append(" ")
+        text.append("camera: none │ ", style="dim")
+        text.append(f"X={pose.x:6.2f} Y={pose.y:6.2f} H={pose.heading_deg:6.1f}", style="bold")
+        text.append(f" │ loop {telemetry.loop_hz:4.1f} Hz · UI {self.ui_fps:4.1f} fps", style="dim")
+        self.update(text)
+
+    def _badges(self, telemetry: Telemetry) -> list[tuple[str, str]]:
+        badges = []
+        if self.simulator:
+            badges.append(("SIMULATOR", "bold black on yellow"))
+        if telemetry.link is LinkState.LOST:
+            badges.append(("LINK LOST", "bold white on red"))
+        state: MotorState | None = telemetry.state
+        if state is not None and state.estop:
+            badges.append(("ESTOP", "bold white on red"))
+        if not telemetry.autopoll:
+            badges.append(("POLL OFF", "bold black on cyan"))
+        return badges
