@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 from collections.abc import Sequence
+from pathlib import Path
+
+import serial
 
 from giraff_console import __version__
 from giraff_console.clock import RealClock
@@ -19,10 +23,15 @@ from giraff_console.protocol import (
     format_value,
     parse_command,
 )
+from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.robot.deadman import Deadman
+from giraff_console.robot.teleop import Teleop
+from giraff_console.settings import Settings, SettingsError, config_path, load_settings
 from giraff_console.sim import BoardConfig, GiraffBoard, Imperfections, PtyServer
 
 # Exit codes: a refused or garbled command, and a link that could not be used.
 EXIT_BOARD_ERROR = 1
+EXIT_USAGE = 2
 EXIT_LINK_ERROR = 3
 
 IN_PROCESS_SIMULATOR = "giraff-sim://"
@@ -32,9 +41,20 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="giraff-console",
         description="Operator console for the Giraff telepresence robot, with a faithful "
-        "simulator of its motor board.",
+        "simulator of its motor board. Without a COMMAND it opens the console: hold the "
+        "arrow keys to drive, Enter for the command line, ? for help, Esc to stop and quit.",
     )
     parser.add_argument("--version", action="version", version=f"giraff-console {__version__}")
+    parser.add_argument(
+        "--port", metavar="PORT|URL",
+        help="the motor board's serial device or pyserial URL (default: from the settings "
+        "file; without one, the built-in simulator)",
+    )  # fmt: skip
+    parser.add_argument("--sim", action="store_true", help="use the built-in simulator")
+    parser.add_argument(
+        "--config", metavar="FILE", type=Path,
+        help=f"settings file (default: {config_path()}); see the README for its keys",
+    )  # fmt: skip
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
 
     sim = commands.add_parser(
@@ -109,8 +129,64 @@ def main(argv: Sequence[str] | None = None) -> int:
         return run_sim(args)
     if args.command == "send":
         return run_send(args)
-    build_parser().print_help()
+    return run_console(args)
+
+
+def run_console(args: argparse.Namespace) -> int:
+    """The operator console on a real board or the simulator (§3.2: it falls back)."""
+    from giraff_console.tui.app import GiraffConsole
+
+    try:
+        settings = load_settings(args.config)
+    except SettingsError as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    port = None if args.sim else (args.port or settings.port)
+    clock = RealClock()
+    control = ControlLoop(
+        board_connector(port, settings),
+        teleop=Teleop(settings.teleop.limits()),
+        deadman=Deadman(clock, settings.teleop.grace, settings.teleop.repeat_timeout),
+        rate_hz=settings.control_rate,
+        clock=clock,
+    )
+    app = GiraffConsole(
+        control, simulator=port is None, undock_distance=settings.teleop.undock_distance
+    )
+
+    def on_signal(signum: int, frame: object) -> None:
+        # Stop the robot first, whatever else happens (design.md).
+        control.stop()
+        if signum == signal.SIGHUP:
+            # The SSH connection is gone, and the terminal with it.
+            os._exit(0)
+        app.exit()
+
+    signal.signal(signal.SIGHUP, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+    try:
+        app.run()
+    finally:
+        control.stop()
     return 0
+
+
+def board_connector(port: str | None, settings: Settings):
+    """How the control loop (re)connects: a real port by name, or the one simulator."""
+    if port is not None:
+        return lambda: BoardLink.open(
+            port, timeout=settings.timeout, power_line=settings.power_line
+        )
+    simulator = serial.serial_for_url(IN_PROCESS_SIMULATOR, do_not_open=True)
+
+    def connect() -> BoardLink:
+        if not simulator.is_open:
+            simulator.open()
+        link = BoardLink(simulator, timeout=settings.timeout)
+        link.handshake(power_line="none")
+        return link
+
+    return connect
 
 
 def run_sim(args: argparse.Namespace) -> int:

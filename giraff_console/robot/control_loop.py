@@ -11,6 +11,7 @@ back-off; the first thing it sends to a reconnected board is a stop.
 
 from __future__ import annotations
 
+import collections
 import enum
 import logging
 import queue
@@ -19,7 +20,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from giraff_console.clock import Clock
-from giraff_console.link import BoardLink, LinkError, MotorState
+from giraff_console.link import BoardLink, LinkError, MotorState, Observer
 from giraff_console.protocol.errors import BoardRebootedError, GiraffError
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.odometry import Odometry, Pose
@@ -74,6 +75,8 @@ class ControlLoop:
         self.report = report
         self.odometry = Odometry()
         self.autopoll = True
+        # Attached to every link the loop opens: the transcript, later the recorder.
+        self.observers: list[Observer] = []
         self.link: BoardLink | None = None
         self._jobs: queue.SimpleQueue[tuple[BoardJob, Callable[[object], None]]] = (
             queue.SimpleQueue()
@@ -111,8 +114,9 @@ class ControlLoop:
             link.close()
 
     def press(self, intent: Intent) -> None:
-        self.deadman.press(intent)
-        self._wake.set()
+        """A key event. A first press wakes the loop at once; repeats wait for the tick."""
+        if self.deadman.press(intent):
+            self._wake.set()
 
     def halt(self) -> None:
         """Let go of the keys: teleop brakes to a stop on the next tick."""
@@ -128,12 +132,14 @@ class ControlLoop:
 
     def _run(self) -> None:
         next_tick = self.clock.now()
-        last = next_tick
+        recent: collections.deque[float] = collections.deque()
         while self._running:
             now = self.clock.now()
             self._late = max(0.0, now - next_tick)
-            self._rate = 1.0 / (now - last) if now > last else self._rate
-            last = now
+            recent.append(now)
+            while recent[0] < now - 1.0:
+                recent.popleft()
+            self._rate = float(len(recent))
             try:
                 self.tick()
             except Exception:
@@ -197,6 +203,8 @@ class ControlLoop:
             return False
         try:
             link = self.connect()
+            for observer in self.observers:
+                link.add_observer(observer)
             # Before anything else, the robot is told to stop (design.md).
             if not stop_robot(link):
                 link.close()
@@ -210,6 +218,8 @@ class ControlLoop:
             return False
         if self._failures:
             self.report("link restored; robot commanded to stop")
+        else:
+            self.report(f"connected to {link.port.port}, board {link.version or 'version unknown'}")
         self._failures = 0
         self.link = link
         self.teleop.forget_board()

@@ -58,16 +58,19 @@ class Deadman:
         self._last = 0.0
         self._repeating = False
 
-    def press(self, intent: Intent) -> None:
-        """A key event: a first press, or a repeat of the key already held."""
+    def press(self, intent: Intent) -> bool:
+        """A key event: a first press, or a repeat of the key already held.
+
+        Returns True for a first press, which the caller may want to act on at once.
+        """
         with self._lock:
             now = self.clock.now()
-            if intent is not self._intent or self._expired(now):
+            first = intent is not self._intent or self._expired(now)
+            if first:
                 self._intent = intent
-                self._repeating = False
-            else:
-                self._repeating = True
+            self._repeating = not first
             self._last = now
+            return first
 
     def release(self) -> None:
         """Let go at once, as a stop key does."""

@@ -7,6 +7,7 @@ transcript lines come back as messages. The app never talks to the board itself.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 from textual import on
 from textual.app import App, ComposeResult
@@ -17,7 +18,7 @@ from textual.widgets import Footer, Input
 from giraff_console.link import Exchange
 from giraff_console.protocol import CommandError, GiraffError, parse_command, parse_number
 from giraff_console.robot.command_guard import check_command
-from giraff_console.robot.control_loop import ControlLoop, Telemetry
+from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Intent
 from giraff_console.robot.safety import stop_robot
 from giraff_console.tui.command_line import CommandLine
@@ -51,6 +52,8 @@ class GiraffConsole(App[None]):
 
     CSS_PATH = "app.tcss"
     TITLE = "giraff-console"
+    # Nothing takes the focus by itself: the keys belong to driving until Enter is pressed.
+    AUTO_FOCUS = None
     BINDINGS = [
         Binding("escape", "quit", "Quit", id="quit", tooltip="stop the robot and leave (also q)"),
         Binding("q", "quit", "Quit", show=False, id="quit-q"),
@@ -87,14 +90,24 @@ class GiraffConsole(App[None]):
         Binding("question_mark", "help", "Help", id="help", tooltip="this screen"),
     ]  # fmt: skip
 
-    def __init__(self, control: ControlLoop, *, simulator: bool, undock_distance: float = 0.3,
-                 run_loop: bool = True, clock_text=None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        control: ControlLoop,
+        *,
+        simulator: bool,
+        undock_distance: float = 0.3,
+        run_loop: bool = True,
+        timestamp: Callable[[], str] = lambda: time.strftime("%H:%M:%S"),
+        cursor_blink: bool = True,
+    ) -> None:
+        """`run_loop` False leaves ticking the loop to the caller (tests on a virtual clock)."""
         super().__init__()
         self.control = control
         self.simulator = simulator
         self.undock_distance = undock_distance
         self.run_loop = run_loop
-        self._clock_text = clock_text
+        self.timestamp = timestamp
+        self.cursor_blink = cursor_blink
         self._board_r: float | None = None
         self._frames: list[float] = []
 
@@ -106,6 +119,7 @@ class GiraffConsole(App[None]):
                 yield MainView(id="main")
             yield Transcript(id="transcript")
         command_line = CommandLine(id="command-line")
+        command_line.cursor_blink = self.cursor_blink
         command_line.display = False
         yield command_line
         yield Footer()
@@ -130,7 +144,7 @@ class GiraffConsole(App[None]):
     # -- from the control loop ----------------------------------------------------------
 
     def on_telemetry_updated(self, message: TelemetryUpdated) -> None:
-        now = time.monotonic()
+        now = self.control.clock.now()
         self._frames = [t for t in self._frames if now - t < 1.0] + [now]
         self.top_bar.ui_fps = float(len(self._frames))
         self.top_bar.show(message.telemetry)
@@ -146,10 +160,7 @@ class GiraffConsole(App[None]):
         self.note(message.text)
 
     def note(self, text: str) -> None:
-        self.status_log.note(text, self._clock_text() if self._clock_text else None)
-
-    def show_telemetry(self, telemetry: Telemetry) -> None:
-        self.on_telemetry_updated(TelemetryUpdated(telemetry))
+        self.status_log.note(f"{self.timestamp()} {text}")
 
     # -- keys ---------------------------------------------------------------------------
 

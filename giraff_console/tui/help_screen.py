@@ -10,10 +10,6 @@ from textual.screen import ModalScreen
 from textual.widgets import Static
 
 
-def _keys(binding: Binding) -> str:
-    return binding.key_display or " / ".join(binding.key.split(","))
-
-
 class HelpScreen(ModalScreen[None]):
     """Lists the app's bindings and the console's commands; any of Esc, q or ? closes it."""
 
@@ -27,19 +23,23 @@ class HelpScreen(ModalScreen[None]):
 
     def __init__(self, bindings: list[BindingType], commands: list[tuple[str, str]]) -> None:
         super().__init__()
-        self._bindings = [b for b in bindings if isinstance(b, Binding)]
-        self._commands = commands
+        self.key_bindings = [b for b in bindings if isinstance(b, Binding)]
+        self.commands = commands
+
+    def _keys(self, binding: Binding) -> str:
+        names = binding.key.split(",")
+        return " or ".join(self.app.get_key_display(Binding(name, "")) for name in names)
 
     def compose(self) -> ComposeResult:
         keys = Table(title="Keys", expand=True, show_edge=False)
         keys.add_column("key", style="bold", no_wrap=True)
         keys.add_column("does")
-        for binding in self._bindings:
-            keys.add_row(_keys(binding), binding.tooltip or binding.description)
+        for binding in self.key_bindings:
+            keys.add_row(self._keys(binding), binding.tooltip or binding.description)
         commands = Table(title="Command line (Enter)", expand=True, show_edge=False)
         commands.add_column("command", style="bold", no_wrap=True)
         commands.add_column("does")
-        for name, does in self._commands:
+        for name, does in self.commands:
             commands.add_row(name, does)
         with VerticalScroll():
             yield Static(keys)

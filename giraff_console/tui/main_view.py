@@ -17,28 +17,24 @@ class MainView(Static):
     """
 
     def show(self, telemetry: Telemetry) -> None:
-        table = Table.grid(padding=(0, 2))
+        table = Table.grid(padding=(0, 1))
         table.add_column(justify="right", style="dim")
         table.add_column()
         pose = telemetry.pose
-        table.add_row(
-            "pose", f"x {pose.x:7.3f} m   y {pose.y:7.3f} m   heading {pose.heading_deg:6.1f}°"
-        )
-        state = telemetry.state
+        table.add_row("pose", f"x {pose.x:.3f}  y {pose.y:.3f}  H {pose.heading_deg:.1f}°")
         if telemetry.link is LinkState.LOST:
             table.add_row("link", Text("LOST: retrying", style="bold red"))
+        state = telemetry.state
         if state is not None:
+            speed = "?" if state.speed is None else f"{state.speed:.2f}"
             motion = "moving" if state.moving else "stopped"
-            speed = "  ?  " if state.speed is None else f"{state.speed:5.2f}"
-            table.add_row("motion", f"{motion}   speed {speed} m/s   gear {state.cvg:5.2f}")
-            table.add_row("counters", f"cdis {state.cdis:7.3f} m   cang {state.cang:7.2f}°")
+            table.add_row("motion", f"{motion}  {speed} m/s  vg {state.cvg:.2f}")
+            table.add_row("odometry", f"cdis {state.cdis:.3f}  cang {state.cang:.1f}°")
             if state.tilt is not None:
-                table.add_row("head", f"tilt {state.tilt:5.3f} rad from home")
-            flags = [
-                name for name, on in (("ESTOP", state.estop), ("absolute", state.absolute)) if on
-            ]
-            table.add_row("mode", f"{state.mode}  {' '.join(flags)}")
-        held = telemetry.intent.name.lower().replace("_", "-") if telemetry.intent else "—"
-        table.add_row("teleop", f"key {held}   speed setting {telemetry.speed:.2f} m/s")
-        table.add_row("", Text("camera: arrives with the camera issue", style="dim italic"))
+                table.add_row("head", f"tilt {state.tilt:.3f} rad")
+            flags = [name for name, on in (("ESTOP", state.estop), ("abs", state.absolute)) if on]
+            table.add_row("mode", " ".join([str(state.mode), *flags]))
+        held = telemetry.intent.name.lower().replace("_", "-") if telemetry.intent else "-"
+        table.add_row("keys", f"{held}  at {telemetry.speed:.2f} m/s")
+        table.add_row("camera", Text("arrives with the camera issue", style="dim italic"))
         self.update(table)

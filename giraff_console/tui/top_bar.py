@@ -27,9 +27,9 @@ class TopBar(Static):
         for badge, style in self._badges(telemetry):
             text.append(f" {badge} ", style=style)
             text.append(" ")
-        text.append("camera: none │ ", style="dim")
-        text.append(f"X={pose.x:6.2f} Y={pose.y:6.2f} H={pose.heading_deg:6.1f}", style="bold")
-        text.append(f" │ loop {telemetry.loop_hz:4.1f} Hz · UI {self.ui_fps:4.1f} fps", style="dim")
+        text.append("cam - │ ", style="dim")
+        text.append(f"X={pose.x:.2f} Y={pose.y:.2f} H={pose.heading_deg:.1f}", style="bold")
+        text.append(f" │ loop {telemetry.loop_hz:.0f} Hz · UI {self.ui_fps:.0f} fps", style="dim")
         self.update(text)
 
     def _badges(self, telemetry: Telemetry) -> list[tuple[str, str]]:

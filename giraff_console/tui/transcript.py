@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import collections
+
 from rich.text import Text
 from textual.widgets import RichLog
 
@@ -22,9 +24,15 @@ class Transcript(RichLog):
     can_focus = False
 
     def __init__(self, **kwargs) -> None:
-        super().__init__(wrap=True, max_lines=MAX_LINES, markup=False, **kwargs)
+        super().__init__(wrap=True, min_width=16, max_lines=MAX_LINES, markup=False, **kwargs)
         self._last: tuple[str, tuple[str, ...]] | None = None
         self._repeats = 0
+        # The lines as written, before wrapping.
+        self.entries: collections.deque[str] = collections.deque(maxlen=MAX_LINES)
+
+    def _line(self, text: str, style: str = "") -> None:
+        self.entries.append(text)
+        self.write(Text(text, style=style))
 
     def add(self, exchange: Exchange) -> None:
         if exchange.automatic:
@@ -36,19 +44,18 @@ class Transcript(RichLog):
         self._flush_repeats()
         self._last = key
         if exchange.kind == "resync":
-            note = f"resynchronised; discarded {len(exchange.lines)} line(s)"
-            self.write(Text(note, style="yellow"))
+            self._line(f"resynchronised; discarded {len(exchange.lines)} line(s)", "yellow")
             return
         if exchange.kind == "greeting":
-            self.write(Text("board greeted: " + " / ".join(exchange.lines), style="green"))
+            self._line("board greeted: " + " / ".join(exchange.lines), "green")
             return
-        self.write(Text("> " + exchange.command, style="bold"))
+        self._line("> " + exchange.command, "bold")
         if exchange.error is not None:
-            self.write(Text("  " + str(exchange.error), style="red"))
+            self._line("  " + str(exchange.error), "red")
         for line in exchange.lines:
-            self.write(Text("  " + format_reply(line)))
+            self._line("  " + format_reply(line))
 
     def _flush_repeats(self) -> None:
         if self._repeats:
-            self.write(Text(f"  … the same {self._repeats} more time(s)", style="dim"))
+            self._line(f"  … the same {self._repeats} more time(s)", "dim")
         self._repeats = 0

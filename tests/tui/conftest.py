@@ -1,0 +1,69 @@
+"""The console on the simulator and a virtual clock, with the control loop stepped by hand."""
+
+from __future__ import annotations
+
+import asyncio
+
+import pytest
+from textual import events
+
+from giraff_console.link import BoardLink
+from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.robot.deadman import Deadman
+from giraff_console.robot.teleop import Teleop
+from giraff_console.tui.app import GiraffConsole
+
+TICK = 0.05
+
+
+class Rig:
+    """The app, its control loop and the simulated board behind it."""
+
+    def __init__(self) -> None:
+        self.link = BoardLink.open("giraff-sim://?clock=virtual")
+        self.clock = self.link.port.clock
+        self.board = self.link.port.board
+        self.control = ControlLoop(
+            lambda: self.link, teleop=Teleop(), deadman=Deadman(self.clock), clock=self.clock
+        )
+        self.app = GiraffConsole(
+            self.control,
+            simulator=True,
+            run_loop=False,
+            timestamp=lambda: f"{self.clock.now():6.2f}s",
+            cursor_blink=False,
+        )
+
+    async def run(self, pilot, seconds: float) -> None:
+        """Tick the control loop at 20 Hz for `seconds` of virtual time."""
+        for _ in range(round(seconds / TICK)):
+            self.control.tick()
+            self.clock.advance(TICK)
+            await asyncio.sleep(0)
+        await pilot.pause()
+
+    async def hold(self, pilot, key: str, seconds: float) -> None:
+        """Press `key`, then repeat it every 33 ms after the 0.5 s initial delay.
+
+        The repeats go through the app's driver like real key events; waiting for the
+        app to go idle after each one, as `pilot.press` does, would make tests slow.
+        """
+        start = self.clock.now()
+        await pilot.press(key)
+        next_press, next_tick = start + 0.5, start
+        while self.clock.now() < start + seconds:
+            if self.clock.now() >= next_tick:
+                self.control.tick()
+                next_tick += TICK
+            if self.clock.now() >= next_press:
+                self.app._driver.send_message(events.Key(key, None))
+                for _ in range(4):
+                    await asyncio.sleep(0)  # let the app take the key before time moves on
+                next_press += 0.033
+            self.clock.advance(max(0.0, min(next_tick, next_press) - self.clock.now()))
+        await pilot.pause()
+
+
+@pytest.fixture
+def rig() -> Rig:
+    return Rig()

@@ -1,0 +1,110 @@
+"""The console driven with keys, as an operator would, on the simulator."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+SIZE = (100, 30)
+
+
+async def test_holding_up_moves_the_robot_and_the_pose_on_screen(rig):
+    async with rig.app.run_test(size=SIZE) as pilot:
+        await rig.run(pilot, 0.1)
+        await rig.hold(pilot, "up", 2.0)
+        assert rig.board.true_pose.x > 0.5
+        shown = f"X={rig.control.odometry.pose.x:.2f}"
+        assert shown in str(rig.app.top_bar.render())
+        assert rig.control.odometry.pose.x == pytest.approx(rig.board.true_pose.x, abs=0.01)
+
+
+async def test_the_robot_stops_when_the_repeats_stop(rig):
+    async with rig.app.run_test(size=SIZE) as pilot:
+        sent = []
+        rig.link.add_observer(lambda e: sent.append((e.sent_at, e.command)))
+        await rig.hold(pilot, "up", 2.0)
+        last_repeat = rig.clock.now()
+        x = rig.board.true_pose.x
+        await rig.run(pilot, 1.5)
+        stop = [t for t, command in sent if t >= last_repeat and command == "set cdp 0"]
+        assert stop and stop[0] - last_repeat <= 0.7
+        assert not rig.link.bulk().moving
+        assert rig.board.true_pose.x - x < 0.3
+
+
+async def test_enter_and_a_raw_command_put_the_reply_in_the_transcript(rig):
+    async with rig.app.run_test(size=SIZE) as pilot:
+        await rig.run(pilot, 0.1)
+        await pilot.press("enter")
+        assert rig.app.command_line.has_focus
+        await pilot.press(*"get v", "enter")
+        await rig.run(pilot, 0.1)
+        lines = rig.app.transcript.entries
+        assert "> get v" in lines
+        assert "  0.60000" in lines
+        assert not rig.app.command_line.display
+
+
+async def test_diagonal_keys_drive_a_curve(rig):
+    async with rig.app.run_test(size=SIZE) as pilot:
+        await rig.hold(pilot, "pageup", 3.0)
+        state = rig.link.bulk()
+        assert 0 < state.cvg < 0.51
+        assert rig.board.true_pose.heading < -math.radians(5)  # curving right
+
+
+async def test_commands_outside_the_limits_are_refused(rig):
+    async with rig.app.run_test(size=SIZE) as pilot:
+        sent = []
+        rig.link.add_observer(lambda e: sent.append(e.command))
+        for text in ("set v 2", "set p 5", "set vg 0.6", "get v\rset p 5", "set mode 8"):
+            rig.app.run_command(text)
+        await rig.run(pilot, 0.1)
+        notes = rig.app.status_log.messages
+        assert sum("refused" in note for note in notes) == 5
+        assert not any(c.startswith(("set v", "set p", "set vg", "set mode")) for c in sent)
+
+
+async def test_poll_toggle_and_help_screen(rig):
+    async with rig.app.run_test(size=SIZE) as pilot:
+        await rig.run(pilot, 0.1)
+        await pilot.press("a")
+        await rig.run(pilot, 0.1)
+        assert "POLL OFF" in str(rig.app.top_bar.render())
+        await pilot.press("question_mark")
+        assert rig.app.screen.__class__.__name__ == "HelpScreen"
+        await pilot.press("escape")
+        assert rig.app.screen.__class__.__name__ != "HelpScreen"
+
+
+async def test_later_features_say_so_in_the_status_log(rig):
+    async with rig.app.run_test(size=SIZE) as pilot:
+        for key in ("1", "p", "r"):
+            await pilot.press(key)
+        await pilot.pause()
+        notes = " ".join(rig.app.status_log.messages)
+        assert "1600x1200" in notes and "playback arrives" in notes and "recording arrives" in notes
+
+
+async def test_escape_quits_and_leaves_the_robot_stopped(rig):
+    async with rig.app.run_test(size=SIZE) as pilot:
+        await rig.hold(pilot, "up", 2.5)
+        x = rig.board.true_pose.x
+        await pilot.press("escape")
+        await pilot.pause()
+    rig.clock.advance(5)
+    assert rig.board.true_pose.x - x <= 0.17  # the braking distance plus margin
+    assert rig.link.port.board.drive.velocity == 0
+
+
+@pytest.mark.parametrize("keys", [["u"], ["h"], ["t"], ["b"]])
+async def test_board_keys_send_their_commands(rig, keys):
+    expected = {"u": "set undock -0.3", "h": "home", "t": "set tilt_angle_from_home 1",
+                "b": "get bulk_data"}[keys[0]]  # fmt: skip
+    async with rig.app.run_test(size=SIZE) as pilot:
+        sent = []
+        rig.link.add_observer(lambda e: sent.append((e.command, e.automatic)))
+        await pilot.press(*keys)
+        await rig.run(pilot, 0.1)
+        assert (expected, False) in sent
