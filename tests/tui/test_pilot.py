@@ -16,7 +16,8 @@ async def test_holding_up_moves_the_robot_and_the_pose_on_screen(rig):
         assert rig.board.true_pose.x > 0.5
         shown = f"X={rig.control.odometry.pose.x:.2f}"
         assert shown in str(rig.app.top_bar.render())
-        assert rig.control.odometry.pose.x == pytest.approx(rig.board.true_pose.x, abs=0.01)
+        # The estimate is as of the last poll, at most one tick (2 cm at 0.4 m/s) behind.
+        assert rig.control.odometry.pose.x == pytest.approx(rig.board.true_pose.x, abs=0.025)
 
 
 async def test_the_robot_stops_when_the_repeats_stop(rig):
