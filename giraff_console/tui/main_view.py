@@ -28,8 +28,8 @@ class MainView(Static):
         if state is not None:
             speed = "?" if state.speed is None else f"{state.speed:.2f}"
             motion = "moving" if state.moving else "stopped"
-            table.add_row("motion", f"{motion}  {speed} m/s  vg {state.cvg:.2f}")
-            table.add_row("odometry", f"cdis {state.cdis:.3f}  cang {state.cang:.1f}°")
+            table.add_row("motion", f"{motion} {speed} m/s vg {state.cvg:.2f}")
+            table.add_row("counters", f"cdis {state.cdis:.3f} cang {state.cang:.1f}°")
             if state.tilt is not None:
                 table.add_row("head", f"tilt {state.tilt:.3f} rad")
             flags = [name for name, on in (("ESTOP", state.estop), ("abs", state.absolute)) if on]

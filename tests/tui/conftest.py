@@ -30,7 +30,7 @@ class Rig:
             self.control,
             simulator=True,
             run_loop=False,
-            timestamp=lambda: f"{self.clock.now():6.2f}s",
+            timestamp=lambda: f"{self.clock.now():.2f}s",
             cursor_blink=False,
         )
 

@@ -1,0 +1,50 @@
+"""Snapshots of the console at fixed sizes, on a virtual clock, with no cursor blink."""
+
+from __future__ import annotations
+
+from giraff_console.link import LinkDisconnected
+
+
+def test_start_screen_80x24(snap_compare, rig):
+    async def start(pilot):
+        await rig.run(pilot, 0.2)
+
+    assert snap_compare(rig.app, terminal_size=(80, 24), run_before=start)
+
+
+def test_start_screen_200x60(snap_compare, rig):
+    async def start(pilot):
+        await rig.run(pilot, 0.2)
+
+    assert snap_compare(rig.app, terminal_size=(200, 60), run_before=start)
+
+
+def test_help_screen(snap_compare, rig):
+    async def help_screen(pilot):
+        await rig.run(pilot, 0.1)
+        await pilot.press("question_mark")
+
+    assert snap_compare(rig.app, terminal_size=(100, 40), run_before=help_screen)
+
+
+def test_after_driving(snap_compare, rig):
+    async def drive(pilot):
+        await rig.run(pilot, 0.1)
+        await rig.hold(pilot, "pageup", 2.0)
+        await rig.run(pilot, 2.0)
+
+    assert snap_compare(rig.app, terminal_size=(100, 30), run_before=drive)
+
+
+def test_link_lost(snap_compare, rig):
+    async def lose_link(pilot):
+        await rig.run(pilot, 0.1)
+
+        def unplugged():
+            raise LinkDisconnected("cannot open /dev/ttyS0: no such device")
+
+        rig.control.connect = unplugged
+        rig.link.port.close()  # the cable comes out
+        await rig.run(pilot, 0.3)
+
+    assert snap_compare(rig.app, terminal_size=(100, 30), run_before=lose_link)
