@@ -28,6 +28,7 @@ from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.teleop import Teleop
 from giraff_console.settings import Settings, SettingsError, config_path, load_settings
 from giraff_console.sim import BoardConfig, GiraffBoard, Imperfections, PtyServer
+from giraff_console.sim.pose_log import PoseLog
 
 # Exit codes: a refused or garbled command, and a link that could not be used.
 EXIT_BOARD_ERROR = 1
@@ -88,6 +89,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="how a set is answered (default: value, as in the thesis)",
     )
     sim.add_argument("--auto-home", action="store_true", help="home the head at power-up")
+    sim.add_argument(
+        "--pose-log",
+        type=Path,
+        metavar="FILE",
+        help="write the true pose (never on the wire) to FILE every 20 ms",
+    )
 
     send = commands.add_parser(
         "send",
@@ -198,17 +205,23 @@ def run_sim(args: argparse.Namespace) -> int:
         auto_home=args.auto_home,
         imperfections=imperfections,
     )
-    server = PtyServer(GiraffBoard(RealClock(), config), paced=args.pace)
+    board = GiraffBoard(RealClock(), config)
+    server = PtyServer(board, paced=args.pace)
     signal.signal(signal.SIGTERM, lambda *_: server.stop())
     signal.signal(signal.SIGINT, lambda *_: server.stop())
+    try:
+        pose_log = PoseLog(board, args.pose_log) if args.pose_log else None
+    except OSError as error:
+        print(f"giraff-console: cannot write the pose log: {error}", file=sys.stderr)
+        return EXIT_USAGE
     print(server.path, flush=True)
-    print(
-        f"giraff-console sim: board on {server.path}; Ctrl-C to stop", file=sys.stderr, flush=True
-    )
+    print(f"giraff-console sim: board on {server.path}; Ctrl-C to stop", file=sys.stderr)
     try:
         server.serve_forever()
     finally:
         server.close()
+        if pose_log is not None:
+            pose_log.close()
     return 0
 
 

@@ -1,0 +1,75 @@
+"""Running the real console against `giraff-console sim --pty` and its pose log."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from tests.conftest import start_sim_process, stop_sim_process
+
+
+@dataclass(frozen=True)
+class Sample:
+    time: float
+    x: float
+    y: float
+    heading: float
+    moving: bool
+
+
+def read_pose_log(path: Path) -> list[Sample]:
+    samples = []
+    for line in path.read_text().splitlines():
+        fields = line.split()
+        if len(fields) == 5:
+            t, x, y, h, moving = fields
+            samples.append(Sample(float(t), float(x), float(y), float(h), moving == "1"))
+    return samples
+
+
+def pose_at(samples: list[Sample], t: float) -> Sample:
+    """The last sample at or before `t`."""
+    return [s for s in samples if s.time <= t][-1]
+
+
+def settled(samples: list[Sample], after: float) -> Sample:
+    """The first sample after `after` from which the robot no longer moves."""
+    later = [s for s in samples if s.time > after]
+    for i, sample in enumerate(later):
+        if not any(s.moving for s in later[i:]):
+            return sample
+    raise AssertionError("the robot never stopped")
+
+
+class SimulatedRobot:
+    """`giraff-console sim --pty --pose-log` in another process."""
+
+    def __init__(self, tmp_path: Path) -> None:
+        self.log = tmp_path / "pose.log"
+        self.process, self.path = start_sim_process("--pose-log", str(self.log))
+
+    def samples(self) -> list[Sample]:
+        return read_pose_log(self.log)
+
+    def wait_until_still(self, timeout: float = 5.0) -> None:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            samples = self.samples()
+            if samples and not samples[-1].moving and time.monotonic() - samples[-1].time < 0.2:
+                return
+            time.sleep(0.05)
+        raise AssertionError("the robot never stopped")
+
+    def close(self) -> None:
+        assert stop_sim_process(self.process) == 0
+
+
+def console_command(port: str) -> list[str]:
+    return [sys.executable, "-m", "giraff_console", "--port", port]
+
+
+def run(args: list[str]) -> subprocess.CompletedProcess:
+    return subprocess.run(args, capture_output=True, text=True, timeout=10)
