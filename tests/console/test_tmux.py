@@ -6,6 +6,7 @@ pose, which is how the distances below are measured.
 
 from __future__ import annotations
 
+import itertools
 import os
 import re
 import shutil
@@ -87,10 +88,7 @@ def test_hold_release_and_an_ssh_drop_in_tmux(session):
     shown = float(re.search(r"X=(-?[0-9.]+)", tmux.wait_for("X=")).group(1))
     assert shown == pytest.approx(samples[-1].x, abs=0.01)
     # Released: braking starts within 0.7 s of the last repeat.
-    speeds = [
-        (b.time, (b.x - a.x) / (b.time - a.time))
-        for a, b in zip(samples, samples[1:], strict=False)
-    ]
+    speeds = [(b.time, (b.x - a.x) / (b.time - a.time)) for a, b in itertools.pairwise(samples)]
     braking = [t for t, v in speeds if t > last_key and v < 0.38]
     assert braking and braking[0] - last_key <= 0.7
     print(f"held 2 s: {travelled:.3f} m; braking {braking[0] - last_key:.3f} s after the last key")
