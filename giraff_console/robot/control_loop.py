@@ -15,12 +15,13 @@ import collections
 import enum
 import logging
 import queue
+import sys
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
 from giraff_console.clock import Clock
-from giraff_console.link import BoardLink, LinkError, MotorState, Observer
+from giraff_console.link import BoardLink, Exchange, LinkError, MotorState, Observer
 from giraff_console.protocol.errors import BoardRebootedError, GiraffError
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.odometry import Odometry, Pose
@@ -94,6 +95,9 @@ class ControlLoop:
     # -- from other threads -------------------------------------------------------------
 
     def start(self) -> None:
+        # A busy screen holds the GIL for up to the switch interval (5 ms by default)
+        # before this thread gets it; 1 ms keeps ticks on time.
+        sys.setswitchinterval(0.001)
         self._running = True
         self._thread = threading.Thread(target=self._run, name="control-loop", daemon=True)
         self._thread.start()
@@ -134,24 +138,31 @@ class ControlLoop:
         next_tick = self.clock.now()
         recent: collections.deque[float] = collections.deque()
         while self._running:
+            # Cleared before the tick, so that a key pressed during it wakes the next wait.
+            self._wake.clear()
             now = self.clock.now()
-            self._late = max(0.0, now - next_tick)
+            early = now < next_tick
+            if not early:
+                # A scheduled tick: note how late it is, keep to the fixed rate.
+                self._late = now - next_tick
+                next_tick = max(next_tick + self.period, now)
             recent.append(now)
             while recent[0] < now - 1.0:
                 recent.popleft()
             self._rate = float(len(recent))
             try:
-                self.tick()
+                self.tick(early=early)
             except Exception:
                 log.exception("control tick failed")
                 self.report("internal error in the control loop; stopping the robot")
                 self._drop_link()
-            next_tick = max(next_tick + self.period, self.clock.now())
-            self._wake.clear()
             self._wake.wait(max(0.0, next_tick - self.clock.now()))
 
-    def tick(self) -> None:
-        """One control cycle; public so that tests can step the loop on a virtual clock."""
+    def tick(self, early: bool = False) -> None:
+        """One control cycle; public so that tests can step the loop on a virtual clock.
+
+        `early` marks a tick that a key press brought forward.
+        """
         self._tick += 1
         if self.link is None and not self._reconnect():
             self._publish()
@@ -160,13 +171,19 @@ class ControlLoop:
         try:
             self._run_jobs(self.link)
             intent = self.deadman.held()
-            if self.autopoll or intent is not None or self.teleop.active:
-                self._state = self.link.bulk(automatic=True)
-                self.odometry.update(self._state)
-                if self._state.estop and (intent or self.teleop.active):
+            driving = intent is not None or self.teleop.active
+            # A key that brings a tick forward acts on the state polled less than a period
+            # ago: polling again would only delay the first command.
+            state = self._state
+            fresh = state is not None and self.clock.now() - state.received_at < self.period
+            if (self.autopoll or driving) and not (early and fresh):
+                state = self._state = self.link.bulk(automatic=True)
+                self.odometry.update(state)
+            if driving and state is not None:
+                if state.estop:
                     self.report("ESTOP raised by the board: teleop stopped")
                     self.deadman.release()
-                for command in self.teleop.step(intent, self._state):
+                for command in self.teleop.step(self.deadman.held(), state):
                     self.link.send(command)
         except LinkError as error:
             self.report(f"LINK LOST: {error}")
@@ -193,9 +210,13 @@ class ControlLoop:
                 raise
             except GiraffError as error:
                 result = error
-            # Whatever the job sent, teleop must not trust its picture of the board.
-            self.teleop.forget_board()
             done(result)
+
+    def _watch(self, exchange: Exchange) -> None:
+        """Keep teleop's picture of the board's settings true, whoever sends them."""
+        if exchange.kind == "set" and exchange.error is None:
+            _, name, text = exchange.command.split()
+            self.teleop.board_set(name, text)
 
     def _reconnect(self) -> bool:
         now = self.clock.now()
@@ -203,6 +224,7 @@ class ControlLoop:
             return False
         try:
             link = self.connect()
+            link.add_observer(self._watch)
             for observer in self.observers:
                 link.add_observer(observer)
             # Before anything else, the robot is told to stop (design.md).

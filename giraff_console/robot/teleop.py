@@ -18,7 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from giraff_console.link.motor_state import MotorState
-from giraff_console.protocol.codec import Command, Number
+from giraff_console.protocol.codec import Command, Number, format_number
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, brake_distance
 from giraff_console.robot.deadman import Intent
 from giraff_console.robot.safety import path_stop_distance, rotation_stop_angle
@@ -66,16 +66,21 @@ class Teleop:
         self.speed = self.limits.speed
         self._style: int | None = None
         self._stopping = False
-        self._sent: dict[str, Number] = {}
+        # What the board holds for its next move, as sent on the wire (board_set).
+        self._board: dict[str, str] = {}
 
     def set_speed(self, speed: float) -> float:
         """Change the driving speed within (0, max_speed]; returns the speed now set."""
         self.speed = min(max(speed, 0.05), self.limits.max_speed)
         return self.speed
 
+    def board_set(self, name: str, text: str) -> None:
+        """The board took `set NAME TEXT`, from teleop or from anyone else."""
+        self._board[name] = text
+
     def forget_board(self) -> None:
-        """The board may have changed behind our back (reconnect, raw commands)."""
-        self._sent.clear()
+        """The board's settings are unknown again (a new connection, a restart)."""
+        self._board.clear()
         self._style = None
         self._stopping = False
 
@@ -89,7 +94,7 @@ class Teleop:
         if not state.moving and self._stopping:
             self._style, self._stopping = None, False
         if state.estop:
-            self.forget_board()
+            self._style, self._stopping = None, False
             return []
         if intent is None:
             return self._stop(state) if self._style is not None and state.moving else []
@@ -124,19 +129,25 @@ class Teleop:
 
     def _start(self, intent: Intent, style: int) -> list[Command]:
         self._style, self._stopping = style, False
-        # A full set-up every time: a typed command may have changed any of these.
-        plan = {"r": style, "mode": 0, "a": self.limits.accel, **self._plan(intent, style)}
-        self._sent = dict(plan)
-        return [Command("set", name, value) for name, value in plan.items()]
+        return self._commands({"r": style, "mode": 0, "a": self.limits.accel,
+                               **self._plan(intent, style)})  # fmt: skip
 
     def _renew(self, intent: Intent) -> list[Command]:
         assert self._style is not None
-        plan = self._plan(intent, self._style)
-        changed = [name for name, value in plan.items() if self._sent.get(name) != value]
-        self._sent.update(plan)
-        # The target is relative, so it is renewed every tick even when unchanged.
-        names = [name for name in changed if name != "p"] + ["p"]
-        return [Command("set", name, plan[name]) for name in names]
+        return self._commands(self._plan(intent, self._style))
+
+    def _commands(self, plan: dict[str, Number]) -> list[Command]:
+        """The settings the board does not hold yet, then the target.
+
+        The target is relative, so it goes out every tick even when unchanged; it must
+        come last, since `set p` starts the move with whatever is set by then.
+        """
+        changed = [
+            name
+            for name, value in plan.items()
+            if name != "p" and self._board.get(name) != format_number(value)
+        ]
+        return [Command("set", name, plan[name]) for name in [*changed, "p"]]
 
     def _stop(self, state: MotorState) -> list[Command]:
         """Brake to a stop: the braking distance plus the reaction margin (§3.2.1.2)."""
@@ -145,10 +156,5 @@ class Teleop:
         self._stopping = True
         limits = self.limits
         if self._style == ROTATE_STYLE:
-            commands = [Command("set", "p", rotation_stop_angle(state.gvr, limits.accel))]
-        else:
-            target = path_stop_distance(state.speed, limits.accel)
-            commands = [Command("set", "cdp", 0), Command("set", "p", target)]
-        for command in commands:
-            self._sent[command.name] = command.value  # type: ignore[assignment]
-        return commands
+            return self._commands({"p": rotation_stop_angle(state.gvr, limits.accel)})
+        return self._commands({"cdp": 0, "p": path_stop_distance(state.speed, limits.accel)})
