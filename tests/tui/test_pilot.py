@@ -114,3 +114,14 @@ async def test_board_keys_send_their_commands(rig, keys):
         await pilot.press(*keys)
         await rig.run(pilot, 0.1)
         assert (expected, False) in sent
+
+
+async def test_the_command_line_remembers_and_completes(rig):
+    async with rig.app.run_test(size=SIZE) as pilot:
+        await pilot.press("enter", *"get v", "enter")
+        await pilot.press("enter", "up")
+        assert rig.app.command_line.value == "get v"
+        await pilot.press("escape")
+        await pilot.press("enter", *"get bulk_d")
+        await pilot.press("right")  # accepts the suggestion
+        assert rig.app.command_line.value == "get bulk_data"
