@@ -9,10 +9,7 @@ from __future__ import annotations
 from giraff_console.protocol.codec import Command
 from giraff_console.protocol.errors import CommandError
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M
-from giraff_console.protocol.mode import ModeBit
 from giraff_console.robot.teleop import DriveLimits
-
-ALLOWED_MODES = {0, ModeBit.ABSOLUTE, ModeBit.BUFFERED, ModeBit.ABSOLUTE | ModeBit.BUFFERED}
 
 
 def check_command(command: Command, limits: DriveLimits, rotating: bool) -> None:
@@ -30,8 +27,10 @@ def check_command(command: Command, limits: DriveLimits, rotating: bool) -> None
         raise CommandError(f"refused: a must be in (0, {limits.accel}] m/s^2")
     if name == "vg" and abs(value) >= 0.51:
         raise CommandError("refused: |vg| must stay below 0.51 (§3.2.1.4)")
-    if name == "mode" and value not in ALLOWED_MODES:
-        raise CommandError("refused: mode must be 0, 1, 4 or 5")
+    if name == "mode" and value != 0:
+        # Absolute targets can lie anywhere, and buffered moves add up: either would let
+        # a typed target reach further than the runaway limit.
+        raise CommandError("refused: typed commands drive in relative, unbuffered mode 0")
     if name == "p":
         reach = abs(value) / TURN_FACTOR_DEG_PER_M if rotating else abs(value)
         if reach > limits.runaway:

@@ -64,12 +64,17 @@ async def test_commands_outside_the_limits_are_refused(rig):
     async with rig.app.run_test(size=SIZE) as pilot:
         sent = []
         rig.link.add_observer(lambda e: sent.append(e.command))
-        for text in ("set v 2", "set p 5", "set vg 0.6", "get v\rset p 5", "set mode 8"):
+        refused = ("set v 2", "set p 5", "set vg 0.6", "get v\rset p 5", "set mode 1",
+                   "set mode 4", "set a 3", "set undock 2")  # fmt: skip
+        for text in refused:
             rig.app.run_command(text)
         await rig.run(pilot, 0.1)
         notes = rig.app.status_log.messages
-        assert sum("refused" in note for note in notes) == 5
-        assert not any(c.startswith(("set v", "set p", "set vg", "set mode")) for c in sent)
+        assert sum("refused" in note for note in notes) == len(refused)
+        assert not any(
+            c.startswith(("set v", "set p", "set vg", "set a", "set undock")) for c in sent
+        )
+        assert not any(c.startswith("set mode") and c != "set mode 0" for c in sent)
 
 
 async def test_poll_toggle_and_help_screen(rig):
