@@ -22,7 +22,6 @@ from __future__ import annotations
 import argparse
 import asyncio
 import os
-import pty
 import signal
 import statistics
 import sys
@@ -41,7 +40,14 @@ from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.teleop import Teleop
 from giraff_console.tui.app import GiraffConsole
 from tests.conftest import start_sim_process, stop_sim_process
-from tests.console.support import SimulatedRobot, pose_at, settled
+from tests.console.support import (
+    SimulatedRobot,
+    drain,
+    hold_up,
+    pose_at,
+    settled,
+    spawn_console,
+)
 
 
 def percentile(values: list[float], share: float) -> float:
@@ -124,27 +130,9 @@ async def jitter(path: str, seconds: float) -> list[float]:
 
 
 def run_on_after_kill(robot: SimulatedRobot) -> float:
-    pid, master = pty.fork()
-    if pid == 0:
-        os.environ["TERM"] = "xterm-256color"
-        os.execv(sys.executable, [sys.executable, "-m", "giraff_console", "--port", robot.path])
-
-    def drain(seconds: float) -> None:
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
-            try:
-                os.read(master, 65536)
-            except OSError:
-                return
-            time.sleep(0.01)
-
-    drain(3.0)
-    os.write(master, b"\x1b[A")
-    drain(0.5)
-    end = time.monotonic() + 2.5
-    while time.monotonic() < end:
-        os.write(master, b"\x1b[A")
-        drain(0.033)
+    pid, master = spawn_console(robot.path)
+    drain(master, 3.0)
+    hold_up(master, 3.0)
     killed = time.monotonic()
     os.kill(pid, signal.SIGKILL)
     os.waitpid(pid, 0)

@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+import fcntl
+import os
+import pty
+import struct
 import subprocess
 import sys
+import termios
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -73,3 +78,38 @@ def console_command(port: str) -> list[str]:
 
 def run(args: list[str]) -> subprocess.CompletedProcess:
     return subprocess.run(args, capture_output=True, text=True, timeout=10)
+
+
+UP = b"\x1b[A"
+
+
+def spawn_console(port: str) -> tuple[int, int]:
+    """The real console in a new pseudo-terminal, 80x24; returns its pid and master fd."""
+    pid, master = pty.fork()
+    if pid == 0:  # the child: the pty is its controlling terminal
+        os.environ["TERM"] = "xterm-256color"
+        args = console_command(port)
+        os.execv(args[0], args)
+    fcntl.ioctl(master, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 80, 0, 0))
+    return pid, master
+
+
+def drain(master: int, seconds: float) -> None:
+    """Read the console's output for a while, so that it never blocks on writing."""
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        try:
+            os.read(master, 65536)
+        except OSError:
+            return
+        time.sleep(0.01)
+
+
+def hold_up(master: int, seconds: float) -> None:
+    """Hold Up as a terminal repeats it: a press, then every 33 ms after 0.5 s."""
+    os.write(master, UP)
+    drain(master, 0.5)
+    end = time.monotonic() + seconds - 0.5
+    while time.monotonic() < end:
+        os.write(master, UP)
+        drain(master, 0.033)

@@ -7,19 +7,20 @@ drops: the kernel sends SIGHUP to the console, which must stop the robot.
 
 from __future__ import annotations
 
-import fcntl
 import os
-import pty
 import signal
-import struct
-import termios
 import time
 
 import pytest
 
-from tests.console.support import SimulatedRobot, console_command, pose_at, settled
-
-UP = b"\x1b[A"
+from tests.console.support import (
+    SimulatedRobot,
+    drain,
+    hold_up,
+    pose_at,
+    settled,
+    spawn_console,
+)
 
 
 @pytest.fixture
@@ -27,36 +28,6 @@ def robot(tmp_path):
     robot = SimulatedRobot(tmp_path)
     yield robot
     robot.close()
-
-
-def spawn_console(port: str) -> tuple[int, int]:
-    pid, master = pty.fork()
-    if pid == 0:  # the child: the pty is its controlling terminal
-        os.environ["TERM"] = "xterm-256color"
-        args = console_command(port)
-        os.execv(args[0], args)
-    fcntl.ioctl(master, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 80, 0, 0))
-    return pid, master
-
-
-def drain(master: int, seconds: float) -> None:
-    """Read the console's output for a while, so that it never blocks on writing."""
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
-        try:
-            os.read(master, 65536)
-        except OSError:
-            return
-        time.sleep(0.01)
-
-
-def hold_up(master: int, seconds: float) -> None:
-    os.write(master, UP)
-    drain(master, 0.5)
-    end = time.monotonic() + seconds - 0.5
-    while time.monotonic() < end:
-        os.write(master, UP)
-        drain(master, 0.033)
 
 
 @pytest.mark.parametrize("how", ["close the terminal", "SIGTERM"])
