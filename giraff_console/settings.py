@@ -13,7 +13,7 @@ The file is `$XDG_CONFIG_HOME/giraff-console/config.toml` (usually
     max_speed = 0.4            # cap for the speed keys; the runaway rule limits it
     accel = 0.5                # m/s^2, the thesis's DEF_ACCEL
     turn_rate = 45             # degrees per second, KBD_TURN_SPEED
-    grace = 0.55               # deadman: seconds after a first key press
+    grace = 0.7                # deadman: seconds after a first key press
     repeat_timeout = 0.15      # deadman: seconds between key repeats
     undock_distance = 0.3      # metres backed out by U
 """
@@ -86,7 +86,11 @@ def load_settings(path: Path | None = None) -> Settings:
             raise ValueError("power_line must be dtr, rts, both or none")
         if settings.timeout <= 0 or settings.control_rate <= 0:
             raise ValueError("timeout and control_rate must be positive")
-        teleop.limits()
+        limits = teleop.limits()
+        if teleop.grace <= 0 or teleop.repeat_timeout <= 0:
+            raise ValueError("grace and repeat_timeout must be positive")
+        if not 0 < teleop.undock_distance <= limits.runaway:
+            raise ValueError(f"undock_distance must be in (0, {limits.runaway}] m")
     except ValueError as error:
         raise SettingsError(f"{path}: {error}") from None
     return settings

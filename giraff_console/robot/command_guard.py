@@ -6,39 +6,52 @@ typed `set p` may not put the robot further ahead than a dead console may let it
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 from giraff_console.protocol.codec import Command
 from giraff_console.protocol.errors import CommandError
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M
 from giraff_console.robot.teleop import DriveLimits
 
 
-def check_command(command: Command, limits: DriveLimits, rotating: bool) -> None:
-    """Raise CommandError, with the reason, for a command outside the limits.
+def check_command(command: Command, limits: DriveLimits, board: Mapping[str, str]) -> None:
+    """Raise CommandError, saying why, for a command outside the limits.
 
-    `rotating` says whether the board's style is rotation in place (r = 0), where `p`
-    is in degrees (A.2.2).
+    `board` is what the board holds for its next move, as sent on the wire. A move
+    (`set p`, `set undock`) is only allowed when everything it will use is known and
+    within the limits; in rotation (r <= 0) `p` is in degrees (A.2.2).
     """
     if command.kind != "set":
         return
     name, value = command.name, float(command.value)  # type: ignore[arg-type]
+    _check_setting(name, value, limits)
+    if name in ("p", "undock"):
+        for needed in ("r", "mode", "v", "a", "vg"):
+            if needed not in board:
+                raise CommandError(f"the board's {needed} is unknown; set it first")
+            _check_setting(needed, float(board[needed]), limits)
+    if name == "p":
+        rotating = float(board["r"]) <= 0
+        reach = abs(value) / TURN_FACTOR_DEG_PER_M if rotating else abs(value)
+        if reach > limits.runaway:
+            unit = (
+                f"{limits.runaway * TURN_FACTOR_DEG_PER_M:.0f} degrees"
+                if rotating
+                else f"{limits.runaway} m"
+            )
+            raise CommandError(f"p beyond {unit}; a dead console would let the robot run that far")
+
+
+def _check_setting(name: str, value: float, limits: DriveLimits) -> None:
     if name == "v" and not 0 < value <= limits.max_speed:
-        raise CommandError(f"refused: v must be in (0, {limits.max_speed}] m/s")
-    if name == "a" and not 0 < value <= limits.accel:
-        raise CommandError(f"refused: a must be in (0, {limits.accel}] m/s^2")
+        raise CommandError(f"v must be in (0, {limits.max_speed}] m/s")
+    if name == "a" and not limits.min_accel <= value <= limits.accel:
+        raise CommandError(f"a must be in [{limits.min_accel:.3f}, {limits.accel}] m/s^2")
     if name == "vg" and abs(value) >= 0.51:
-        raise CommandError("refused: |vg| must stay below 0.51 (§3.2.1.4)")
+        raise CommandError("|vg| must stay below 0.51 (§3.2.1.4)")
     if name == "mode" and value != 0:
         # Absolute targets can lie anywhere, and buffered moves add up: either would let
         # a typed target reach further than the runaway limit.
-        raise CommandError("refused: typed commands drive in relative, unbuffered mode 0")
-    if name == "p":
-        reach = abs(value) / TURN_FACTOR_DEG_PER_M if rotating else abs(value)
-        if reach > limits.runaway:
-            unit = f"{limits.runaway * TURN_FACTOR_DEG_PER_M:.0f} degrees" if rotating else (
-                f"{limits.runaway} m"
-            )  # fmt: skip
-            raise CommandError(
-                f"refused: p beyond {unit}; a dead console would let the robot run that far"
-            )
-    if name == "undock" and abs(value) > limits.runaway:
-        raise CommandError(f"refused: undock further than {limits.runaway} m")
+        raise CommandError("typed commands drive in relative, unbuffered mode 0")
+    if name == "undock" and not 0 < abs(value) <= limits.runaway:
+        raise CommandError(f"undock must back out at most {limits.runaway} m")

@@ -55,6 +55,7 @@ class Telemetry:
     intent: Intent | None
     speed: float
     driving: bool
+    board_r: float | None
     autopoll: bool
     loop_hz: float
     late_ms: float
@@ -91,6 +92,9 @@ class ControlLoop:
         self._failures = 0
         self._rate = 0.0
         self._late = 0.0
+        self._recent: collections.deque[float] = collections.deque()
+        self._estop = False
+        self._crashes = 0
 
     # -- from other threads -------------------------------------------------------------
 
@@ -136,7 +140,6 @@ class ControlLoop:
 
     def _run(self) -> None:
         next_tick = self.clock.now()
-        recent: collections.deque[float] = collections.deque()
         while self._running:
             # Cleared before the tick, so that a key pressed during it wakes the next wait.
             self._wake.clear()
@@ -146,16 +149,11 @@ class ControlLoop:
                 # A scheduled tick: note how late it is, keep to the fixed rate.
                 self._late = now - next_tick
                 next_tick = max(next_tick + self.period, now)
-            recent.append(now)
-            while recent[0] < now - 1.0:
-                recent.popleft()
-            self._rate = float(len(recent))
             try:
                 self.tick(early=early)
             except Exception:
                 log.exception("control tick failed")
-                self.report("internal error in the control loop; stopping the robot")
-                self._drop_link()
+                self._crash()
             self._wake.wait(max(0.0, next_tick - self.clock.now()))
 
     def tick(self, early: bool = False) -> None:
@@ -164,7 +162,13 @@ class ControlLoop:
         `early` marks a tick that a key press brought forward.
         """
         self._tick += 1
+        now = self.clock.now()
+        self._recent.append(now)
+        while self._recent[0] < now - 1.0:
+            self._recent.popleft()
+        self._rate = float(len(self._recent))
         if self.link is None and not self._reconnect():
+            self._fail_jobs()
             self._publish()
             return
         assert self.link is not None
@@ -179,9 +183,9 @@ class ControlLoop:
             if (self.autopoll or driving) and not (early and fresh):
                 state = self._state = self.link.bulk(automatic=True)
                 self.odometry.update(state)
+                self._note_estop(state)
             if driving and state is not None:
                 if state.estop:
-                    self.report("ESTOP raised by the board: teleop stopped")
                     self.deadman.release()
                 for command in self.teleop.step(self.deadman.held(), state):
                     self.link.send(command)
@@ -197,6 +201,23 @@ class ControlLoop:
         except GiraffError as error:
             self.report(f"board: {error}")
         self._publish()
+
+    def _note_estop(self, state: MotorState) -> None:
+        """Report ESTOP when it rises and when it clears, not on every tick."""
+        if state.estop != self._estop:
+            self._estop = state.estop
+            self.report(
+                "ESTOP raised by the board: driving stopped" if state.estop else "ESTOP cleared"
+            )
+
+    def _crash(self) -> None:
+        """A bug in a tick: stop the robot, then start again from a fresh connection."""
+        self._crashes += 1
+        if self._crashes == 1 or self._crashes % 20 == 0:
+            self.report("internal error in the control loop; robot commanded to stop")
+        if self.link is not None:
+            stop_robot(self.link)
+        self._drop_link()
 
     def _run_jobs(self, link: BoardLink) -> None:
         while True:
@@ -227,10 +248,14 @@ class ControlLoop:
             link.add_observer(self._watch)
             for observer in self.observers:
                 link.add_observer(observer)
-            # Before anything else, the robot is told to stop (design.md).
+            # Before anything else, the robot is told to stop (design.md); then settings
+            # within the limits replace whatever the board holds.
             if not stop_robot(link):
                 link.close()
                 raise LinkError("the board did not take the stop command")
+            self.teleop.forget_board()
+            for command in self.teleop.safe_settings():
+                link.send(command)
         except GiraffError as error:
             delay = BACKOFF_S[min(self._failures, len(BACKOFF_S) - 1)]
             self._failures += 1
@@ -244,9 +269,6 @@ class ControlLoop:
             self.report(f"connected to {link.port.port}, board {link.version or 'version unknown'}")
         self._failures = 0
         self.link = link
-        self.teleop.forget_board()
-        # The board may have restarted its odometers: take the next sample as reference.
-        self.odometry.reset(self.odometry.pose)
         self._state = None
         return True
 
@@ -254,9 +276,20 @@ class ControlLoop:
         link, self.link = self.link, None
         self.deadman.release()
         self.teleop.forget_board()
+        self._state = None
         self._retry_at = self.clock.now()
         if link is not None:
             link.close()
+        self._fail_jobs()
+
+    def _fail_jobs(self) -> None:
+        """Nothing typed while the link is down may reach the board when it comes back."""
+        while True:
+            try:
+                _, done = self._jobs.get_nowait()
+            except queue.Empty:
+                return
+            done(LinkError("not sent: no link to the board"))
 
     def _publish(self) -> None:
         self.publish(
@@ -269,6 +302,7 @@ class ControlLoop:
                 intent=self.deadman.held(),
                 speed=self.teleop.speed,
                 driving=self.teleop.active,
+                board_r=self.teleop.board_r,
                 autopoll=self.autopoll,
                 loop_hz=self._rate,
                 late_ms=self._late * 1e3,

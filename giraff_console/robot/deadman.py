@@ -14,9 +14,8 @@ import threading
 
 from giraff_console.clock import Clock
 
-# Covers the usual 500 ms initial repeat delay, and is short enough that a single tap
-# is stopped well within 0.7 s.
-DEFAULT_GRACE_S = 0.55
+# Covers the usual initial repeat delays: 500 ms in most terminals, 660 ms in X.org.
+DEFAULT_GRACE_S = 0.7
 # Repeats come every 30-40 ms; this allows for jitter over a slow SSH link.
 DEFAULT_REPEAT_TIMEOUT_S = 0.15
 

@@ -24,6 +24,10 @@ from giraff_console.link.motor_state import MotorState
 from giraff_console.protocol.errors import ProtocolError
 from giraff_console.protocol.kinematics import WHEEL_BASE_M, curvature
 
+# Faster than a Giraff wheel ever turns, and a margin for the first sample's timing.
+MAX_WHEEL_SPEED = 2.0
+JUMP_MARGIN_M = 0.05
+
 
 @dataclass(frozen=True)
 class Pose:
@@ -60,6 +64,11 @@ class Odometry:
             return self.pose
         left = state.imdl - last.imdl
         right = state.imdr - last.imdr
+        elapsed = max(0.0, state.received_at - last.received_at)
+        if max(abs(left), abs(right)) > MAX_WHEEL_SPEED * elapsed + JUMP_MARGIN_M:
+            # Further than any wheel can go: the board restarted its odometers, as after
+            # a power cycle. Keep the pose; this sample is the new reference.
+            return self.pose
         distance = (left + right) / 2
         mean_gear = (state.cvg + last.cvg) / 2
         if mean_gear != 0.0 and left * right > 0:

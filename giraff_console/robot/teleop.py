@@ -21,8 +21,14 @@ from giraff_console.link.motor_state import MotorState
 from giraff_console.protocol.codec import Command, Number, format_number
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, brake_distance
 from giraff_console.robot.deadman import Intent
-from giraff_console.robot.safety import path_stop_distance, rotation_stop_angle
+from giraff_console.robot.safety import (
+    path_stop_distance,
+    rotation_stop_angle,
+    rotation_wheel_speed,
+)
 
+# The target is renewed once it is closer than the braking distance plus this many ticks.
+RENEW_TICKS = 2
 # r for curved motion (A.4.2 needs r > 50); the thesis's console used 1000.
 PATH_STYLE = 1000
 ROTATE_STYLE = 0
@@ -41,11 +47,21 @@ class DriveLimits:
     lookahead: float = 1.8  # k: the target is k braking distances ahead
     runaway: float = 0.3  # metres a dead console may let the robot go (design.md)
 
+    @property
+    def min_accel(self) -> float:
+        """The gentlest acceleration that still stops from max_speed within the runaway."""
+        return self.max_speed**2 / (2 * self.runaway)
+
     def __post_init__(self) -> None:
         if not 0 < self.speed <= self.max_speed:
             raise ValueError("speed must be positive and at most max_speed")
-        if self.accel <= 0 or self.turn_rate <= 0 or self.gear_rate <= 0:
-            raise ValueError("acceleration, turn rate and gear rate must be positive")
+        if self.turn_rate <= 0 or self.gear_rate <= 0:
+            raise ValueError("turn rate and gear rate must be positive")
+        if self.accel < self.min_accel:
+            raise ValueError(
+                f"accel must be at least {self.min_accel:.3f} m/s^2 to stop from max_speed "
+                f"within {self.runaway} m"
+            )
         if not 0 <= self.max_gear < 0.51:
             raise ValueError("max_gear must be below 0.51 (§3.2.1.4)")
         if self.lookahead <= 1:
@@ -61,9 +77,12 @@ class DriveLimits:
 class Teleop:
     """Turns the held intent and the latest motor state into board commands."""
 
-    def __init__(self, limits: DriveLimits | None = None) -> None:
+    def __init__(self, limits: DriveLimits | None = None, tick: float = 0.05) -> None:
+        """`tick` is the control period, used to renew the target in good time."""
         self.limits = limits or DriveLimits()
+        self.tick = tick
         self.speed = self.limits.speed
+        self._target = 0.0
         self._style: int | None = None
         self._stopping = False
         # What the board holds for its next move, as sent on the wire (board_set).
@@ -77,6 +96,26 @@ class Teleop:
     def board_set(self, name: str, text: str) -> None:
         """The board took `set NAME TEXT`, from teleop or from anyone else."""
         self._board[name] = text
+
+    @property
+    def board_r(self) -> float | None:
+        """The board's movement style as last set, if known (A.4.2)."""
+        text = self._board.get("r")
+        return None if text is None else float(text)
+
+    @property
+    def board_settings(self) -> dict[str, str]:
+        """A copy of what the board holds for its next move, as sent on the wire."""
+        return dict(self._board)
+
+    def safe_settings(self) -> list[Command]:
+        """Settings for a board just reached: its power-up defaults (v = a = 0.6, vg = 1)
+        are outside the limits, and a typed `set p` would use them."""
+        plan: dict[str, Number] = {
+            "r": PATH_STYLE, "mode": 0, "a": self.limits.accel, "v": self.speed, "vg": 0,
+            "vgr": self.limits.gear_rate, "cdp": 0,
+        }  # fmt: skip
+        return [Command("set", name, value) for name, value in plan.items()]
 
     def forget_board(self) -> None:
         """The board's settings are unknown again (a new connection, a restart)."""
@@ -104,7 +143,7 @@ class Teleop:
             return self._stop(state) if state.moving else self._start(intent, style)
         if self._style is None or self._stopping:
             return self._start(intent, style)
-        return self._renew(intent)
+        return self._renew(intent, state)
 
     # -- commands -----------------------------------------------------------------------
 
@@ -132,9 +171,28 @@ class Teleop:
         return self._commands({"r": style, "mode": 0, "a": self.limits.accel,
                                **self._plan(intent, style)})  # fmt: skip
 
-    def _renew(self, intent: Intent) -> list[Command]:
+    def _renew(self, intent: Intent, state: MotorState) -> list[Command]:
+        """Keep the target ahead, renewing it only when the robot is getting close.
+
+        With k = 1.8 the thesis's "renew when less than 2 braking distances are left"
+        would renew every tick; instead the target is renewed once less than the braking
+        distance plus two ticks of travel is left, which keeps the board from being sent
+        the same `set p` twenty times a second.
+        """
         assert self._style is not None
-        return self._commands(self._plan(intent, self._style))
+        plan = self._plan(intent, self._style)
+        changed = any(
+            self._board.get(name) != format_number(value)
+            for name, value in plan.items()
+            if name != "p"
+        )
+        counter = state.cang if self._style == ROTATE_STYLE else state.cdis
+        left = abs(self._target) - abs(counter)
+        speed = abs(plan["v"])
+        margin = abs(plan["p"]) / self.limits.lookahead + speed * RENEW_TICKS * self.tick
+        if changed or left < margin:
+            return self._commands(plan)
+        return []
 
     def _commands(self, plan: dict[str, Number]) -> list[Command]:
         """The settings the board does not hold yet, then the target.
@@ -147,6 +205,7 @@ class Teleop:
             for name, value in plan.items()
             if name != "p" and self._board.get(name) != format_number(value)
         ]
+        self._target = float(plan["p"])
         return [Command("set", name, plan[name]) for name in [*changed, "p"]]
 
     def _stop(self, state: MotorState) -> list[Command]:
@@ -156,5 +215,6 @@ class Teleop:
         self._stopping = True
         limits = self.limits
         if self._style == ROTATE_STYLE:
-            return self._commands({"p": rotation_stop_angle(state.gvr, limits.accel)})
+            wheel = rotation_wheel_speed(state, ROTATE_STYLE)
+            return self._commands({"p": rotation_stop_angle(wheel, limits.accel)})
         return self._commands({"cdp": 0, "p": path_stop_distance(state.speed, limits.accel)})

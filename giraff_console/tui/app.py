@@ -15,8 +15,7 @@ from textual.binding import Binding
 from textual.containers import Horizontal, Vertical
 from textual.widgets import Footer, Input
 
-from giraff_console.link import Exchange
-from giraff_console.protocol import CommandError, GiraffError, parse_command, parse_number
+from giraff_console.protocol import Command, CommandError, GiraffError, parse_command, parse_number
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Intent
@@ -108,7 +107,6 @@ class GiraffConsole(App[None]):
         self.run_loop = run_loop
         self.timestamp = timestamp
         self.cursor_blink = cursor_blink
-        self._board_r: float | None = None
         self._frames: list[float] = []
 
     def compose(self) -> ComposeResult:
@@ -151,10 +149,7 @@ class GiraffConsole(App[None]):
         self.main_view.show(message.telemetry)
 
     def on_exchange_seen(self, message: ExchangeSeen) -> None:
-        exchange: Exchange = message.exchange
-        if exchange.command.startswith("set r ") and exchange.error is None:
-            self._board_r = float(exchange.command.split()[2])
-        self.transcript.add(exchange)
+        self.transcript.add(message.exchange)
 
     def on_status_note(self, message: StatusNote) -> None:
         self.note(message.text)
@@ -169,7 +164,10 @@ class GiraffConsole(App[None]):
             self.control.press(Intent[intent])
 
     def action_halt(self) -> None:
+        """Stop now: let go of the keys, and stop any move, typed or undocking, as well."""
         self.control.halt()
+        self.control.submit(stop_robot)
+        self.note("stop")
 
     def action_speed(self, step: int) -> None:
         speed = self.control.teleop.set_speed(round(self.control.teleop.speed + 0.05 * step, 2))
@@ -201,21 +199,39 @@ class GiraffConsole(App[None]):
 
     def action_undock(self) -> None:
         # The thesis's console sent a negative distance (B.2 Undock).
-        self._board_job(lambda link: link.set("undock", -self.undock_distance))
+        self._board_command(Command("set", "undock", -self.undock_distance))
 
     def action_help(self) -> None:
         self.push_screen(HelpScreen(list(self.BINDINGS), CONSOLE_COMMANDS))
 
     async def action_quit(self) -> None:
         self.note("stopping the robot and leaving")
+        # Stop first: the app takes a while to close its screens after exit().
+        self.control.stop()
         self.exit()
 
     def _board_job(self, job) -> None:
         def done(result: object) -> None:
-            if isinstance(result, GiraffError):
-                self.post_message(StatusNote(f"board: {result}"))
+            if isinstance(result, CommandError):
+                self.post_message(StatusNote(f"refused: {result}"))
+            elif isinstance(result, GiraffError):
+                self.post_message(StatusNote(str(result)))
 
         self.control.submit(job, done)
+
+    def _board_command(self, command: Command) -> None:
+        """Check a command against the limits on the loop's thread, then send it.
+
+        The check runs where the board's settings are known for sure: nothing can change
+        them between the check and the command.
+        """
+        teleop = self.control.teleop
+
+        def job(link):
+            check_command(command, teleop.limits, teleop.board_settings)
+            return link.send(command)
+
+        self._board_job(job)
 
     # -- the command line ---------------------------------------------------------------
 
@@ -235,9 +251,7 @@ class GiraffConsole(App[None]):
         elif word == "quit":
             self.exit()
         elif word == "stop":
-            self.control.halt()
-            self.control.submit(stop_robot)
-            self.note("stop")
+            self.action_halt()
         elif word == "speed":
             try:
                 wanted = float(parse_number(rest))
@@ -251,8 +265,7 @@ class GiraffConsole(App[None]):
         else:
             try:
                 command = parse_command(text)
-                check_command(command, self.control.teleop.limits, rotating=self._board_r == 0)
             except CommandError as error:
                 self.note(f"refused: {error}")
                 return
-            self._board_job(lambda link: link.send(command))
+            self._board_command(command)

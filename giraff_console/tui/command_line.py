@@ -24,6 +24,8 @@ class CommandLine(Input):
         Binding("escape", "close", "Close", show=False),
         Binding("up", "history(-1)", "Previous", show=False),
         Binding("down", "history(1)", "Next", show=False),
+        # Tab takes the suggestion, as in a shell.
+        Binding("tab", "cursor_right", "Complete", show=False),
     ]
 
     def __init__(self, **kwargs) -> None:

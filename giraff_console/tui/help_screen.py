@@ -20,6 +20,8 @@ class HelpScreen(ModalScreen[None]):
     }
     """
     BINDINGS = [Binding("escape,q,question_mark", "dismiss", "Close")]
+    # Arrows and PgUp/PgDn scroll the list where the terminal is too small for it.
+    AUTO_FOCUS = "VerticalScroll"
 
     def __init__(self, bindings: list[BindingType], commands: list[tuple[str, str]]) -> None:
         super().__init__()
@@ -44,4 +46,4 @@ class HelpScreen(ModalScreen[None]):
         with VerticalScroll():
             yield Static(keys)
             yield Static(commands)
-            yield Static("[dim]Esc, q or ? closes this screen.[/]")
+            yield Static("[dim]Arrows scroll; Esc, q or ? closes this screen.[/]")

@@ -26,9 +26,14 @@ class MainView(Static):
             table.add_row("link", Text("LOST: retrying", style="bold red"))
         state = telemetry.state
         if state is not None:
-            speed = "?" if state.speed is None else f"{state.speed:.2f}"
             motion = "moving" if state.moving else "stopped"
-            table.add_row("motion", f"{motion} {speed} m/s vg {state.cvg:.2f}")
+            if telemetry.board_r is not None and telemetry.board_r <= 0:
+                # Rotating in place: gvr is degrees per second against set p (A.2.2), so
+                # counter-clockwise positive, like the heading.
+                table.add_row("motion", f"{motion}, turning {state.gvr:+.1f}°/s")
+            else:
+                speed = "?" if state.speed is None else f"{state.speed:.2f}"
+                table.add_row("motion", f"{motion} {speed} m/s vg {state.cvg:.2f}")
             table.add_row("counters", f"cdis {state.cdis:.3f} cang {state.cang:.1f}°")
             if state.tilt is not None:
                 table.add_row("head", f"tilt {state.tilt:.3f} rad")

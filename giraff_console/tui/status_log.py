@@ -2,27 +2,12 @@
 
 from __future__ import annotations
 
-import collections
+from giraff_console.tui.reflow_log import ReflowLog
 
-from rich.text import Text
-from textual.widgets import RichLog
-
-MAX_LINES = 500
+ALARMS = ("LOST", "ESTOP", "refused", "restarted", "not sent", "internal error")
 
 
-class StatusLog(RichLog):
-    can_focus = False
-
-    def __init__(self, **kwargs) -> None:
-        super().__init__(wrap=True, min_width=16, max_lines=MAX_LINES, markup=False, **kwargs)
-        # The notes as written, before wrapping.
-        self.messages: collections.deque[str] = collections.deque(maxlen=MAX_LINES)
-
+class StatusLog(ReflowLog):
     def note(self, text: str) -> None:
-        """A line, with its leading timestamp dimmed and alarms in red."""
-        stamp, _, message = text.partition(" ")
-        alarm = any(word in message for word in ("LOST", "ESTOP", "refused", "restarted"))
-        line = Text(f"{stamp} ", style="dim")
-        line.append(message, style="bold red" if alarm else "")
-        self.messages.append(text)
-        self.write(line)
+        """A line; alarms stand out in red."""
+        self.add_line(text, "bold red" if any(word in text for word in ALARMS) else "")

@@ -126,9 +126,11 @@ def test_switching_from_driving_to_turning_stops_first(console):
 def test_estop_stops_teleop_and_is_reported(console):
     console.hold(Intent.FORWARD, 1.0)
     console.board.set_estop(True)
+    console.run(0.1)
+    console.sent.clear()
     console.hold(Intent.FORWARD, 0.5)
     assert any("ESTOP" in report for report in console.reports)
-    assert not console.moving()
+    assert not [command for command in console.sent if command.startswith("set p")]
 
 
 def test_a_lost_link_is_reported_then_reconnected_with_a_stop_first(console):
@@ -163,8 +165,9 @@ def test_a_lost_link_is_reported_then_reconnected_with_a_stop_first(console):
         if telemetry[-1].link is LinkState.CONNECTED:
             break
     assert telemetry[-1].link is LinkState.CONNECTED
-    assert console.sent[:3] == ["get bulk_data", "set mode 0", "set cdp 0"]
-    assert console.sent[3].startswith("set p ")
+    stop = ["get bulk_data", "get r", "set mode 0", "set a 0.5", "set cdp 0"]
+    assert console.sent[:5] == stop
+    assert console.sent[5].startswith("set p ")
     console.run(2.0)
     assert not console.moving()
 
@@ -191,3 +194,20 @@ def test_a_board_that_restarts_keeps_the_pose_and_is_reported(console):
     console.run(0.2)
     assert any("restarted" in report for report in console.reports)
     assert console.loop.odometry.pose.x == pytest.approx(x, abs=1e-6)
+
+
+def test_a_stop_reads_the_style_so_a_turn_is_never_stopped_with_metres():
+    from giraff_console.link import MotorState
+    from giraff_console.robot.safety import stop_commands
+
+    turning = MotorState(cang=0.0, cdis=0.0, gvr=-45.0, speed=-45.0, cvg=0.0, tilt=None,
+                         imdl=0.0, imdr=0.0, mode=128, received_at=0.0)  # fmt: skip
+    target = float(stop_commands(turning, r=0)[-1].value)
+    assert 0 < target < 69  # degrees, within 0.3 m of wheel travel
+    assert float(stop_commands(turning, r=1000)[-1].value) <= 0.3  # capped whatever the reading
+
+
+def test_the_target_is_renewed_only_when_the_robot_gets_close(console):
+    console.hold(Intent.FORWARD, 3.0)
+    renewals = [c for c in console.sent if c.startswith("set p")]
+    assert 8 <= len(renewals) <= 20  # not once a tick (60 ticks)

@@ -6,6 +6,8 @@ import math
 
 import pytest
 
+from giraff_console.link import LinkDisconnected
+
 SIZE = (100, 30)
 
 
@@ -46,9 +48,9 @@ async def test_enter_and_a_raw_command_put_the_reply_in_the_transcript(rig):
         assert rig.app.command_line.has_focus
         await pilot.press(*"get v", "enter")
         await rig.run(pilot, 0.1)
-        lines = rig.app.transcript.entries
+        lines = rig.app.transcript.texts
         assert "> get v" in lines
-        assert "  0.60000" in lines
+        assert "  0.40000" in lines  # the console set the driving speed on connecting
         assert not rig.app.command_line.display
 
 
@@ -62,14 +64,15 @@ async def test_diagonal_keys_drive_a_curve(rig):
 
 async def test_commands_outside_the_limits_are_refused(rig):
     async with rig.app.run_test(size=SIZE) as pilot:
+        await rig.run(pilot, 0.1)  # connected, settings within the limits sent
         sent = []
         rig.link.add_observer(lambda e: sent.append(e.command))
         refused = ("set v 2", "set p 5", "set vg 0.6", "get v\rset p 5", "set mode 1",
-                   "set mode 4", "set a 3", "set undock 2")  # fmt: skip
+                   "set mode 4", "set a 3", "set a 0.01", "set undock 2")  # fmt: skip
         for text in refused:
             rig.app.run_command(text)
         await rig.run(pilot, 0.1)
-        notes = rig.app.status_log.messages
+        notes = rig.app.status_log.texts
         assert sum("refused" in note for note in notes) == len(refused)
         assert not any(
             c.startswith(("set v", "set p", "set vg", "set a", "set undock")) for c in sent
@@ -94,7 +97,7 @@ async def test_later_features_say_so_in_the_status_log(rig):
         for key in ("1", "p", "r"):
             await pilot.press(key)
         await pilot.pause()
-        notes = " ".join(rig.app.status_log.messages)
+        notes = " ".join(rig.app.status_log.texts)
         assert "1600x1200" in notes and "playback arrives" in notes and "recording arrives" in notes
 
 
@@ -130,3 +133,68 @@ async def test_the_command_line_remembers_and_completes(rig):
         await pilot.press("enter", *"get bulk_d")
         await pilot.press("right")  # accepts the suggestion
         assert rig.app.command_line.value == "get bulk_data"
+
+
+async def test_the_board_defaults_are_replaced_by_safe_settings_on_connecting(rig):
+    async with rig.app.run_test(size=SIZE) as pilot:
+        await rig.run(pilot, 0.1)
+        settings = rig.control.teleop.board_settings
+        assert (settings["v"], settings["a"], settings["vg"], settings["mode"]) == (
+            "0.4",
+            "0.5",
+            "0",
+            "0",
+        )
+        # A steep gear rate cannot reach past vg, which stays within the limit.
+        for text in ("set vgr 50", "set cdp 0.3", "set p 0.3"):
+            rig.app.run_command(text)
+        await rig.run(pilot, 2.0)
+        assert rig.board.true_pose.x == pytest.approx(0.3, abs=0.01)
+        assert rig.board.true_pose.heading == 0.0
+
+
+async def test_commands_typed_while_the_link_is_lost_are_not_sent_later(rig):
+    async with rig.app.run_test(size=SIZE) as pilot:
+        await rig.run(pilot, 0.1)
+        link = rig.link
+        rig.control.connect = lambda: (_ for _ in ()).throw(LinkDisconnected("unplugged"))
+        link.port.close()
+        await rig.run(pilot, 0.1)
+        rig.app.run_command("set p 0.2")
+        await rig.run(pilot, 0.1)
+        assert any("not sent" in note for note in rig.app.status_log.texts)
+
+
+async def test_space_stops_an_undock_half_way(rig):
+    async with rig.app.run_test(size=SIZE) as pilot:
+        await rig.run(pilot, 0.1)
+        await pilot.press("u")
+        await rig.run(pilot, 0.5)  # backing out
+        await pilot.press("space")
+        await rig.run(pilot, 5.0)
+        assert not rig.link.bulk().moving
+        assert rig.board.true_pose.x > -0.3  # did not finish backing out...
+        assert rig.board.true_pose.heading == 0.0  # ...nor turn around
+
+
+async def test_estop_is_reported_once_and_teleop_sends_no_target_after_it(rig):
+    async with rig.app.run_test(size=SIZE) as pilot:
+        sent = []
+        rig.link.add_observer(lambda e: sent.append(e.command))
+        await rig.hold(pilot, "up", 1.0)
+        rig.board.set_estop(True)
+        await rig.run(pilot, 0.1)
+        sent.clear()
+        await rig.hold(pilot, "up", 1.0)
+        assert not [c for c in sent if c.startswith("set p")]
+        assert sum("ESTOP raised" in note for note in rig.app.status_log.texts) == 1
+        assert "ESTOP" in str(rig.app.top_bar.render())
+
+
+async def test_the_help_screen_scrolls_with_the_arrows(rig):
+    async with rig.app.run_test(size=(80, 24)) as pilot:
+        await pilot.press("question_mark")
+        scroller = rig.app.screen.query_one("VerticalScroll")
+        await pilot.press("down", "down", "down")
+        assert scroller.scroll_y > 0
+        assert rig.board.true_pose.x == 0  # the arrows did not drive

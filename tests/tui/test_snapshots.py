@@ -48,3 +48,11 @@ def test_link_lost(snap_compare, rig):
         await rig.run(pilot, 0.3)
 
     assert snap_compare(rig.app, terminal_size=(100, 30), run_before=lose_link)
+
+
+def test_help_screen_80x24_scrolls(snap_compare, rig):
+    async def help_screen(pilot):
+        await rig.run(pilot, 0.1)
+        await pilot.press("question_mark")
+
+    assert snap_compare(rig.app, terminal_size=(80, 24), run_before=help_screen)
