@@ -199,7 +199,7 @@ class ControlLoop:
             self.teleop.forget_board()
             self.deadman.release()
         except GiraffError as error:
-            self.report(f"board: {error}")
+            self.report(str(error))
         self._publish()
 
     def _note_estop(self, state: MotorState) -> None:

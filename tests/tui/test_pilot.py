@@ -131,7 +131,7 @@ async def test_the_command_line_remembers_and_completes(rig):
         assert rig.app.command_line.value == "get v"
         await pilot.press("escape")
         await pilot.press("enter", *"get bulk_d")
-        await pilot.press("right")  # accepts the suggestion
+        await pilot.press("tab")  # takes the suggestion
         assert rig.app.command_line.value == "get bulk_data"
 
 
