@@ -41,3 +41,16 @@ def test_the_code_passes_ruff():
         cwd=ROOT, capture_output=True, text=True,
     )  # fmt: skip
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_the_installed_package_carries_the_console_stylesheet(tmp_path):
+    # A plain (not editable) install is what the README's run command does.
+    result = subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(ROOT)],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    import zipfile
+
+    (wheel,) = tmp_path.glob("giraff_console-*.whl")
+    assert "giraff_console/tui/app.tcss" in zipfile.ZipFile(wheel).namelist()
