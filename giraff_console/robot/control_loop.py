@@ -47,14 +47,12 @@ class LinkState(enum.Enum):
 class Telemetry:
     """What the console shows, as of one control tick."""
 
-    tick: int
     time: float
     link: LinkState
     state: MotorState | None
     pose: Pose
     intent: Intent | None
     speed: float
-    driving: bool
     board_r: float | None
     autopoll: bool
     loop_hz: float
@@ -86,7 +84,6 @@ class ControlLoop:
         self._wake = threading.Event()
         self._running = False
         self._thread: threading.Thread | None = None
-        self._tick = 0
         self._state: MotorState | None = None
         self._retry_at = 0.0
         self._failures = 0
@@ -161,7 +158,6 @@ class ControlLoop:
 
         `early` marks a tick that a key press brought forward.
         """
-        self._tick += 1
         now = self.clock.now()
         self._recent.append(now)
         while self._recent[0] < now - 1.0:
@@ -294,14 +290,12 @@ class ControlLoop:
     def _publish(self) -> None:
         self.publish(
             Telemetry(
-                tick=self._tick,
                 time=self.clock.now(),
                 link=LinkState.CONNECTED if self.link else LinkState.LOST,
                 state=self._state,
                 pose=self.odometry.pose,
                 intent=self.deadman.held(),
                 speed=self.teleop.speed,
-                driving=self.teleop.active,
                 board_r=self.teleop.board_r,
                 autopoll=self.autopoll,
                 loop_hz=self._rate,
