@@ -1,0 +1,1 @@
+"""Camera: frame sources, feature processors, the terminal view and video recording."""
