@@ -12,6 +12,10 @@ from pathlib import Path
 import serial
 
 from giraff_console import __version__
+from giraff_console.camera.feed import CameraFeed
+from giraff_console.camera.halfblock import HalfBlockRenderer
+from giraff_console.camera.processors import CannyEdges, FastCorners, Pipeline
+from giraff_console.camera.source import DEFAULT_RESOLUTION, SyntheticCamera, open_camera
 from giraff_console.clock import RealClock
 from giraff_console.link import DEFAULT_TIMEOUT_S, BoardLink, LinkError
 from giraff_console.protocol import (
@@ -28,7 +32,9 @@ from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.teleop import Teleop
 from giraff_console.settings import Settings, SettingsError, config_path, load_settings
 from giraff_console.sim import BoardConfig, GiraffBoard, Imperfections, PtyServer
+from giraff_console.sim.camera import WorldCamera
 from giraff_console.sim.pose_log import PoseLog
+from giraff_console.sim.world import demo_world
 
 # Exit codes: a refused or garbled command, and a link that could not be used.
 EXIT_BOARD_ERROR = 1
@@ -52,6 +58,11 @@ def build_parser() -> argparse.ArgumentParser:
         "file; without one, the built-in simulator)",
     )  # fmt: skip
     parser.add_argument("--sim", action="store_true", help="use the built-in simulator")
+    parser.add_argument(
+        "--camera", metavar="DEVICE",
+        help="camera index, device path or video file (default: the synthetic camera with "
+        "the simulator, else camera 0; a test pattern if it is missing)",
+    )  # fmt: skip
     parser.add_argument(
         "--config", metavar="FILE", type=Path,
         help=f"settings file (default: {config_path()}); see the README for its keys",
@@ -150,15 +161,21 @@ def run_console(args: argparse.Namespace) -> int:
         return EXIT_USAGE
     port = None if args.sim else (args.port or settings.port)
     clock = RealClock()
+    simulator = None
+    if port is None:
+        simulator = serial.serial_for_url(IN_PROCESS_SIMULATOR)
     control = ControlLoop(
-        board_connector(port, settings),
+        board_connector(port, settings, simulator),
         teleop=Teleop(settings.teleop.limits()),
         deadman=Deadman(clock, settings.teleop.grace, settings.teleop.repeat_timeout),
         rate_hz=settings.control_rate,
         clock=clock,
     )
     app = GiraffConsole(
-        control, simulator=port is None, undock_distance=settings.teleop.undock_distance
+        control,
+        simulator=simulator is not None,
+        camera=camera_feed(args.camera, simulator),
+        undock_distance=settings.teleop.undock_distance,
     )
 
     def on_signal(signum: int, frame: object) -> None:
@@ -178,13 +195,33 @@ def run_console(args: argparse.Namespace) -> int:
     return 0
 
 
-def board_connector(port: str | None, settings: Settings):
+def camera_feed(device: str | None, simulator: serial.SerialBase | None) -> CameraFeed:
+    """The camera asked for, else the synthetic one with the simulator, else camera 0;
+    a test pattern when none of them is there (§3.4.1)."""
+    synthetic = None
+    if simulator is not None:
+        world = WorldCamera(demo_world())
+        board = simulator.board
+        synthetic = SyntheticCamera(
+            lambda width, height: world.render(board.true_pose, width, height)
+        )
+    if device is None and synthetic is None:
+        device = "0"
+    camera = int(device) if device is not None and device.isdigit() else device
+    source, size, _ = open_camera(camera, *DEFAULT_RESOLUTION, synthetic)
+    pipeline = Pipeline([FastCorners(), CannyEdges()])
+    pipeline.toggle("fast")
+    truecolor = os.environ.get("COLORTERM") in ("truecolor", "24bit")
+    return CameraFeed(source, size, pipeline, HalfBlockRenderer(truecolor), lambda picture: None)
+
+
+def board_connector(port: str | None, settings: Settings, simulator: serial.SerialBase | None):
     """How the control loop (re)connects: a real port by name, or the one simulator."""
     if port is not None:
         return lambda: BoardLink.open(
             port, timeout=settings.timeout, power_line=settings.power_line
         )
-    simulator = serial.serial_for_url(IN_PROCESS_SIMULATOR, do_not_open=True)
+    assert simulator is not None
 
     def connect() -> BoardLink:
         if not simulator.is_open:

@@ -15,21 +15,29 @@ from textual.binding import Binding
 from textual.containers import Horizontal, Vertical
 from textual.widgets import Footer, Input
 
+from giraff_console.camera.feed import CameraFeed
+from giraff_console.camera.source import RESOLUTIONS as CAMERA_RESOLUTIONS
 from giraff_console.protocol import Command, CommandError, GiraffError, parse_command, parse_number
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Intent
 from giraff_console.robot.safety import stop_robot
+from giraff_console.tui.camera_view import CameraView
 from giraff_console.tui.command_line import CommandLine
 from giraff_console.tui.help_screen import HelpScreen
 from giraff_console.tui.main_view import MainView
-from giraff_console.tui.messages import ExchangeSeen, StatusNote, TelemetryUpdated
+from giraff_console.tui.messages import (
+    CameraPictureUpdated,
+    ExchangeSeen,
+    StatusNote,
+    TelemetryUpdated,
+)
 from giraff_console.tui.status_log import StatusLog
 from giraff_console.tui.top_bar import TopBar
 from giraff_console.tui.transcript import Transcript
 
 # Keys 1-5 of the thesis (B.7 SetResolution).
-RESOLUTIONS = {1: (1600, 1200), 2: (1280, 960), 3: (1024, 768), 4: (800, 600), 5: (640, 480)}
+RESOLUTIONS = dict(enumerate(CAMERA_RESOLUTIONS, start=1))
 # T tilts the head up: the thesis's SetTilt(1), radians from home (B.7).
 TILT_UP = 1.0
 
@@ -41,6 +49,7 @@ CONSOLE_COMMANDS = [
     ("set NAME VALUE", "send a controller command, e.g. set v 0.3 (checked against the limits)"),
     ("get NAME", "read a parameter, e.g. get bulk_data"),
     ("home", "any other bare controller command"),
+    ("fast, canny", "switch a camera processor on or off"),
     ("go, record, teach", "arrive with later issues"),
 ]
 LATER = {"go": "planning", "record": "sessions", "teach": "sessions", "patrol": "sessions"}
@@ -75,6 +84,10 @@ class GiraffConsole(App[None]):
                 tooltip="drive 0.05 m/s slower"),
         *[Binding(str(n), f"resolution({n})", f"{w}x{h}", show=False, id=f"resolution-{n}",
                   tooltip=f"camera resolution {w}x{h}") for n, (w, h) in RESOLUTIONS.items()],
+        Binding("f", "processor('fast')", "FAST", show=False, id="fast",
+                tooltip="FAST corners on the camera image, on or off"),
+        Binding("e", "processor('canny')", "Edges", show=False, id="canny",
+                tooltip="Canny edges on the camera image, on or off"),
         Binding("enter", "command_line", "Command", id="command",
                 tooltip="type a controller or console command"),
         Binding("a", "toggle_poll", "Poll", show=False, id="poll",
@@ -94,6 +107,7 @@ class GiraffConsole(App[None]):
         control: ControlLoop,
         *,
         simulator: bool,
+        camera: CameraFeed | None = None,
         undock_distance: float = 0.3,
         run_loop: bool = True,
         timestamp: Callable[[], str] = lambda: time.strftime("%H:%M:%S"),
@@ -102,6 +116,7 @@ class GiraffConsole(App[None]):
         """`run_loop` False leaves ticking the loop to the caller (tests on a virtual clock)."""
         super().__init__()
         self.control = control
+        self.camera = camera
         self.simulator = simulator
         self.undock_distance = undock_distance
         self.run_loop = run_loop
@@ -114,6 +129,7 @@ class GiraffConsole(App[None]):
         with Horizontal(id="body"):
             yield StatusLog(id="status")
             with Vertical(id="centre"):
+                yield CameraView(id="camera")
                 yield MainView(id="main")
             yield Transcript(id="transcript")
         command_line = CommandLine(id="command-line")
@@ -128,16 +144,35 @@ class GiraffConsole(App[None]):
         self.status_log = self.query_one(StatusLog)
         self.transcript = self.query_one(Transcript)
         self.command_line = self.query_one(CommandLine)
+        self.camera_view = self.query_one(CameraView)
         self.control.publish = lambda t: self.post_message(TelemetryUpdated(t))
         self.control.report = lambda text: self.post_message(StatusNote(text))
         self.control.observers.append(lambda e: self.post_message(ExchangeSeen(e)))
         if self.simulator:
             self.note("SIMULATOR: no robot is connected; the built-in simulated board answers")
+        if self.camera is not None:
+            camera = self.camera
+            camera.publish = lambda picture: self.post_message(CameraPictureUpdated(picture))
+            self.camera_view.on_size = camera.set_cells
+            self.call_after_refresh(lambda: camera.set_cells(*self.camera_view.size))
+            self.note(f"camera: {camera.source.name} at {camera.size[0]}x{camera.size[1]}")
+            if self.run_loop:
+                camera.start()
         if self.run_loop:
             self.control.start()
 
     def on_unmount(self) -> None:
         self.control.stop()
+        if self.camera is not None:
+            self.camera.stop()
+
+    def on_camera_picture_updated(self, message: CameraPictureUpdated) -> None:
+        picture = message.picture
+        text = f"cam {picture.size[0]}x{picture.size[1]} {picture.fps:.0f} fps"
+        if picture.keypoints is not None:
+            text += f" · FAST {picture.keypoints}"
+        self.top_bar.show_camera(text)
+        self.camera_view.show(picture)
 
     # -- from the control loop ----------------------------------------------------------
 
@@ -175,7 +210,18 @@ class GiraffConsole(App[None]):
 
     def action_resolution(self, key: int) -> None:
         width, height = RESOLUTIONS[key]
-        self.note(f"camera {width}x{height} requested: the camera arrives with the camera issue")
+        if self.camera is None:
+            self.note("no camera")
+            return
+        self.camera.set_resolution(width, height)
+        self.note(f"camera resolution {width}x{height} requested")
+
+    def action_processor(self, name: str) -> None:
+        if self.camera is None:
+            self.note("no camera")
+            return
+        on = self.camera.pipeline.toggle(name)
+        self.note(f"{name} {'on' if on else 'off'}")
 
     def action_later(self, feature: str) -> None:
         self.note(f"{feature} arrives with the sessions issue")
@@ -260,6 +306,8 @@ class GiraffConsole(App[None]):
                 return
             speed = self.control.teleop.set_speed(wanted)
             self.note(f"driving speed {speed:.2f} m/s")
+        elif word in ("fast", "canny"):
+            self.action_processor(word)
         elif word in LATER:
             self.note(f"{word} arrives with the {LATER[word]} issue")
         else:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from textual.message import Message
 
+from giraff_console.camera.feed import CameraPicture
 from giraff_console.link import Exchange
 from giraff_console.robot.control_loop import Telemetry
 
@@ -33,3 +34,14 @@ class StatusNote(Message):
     def __init__(self, text: str) -> None:
         super().__init__()
         self.text = text
+
+
+class CameraPictureUpdated(Message):
+    """A new camera picture; only the newest one matters."""
+
+    def __init__(self, picture: CameraPicture) -> None:
+        super().__init__()
+        self.picture = picture
+
+    def can_replace(self, message: Message) -> bool:
+        return isinstance(message, CameraPictureUpdated)

@@ -20,14 +20,22 @@ class TopBar(Static):
         super().__init__(**kwargs)
         self.simulator = simulator
         self.ui_fps = 0.0
+        self.camera = "cam -"
+        self._telemetry: Telemetry | None = None
+
+    def show_camera(self, text: str) -> None:
+        self.camera = text
+        if self._telemetry is not None:
+            self.show(self._telemetry)
 
     def show(self, telemetry: Telemetry) -> None:
+        self._telemetry = telemetry
         pose = telemetry.pose
         text = Text(no_wrap=True, overflow="ellipsis")
         for badge, style in self._badges(telemetry):
             text.append(f" {badge} ", style=style)
             text.append(" ")
-        text.append("cam - │ ", style="dim")
+        text.append(f"{self.camera} │ ", style="dim")
         text.append(f"X={pose.x:.2f} Y={pose.y:.2f} H={pose.heading_deg:.1f}", style="bold")
         text.append(f" │ loop {telemetry.loop_hz:.0f} Hz · UI {self.ui_fps:.0f} fps", style="dim")
         self.update(text)

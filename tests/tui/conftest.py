@@ -7,11 +7,13 @@ import asyncio
 import pytest
 from textual import events
 
+from giraff_console.cli import camera_feed
 from giraff_console.link import BoardLink
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.teleop import Teleop
 from giraff_console.tui.app import GiraffConsole
+from giraff_console.tui.messages import CameraPictureUpdated
 
 TICK = 0.05
 
@@ -19,20 +21,28 @@ TICK = 0.05
 class Rig:
     """The app, its control loop and the simulated board behind it."""
 
-    def __init__(self) -> None:
+    def __init__(self, camera: bool = False) -> None:
         self.link = BoardLink.open("giraff-sim://?clock=virtual")
         self.clock = self.link.port.clock
         self.board = self.link.port.board
         self.control = ControlLoop(
             lambda: self.link, teleop=Teleop(), deadman=Deadman(self.clock), clock=self.clock
         )
+        self.camera = camera_feed(None, self.link.port) if camera else None
         self.app = GiraffConsole(
             self.control,
             simulator=True,
+            camera=self.camera,
             run_loop=False,
             timestamp=lambda: f"{self.clock.now():.2f}s",
             cursor_blink=False,
         )
+
+    async def show_camera(self, pilot) -> None:
+        """One camera frame, captured and rendered as the feed's thread would."""
+        picture = self.camera.picture()
+        self.app.post_message(CameraPictureUpdated(picture))
+        await pilot.pause()
 
     async def run(self, pilot, seconds: float) -> None:
         """Tick the control loop at 20 Hz for `seconds` of virtual time."""
@@ -67,3 +77,8 @@ class Rig:
 @pytest.fixture
 def rig() -> Rig:
     return Rig()
+
+
+@pytest.fixture
+def camera_rig() -> Rig:
+    return Rig(camera=True)

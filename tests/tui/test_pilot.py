@@ -94,11 +94,11 @@ async def test_poll_toggle_and_help_screen(rig):
 
 async def test_later_features_say_so_in_the_status_log(rig):
     async with rig.app.run_test(size=SIZE) as pilot:
-        for key in ("1", "p", "r"):
+        for key in ("p", "r"):
             await pilot.press(key)
         await pilot.pause()
         notes = " ".join(rig.app.status_log.texts)
-        assert "1600x1200" in notes and "playback arrives" in notes and "recording arrives" in notes
+        assert "playback arrives" in notes and "recording arrives" in notes
 
 
 async def test_escape_quits_and_leaves_the_robot_stopped(rig):
@@ -198,3 +198,21 @@ async def test_the_help_screen_scrolls_with_the_arrows(rig):
         await pilot.press("down", "down", "down")
         assert scroller.scroll_y > 0
         assert rig.board.true_pose.x == 0  # the arrows did not drive
+
+
+async def test_the_camera_view_moves_with_the_robot_and_keys_change_its_resolution(camera_rig):
+    rig = camera_rig
+    async with rig.app.run_test(size=(120, 40)) as pilot:
+        await rig.run(pilot, 0.1)
+        await rig.show_camera(pilot)
+        before = rig.app.camera_view.picture
+        assert "cam 800x600" in rig.app.top_bar.camera and "FAST" in rig.app.top_bar.camera
+        await rig.hold(pilot, "up", 1.5)
+        await rig.show_camera(pilot)
+        assert rig.app.camera_view.picture.lines != before.lines
+        await pilot.press("5")
+        await rig.show_camera(pilot)
+        assert "cam 640x480" in rig.app.top_bar.camera
+        await pilot.press("f")
+        await rig.show_camera(pilot)
+        assert "FAST" not in rig.app.top_bar.camera

@@ -56,3 +56,13 @@ def test_help_screen_80x24_scrolls(snap_compare, rig):
         await pilot.press("question_mark")
 
     assert snap_compare(rig.app, terminal_size=(80, 24), run_before=help_screen)
+
+
+def test_synthetic_camera_at_a_fixed_pose(snap_compare, camera_rig):
+    rig = camera_rig
+
+    async def camera(pilot):
+        await rig.run(pilot, 0.1)
+        await rig.show_camera(pilot)
+
+    assert snap_compare(rig.app, terminal_size=(120, 40), run_before=camera)

@@ -1,0 +1,97 @@
+"""The camera feed: capture, processing and terminal rendering, off the UI thread.
+
+Frames are taken at up to a capped rate (10 fps by default, about what the Giraff's
+camera delivers at 800x600, §3.3), run through the enabled processors, and rendered as
+half blocks for the pane's current size; the UI only draws the finished lines.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from rich.segment import Segment
+
+from giraff_console.camera.halfblock import HalfBlockRenderer
+from giraff_console.camera.processors import Pipeline
+from giraff_console.camera.source import CameraSource
+
+DEFAULT_FPS = 10.0
+
+
+@dataclass(frozen=True)
+class CameraPicture:
+    """One rendered frame and what the top line says about it (the thesis's SetCameraInfo)."""
+
+    lines: list[list[Segment]]
+    source: str
+    size: tuple[int, int]
+    fps: float
+    keypoints: int | None
+
+
+class CameraFeed:
+    """Runs the camera in its own thread; `publish` gets each picture."""
+
+    def __init__(self, source: CameraSource, size: tuple[int, int], pipeline: Pipeline,
+                 renderer: HalfBlockRenderer, publish: Callable[[CameraPicture], None],
+                 fps_cap: float = DEFAULT_FPS) -> None:  # fmt: skip
+        self.source = source
+        self.size = size
+        self.pipeline = pipeline
+        self.renderer = renderer
+        self.publish = publish
+        self.period = 1.0 / fps_cap
+        self._cells = (80, 20)
+        self._wanted: tuple[int, int] | None = None
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="camera", daemon=True)
+        self._times: list[float] = []
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout=2)
+        self.source.close()
+
+    def set_cells(self, columns: int, rows: int) -> None:
+        """The pane's size in character cells."""
+        self._cells = (max(1, columns), max(1, rows))
+
+    def set_resolution(self, width: int, height: int) -> None:
+        """Ask the camera for another resolution, from the next frame on (keys 1-5)."""
+        self._wanted = (width, height)
+
+    def picture(self) -> CameraPicture | None:
+        """Capture, process and render one frame; None if the camera gave none."""
+        if self._wanted is not None:
+            wanted, self._wanted = self._wanted, None
+            self.source.close()
+            self.size = self.source.open(*wanted)
+        frame = self.source.read()
+        if frame is None:
+            return None
+        processed = self.pipeline.run(frame.image)
+        now = time.monotonic()
+        self._times = [t for t in self._times if now - t < 1.0] + [now]
+        keypoints = processed.data.get("keypoints")
+        return CameraPicture(
+            self.renderer.render(processed.image, *self._cells),
+            self.source.name,
+            frame.size,
+            float(len(self._times)),
+            keypoints if isinstance(keypoints, int) else None,
+        )
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            started = time.monotonic()
+            picture = self.picture()
+            if picture is not None:
+                self.publish(picture)
+            self._stop.wait(max(0.0, self.period - (time.monotonic() - started)))
