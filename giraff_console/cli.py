@@ -14,7 +14,7 @@ import serial
 from giraff_console import __version__
 from giraff_console.camera.feed import CameraFeed
 from giraff_console.camera.halfblock import HalfBlockRenderer
-from giraff_console.camera.processors import CannyEdges, FastCorners, Pipeline
+from giraff_console.camera.processors import CannyEdges, FastCorners, Pipeline, Undistortion
 from giraff_console.camera.source import DEFAULT_RESOLUTION, SyntheticCamera, open_camera
 from giraff_console.clock import RealClock
 from giraff_console.link import DEFAULT_TIMEOUT_S, BoardLink, LinkError
@@ -47,6 +47,8 @@ IN_PROCESS_SIMULATOR = "giraff-sim://"
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="giraff-console",
+        # Abbreviations would make `sim --ca` ambiguous with --camera and --calibration.
+        allow_abbrev=False,
         description="Operator console for the Giraff telepresence robot, with a faithful "
         "simulator of its motor board. Without a COMMAND it opens the console: hold the "
         "arrow keys to drive, Enter for the command line, ? for help, Esc to stop and quit.",
@@ -58,6 +60,11 @@ def build_parser() -> argparse.ArgumentParser:
         "file; without one, the built-in simulator)",
     )  # fmt: skip
     parser.add_argument("--sim", action="store_true", help="use the built-in simulator")
+    parser.add_argument(
+        "--calibration", metavar="FILE",
+        help="OpenCV fisheye calibration (camera_matrix, distortion_coefficients, "
+        "image_width, image_height) to undistort the camera image",
+    )  # fmt: skip
     parser.add_argument(
         "--camera", metavar="DEVICE",
         help="camera index, device path or video file (default: the synthetic camera with "
@@ -160,6 +167,12 @@ def run_console(args: argparse.Namespace) -> int:
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_USAGE
     port = None if args.sim else (args.port or settings.port)
+    if args.calibration:
+        try:
+            Undistortion.from_file(args.calibration)
+        except (OSError, ValueError) as error:
+            print(f"giraff-console: {error}", file=sys.stderr)
+            return EXIT_USAGE
     clock = RealClock()
     simulator = None
     if port is None:
@@ -174,7 +187,7 @@ def run_console(args: argparse.Namespace) -> int:
     app = GiraffConsole(
         control,
         simulator=simulator is not None,
-        camera=camera_feed(args.camera, simulator),
+        camera=camera_feed(args.camera, simulator, args.calibration),
         undock_distance=settings.teleop.undock_distance,
     )
 
@@ -195,7 +208,9 @@ def run_console(args: argparse.Namespace) -> int:
     return 0
 
 
-def camera_feed(device: str | None, simulator: serial.SerialBase | None) -> CameraFeed:
+def camera_feed(
+    device: str | None, simulator: serial.SerialBase | None, calibration: str | None = None
+) -> CameraFeed:
     """The camera asked for, else the synthetic one with the simulator, else camera 0;
     a test pattern when none of them is there (§3.4.1)."""
     synthetic = None
@@ -208,11 +223,14 @@ def camera_feed(device: str | None, simulator: serial.SerialBase | None) -> Came
     if device is None and synthetic is None:
         device = "0"
     camera = int(device) if device is not None and device.isdigit() else device
-    source, size, _ = open_camera(camera, *DEFAULT_RESOLUTION, synthetic)
-    pipeline = Pipeline([FastCorners(), CannyEdges()])
+    source, size, note = open_camera(camera, *DEFAULT_RESOLUTION, synthetic)
+    undistortion = Undistortion.from_file(calibration) if calibration else None
+    pipeline = Pipeline([FastCorners(), CannyEdges()], undistortion)
     pipeline.toggle("fast")
     truecolor = os.environ.get("COLORTERM") in ("truecolor", "24bit")
-    return CameraFeed(source, size, pipeline, HalfBlockRenderer(truecolor), lambda picture: None)
+    feed = CameraFeed(source, size, pipeline, HalfBlockRenderer(truecolor), lambda picture: None)
+    feed.note = note
+    return feed
 
 
 def board_connector(port: str | None, settings: Settings, simulator: serial.SerialBase | None):

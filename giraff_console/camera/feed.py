@@ -44,6 +44,8 @@ class CameraFeed:
         self.renderer = renderer
         self.publish = publish
         self.period = 1.0 / fps_cap
+        # What the status log says about the camera, fallbacks included.
+        self.note = f"{source.name} at {size[0]}x{size[1]}"
         self._cells = (80, 20)
         self._wanted: tuple[int, int] | None = None
         self._stop = threading.Event()
@@ -89,9 +91,12 @@ class CameraFeed:
         )
 
     def _run(self) -> None:
+        next_frame = time.monotonic()
         while not self._stop.is_set():
-            started = time.monotonic()
             picture = self.picture()
             if picture is not None:
                 self.publish(picture)
-            self._stop.wait(max(0.0, self.period - (time.monotonic() - started)))
+            # Keep to the cap on average: the next frame is due a period after the last
+            # one was due, not a period after this one finished.
+            next_frame = max(next_frame + self.period, time.monotonic() - self.period)
+            self._stop.wait(max(0.0, next_frame - time.monotonic()))

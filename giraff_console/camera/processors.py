@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -58,10 +59,12 @@ class CannyEdges:
 
 
 class Pipeline:
-    """Runs the enabled processors in order on each frame."""
+    """Undistorts each frame if a calibration is given, then runs the enabled processors."""
 
-    def __init__(self, processors: list[FrameProcessor]) -> None:
+    def __init__(self, processors: list[FrameProcessor],
+                 undistortion: Undistortion | None = None) -> None:  # fmt: skip
         self.processors = {p.name: p for p in processors}
+        self.undistortion = undistortion
         self.enabled: list[str] = []
 
     def toggle(self, name: str) -> bool:
@@ -75,9 +78,61 @@ class Pipeline:
         return True
 
     def run(self, image: np.ndarray) -> Processed:
+        if self.undistortion is not None:
+            image = self.undistortion.apply(image)
         grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
         result = Processed(image)
         for name in self.enabled:
             step = self.processors[name].process(result.image, grey)
             result = Processed(step.image, {**result.data, **step.data})
         return result
+
+
+class Undistortion:
+    """Removes the wide-angle lens's fisheye distortion, from an OpenCV calibration.
+
+    The calibration file is OpenCV FileStorage (YAML or XML) with `camera_matrix` (3x3),
+    `distortion_coefficients` (the fisheye model's four) and `image_width`/`image_height`.
+    The maps are scaled to whatever resolution the camera delivers.
+    """
+
+    def __init__(self, camera_matrix: np.ndarray, distortion: np.ndarray,
+                 size: tuple[int, int]) -> None:  # fmt: skip
+        self.camera_matrix = np.asarray(camera_matrix, dtype=np.float64).reshape(3, 3)
+        self.distortion = np.asarray(distortion, dtype=np.float64).reshape(4, 1)
+        self.size = size
+        self._maps: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+
+    @classmethod
+    def from_file(cls, path: str) -> Undistortion:
+        if not os.path.isfile(path):  # before OpenCV, which would log its own error
+            raise OSError(f"cannot read the calibration file {path}")
+        storage = cv2.FileStorage(path, cv2.FILE_STORAGE_READ)
+        if not storage.isOpened():
+            raise OSError(f"cannot read the calibration file {path}")
+        try:
+            matrix = storage.getNode("camera_matrix").mat()
+            distortion = storage.getNode("distortion_coefficients").mat()
+            size = (
+                int(storage.getNode("image_width").real()),
+                int(storage.getNode("image_height").real()),
+            )
+        finally:
+            storage.release()
+        if matrix is None or distortion is None or distortion.size != 4 or min(size) <= 0:
+            raise ValueError(
+                f"{path}: not a fisheye calibration (camera_matrix, 4 coefficients, size)"
+            )
+        return cls(matrix, distortion, size)
+
+    def apply(self, image: np.ndarray) -> np.ndarray:
+        size = (image.shape[1], image.shape[0])
+        maps = self._maps.get(size)
+        if maps is None:
+            scale = np.diag([size[0] / self.size[0], size[1] / self.size[1], 1.0])
+            matrix = scale @ self.camera_matrix
+            maps = cv2.fisheye.initUndistortRectifyMap(
+                matrix, self.distortion, np.eye(3), matrix, size, cv2.CV_16SC2
+            )
+            self._maps[size] = maps
+        return cv2.remap(image, maps[0], maps[1], cv2.INTER_LINEAR)

@@ -96,7 +96,8 @@ class WorldCamera:
         poster_v = z - POSTER_BOTTOM
         in_poster = (poster_u >= 0) & (poster_u <= POSTER_WIDTH)
         in_poster &= (poster_v >= 0) & (poster_v <= POSTER_HEIGHT)
-        dark = (np.floor(poster_u / 0.15) + np.floor(poster_v / 0.16)) % 2 == 0
+        with np.errstate(invalid="ignore"):  # NaN where a wall has no poster
+            dark = (np.floor(poster_u / 0.15) + np.floor(poster_v / 0.16)) % 2 == 0
         wall[in_poster & dark] = POSTER_DARK
         wall[in_poster & ~dark] = POSTER_LIGHT
         wall[:, world.kind[hit] == DOOR_FRAME] = FRAME

@@ -155,7 +155,7 @@ class GiraffConsole(App[None]):
             camera.publish = lambda picture: self.post_message(CameraPictureUpdated(picture))
             self.camera_view.on_size = camera.set_cells
             self.call_after_refresh(lambda: camera.set_cells(*self.camera_view.size))
-            self.note(f"camera: {camera.source.name} at {camera.size[0]}x{camera.size[1]}")
+            self.note(f"camera: {camera.note}")
             if self.run_loop:
                 camera.start()
         if self.run_loop:

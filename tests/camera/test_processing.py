@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from giraff_console.camera.halfblock import HalfBlockRenderer, fit, quantise
-from giraff_console.camera.processors import CannyEdges, FastCorners, Pipeline
+from giraff_console.camera.processors import CannyEdges, FastCorners, Pipeline, Undistortion
 from giraff_console.camera.source import SyntheticCamera, TestPattern, open_camera
 
 RECTANGLES = [((40, 30), (100, 90)), ((150, 50), (220, 140))]
@@ -77,3 +77,36 @@ def test_half_blocks_in_256_colours_and_runs_merge():
 def test_the_view_keeps_the_aspect_ratio_within_the_pane():
     assert fit(800, 600, 100, 30) == (80, 60)
     assert fit(800, 600, 40, 30) == (40, 30)
+
+
+def test_undistortion_puts_a_distorted_point_back_where_it_belongs(tmp_path):
+    matrix = np.array([[300.0, 0, 320], [0, 300.0, 240], [0, 0, 1]])
+    coefficients = np.array([-0.05, 0.01, 0.0, 0.0])
+    path = tmp_path / "calibration.yaml"
+    storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    storage.write("camera_matrix", matrix)
+    storage.write("distortion_coefficients", coefficients.reshape(4, 1))
+    storage.write("image_width", 640)
+    storage.write("image_height", 480)
+    storage.release()
+    undistortion = Undistortion.from_file(str(path))
+    true_point = np.array([[[520.0, 400.0]]])
+    normalised = cv2.undistortPoints(true_point, matrix, None)  # onto the image plane
+    seen = cv2.fisheye.distortPoints(normalised, matrix, coefficients.reshape(4, 1))[0, 0]
+    image = np.zeros((480, 640, 3), dtype=np.uint8)
+    cv2.circle(image, (round(seen[0]), round(seen[1])), 3, (255, 255, 255), -1)
+    assert np.hypot(*(seen - true_point[0, 0])) > 5  # the lens really moved it
+    corrected = undistortion.apply(image)
+    ys, xs = np.nonzero(corrected[..., 0] > 128)
+    assert np.hypot(xs.mean() - 520, ys.mean() - 400) <= 1.5
+    # A frame of another resolution gets scaled maps.
+    assert undistortion.apply(cv2.resize(image, (320, 240))).shape == (240, 320, 3)
+
+
+def test_a_bad_calibration_file_is_refused(tmp_path):
+    path = tmp_path / "nonsense.yaml"
+    path.write_text("%YAML:1.0\nfoo: 1\n")
+    with pytest.raises(ValueError, match="not a fisheye calibration"):
+        Undistortion.from_file(str(path))
+    with pytest.raises(OSError):
+        Undistortion.from_file(str(tmp_path / "missing.yaml"))
