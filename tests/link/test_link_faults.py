@@ -86,7 +86,7 @@ def test_a_late_reply_is_never_paired_with_the_next_command(scripted):
     def answer(command: str) -> bytes | None:
         if command == "get v" and not late["done"]:
             late["done"] = True
-            time.sleep(2 * TIMEOUT)  # answers, but only after the link gave up
+            time.sleep(TIMEOUT + 0.1)  # answers, but only after the link gave up
         return well_behaved(command)
 
     _board, link = scripted(answer)
