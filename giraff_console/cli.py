@@ -12,9 +12,15 @@ from pathlib import Path
 import serial
 
 from giraff_console import __version__
-from giraff_console.camera.feed import CameraFeed
+from giraff_console.camera.feed import DEFAULT_FPS, CameraFeed
 from giraff_console.camera.halfblock import HalfBlockRenderer
-from giraff_console.camera.processors import CannyEdges, FastCorners, Pipeline, Undistortion
+from giraff_console.camera.processors import (
+    FAST_THRESHOLD,
+    CannyEdges,
+    FastCorners,
+    Pipeline,
+    Undistortion,
+)
 from giraff_console.camera.source import DEFAULT_RESOLUTION, SyntheticCamera, open_camera
 from giraff_console.clock import RealClock
 from giraff_console.link import DEFAULT_TIMEOUT_S, BoardLink, LinkError
@@ -60,6 +66,14 @@ def build_parser() -> argparse.ArgumentParser:
         "file; without one, the built-in simulator)",
     )  # fmt: skip
     parser.add_argument("--sim", action="store_true", help="use the built-in simulator")
+    parser.add_argument(
+        "--fast-threshold", type=int, default=FAST_THRESHOLD, metavar="N",
+        help="FAST corner threshold (default: %(default)s, as in the thesis)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--camera-fps", type=float, default=DEFAULT_FPS, metavar="FPS",
+        help="cap on camera frames per second (default: %(default)s)",
+    )  # fmt: skip
     parser.add_argument(
         "--calibration", metavar="FILE",
         help="OpenCV fisheye calibration (camera_matrix, distortion_coefficients, "
@@ -173,6 +187,9 @@ def run_console(args: argparse.Namespace) -> int:
         except (OSError, ValueError) as error:
             print(f"giraff-console: {error}", file=sys.stderr)
             return EXIT_USAGE
+    if args.fast_threshold < 1 or args.camera_fps <= 0:
+        print("giraff-console: --fast-threshold and --camera-fps must be positive", file=sys.stderr)
+        return EXIT_USAGE
     clock = RealClock()
     simulator = None
     if port is None:
@@ -187,7 +204,9 @@ def run_console(args: argparse.Namespace) -> int:
     app = GiraffConsole(
         control,
         simulator=simulator is not None,
-        camera=camera_feed(args.camera, simulator, args.calibration),
+        camera=camera_feed(
+            args.camera, simulator, args.calibration, args.fast_threshold, args.camera_fps
+        ),
         undock_distance=settings.teleop.undock_distance,
     )
 
@@ -209,7 +228,11 @@ def run_console(args: argparse.Namespace) -> int:
 
 
 def camera_feed(
-    device: str | None, simulator: serial.SerialBase | None, calibration: str | None = None
+    device: str | None,
+    simulator: serial.SerialBase | None,
+    calibration: str | None = None,
+    fast_threshold: int = FAST_THRESHOLD,
+    fps: float = DEFAULT_FPS,
 ) -> CameraFeed:
     """The camera asked for, else the synthetic one with the simulator, else camera 0;
     a test pattern when none of them is there (§3.4.1)."""
@@ -225,10 +248,12 @@ def camera_feed(
     camera = int(device) if device is not None and device.isdigit() else device
     source, size, note = open_camera(camera, *DEFAULT_RESOLUTION, synthetic)
     undistortion = Undistortion.from_file(calibration) if calibration else None
-    pipeline = Pipeline([FastCorners(), CannyEdges()], undistortion)
+    pipeline = Pipeline([FastCorners(fast_threshold), CannyEdges()], undistortion)
     pipeline.toggle("fast")
     truecolor = os.environ.get("COLORTERM") in ("truecolor", "24bit")
-    feed = CameraFeed(source, size, pipeline, HalfBlockRenderer(truecolor), lambda picture: None)
+    feed = CameraFeed(
+        source, size, pipeline, HalfBlockRenderer(truecolor), lambda picture: None, fps
+    )
     feed.note = note
     return feed
 

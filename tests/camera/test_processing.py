@@ -110,3 +110,15 @@ def test_a_bad_calibration_file_is_refused(tmp_path):
         Undistortion.from_file(str(path))
     with pytest.raises(OSError):
         Undistortion.from_file(str(tmp_path / "missing.yaml"))
+
+
+def test_the_console_falls_back_to_a_test_pattern_and_says_why():
+    from giraff_console.cli import camera_feed
+
+    feed = camera_feed("/dev/no-such-camera", None, fast_threshold=30, fps=5)
+    assert "not found" in feed.note and "test pattern" in feed.note
+    assert feed.period == pytest.approx(0.2)
+    feed.set_cells(40, 10)
+    picture = feed.picture()
+    assert picture.source == "test pattern" and picture.keypoints is not None
+    assert len(picture.lines) <= 10
