@@ -100,9 +100,6 @@ class BoardLink:
         """Call `observer` with every exchange. It runs on the link's thread: keep it quick."""
         self._observers.append(observer)
 
-    def remove_observer(self, observer: Observer) -> None:
-        self._observers.remove(observer)
-
     def _notify(self, exchange: Exchange) -> None:
         for observer in list(self._observers):
             try:

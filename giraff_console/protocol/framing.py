@@ -34,8 +34,3 @@ def is_banner(line: str) -> bool:
 def banner_version(line: str) -> str:
     """The text after `# Giraf` in a banner, for example `1.1.112p, 2011-02-20`."""
     return line.split(BANNER_PREFIX, 1)[1].strip()
-
-
-def transmission_time(nbytes: int) -> float:
-    """Seconds that `nbytes` take on a 115200-baud 8N1 line."""
-    return nbytes * BYTE_TIME_S

@@ -34,7 +34,7 @@ def curvature(gear_ratio: float) -> float:
 
 
 def wheel_speeds(speed: float, gear_ratio: float) -> tuple[float, float]:
-    """Left and right wheel speeds for an overall speed and virtual gear ratio.
+    """Left and right wheel speeds (or distances) for an overall one and a gear ratio.
 
     These are the corrected formulas (A.2.3), acknowledged by Giraff Technologies:
     left = v(1 + vg), right = v(1 - vg).

@@ -47,7 +47,6 @@ class LinkState(enum.Enum):
 class Telemetry:
     """What the console shows, as of one control tick."""
 
-    time: float
     link: LinkState
     state: MotorState | None
     pose: Pose
@@ -290,7 +289,6 @@ class ControlLoop:
     def _publish(self) -> None:
         self.publish(
             Telemetry(
-                time=self.clock.now(),
                 link=LinkState.CONNECTED if self.link else LinkState.LOST,
                 state=self._state,
                 pose=self.odometry.pose,

@@ -181,16 +181,11 @@ class Teleop:
         """
         assert self._style is not None
         plan = self._plan(intent, self._style)
-        changed = any(
-            self._board.get(name) != format_number(value)
-            for name, value in plan.items()
-            if name != "p"
-        )
         counter = state.cang if self._style == ROTATE_STYLE else state.cdis
         left = abs(self._target) - abs(counter)
         speed = abs(plan["v"])
         margin = abs(plan["p"]) / self.limits.lookahead + speed * RENEW_TICKS * self.tick
-        if changed or left < margin:
+        if self._unsent(plan) or left < margin:
             return self._commands(plan)
         return []
 
@@ -200,13 +195,16 @@ class Teleop:
         The target is relative, so it goes out every tick even when unchanged; it must
         come last, since `set p` starts the move with whatever is set by then.
         """
-        changed = [
+        self._target = float(plan["p"])
+        return [Command("set", name, plan[name]) for name in [*self._unsent(plan), "p"]]
+
+    def _unsent(self, plan: dict[str, Number]) -> list[str]:
+        """The settings of `plan`, besides the target, that the board does not hold."""
+        return [
             name
             for name, value in plan.items()
             if name != "p" and self._board.get(name) != format_number(value)
         ]
-        self._target = float(plan["p"])
-        return [Command("set", name, plan[name]) for name in [*changed, "p"]]
 
     def _stop(self, state: MotorState) -> list[Command]:
         """Brake to a stop: the braking distance plus the reaction margin (§3.2.1.2)."""

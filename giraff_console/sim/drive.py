@@ -16,6 +16,7 @@ from giraff_console.protocol.kinematics import (
     WHEEL_BASE_M,
     brake_distance,
     gvr_from_speed,
+    wheel_speeds,
 )
 from giraff_console.protocol.mode import ModeBit
 from giraff_console.sim.gear import NO_GEAR, GearEnvelope, plan_gear
@@ -276,7 +277,7 @@ class Drive:
             if move.style is Style.PATH:
                 gear = move.gear.at(move.profile.arc_length_at(t_i))
                 mean_gear = (gear + move.gear_ratio) / 2
-                left, right = ds * (1 + mean_gear), ds * (1 - mean_gear)
+                left, right = wheel_speeds(ds, mean_gear)
                 move.gear_ratio = gear
             else:
                 # Positive rotation is clockwise: the left wheel goes forward.
