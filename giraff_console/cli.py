@@ -24,6 +24,7 @@ from giraff_console.camera.processors import (
 from giraff_console.camera.source import DEFAULT_RESOLUTION, SyntheticCamera, open_camera
 from giraff_console.clock import RealClock
 from giraff_console.link import DEFAULT_TIMEOUT_S, BoardLink, LinkError
+from giraff_console.missions.sessions import Sessions
 from giraff_console.protocol import (
     BoardError,
     GiraffError,
@@ -33,8 +34,12 @@ from giraff_console.protocol import (
     format_value,
     parse_command,
 )
+from giraff_console.recording.mcap_export import export_session
+from giraff_console.recording.playback import open_log
+from giraff_console.recording.session import RecordingSetup, SessionError
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
+from giraff_console.robot.replay import replay_poses
 from giraff_console.robot.teleop import Teleop
 from giraff_console.settings import Settings, SettingsError, config_path, load_settings
 from giraff_console.sim import BoardConfig, GiraffBoard, Imperfections, PtyServer
@@ -85,6 +90,10 @@ def build_parser() -> argparse.ArgumentParser:
         "the simulator, else camera 0; a test pattern if it is missing)",
     )  # fmt: skip
     parser.add_argument(
+        "--recordings", metavar="DIR", type=Path, default=Path("recordings"),
+        help="where sessions are recorded and looked for (default: %(default)s)",
+    )  # fmt: skip
+    parser.add_argument(
         "--config", metavar="FILE", type=Path,
         help=f"settings file (default: {config_path()}); see the README for its keys",
     )  # fmt: skip
@@ -128,6 +137,25 @@ def build_parser() -> argparse.ArgumentParser:
         help="write the true pose (never on the wire) to FILE every 20 ms",
     )
 
+    replay = commands.add_parser(
+        "replay",
+        help="open the console and play a recorded session back",
+        description="Open the console and play SESSION back: the transcript, the pose and "
+        "the video as they were recorded, at the recorded speed. Nothing is sent to the "
+        "robot. k pauses, . steps, j and l seek, < and > change the speed, P returns to "
+        "live. SESSION is a recordings/ directory, or a log written by the original console.",
+    )
+    replay.add_argument("session", type=Path, metavar="SESSION")
+
+    export = commands.add_parser(
+        "export",
+        help="export a recorded session to MCAP, for Foxglove",
+        description="Write SESSION's pose, controller transcript and JPEG camera frames "
+        "to OUT as MCAP channels (/pose, /controller, /camera) with JSON schemas.",
+    )
+    export.add_argument("session", type=Path, metavar="SESSION")
+    export.add_argument("out", type=Path, metavar="OUT.mcap")
+
     send = commands.add_parser(
         "send",
         help="send controller commands and print the decoded replies",
@@ -168,6 +196,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return run_sim(args)
     if args.command == "send":
         return run_send(args)
+    if args.command == "export":
+        return run_export(args)
     return run_console(args)
 
 
@@ -194,6 +224,9 @@ def run_console(args: argparse.Namespace) -> int:
     simulator = None
     if port is None:
         simulator = serial.serial_for_url(IN_PROCESS_SIMULATOR)
+    if args.command == "replay" and not args.session.exists():
+        print(f"giraff-console: no session at {args.session}", file=sys.stderr)
+        return EXIT_USAGE
     control = ControlLoop(
         board_connector(port, settings, simulator),
         teleop=Teleop(settings.teleop.limits()),
@@ -201,13 +234,25 @@ def run_console(args: argparse.Namespace) -> int:
         rate_hz=settings.control_rate,
         clock=clock,
     )
+    camera = camera_feed(
+        args.camera, simulator, args.calibration, args.fast_threshold, args.camera_fps
+    )
+    setup = RecordingSetup(
+        port=port or IN_PROCESS_SIMULATOR,
+        camera={
+            "source": camera.source.name, "size": list(camera.size),
+            "fps_cap": args.camera_fps, "fast_threshold": args.fast_threshold,
+            "calibration": args.calibration,
+        },
+    )  # fmt: skip
+    sessions = Sessions(control, camera, args.recordings, setup, lambda text: None)
     app = GiraffConsole(
         control,
         simulator=simulator is not None,
-        camera=camera_feed(
-            args.camera, simulator, args.calibration, args.fast_threshold, args.camera_fps
-        ),
+        camera=camera,
+        sessions=sessions,
         undock_distance=settings.teleop.undock_distance,
+        play=args.session if args.command == "replay" else None,
     )
 
     def on_signal(signum: int, frame: object) -> None:
@@ -224,6 +269,21 @@ def run_console(args: argparse.Namespace) -> int:
         app.run()
     finally:
         control.stop()
+    return 0
+
+
+def run_export(args: argparse.Namespace) -> int:
+    """A recorded session as an MCAP file."""
+    try:
+        _, log = open_log(args.session)
+        summary = export_session(args.session, args.out, replay_poses(log))
+    except SessionError as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    for problem in summary.problems:
+        print(f"giraff-console: {problem}", file=sys.stderr)
+    counts = ", ".join(f"{topic} {count}" for topic, count in summary.channels.items())
+    print(f"{args.out}: {counts}")
     return 0
 
 

@@ -16,7 +16,7 @@ from rich.segment import Segment
 
 from giraff_console.camera.halfblock import HalfBlockRenderer
 from giraff_console.camera.processors import Pipeline
-from giraff_console.camera.source import CameraSource
+from giraff_console.camera.source import CameraSource, Frame
 
 DEFAULT_FPS = 10.0
 
@@ -48,6 +48,10 @@ class CameraFeed:
         self.note = f"{source.name} at {size[0]}x{size[1]}"
         self._cells = (80, 20)
         self._wanted: tuple[int, int] | None = None
+        self._next_source: CameraSource | None = None
+        # Called with every raw frame, on the camera's thread: a recording, a snapshot.
+        self.taps: list[Callable[[Frame], None]] = []
+        self.last_frame: Frame | None = None
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="camera", daemon=True)
         self._times: list[float] = []
@@ -69,8 +73,20 @@ class CameraFeed:
         """Ask the camera for another resolution, from the next frame on (keys 1-5)."""
         self._wanted = (width, height)
 
+    def switch(self, source: CameraSource) -> CameraSource:
+        """Show `source` from the next frame on; returns the one shown until now, which is
+        closed then and can be switched back to (playback shows a recording, then the
+        camera again)."""
+        previous = self._next_source or self.source
+        self._next_source = source
+        return previous
+
     def picture(self) -> CameraPicture | None:
         """Capture, process and render one frame; None if the camera gave none."""
+        if self._next_source is not None:
+            self.source.close()
+            self.source, self._next_source = self._next_source, None
+            self._wanted = self._wanted or self.size
         if self._wanted is not None:
             wanted, self._wanted = self._wanted, None
             self.source.close()
@@ -78,6 +94,9 @@ class CameraFeed:
         frame = self.source.read()
         if frame is None:
             return None
+        self.last_frame = frame
+        for tap in list(self.taps):
+            tap(frame)
         processed = self.pipeline.run(frame.image)
         now = time.monotonic()
         self._times = [t for t in self._times if now - t < 1.0] + [now]

@@ -7,6 +7,9 @@ press wakes the loop at once, so the first motion command does not wait for a ti
 
 When the board stops answering the loop reports LINK LOST and reconnects with
 back-off; the first thing it sends to a reconnected board is a stop.
+
+Instead of teleop the loop may run a mission (a route, a patrol), or play a recorded
+session back, in which case nothing but a stop goes to the robot (§3.2.1.1).
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ from __future__ import annotations
 import collections
 import enum
 import logging
+import math
 import queue
 import sys
 import threading
@@ -22,9 +26,13 @@ from dataclasses import dataclass
 
 from giraff_console.clock import Clock
 from giraff_console.link import BoardLink, Exchange, LinkError, MotorState, Observer
-from giraff_console.protocol.errors import BoardRebootedError, GiraffError
+from giraff_console.protocol.errors import BoardRebootedError, CommandError, GiraffError
+from giraff_console.recording.playback import Playback
+from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.deadman import Deadman, Intent
+from giraff_console.robot.mission import Mission
 from giraff_console.robot.odometry import Odometry, Pose
+from giraff_console.robot.replay import PlaybackStatus, Replayer
 from giraff_console.robot.safety import stop_robot
 from giraff_console.robot.teleop import Teleop
 
@@ -56,6 +64,8 @@ class Telemetry:
     autopoll: bool
     loop_hz: float
     late_ms: float
+    playback: PlaybackStatus | None = None
+    mission: str | None = None
 
 
 class ControlLoop:
@@ -74,8 +84,11 @@ class ControlLoop:
         self.report = report
         self.odometry = Odometry()
         self.autopoll = True
-        # Attached to every link the loop opens: the transcript, later the recorder.
+        # Every exchange on whatever link is open, and every recorded one played back:
+        # the transcript, a recording, a route being taught. Safe to change at any time.
         self.observers: list[Observer] = []
+        # Every snapshot, on the loop's thread, as it is published.
+        self.telemetry_observers: list[Callable[[Telemetry], None]] = []
         self.link: BoardLink | None = None
         self._jobs: queue.SimpleQueue[tuple[BoardJob, Callable[[object], None]]] = (
             queue.SimpleQueue()
@@ -91,6 +104,10 @@ class ControlLoop:
         self._recent: collections.deque[float] = collections.deque()
         self._estop = False
         self._crashes = 0
+        self._requests: queue.SimpleQueue[Callable[[], None]] = queue.SimpleQueue()
+        self._replayer: Replayer | None = None
+        self._playback_ended: Callable[[], None] = lambda: None
+        self._mission: Mission | None = None
 
     # -- from other threads -------------------------------------------------------------
 
@@ -132,6 +149,62 @@ class ControlLoop:
         self._jobs.put((job, done))
         self._wake.set()
 
+    def play(self, playback: Playback, ended: Callable[[], None] = lambda: None) -> None:
+        """Play a session back: the robot is stopped, then nothing more is sent to it.
+
+        `ended` is called, on the loop's thread, when the console is live again.
+        """
+        self._request(lambda: self._start_playback(playback, ended))
+
+    def stop_playback(self) -> None:
+        """Back to live."""
+        self._request(lambda: self._end_playback("playback stopped; live again"))
+
+    def seek(self, offset: float) -> None:
+        """Move the playback to `offset` seconds into the session."""
+
+        def seek() -> None:
+            if self._replayer is not None:
+                self._replayer.seek(self.clock.now(), offset)
+
+        self._request(seek)
+
+    @property
+    def playback(self) -> Playback | None:
+        replayer = self._replayer
+        return None if replayer is None else replayer.playback
+
+    def run_mission(self, mission: Mission) -> None:
+        """Let `mission` drive; the keys, ESTOP, a lost link or `stop_mission` end it."""
+        self._request(lambda: self._start_mission(mission))
+
+    def stop_mission(self, why: str = "stopped") -> None:
+        self._request(lambda: self._end_mission(why))
+
+    def pause_mission(self, paused: bool) -> None:
+        """Pause (the robot stops) or resume the mission."""
+
+        def pause() -> None:
+            if self._mission is None:
+                return
+            if paused:
+                self._mission.pause(self.clock.now())
+                self._stop_robot()
+            else:
+                self._mission.resume(self.clock.now())
+            self.report(f"{self._mission.name} {'paused' if paused else 'resumed'}")
+
+        self._request(pause)
+
+    @property
+    def mission(self) -> Mission | None:
+        return self._mission
+
+    def _request(self, change: Callable[[], None]) -> None:
+        """Changes of what the loop does are made on its own thread, between ticks."""
+        self._requests.put(change)
+        self._wake.set()
+
     # -- the loop -----------------------------------------------------------------------
 
     def _run(self) -> None:
@@ -150,7 +223,14 @@ class ControlLoop:
             except Exception:
                 log.exception("control tick failed")
                 self._crash()
-            self._wake.wait(max(0.0, next_tick - self.clock.now()))
+            self._wake.wait(max(0.0, min(next_tick, self.next_due()) - self.clock.now()))
+
+    def next_due(self) -> float:
+        """When a playback or a mission next wants a tick, if before the next one; inf if
+        neither does."""
+        source = self._replayer.playback if self._replayer is not None else self._mission
+        due = source.next_due() if source is not None else None
+        return math.inf if due is None else due
 
     def tick(self, early: bool = False) -> None:
         """One control cycle; public so that tests can step the loop on a virtual clock.
@@ -162,6 +242,11 @@ class ControlLoop:
         while self._recent[0] < now - 1.0:
             self._recent.popleft()
         self._rate = float(len(self._recent))
+        self._run_requests()
+        if self._replayer is not None:
+            self._play(now)
+            self._publish()
+            return
         if self.link is None and not self._reconnect():
             self._fail_jobs()
             self._publish()
@@ -170,12 +255,14 @@ class ControlLoop:
         try:
             self._run_jobs(self.link)
             intent = self.deadman.held()
+            if intent is not None and self._mission is not None:
+                self._end_mission("stopped: the operator took the keys", stop=False)
             driving = intent is not None or self.teleop.active
             # A key that brings a tick forward acts on the state polled less than a period
             # ago: polling again would only delay the first command.
             state = self._state
             fresh = state is not None and self.clock.now() - state.received_at < self.period
-            if (self.autopoll or driving) and not (early and fresh):
+            if (self.autopoll or driving or self._mission) and not (early and fresh):
                 state = self._state = self.link.bulk(automatic=True)
                 self.odometry.update(state)
                 self._note_estop(state)
@@ -184,8 +271,11 @@ class ControlLoop:
                     self.deadman.release()
                 for command in self.teleop.step(self.deadman.held(), state):
                     self.link.send(command)
+            elif self._mission is not None:
+                self._step_mission(self.link, state)
         except LinkError as error:
             self.report(f"LINK LOST: {error}")
+            self._end_mission("stopped: the link to the board was lost", stop=False)
             self._drop_link()
         except BoardRebootedError as error:
             # Its odometers restarted from zero: keep the pose, take new references.
@@ -196,6 +286,94 @@ class ControlLoop:
         except GiraffError as error:
             self.report(str(error))
         self._publish()
+
+    def _step_mission(self, link: BoardLink, state: MotorState | None) -> None:
+        """Send what the mission asks for now, each command within the limits."""
+        mission = self._mission
+        assert mission is not None
+        if state is not None and state.estop:
+            self._end_mission("stopped by ESTOP", stop=False)
+            return
+        for command in mission.step(self.clock.now(), state):
+            try:
+                check_command(command, self.teleop.limits, self.teleop.board_settings)
+            except CommandError as error:
+                self._end_mission(f"stopped: {command} refused: {error}")
+                return
+            link.send(command)
+        if mission.finished:
+            self._end_mission("done", stop=False)
+
+    def _start_mission(self, mission: Mission) -> None:
+        if self._replayer is not None:
+            self.report(f"{mission.name} not started: a playback is running")
+            return
+        self._end_mission("replaced")
+        self.deadman.release()
+        self._mission = mission
+        self.report(f"{mission.name} started")
+
+    def _end_mission(self, why: str, stop: bool = True) -> None:
+        mission, self._mission = self._mission, None
+        if mission is None:
+            return
+        if stop:
+            self._stop_robot()
+        self.report(f"{mission.name} {why}")
+
+    def _stop_robot(self) -> None:
+        if self.link is not None and not stop_robot(self.link):
+            self.report("could not command a stop: check the robot")
+
+    def _start_playback(self, playback: Playback, ended: Callable[[], None]) -> None:
+        self._end_playback("playback replaced")
+        self._end_mission("stopped for playback")
+        self.deadman.release()
+        self._stop_robot()
+        self._replayer = Replayer(playback)
+        self._playback_ended = ended
+        self.report(f"playing back {playback.name} ({playback.duration:.1f} s); nothing is sent "
+                    "to the robot")  # fmt: skip
+
+    def _end_playback(self, why: str) -> None:
+        if self._replayer is not None:
+            self._replayer = None
+            # The robot may have been moved meanwhile: take a fresh poll before acting.
+            self._state = None
+            self.report(why)
+            self._playback_ended()
+
+    def _play(self, now: float) -> None:
+        """A playback tick: typed jobs (a stop) still reach the robot, nothing else does."""
+        assert self._replayer is not None
+        if self.link is not None:
+            try:
+                self._run_jobs(self.link)
+            except LinkError as error:
+                self.report(f"LINK LOST: {error}")
+                self._drop_link()
+        else:
+            self._fail_jobs()
+        if self._replayer.playback.finished(now):
+            # Only once the last entries have been shown, on an earlier tick.
+            self._end_playback("playback finished; live again")
+        else:
+            self._replayer.advance(now, self._notify)
+
+    def _run_requests(self) -> None:
+        while True:
+            try:
+                change = self._requests.get_nowait()
+            except queue.Empty:
+                return
+            change()
+
+    def _notify(self, exchange: Exchange) -> None:
+        for observer in list(self.observers):
+            try:
+                observer(exchange)
+            except Exception:
+                log.exception("exchange observer failed")
 
     def _note_estop(self, state: MotorState) -> None:
         """Report ESTOP when it rises and when it clears, not on every tick."""
@@ -229,10 +407,12 @@ class ControlLoop:
             done(result)
 
     def _watch(self, exchange: Exchange) -> None:
-        """Keep teleop's picture of the board's settings true, whoever sends them."""
+        """Keep teleop's picture of the board's settings true, whoever sends them; then
+        tell the observers."""
         if exchange.kind == "set" and exchange.error is None:
             _, name, text = exchange.command.split()
             self.teleop.board_set(name, text)
+        self._notify(exchange)
 
     def _reconnect(self) -> bool:
         now = self.clock.now()
@@ -241,8 +421,6 @@ class ControlLoop:
         try:
             link = self.connect()
             link.add_observer(self._watch)
-            for observer in self.observers:
-                link.add_observer(observer)
             # Before anything else, the robot is told to stop (design.md); then settings
             # within the limits replace whatever the board holds.
             if not stop_robot(link):
@@ -287,16 +465,23 @@ class ControlLoop:
             done(LinkError("not sent: no link to the board"))
 
     def _publish(self) -> None:
-        self.publish(
-            Telemetry(
-                link=LinkState.CONNECTED if self.link else LinkState.LOST,
-                state=self._state,
-                pose=self.odometry.pose,
-                intent=self.deadman.held(),
-                speed=self.teleop.speed,
-                board_r=self.teleop.board_r,
-                autopoll=self.autopoll,
-                loop_hz=self._rate,
-                late_ms=self._late * 1e3,
-            )
+        replayer, mission = self._replayer, self._mission
+        telemetry = Telemetry(
+            link=LinkState.CONNECTED if self.link else LinkState.LOST,
+            state=replayer.state if replayer else self._state,
+            pose=replayer.pose if replayer else self.odometry.pose,
+            intent=self.deadman.held(),
+            speed=self.teleop.speed,
+            board_r=self.teleop.board_r,
+            autopoll=self.autopoll,
+            loop_hz=self._rate,
+            late_ms=self._late * 1e3,
+            playback=replayer.status(self.clock.now()) if replayer else None,
+            mission=mission.progress if mission else None,
         )
+        for observer in list(self.telemetry_observers):
+            try:
+                observer(telemetry)
+            except Exception:
+                log.exception("telemetry observer failed")
+        self.publish(telemetry)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 from textual import on
 from textual.app import App, ComposeResult
@@ -17,6 +18,7 @@ from textual.widgets import Footer, Input
 
 from giraff_console.camera.feed import CameraFeed
 from giraff_console.camera.source import RESOLUTIONS as CAMERA_RESOLUTIONS
+from giraff_console.missions.sessions import Sessions
 from giraff_console.protocol import Command, CommandError, GiraffError, parse_command, parse_number
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.control_loop import ControlLoop
@@ -50,9 +52,13 @@ CONSOLE_COMMANDS = [
     ("get NAME", "read a parameter, e.g. get bulk_data"),
     ("home", "any other bare controller command"),
     ("fast, canny", "switch a camera processor on or off"),
-    ("go, record, teach", "arrive with later issues"),
+    ("record, record stop", "record a session into recordings/ (also R)"),
+    ("play [DIR], play stop", "play the newest session, or DIR, back; stop it (also P)"),
+    ("pause, resume, seek S, rate X", "control a playback: seconds in, speed 0.25 to 16"),
+    ("go", "arrives with the planning issue"),
 ]
-LATER = {"go": "planning", "record": "sessions", "teach": "sessions", "patrol": "sessions"}
+LATER = {"go": "planning"}
+SESSION_COMMANDS = ("record", "play", "pause", "resume", "seek", "rate")
 
 
 class GiraffConsole(App[None]):
@@ -94,8 +100,22 @@ class GiraffConsole(App[None]):
                 tooltip="toggle the automatic odometry poll"),
         Binding("b", "bulk", "Bulk", show=False, id="bulk", tooltip="request bulk_data"),
         Binding("h", "home_head", "Home", show=False, id="home", tooltip="home the head"),
-        Binding("p", "later('playback')", "Play", show=False, id="play", tooltip="play back"),
-        Binding("r", "later('recording')", "Rec", show=False, id="record", tooltip="record"),
+        Binding("p", "playback", "Play", show=False, id="play",
+                tooltip="play the newest session back, or return to live"),
+        Binding("r", "record", "Rec", show=False, id="record",
+                tooltip="start or stop recording a session"),
+        Binding("k", "pause_playback", "Pause", show=False, id="pause",
+                tooltip="pause or resume the playback"),
+        Binding("full_stop", "step_playback", "Step", show=False, id="step",
+                tooltip="pause the playback and step to the next line"),
+        Binding("j", "seek(-10)", "Back 10 s", show=False, id="seek-back",
+                tooltip="playback 10 s back"),
+        Binding("l", "seek(10)", "On 10 s", show=False, id="seek-on",
+                tooltip="playback 10 s on"),
+        Binding("less_than_sign", "rate(0.5)", "Slower", show=False, id="rate-down",
+                tooltip="play back at half the speed, down to 0.25x"),
+        Binding("greater_than_sign", "rate(2)", "Faster", show=False, id="rate-up",
+                tooltip="play back at twice the speed, up to 16x"),
         Binding("t", "tilt", "Tilt", show=False, id="tilt", tooltip="tilt the head up"),
         Binding("u", "undock", "Undock", show=False, id="undock",
                 tooltip="back out of the dock and turn around"),
@@ -108,6 +128,8 @@ class GiraffConsole(App[None]):
         *,
         simulator: bool,
         camera: CameraFeed | None = None,
+        sessions: Sessions | None = None,
+        play: Path | None = None,
         undock_distance: float = 0.3,
         run_loop: bool = True,
         timestamp: Callable[[], str] = lambda: time.strftime("%H:%M:%S"),
@@ -117,6 +139,8 @@ class GiraffConsole(App[None]):
         super().__init__()
         self.control = control
         self.camera = camera
+        self.sessions = sessions
+        self.play_at_start = play
         self.simulator = simulator
         self.undock_distance = undock_distance
         self.run_loop = run_loop
@@ -148,6 +172,8 @@ class GiraffConsole(App[None]):
         self.control.publish = lambda t: self.post_message(TelemetryUpdated(t))
         self.control.report = lambda text: self.post_message(StatusNote(text))
         self.control.observers.append(lambda e: self.post_message(ExchangeSeen(e)))
+        if self.sessions is not None:
+            self.sessions.report = lambda text: self.post_message(StatusNote(text))
         if self.simulator:
             self.note("SIMULATOR: no robot is connected; the built-in simulated board answers")
         if self.camera is not None:
@@ -160,9 +186,13 @@ class GiraffConsole(App[None]):
                 camera.start()
         if self.run_loop:
             self.control.start()
+        if self.play_at_start is not None:
+            self._play(self.play_at_start)
 
     def on_unmount(self) -> None:
         self.control.stop()
+        if self.sessions is not None:
+            self.sessions.stop_recording()
         if self.camera is not None:
             self.camera.stop()
 
@@ -180,6 +210,7 @@ class GiraffConsole(App[None]):
         now = self.control.clock.now()
         self._frames = [t for t in self._frames if now - t < 1.0] + [now]
         self.top_bar.ui_fps = float(len(self._frames))
+        self.top_bar.recording = self.sessions is not None and self.sessions.recording
         self.top_bar.show(message.telemetry)
         self.main_view.show(message.telemetry)
 
@@ -195,8 +226,12 @@ class GiraffConsole(App[None]):
     # -- keys ---------------------------------------------------------------------------
 
     def action_drive(self, intent: str) -> None:
-        if not self.command_line.has_focus:
-            self.control.press(Intent[intent])
+        if self.command_line.has_focus:
+            return
+        if self.control.playback is not None:
+            self.note("playing back: the driving keys are off; P returns to live")
+            return
+        self.control.press(Intent[intent])
 
     def action_halt(self) -> None:
         """Stop now: let go of the keys, and stop any move, typed or undocking, as well."""
@@ -223,8 +258,58 @@ class GiraffConsole(App[None]):
         on = self.camera.pipeline.toggle(name)
         self.note(f"{name} {'on' if on else 'off'}")
 
-    def action_later(self, feature: str) -> None:
-        self.note(f"{feature} arrives with the sessions issue")
+    def action_record(self) -> None:
+        if self.sessions is None:
+            self.note("recording is not available")
+        elif self.sessions.recording:
+            self.sessions.stop_recording()
+        else:
+            self.sessions.start_recording()
+
+    def action_playback(self) -> None:
+        if self.sessions is None:
+            self.note("playback is not available")
+        elif self.control.playback is not None:
+            self.sessions.stop_playback()
+        else:
+            self._play(None)
+
+    def action_pause_playback(self) -> None:
+        playback = self._playback()
+        if playback is not None:
+            now = self.control.clock.now()
+            playback.resume(now) if playback.paused else playback.pause(now)
+
+    def action_step_playback(self) -> None:
+        playback = self._playback()
+        if playback is not None:
+            playback.step(self.control.clock.now())
+
+    def action_seek(self, seconds: float) -> None:
+        playback = self._playback()
+        if playback is not None:
+            self.control.seek(playback.position(self.control.clock.now()) + seconds)
+
+    def action_rate(self, factor: float) -> None:
+        playback = self._playback()
+        if playback is not None:
+            self._set_rate(playback.speed * factor)
+
+    def _set_rate(self, speed: float) -> None:
+        playback = self._playback()
+        if playback is not None:
+            self.note(f"playback at {playback.set_speed(self.control.clock.now(), speed):g}x")
+
+    def _playback(self):
+        playback = self.control.playback
+        if playback is None:
+            self.note("no playback running: P plays the newest session")
+        return playback
+
+    def _play(self, session: Path | None) -> None:
+        assert self.sessions is not None
+        if self.sessions.start_playback(session) is not None:
+            self.transcript.separator("playback")
 
     def action_command_line(self) -> None:
         self.command_line.display = True
@@ -289,6 +374,37 @@ class GiraffConsole(App[None]):
         if text:
             self.run_command(text)
 
+    def _session_command(self, word: str, argument: str) -> None:
+        """record [stop], play [DIR|stop], pause, resume, seek SECONDS, rate X."""
+        if self.sessions is None:
+            self.note("sessions are not available")
+        elif word == "record":
+            if argument == "stop":
+                self.sessions.stop_recording()
+            elif not self.sessions.recording:
+                self.sessions.start_recording()
+        elif word == "play":
+            if argument == "stop":
+                self.sessions.stop_playback()
+            else:
+                self._play(Path(argument).expanduser() if argument else None)
+        elif word in ("pause", "resume"):
+            playback = self._playback()
+            if playback is not None:
+                now = self.control.clock.now()
+                playback.pause(now) if word == "pause" else playback.resume(now)
+        else:
+            try:
+                value = float(parse_number(argument))
+            except CommandError:
+                self.note(f"refused: usage: {word} {'12.5' if word == 'seek' else '4'}")
+                return
+            if word == "seek":
+                if self._playback() is not None:
+                    self.control.seek(value)
+            else:
+                self._set_rate(value)
+
     def run_command(self, text: str) -> None:
         """A console command, or a controller command checked against the limits."""
         word, _, rest = text.partition(" ")
@@ -308,6 +424,8 @@ class GiraffConsole(App[None]):
             self.note(f"driving speed {speed:.2f} m/s")
         elif word in ("fast", "canny"):
             self.action_processor(word)
+        elif word in SESSION_COMMANDS:
+            self._session_command(word, rest.strip())
         elif word in LATER:
             self.note(f"{word} arrives with the {LATER[word]} issue")
         else:

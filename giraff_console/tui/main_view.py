@@ -37,4 +37,9 @@ class MainView(Static):
         if state is not None:
             detail.append(f"cdis {state.cdis:.3f} cang {state.cang:.1f}° mode {state.mode}  ")
         detail.append(f"keys {held} {telemetry.speed:.2f} m/s")
+        if telemetry.playback is not None:
+            motion.append("  played back: k pause · . step · j/l ∓10 s · < > speed · p live",
+                          style="green")  # fmt: skip
+        if telemetry.mission is not None:
+            motion.append(f"  {telemetry.mission}", style="bold cyan")
         self.update(Text("\n").join([motion, detail]))

@@ -21,6 +21,7 @@ class TopBar(Static):
         self.simulator = simulator
         self.ui_fps = 0.0
         self.camera = "cam -"
+        self.recording = False
         self._telemetry: Telemetry | None = None
 
     def show_camera(self, text: str) -> None:
@@ -51,4 +52,17 @@ class TopBar(Static):
             badges.append(("ESTOP", "bold white on red"))
         if not telemetry.autopoll:
             badges.append(("POLL OFF", "bold black on cyan"))
+        if self.recording:
+            badges.append(("● REC", "bold white on dark_red"))
+        playback = telemetry.playback
+        if playback is not None:
+            state = "paused" if playback.paused else f"{playback.speed:g}x"
+            where = f"{clock_time(playback.position)}/{clock_time(playback.duration)}"
+            badges.append((f"PLAYBACK {where} {state}", "bold black on green"))
         return badges
+
+
+def clock_time(seconds: float) -> str:
+    """Seconds as m:ss."""
+    minutes, seconds = divmod(int(seconds), 60)
+    return f"{minutes}:{seconds:02d}"

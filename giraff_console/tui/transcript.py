@@ -44,6 +44,12 @@ class Transcript(ReflowLog):
             for text in fields if len(fields) > 1 else [decoded]:
                 self.add_line("  " + text)
 
+    def separator(self, text: str) -> None:
+        """A marked break, such as the start of a playback."""
+        self._flush_repeats()
+        self._last = None
+        self.add_line(f"── {text} ──", "green")
+
     def _flush_repeats(self) -> None:
         if self._repeats:
             self.add_line(f"  … the same {self._repeats} more time(s)", "dim")

@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import asyncio
+from pathlib import Path
 
 import pytest
 from textual import events
 
 from giraff_console.cli import camera_feed
 from giraff_console.link import BoardLink
+from giraff_console.missions.sessions import Sessions
+from giraff_console.recording.session import RecordingSetup
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.teleop import Teleop
@@ -21,7 +24,7 @@ TICK = 0.05
 class Rig:
     """The app, its control loop and the simulated board behind it."""
 
-    def __init__(self, camera: bool = False) -> None:
+    def __init__(self, camera: bool = False, recordings: Path | None = None) -> None:
         self.link = BoardLink.open("giraff-sim://?clock=virtual")
         self.clock = self.link.port.clock
         self.board = self.link.port.board
@@ -29,10 +32,18 @@ class Rig:
             lambda: self.link, teleop=Teleop(), deadman=Deadman(self.clock), clock=self.clock
         )
         self.camera = camera_feed(None, self.link.port) if camera else None
+        if self.camera is not None:
+            # Frames are stamped on the virtual clock, like the log, so that they line up.
+            self.camera.source.clock = self.clock.now
+        self.sessions = None
+        if recordings is not None:
+            setup = RecordingSetup(port="giraff-sim://?clock=virtual")
+            self.sessions = Sessions(self.control, self.camera, recordings, setup, print)
         self.app = GiraffConsole(
             self.control,
             simulator=True,
             camera=self.camera,
+            sessions=self.sessions,
             run_loop=False,
             timestamp=lambda: f"{self.clock.now():.2f}s",
             cursor_blink=False,
@@ -45,10 +56,21 @@ class Rig:
         await pilot.pause()
 
     async def run(self, pilot, seconds: float) -> None:
-        """Tick the control loop at 20 Hz for `seconds` of virtual time."""
-        for _ in range(round(seconds / TICK)):
-            self.control.tick()
-            self.clock.advance(TICK)
+        """Tick the control loop at 20 Hz for `seconds` of virtual time.
+
+        Like the loop's own thread, it also ticks whenever a playback or a mission
+        asks to be stepped between two ticks.
+        """
+        end = self.clock.now() + seconds
+        next_tick = self.clock.now()
+        while self.clock.now() < end - 1e-9:
+            due = self.control.next_due()
+            early = due < next_tick
+            self.control.tick(early=early)
+            if not early:
+                next_tick += TICK
+            self.clock.advance(max(0.0, min(next_tick, self.control.next_due(), end)
+                                   - self.clock.now()))  # fmt: skip
             await asyncio.sleep(0)
         await pilot.pause()
 

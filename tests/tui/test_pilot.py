@@ -92,13 +92,11 @@ async def test_poll_toggle_and_help_screen(rig):
         assert rig.app.screen.__class__.__name__ != "HelpScreen"
 
 
-async def test_later_features_say_so_in_the_status_log(rig):
+async def test_a_later_feature_says_so_in_the_status_log(rig):
     async with rig.app.run_test(size=SIZE) as pilot:
-        for key in ("p", "r"):
-            await pilot.press(key)
+        rig.app.run_command("go kitchen")
         await pilot.pause()
-        notes = " ".join(rig.app.status_log.texts)
-        assert "playback arrives" in notes and "recording arrives" in notes
+        assert "go arrives with the planning issue" in " ".join(rig.app.status_log.texts)
 
 
 async def test_escape_quits_and_leaves_the_robot_stopped(rig):

@@ -1,0 +1,105 @@
+"""Replaying a taught route open-loop, as §2.6.1 describes: "replays the recorded actions".
+
+The replay starts from the board settings teaching began with, then resends what
+teleop sent, at the times it was sent. Nothing is corrected: this is the dead-reckoning
+patrol §5.6 wished it had tried, so the robot goes roughly where it went before,
+drifting with the casters (§3.2.1.5) and blind to whatever moved into the way (§2.6.1's
+"obvious problem"). The recorded `set p` renewals carry teleop's lookahead, so a
+console that dies mid-replay still stops the robot within the runaway limit (design.md).
+"""
+
+from __future__ import annotations
+
+from giraff_console.link.motor_state import MotorState
+from giraff_console.missions.route import MOTION_SETTINGS, Route
+from giraff_console.protocol.codec import Command, format_number, parse_number
+
+
+class RouteReplay:
+    """A Mission that drives a taught route again."""
+
+    def __init__(self, route: Route) -> None:
+        self.route = route
+        self.name = route.name
+        self._t0: float | None = None
+        self._now: float | None = None
+        self._paused_at: float | None = None
+        self._sent = 0
+        self._sent_at = 0.0
+        self._state: MotorState | None = None
+        # What the board holds for its next move, as the replay has set it.
+        self._board = {k: v for k, v in route.settings.items() if k in MOTION_SETTINGS}
+        self._restore = False
+
+    def step(self, now: float, state: MotorState | None) -> list[Command]:
+        """The starting settings first; then each taught command once its time has come."""
+        self._state = state
+        if self._paused_at is not None or self.finished:
+            return []
+        self._now = now
+        commands: list[Command] = []
+        if self._t0 is None or self._restore:
+            # The loop stops the robot on a pause, with settings of its own (cdp, p),
+            # so a resumed replay sets the board back to where the route had it.
+            self._t0 = now if self._t0 is None else self._t0
+            self._restore = False
+            self._sent_at = now
+            commands = [
+                Command("set", k, parse_number(self._board[k]))
+                for k in MOTION_SETTINGS
+                if k in self._board
+            ]
+        taught = self.route.commands
+        while self._sent < len(taught) and taught[self._sent].offset <= now - self._t0:
+            command = taught[self._sent].command
+            if command.name != "p" and command.value is not None:
+                self._board[command.name] = format_number(command.value)
+            commands.append(command)
+            self._sent += 1
+            self._sent_at = now
+        return commands
+
+    def next_due(self) -> float | None:
+        """When the next taught command is due; None before the start and once all are sent."""
+        if self._t0 is None or self._paused_at is not None:
+            return None
+        if self._sent == len(self.route.commands):
+            return None
+        return self._t0 + self.route.commands[self._sent].offset
+
+    def pause(self, now: float) -> None:
+        if self._paused_at is None:
+            self._paused_at = now
+
+    def resume(self, now: float) -> None:
+        """Carry on where the pause left off: the rest of the route is shifted by the pause."""
+        if self._paused_at is None:
+            return
+        if self._t0 is not None:
+            self._t0 += now - self._paused_at
+            self._restore = True
+        self._paused_at = None
+
+    @property
+    def finished(self) -> bool:
+        """Every command sent, and the robot seen at rest by a poll made after the last one."""
+        state = self._state
+        return (
+            self._t0 is not None
+            and self._sent == len(self.route.commands)
+            and state is not None
+            and not state.moving
+            and state.received_at > self._sent_at
+        )
+
+    @property
+    def elapsed(self) -> float:
+        """Seconds of the route driven so far, pauses left out."""
+        at = self._paused_at if self._paused_at is not None else self._now
+        if self._t0 is None or at is None:
+            return 0.0
+        return min(max(at - self._t0, 0.0), self.route.duration)
+
+    @property
+    def progress(self) -> str:
+        return f"route {self.name}: {round(self.elapsed)} s of {round(self.route.duration)} s"

@@ -1,0 +1,162 @@
+"""Recording sessions and playing them back, for the console and the command line alike.
+
+Recording taps the control loop's exchanges and the camera's frames (§3.2.1.1, §3.4.1);
+each frame is stored with the odometry sample nearest to it (§3.3.1). Playback hands
+the control loop a recorded log instead of the board, and the camera feed the recorded
+video, both following the same playback position.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+from giraff_console.camera.association import SampleHistory
+from giraff_console.camera.feed import CameraFeed
+from giraff_console.camera.source import CameraSource, Frame
+from giraff_console.recording.playback import Playback, frame_times, open_log
+from giraff_console.recording.recorded_video import RecordedVideo
+from giraff_console.recording.session import (
+    CONTROL_LOG,
+    VIDEO,
+    RecordingSetup,
+    SessionError,
+    SessionRecorder,
+)
+from giraff_console.robot.control_loop import ControlLoop, Telemetry
+
+# Problems with a log are listed up to this many; the rest are counted.
+SHOWN_PROBLEMS = 5
+
+
+class Sessions:
+    """Starts and stops recordings and playbacks; every outcome goes to `report`."""
+
+    def __init__(self, control: ControlLoop, camera: CameraFeed | None, recordings: Path,
+                 setup: RecordingSetup, report: Callable[[str], None]) -> None:  # fmt: skip
+        self.control = control
+        self.camera = camera
+        self.recordings = recordings
+        self.setup = setup
+        self.report = report
+        self.recorder: SessionRecorder | None = None
+        self._history = SampleHistory()
+        self._live_camera: CameraSource | None = None
+        control.telemetry_observers.append(self._telemetry)
+
+    # -- recording ----------------------------------------------------------------------
+
+    @property
+    def recording(self) -> bool:
+        return self.recorder is not None
+
+    def start_recording(self) -> Path | None:
+        """Start a new session; None, with a message, if it cannot be recorded."""
+        if self.control.playback is not None:
+            self.report("not recording: a playback is running (P stops it)")
+            return None
+        self.stop_recording()
+        try:
+            recorder = SessionRecorder(
+                self.recordings, self.setup, self.control.clock.now, self._recording_failed
+            )
+        except SessionError as error:
+            self.report(f"not recording: {error}")
+            return None
+        self.recorder = recorder
+        self.control.observers.append(recorder.exchange)
+        if self.camera is not None:
+            self.camera.taps.append(self._frame)
+        self.report(f"recording to {recorder.path}")
+        return recorder.path
+
+    def stop_recording(self) -> Path | None:
+        """Stop and close the recording, if there is one; returns its directory."""
+        recorder, self.recorder = self.recorder, None
+        if recorder is None:
+            return None
+        self._detach(recorder)
+        summary = recorder.close()
+        self.report(f"recording stopped: {recorder.path} ({summary})")
+        return recorder.path
+
+    def snapshot(self, name: str) -> Path | None:
+        """The camera's latest frame, saved into the session being recorded."""
+        frame = self.camera.last_frame if self.camera is not None else None
+        if self.recorder is None or frame is None:
+            return None
+        return self.recorder.snapshot(name, frame)
+
+    def _frame(self, frame: Frame) -> None:
+        recorder = self.recorder
+        if recorder is not None:
+            recorder.frame(frame, self._history.nearest(frame.captured_at))
+
+    def _recording_failed(self, message: str) -> None:
+        # Called from the log writer's thread; driving goes on regardless.
+        recorder, self.recorder = self.recorder, None
+        if recorder is not None:
+            self._detach(recorder)
+        self.report(message)
+
+    def _detach(self, recorder: SessionRecorder) -> None:
+        if recorder.exchange in self.control.observers:
+            self.control.observers.remove(recorder.exchange)
+        if self.camera is not None and self._frame in self.camera.taps:
+            self.camera.taps.remove(self._frame)
+
+    # -- playback -----------------------------------------------------------------------
+
+    def latest(self) -> Path | None:
+        """The newest recorded session, if any."""
+        try:
+            sessions = [p for p in self.recordings.iterdir() if (p / CONTROL_LOG).is_file()]
+        except OSError:
+            return None
+        return max(sessions, key=lambda p: p.name, default=None)
+
+    def start_playback(self, session: Path | None = None) -> Playback | None:
+        """Play `session` (a directory, or an original console's log file), else the
+        newest one; None, with a message, if there is nothing to play."""
+        if self.recorder is not None:
+            self.report("not playing: a recording is running (R stops it)")
+            return None
+        session = session or self.latest()
+        if session is None:
+            self.report(f"nothing to play: no sessions in {self.recordings}")
+            return None
+        try:
+            path, log = open_log(session)
+            times = frame_times(session, log)
+        except SessionError as error:
+            self.report(f"not playing: {error}")
+            return None
+        for problem in log.problems[:SHOWN_PROBLEMS]:
+            self.report(f"{path}: {problem}")
+        if len(log.problems) > SHOWN_PROBLEMS:
+            self.report(f"{path}: {len(log.problems) - SHOWN_PROBLEMS} more lines skipped")
+        if not log.entries:
+            self.report(f"not playing: {path} has no playable lines")
+            return None
+        clock = self.control.clock
+        playback = Playback(session.name, log, clock.now())
+        video = session / VIDEO
+        if self.camera is not None and video.is_file():
+            source = RecordedVideo(video, times, lambda: playback.position(clock.now()), clock.now)
+            self._live_camera = self.camera.switch(source)
+        self.control.play(playback, self._restore_camera)
+        return playback
+
+    def stop_playback(self) -> None:
+        """Back to live; the camera follows when the loop has let go of the playback."""
+        self.control.stop_playback()
+
+    def _telemetry(self, telemetry: Telemetry) -> None:
+        if self.recorder is not None:
+            pose = telemetry.pose
+            self._history.add(self.control.clock.now(), (pose.x, pose.y, pose.heading))
+
+    def _restore_camera(self) -> None:
+        live, self._live_camera = self._live_camera, None
+        if live is not None and self.camera is not None:
+            self.camera.switch(live)

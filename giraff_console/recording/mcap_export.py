@@ -1,0 +1,197 @@
+"""A recorded session as one MCAP file, so that Foxglove and other robotics tools open it.
+
+A session on disk (§3.2.1.1) is a control log, a video and a frame index, on two clocks,
+and only this console plays it back. Exported, the controller transcript, the pose and
+the camera share one wall-clock time line; Foxglove then shows each frame beside the
+pose at its moment, the camera-odometry association of §3.3.1. Poses come from the
+caller, who runs the robot's odometry over the log: robot/ is above this layer.
+
+Messages are JSON with a JSON schema: Foxglove's own schemas for the pose and the
+camera, and `giraff.ControllerLine` for the log lines. A session without a video has no
+`/camera` channel at all, rather than an empty one.
+"""
+
+from __future__ import annotations
+
+import base64
+import heapq
+import itertools
+import json
+import math
+import os
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Any
+
+import cv2
+from mcap.well_known import MessageEncoding, SchemaEncoding
+from mcap.writer import Writer
+
+from giraff_console.recording.control_log import LogRead
+from giraff_console.recording.playback import frame_times, open_log
+from giraff_console.recording.session import VIDEO, SessionError, read_meta
+
+# A message as the streams produce it: seconds into the session, topic, JSON body.
+Message = tuple[float, str, dict[str, Any]]
+
+
+@dataclass(frozen=True)
+class PoseSample:
+    """Where odometry put the robot `offset` seconds into the session."""
+
+    offset: float
+    x: float
+    y: float
+    heading: float  # radians, counter-clockwise from +x
+
+
+@dataclass(frozen=True)
+class ExportSummary:
+    """What was written, per topic, and what had to be left out."""
+
+    channels: dict[str, int]
+    problems: list[str]
+
+
+def _object(title: str, **properties: dict[str, Any]) -> dict[str, Any]:
+    return {"title": title, "type": "object", "properties": properties}
+
+
+def _numbers(title: str, *names: str) -> dict[str, Any]:
+    return _object(title, **{name: {"type": "number"} for name in names})
+
+
+_STRING = {"type": "string"}
+_TIME = _object("time", sec={"type": "integer", "minimum": 0},
+                nsec={"type": "integer", "minimum": 0, "maximum": 999_999_999})  # fmt: skip
+SCHEMAS = {
+    "/controller": _object(
+        "giraff.ControllerLine",
+        timestamp=_TIME,
+        offset={"type": "number", "description": "seconds into the session"},
+        flag={"type": "string", "description": "S set, G get, C command, space the poll"},
+        command=_STRING,
+        reply=_STRING,
+        automatic={"type": "boolean"},
+    ),
+    "/pose": _object(
+        "foxglove.PoseInFrame",
+        timestamp=_TIME,
+        frame_id=_STRING,
+        pose=_object(
+            "foxglove.Pose",
+            position=_numbers("foxglove.Vector3", "x", "y", "z"),
+            orientation=_numbers("foxglove.Quaternion", "x", "y", "z", "w"),
+        ),
+    ),
+    # Foxglove's JSON encoding carries bytes as base64 text.
+    "/camera": _object(
+        "foxglove.CompressedImage",
+        timestamp=_TIME,
+        frame_id=_STRING,
+        format=_STRING,
+        data={"type": "string", "contentEncoding": "base64"},
+    ),
+}
+
+
+def export_session(session: Path, out: Path, poses: Iterable[PoseSample], *,
+                   jpeg_quality: int = 80) -> ExportSummary:  # fmt: skip
+    """Write `session` to the MCAP file `out`; SessionError if it cannot be read or written.
+
+    The file is written beside `out` under a temporary name and renamed at the end, so
+    a failure part way leaves no half file under the real name.
+    """
+    if not session.exists():
+        raise SessionError(f"no session at {session}")
+    # A directory of ours, or a log file of the original console's.
+    log_path, log = open_log(session)
+    problems = [f"control.log {problem}" for problem in log.problems]
+    streams = {"/controller": _controller(log), "/pose": _poses(poses)}
+    if (session / VIDEO).is_file():
+        times = frame_times(session, log)
+        streams["/camera"] = _frames(session / VIDEO, times, jpeg_quality, problems)
+    start = read_meta(session).get("started_unix")
+    if not isinstance(start, int | float):
+        # An original console's log: it was last written at its last line.
+        start = log_path.stat().st_mtime - log.duration
+    temp = out.with_name(f".{out.name}.{os.getpid()}.part")
+    try:
+        with temp.open("wb") as file:
+            # In time order overall, so that chunks do not overlap in time.
+            merged = heapq.merge(*streams.values(), key=lambda message: message[0])
+            counts = _write(file, start, list(streams), merged)
+        temp.replace(out)
+    except OSError as error:
+        raise SessionError(f"cannot write {out}: {error.strerror or error}") from None
+    finally:
+        temp.unlink(missing_ok=True)
+    return ExportSummary(counts, problems)
+
+
+def _write(file: IO[bytes], start: float, topics: list[str],
+           messages: Iterable[Message]) -> dict[str, int]:  # fmt: skip
+    writer = Writer(file)
+    writer.start()
+    channels: dict[str, int] = {}
+    for topic in topics:
+        schema = SCHEMAS[topic]
+        schema_id = writer.register_schema(
+            schema["title"], SchemaEncoding.JSONSchema, json.dumps(schema).encode()
+        )
+        channels[topic] = writer.register_channel(topic, MessageEncoding.JSON, schema_id)
+    counts = dict.fromkeys(topics, 0)
+    for offset, topic, body in messages:
+        nanoseconds = round((start + offset) * 1e9)
+        stamp = {"sec": nanoseconds // 1_000_000_000, "nsec": nanoseconds % 1_000_000_000}
+        data = json.dumps({"timestamp": stamp, **body}, separators=(",", ":")).encode()
+        writer.add_message(channels[topic], nanoseconds, data, nanoseconds, counts[topic])
+        counts[topic] += 1
+    writer.finish()
+    return counts
+
+
+def _controller(log: LogRead) -> Iterator[Message]:
+    for entry in log.entries:
+        yield entry.offset, "/controller", {
+            "offset": entry.offset, "flag": entry.flag, "command": entry.command,
+            "reply": entry.reply, "automatic": entry.automatic,
+        }  # fmt: skip
+
+
+def _poses(poses: Iterable[PoseSample]) -> Iterator[Message]:
+    for pose in sorted(poses, key=lambda pose: pose.offset):
+        # A turn of `heading` about +z, as a unit quaternion.
+        half = pose.heading / 2
+        turn = {"x": 0.0, "y": 0.0, "z": math.sin(half), "w": math.cos(half)}
+        position = {"x": pose.x, "y": pose.y, "z": 0.0}
+        body = {"frame_id": "odom", "pose": {"position": position, "orientation": turn}}
+        yield pose.offset, "/pose", body
+
+
+def _frames(path: Path, times: list[float], quality: int, problems: list[str]) -> Iterator[Message]:
+    """Each frame at its recorded time (camera.frames.csv), re-encoded as JPEG."""
+    video = cv2.VideoCapture(str(path))
+    if not video.isOpened():
+        problems.append(f"video: cannot read {path.name}; no frames exported")
+        return
+    untimed = 0
+    try:
+        for index in itertools.count():
+            ok, image = video.read()
+            if not ok:
+                break
+            if index >= len(times):  # the frame index was cut short
+                untimed += 1
+                continue
+            ok, jpeg = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, quality])
+            if not ok:
+                problems.append(f"video: frame {index} could not be encoded as JPEG; skipped")
+                continue
+            data = base64.b64encode(jpeg).decode("ascii")
+            yield times[index], "/camera", {"frame_id": "camera", "format": "jpeg", "data": data}
+    finally:
+        video.release()
+    if untimed:
+        problems.append(f"video: {untimed} frames without a time; skipped")

@@ -1,0 +1,169 @@
+"""A recorded session on disk: `recordings/<YYYYmmdd_HHMMSS>/` (§3.2.1.1, §3.8).
+
+- `control.log`: every exchange with the board, in the original's format (control_log).
+- `camera.mp4` and `camera.frames.csv`: the video, and each frame's capture time and
+  nearest odometry sample (camera.recorder).
+- `meta.json`: versions, port, floor plan, camera settings, and when it started, on the
+  wall clock and on the monotonic clock the log and frame times are taken from.
+- `snapshots/`: JPEG pictures taken on purpose, for example at the stops of a patrol.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import cv2
+
+from giraff_console import __version__
+from giraff_console.camera.association import Sample
+from giraff_console.camera.recorder import RecordedFrame, VideoRecorder
+from giraff_console.camera.source import Frame
+from giraff_console.link.exchange import Exchange
+from giraff_console.recording.control_log import entry_for, format_entry
+from giraff_console.recording.log_writer import LogWriter
+
+CONTROL_LOG = "control.log"
+VIDEO = "camera.mp4"
+FRAMES = "camera.frames.csv"
+META = "meta.json"
+SNAPSHOTS = "snapshots"
+# The rate the video file declares; frames are placed by their recorded times anyway.
+VIDEO_FPS = 10.0
+
+
+class SessionError(Exception):
+    """A session that cannot be recorded or read; the message says why."""
+
+
+def new_session_dir(root: Path, now: time.struct_time | None = None) -> Path:
+    """Create and return `root/<YYYYmmdd_HHMMSS>`, with a suffix if that one exists."""
+    stamp = time.strftime("%Y%m%d_%H%M%S", now or time.localtime())
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+        for attempt in range(1, 100):
+            path = root / (stamp if attempt == 1 else f"{stamp}-{attempt}")
+            try:
+                path.mkdir()
+            except FileExistsError:
+                continue
+            return path
+    except OSError as error:
+        raise SessionError(f"cannot create a session in {root}: {error.strerror}") from None
+    raise SessionError(f"too many sessions named {stamp} in {root}")
+
+
+def read_meta(session: Path) -> dict[str, Any]:
+    """The session's meta.json; an empty dict if there is none (an original log)."""
+    path = session / META
+    if not path.exists():
+        return {}
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as error:
+        raise SessionError(f"{path}: {error}") from None
+    if not isinstance(meta, dict):
+        raise SessionError(f"{path}: not a JSON object")
+    return meta
+
+
+@dataclass(frozen=True)
+class RecordingSetup:
+    """What meta.json says about where a session came from."""
+
+    port: str
+    floor_plan: str | None = None
+    camera: dict[str, Any] | None = None
+
+
+class SessionRecorder:
+    """Records one session: the control log at once, the video from the first frame.
+
+    `exchange` is a link observer and `frame` a camera tap; both are called from other
+    threads and return at once. A write error stops the recording and calls `on_error`;
+    whatever drives the robot goes on undisturbed.
+    """
+
+    def __init__(self, root: Path, setup: RecordingSetup, clock: Callable[[], float],
+                 on_error: Callable[[str], None] = lambda message: None) -> None:  # fmt: skip
+        """Create the session directory and its log; SessionError if that fails."""
+        self.clock = clock
+        self.on_error = on_error
+        self.path = new_session_dir(root)
+        self.started_at = clock()
+        self._video: VideoRecorder | None = None
+        self._video_failed = False
+        meta = {
+            "format": 1,
+            "giraff_console": __version__,
+            "opencv": cv2.__version__,
+            "port": setup.port,
+            "floor_plan": setup.floor_plan,
+            "camera": setup.camera,
+            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+            "started_unix": time.time(),
+            "clock_origin": self.started_at,
+        }
+        try:
+            (self.path / META).write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
+            self.log = LogWriter(self.path / CONTROL_LOG, self._failed)
+        except OSError as error:
+            raise SessionError(f"cannot record in {self.path}: {error.strerror}") from None
+        self.stopped = False
+
+    @property
+    def error(self) -> str | None:
+        return self.log.error
+
+    def exchange(self, exchange: Exchange) -> None:
+        """A link observer: one log line per exchange."""
+        entry = entry_for(exchange, self.started_at)
+        if entry is not None and not self.stopped:
+            self.log.write(format_entry(entry))
+
+    def frame(self, frame: Frame, sample: Sample | None = None) -> None:
+        """A camera tap: the frame goes to the video, with its odometry sample."""
+        if self.stopped or self._video_failed:
+            return
+        if self._video is None:
+            try:
+                self._video = VideoRecorder(self.path / VIDEO, frame.size, VIDEO_FPS)
+            except OSError as error:
+                self._video_failed = True
+                self.on_error(f"video not recorded: {error}")
+                return
+        self._video.submit(RecordedFrame(frame, sample))
+
+    def snapshot(self, name: str, frame: Frame) -> Path | None:
+        """Save one frame as `snapshots/<name>.jpg`; None, and a message, if it fails."""
+        path = self.path / SNAPSHOTS / f"{name}.jpg"
+        try:
+            path.parent.mkdir(exist_ok=True)
+            ok, data = cv2.imencode(".jpg", frame.image)
+            if not ok:
+                raise OSError("JPEG encoding failed")
+            path.write_bytes(data.tobytes())
+        except OSError as error:
+            self.on_error(f"snapshot {name} not saved: {error}")
+            return None
+        return path
+
+    def close(self) -> str:
+        """Stop recording and say what was kept."""
+        self.stopped = True
+        self.log.close()
+        summary = f"{self.log.written} log lines"
+        if self._video is not None:
+            self._video.close()
+            summary += f", {self._video.written} video frames"
+            if self._video.dropped:
+                summary += f" ({self._video.dropped} dropped: the disk was too slow)"
+        return summary
+
+    def _failed(self, message: str) -> None:
+        self.stopped = True
+        self.on_error(message)

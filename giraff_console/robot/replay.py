@@ -1,0 +1,108 @@
+"""Interpreting a played-back session as the live console interprets the board.
+
+The recorded replies go to the same observers as live exchanges (the transcript) and
+the recorded `bulk_data` replies to an odometry of their own, so that the pose on screen
+is the pose that was seen when recording (§3.2.1.1). The live odometry is left alone,
+and carries on when playback ends.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+
+from giraff_console.link.exchange import Exchange
+from giraff_console.link.motor_state import MotorState
+from giraff_console.protocol.errors import ProtocolError
+from giraff_console.recording.control_log import LogEntry, LogRead
+from giraff_console.recording.mcap_export import PoseSample
+from giraff_console.recording.playback import Playback, as_exchange
+from giraff_console.robot.odometry import Odometry, Pose
+
+
+@dataclass(frozen=True)
+class PlaybackStatus:
+    """What the console shows about a playback."""
+
+    name: str
+    position: float
+    duration: float
+    speed: float
+    paused: bool
+
+
+class Replayer:
+    """A playback and the pose and motor state it implies."""
+
+    def __init__(self, playback: Playback) -> None:
+        self.playback = playback
+        self.odometry = Odometry()
+        self.state: MotorState | None = None
+
+    def advance(self, now: float, notify: Callable[[Exchange], None]) -> None:
+        """Hand out what has fallen due, and take the odometry along."""
+        for entry in self.playback.due(now):
+            exchange = as_exchange(entry, now)
+            notify(exchange)
+            self._interpret(entry)
+
+    def seek(self, now: float, offset: float) -> None:
+        """Move to `offset`, rebuilding the pose from the start of the session."""
+        self.odometry.reset()
+        self.state = None
+        for entry in self.playback.seek(now, offset):
+            self._interpret(entry)
+
+    def status(self, now: float) -> PlaybackStatus:
+        playback = self.playback
+        return PlaybackStatus(playback.name, min(playback.position(now), playback.duration),
+                              playback.duration, playback.speed, playback.paused)  # fmt: skip
+
+    @property
+    def pose(self) -> Pose:
+        return self.odometry.pose
+
+    def _interpret(self, entry: LogEntry) -> None:
+        state = recorded_state(entry)
+        if state is None:
+            return
+        try:
+            self.odometry.update(state)
+        except ProtocolError:
+            # A board without wheel distances: the pose cannot follow.
+            return
+        self.state = state
+
+
+def recorded_state(entry: LogEntry) -> MotorState | None:
+    """The motor state an automatic `bulk_data` poll recorded; None for anything else.
+
+    It is stamped with the recorded time, not the playback's, so that speed and seeks
+    do not change what the odometry's plausibility check sees.
+    """
+    if not entry.frame_marker:
+        # Only the automatic poll feeds the odometry, live as in the original's playback
+        # (B.2 PlaybackData); a `get bulk_data` typed by hand is shown, not integrated.
+        return None
+    value = as_exchange(entry, entry.offset).value
+    if not isinstance(value, dict):
+        return None
+    try:
+        return MotorState.from_bulk(value, entry.offset)
+    except ProtocolError:
+        # A bulk reply without a needed field: shown in the transcript, not used.
+        return None
+
+
+def replay_poses(log: LogRead) -> Iterator[PoseSample]:
+    """The pose at every recorded `bulk_data` reply, as the console saw it."""
+    odometry = Odometry()
+    for entry in log.entries:
+        state = recorded_state(entry)
+        if state is None:
+            continue
+        try:
+            pose = odometry.update(state)
+        except ProtocolError:
+            return
+        yield PoseSample(entry.offset, pose.x, pose.y, pose.heading)

@@ -1,0 +1,211 @@
+"""Patrol files, and patrols run against a made-up robot on a virtual clock."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+import yaml
+
+from giraff_console.link.motor_state import MotorState
+from giraff_console.missions.patrol import (
+    PatrolError,
+    PatrolRun,
+    Stop,
+    StopReached,
+    list_patrols,
+    load_patrol,
+)
+from giraff_console.missions.route import Route, TimedCommand
+from giraff_console.protocol.codec import parse_command
+from giraff_console.protocol.mode import ModeBit
+
+TICK = 0.1
+# The made-up robot keeps moving this long after each `set p`.
+COASTS = 1.0
+
+
+def write(tmp_path, document, name="rounds") -> object:
+    path = tmp_path / f"{name}.patrol.yaml"
+    path.write_text(document if isinstance(document, str) else yaml.safe_dump(document))
+    return path
+
+
+def route(name: str, duration: float, *offsets: float) -> Route:
+    commands = [TimedCommand(offset, parse_command("set p 0.2")) for offset in offsets]
+    return Route(name, "T", None, {"v": "0.3"}, commands, [], [], duration)
+
+
+ROUTES = {
+    "hall-to-kitchen": route("hall-to-kitchen", 4.0, 0.0, 2.0),
+    "kitchen-to-hall": route("kitchen-to-hall", 3.0, 0.0, 1.0),
+}
+STOPS = [{"route": "hall-to-kitchen", "dwell": 10}, {"route": "kitchen-to-hall", "dwell": 5}]
+
+
+def rounds(tmp_path, number=2):
+    return load_patrol(write(tmp_path, {"rounds": number, "stops": STOPS}))
+
+
+class Robot:
+    """Moves for COASTS seconds after every `set p`; polled every tick."""
+
+    def __init__(self, run: PatrolRun) -> None:
+        self.run = run
+        self.now = 0.0
+        self.moving_until = -1.0
+        self.sent: list[tuple[float, list[str]]] = []
+
+    def tick(self) -> list[str]:
+        mode = int(ModeBit.MOVING) if self.now < self.moving_until else 0
+        state = MotorState(0.0, 0.0, 0.0, 0.0, 0.0, None, 0.0, 0.0, mode, self.now)
+        commands = [command.text for command in self.run.step(self.now, state)]
+        if any(text.startswith("set p") for text in commands):
+            self.moving_until = self.now + COASTS
+        if commands:
+            self.sent.append((self.now, commands))
+        self.now = round(self.now + TICK, 9)
+        return commands
+
+    def run_until(self, end: float) -> None:
+        while self.now < end and not self.run.finished:
+            self.tick()
+
+
+def test_a_patrol_file_loads(tmp_path):
+    patrol = rounds(tmp_path)
+    assert (patrol.name, patrol.rounds, patrol.snapshots) == ("rounds", 2, True)
+    assert patrol.stops == [Stop("hall-to-kitchen", 10.0), Stop("kitchen-to-hall", 5.0)]
+    quiet = load_patrol(write(tmp_path, {"rounds": 1, "snapshots": False,
+                                         "stops": [{"route": "a"}]}, "quiet"))  # fmt: skip
+    assert (quiet.snapshots, quiet.stops) == (False, [Stop("a", 0.0)])
+    assert list_patrols(tmp_path) == ["quiet", "rounds"]
+
+
+def test_a_stop_at_a_place_is_refused_until_planning_exists(tmp_path):
+    path = write(tmp_path, {"rounds": 1, "stops": [{"place": "kitchen", "dwell": 5}]})
+    with pytest.raises(PatrolError, match=r"stops\[0\]: places need route planning"):
+        load_patrol(path)
+
+
+@pytest.mark.parametrize(
+    ("document", "complaint"),
+    [
+        ("rounds: [", "not YAML"),
+        ({"stops": STOPS}, "missing key rounds"),
+        ({"rounds": 0, "stops": STOPS}, "rounds should be a whole number"),
+        ({"rounds": "two", "stops": STOPS}, "rounds should be a whole number"),
+        ({"rounds": 1, "stops": []}, "stops should be a list"),
+        ({"rounds": 1, "stops": STOPS, "snapshot": False}, "unknown key snapshot"),
+        ({"rounds": 1, "snapshots": "yes please", "stops": STOPS}, "snapshots should be true"),
+        ({"rounds": 1, "stops": [{"dwell": 5}]}, "missing key stops[0].route"),
+        ({"rounds": 1, "stops": [{"route": "a", "dwell": -1}]}, "stops[0].dwell is -1"),
+        ({"rounds": 1, "stops": ["a"]}, "stops[0] should be a mapping"),
+    ],
+)
+def test_a_malformed_patrol_file_is_refused_with_the_file_and_key_named(
+    tmp_path, document, complaint
+):
+    path = write(tmp_path, document)
+    with pytest.raises(PatrolError) as refused:
+        load_patrol(path)
+    assert str(path) in str(refused.value)
+    assert complaint in str(refused.value)
+
+
+def test_a_patrol_needs_all_its_routes(tmp_path):
+    with pytest.raises(PatrolError, match="kitchen-to-hall"):
+        PatrolRun(rounds(tmp_path), {"hall-to-kitchen": ROUTES["hall-to-kitchen"]})
+
+
+def test_a_patrol_drives_each_stop_of_each_round_and_dwells_there(tmp_path):
+    reached: list[tuple[float, StopReached]] = []
+    run = PatrolRun(rounds(tmp_path), ROUTES, lambda stop: reached.append((robot.now, stop)))
+    robot = Robot(run)
+    robot.run_until(200.0)
+    assert run.finished
+    assert [stop for _, stop in reached] == [
+        StopReached(1, 1, "hall-to-kitchen"),
+        StopReached(1, 2, "kitchen-to-hall"),
+        StopReached(2, 1, "hall-to-kitchen"),
+        StopReached(2, 2, "kitchen-to-hall"),
+    ]
+    # Each route's settings go out once its dwell is over, and not a tick later.
+    starts = [at for at, commands in robot.sent if commands[0] == "set v 0.3"]
+    assert starts[0] == 0.0
+    for (stopped, stop), started in zip(reached, starts[1:], strict=False):
+        dwell = 10.0 if stop.stop_index == 1 else 5.0
+        assert stopped + dwell <= started < stopped + dwell + TICK + 1e-9
+    # A stop is reached once the last `set p` has been sent and the robot has come to rest.
+    assert reached[0][0] == pytest.approx(2.0 + COASTS)
+
+
+def test_a_patrol_finishes_only_when_the_last_dwell_is_over(tmp_path):
+    reached: list[float] = []
+    run = PatrolRun(rounds(tmp_path, 1), ROUTES, lambda stop: reached.append(robot.now))
+    robot = Robot(run)
+    robot.run_until(200.0)
+    last_stop = reached[-1]
+    assert run.next_due() is None
+    assert robot.now == pytest.approx(last_stop + 5.0 + TICK)
+    again = PatrolRun(rounds(tmp_path, 1), ROUTES)
+    robot = Robot(again)
+    robot.run_until(last_stop + 5.0 - TICK / 2)
+    assert not again.finished
+    assert again.next_due() == pytest.approx(last_stop + 5.0)
+
+
+def seconds_left(progress: str) -> int:
+    match = re.search(r"(?:(\d+) min )?(\d+) s left", progress)
+    assert match, progress
+    return int(match[1] or 0) * 60 + int(match[2])
+
+
+def test_patrol_progress_names_round_and_stop_and_counts_down(tmp_path):
+    run = PatrolRun(rounds(tmp_path), ROUTES)
+    assert run.progress == "patrol rounds: round 1/2, stop 1/2 (hall-to-kitchen), 44 s left"
+    robot = Robot(run)
+    seen = [run.progress]
+    while not run.finished:
+        robot.tick()
+        seen.append(run.progress)
+    assert "patrol rounds: round 2/2, stop 2/2 (kitchen-to-hall), 5 s left" in seen
+    left = [seconds_left(text) for text in seen[:-1]]
+    assert left == sorted(left, reverse=True)
+    assert left[-1] == 0
+    assert seen[-1] == "patrol rounds: done, 2 rounds"
+
+
+def test_long_patrols_count_in_minutes(tmp_path):
+    patrol = load_patrol(write(tmp_path, {"rounds": 1, "stops": [
+        {"route": "hall-to-kitchen", "dwell": 61}]}))  # fmt: skip
+    assert PatrolRun(patrol, ROUTES).progress.endswith("(hall-to-kitchen), 1 min 05 s left")
+
+
+def test_a_paused_patrol_freezes_its_dwell(tmp_path):
+    run = PatrolRun(rounds(tmp_path), ROUTES, lambda stop: None)
+    robot = Robot(run)
+    while run.next_due() is None or run.next_due() - robot.now < 5.0:
+        robot.tick()  # until the first dwell has begun
+        assert robot.now < 20.0
+    dwell_end, left = run.next_due(), seconds_left(run.progress)
+    run.pause(robot.now)
+    for _ in range(600):
+        assert robot.tick() == []
+    assert run.next_due() is None
+    assert seconds_left(run.progress) == left
+    run.resume(robot.now)
+    assert run.next_due() == pytest.approx(dwell_end + 60.0)
+
+
+def test_a_paused_patrol_pauses_the_route_it_is_driving(tmp_path):
+    run = PatrolRun(rounds(tmp_path), ROUTES)
+    robot = Robot(run)
+    robot.tick()  # settings and the first `set p`, at 0
+    run.pause(0.5)
+    assert run.step(20.0, None) == []
+    assert run.next_due() is None
+    run.resume(30.5)
+    assert run.next_due() == pytest.approx(32.0)
+    assert [c.text for c in run.step(31.0, None)] == ["set v 0.3"]  # the settings, restored
+    assert [c.text for c in run.step(32.0, None)] == ["set p 0.2"]

@@ -1,0 +1,91 @@
+"""Recording a session with R and playing it back with P, as an operator would."""
+
+from __future__ import annotations
+
+import json
+import math
+
+from giraff_console.recording.control_log import read_log
+from tests.tui.conftest import Rig
+
+SIZE = (120, 36)
+
+
+def collect_poses(rig: Rig, into: list, playback: bool = False):
+    """Each new odometry sample and the pose it gave, as published live or played back."""
+
+    def seen(telemetry) -> None:
+        if playback != (telemetry.playback is not None):
+            return
+        state = telemetry.state
+        if state is not None and (not into or into[-1][0] != state.received_at):
+            into.append((state.received_at, telemetry.pose))
+
+    rig.control.telemetry_observers.append(seen)
+    return seen
+
+
+async def record_a_drive(rig: Rig, pilot) -> tuple[list, list[str]]:
+    """R, a drive with a curve and a turn, R; the live poses and transcript meanwhile."""
+    await rig.run(pilot, 0.2)
+    await pilot.press("r")
+    await rig.run(pilot, 0.1)
+    poses: list = []
+    collecting = collect_poses(rig, poses)
+    first_line = len(rig.app.transcript.texts)
+    await rig.hold(pilot, "up", 1.5)
+    await rig.hold(pilot, "pageup", 1.5)
+    await rig.run(pilot, 1.2)
+    await rig.hold(pilot, "left", 1.0)
+    await rig.run(pilot, 1.0)
+    await pilot.press("enter", *"get v", "enter")  # a typed command is in the transcript too
+    await rig.run(pilot, 0.2)
+    rig.control.telemetry_observers.remove(collecting)
+    await pilot.press("r")
+    return poses, rig.app.transcript.texts[first_line:]
+
+
+async def test_a_session_plays_back_with_the_pose_and_transcript_it_was_recorded_with(tmp_path):
+    rig = Rig(recordings=tmp_path)
+    async with rig.app.run_test(size=SIZE) as pilot:
+        live_poses, live_lines = await record_a_drive(rig, pilot)
+        session = rig.sessions.latest()
+        assert session is not None and (session / "control.log").is_file()
+        assert "recording stopped" in " ".join(rig.app.status_log.texts)
+        assert rig.board.true_pose.x > 0.5  # it really drove
+
+    replay = Rig(recordings=tmp_path)
+    async with replay.app.run_test(size=SIZE) as pilot:
+        await replay.run(pilot, 0.2)
+        played_poses: list = []
+        collect_poses(replay, played_poses, playback=True)
+        first_line = len(replay.app.transcript.texts)
+        await pilot.press("p")
+        await replay.run(pilot, 0.05)
+        assert "PLAYBACK" in str(replay.app.top_bar.render())
+        start = replay.board.true_pose
+        await replay.run(pilot, read_log(session / "control.log").duration + 0.5)
+        assert replay.control.playback is None  # back to live at the end
+        assert replay.board.true_pose == start  # nothing reached the robot
+
+    # Every automatic poll recorded gives the pose the live console computed from it.
+    origin = json.loads((session / "meta.json").read_text())["clock_origin"]
+    played = dict(played_poses)
+    misses, worst = 0, 0.0
+    for t, pose in live_poses:
+        match = played.get(float(f"{t - origin:.3f}"))
+        if match is None:
+            misses += 1
+            continue
+        worst = max(worst, math.hypot(match.x - pose.x, match.y - pose.y))
+    assert misses == 0 and len(live_poses) > 100
+    assert worst < 1e-3
+    # Line for line, the transcript of the playback is the live one.
+    played_lines = replay.app.transcript.texts[first_line:]
+    assert played_lines[0] == "── playback ──"
+    # Before the playback, the console stopped the live robot: that poll comes first.
+    assert played_lines[1] == "> get bulk_data"
+    start = played_lines.index(live_lines[0])
+    assert start <= 10
+    assert played_lines[start : start + len(live_lines)] == live_lines
+    assert "> get v" in live_lines
