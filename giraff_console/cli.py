@@ -24,6 +24,7 @@ from giraff_console.camera.processors import (
 from giraff_console.camera.source import DEFAULT_RESOLUTION, SyntheticCamera, open_camera
 from giraff_console.clock import RealClock
 from giraff_console.link import DEFAULT_TIMEOUT_S, BoardLink, LinkError
+from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
 from giraff_console.protocol import (
     BoardError,
@@ -92,6 +93,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--recordings", metavar="DIR", type=Path, default=Path("recordings"),
         help="where sessions are recorded and looked for (default: %(default)s)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--routes", metavar="DIR", type=Path, default=Path("routes"),
+        help="where taught routes and patrols are kept (default: %(default)s)",
     )  # fmt: skip
     parser.add_argument(
         "--config", metavar="FILE", type=Path,
@@ -251,6 +256,7 @@ def run_console(args: argparse.Namespace) -> int:
         simulator=simulator is not None,
         camera=camera,
         sessions=sessions,
+        routes=RouteBook(control, sessions, args.routes, lambda text: None),
         undock_distance=settings.teleop.undock_distance,
         play=args.session if args.command == "replay" else None,
     )

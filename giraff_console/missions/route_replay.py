@@ -50,7 +50,9 @@ class RouteReplay:
                 if k in self._board
             ]
         taught = self.route.commands
-        while self._sent < len(taught) and taught[self._sent].offset <= now - self._t0:
+        # A microsecond of grace: at the time next_due gave, its command must be due,
+        # whatever the rounding of t0 + offset - t0.
+        while self._sent < len(taught) and taught[self._sent].offset <= now - self._t0 + 1e-6:
             command = taught[self._sent].command
             if command.name != "p" and command.value is not None:
                 self._board[command.name] = format_number(command.value)

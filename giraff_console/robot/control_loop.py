@@ -44,6 +44,7 @@ BACKOFF_S = (0.5, 1.0, 2.0, 4.0)
 Connect = Callable[[], BoardLink]
 BoardJob = Callable[[BoardLink], object]
 JobDone = Callable[[object], None]
+MissionEnded = Callable[[str], None]
 
 
 class LinkState(enum.Enum):
@@ -108,6 +109,7 @@ class ControlLoop:
         self._replayer: Replayer | None = None
         self._playback_ended: Callable[[], None] = lambda: None
         self._mission: Mission | None = None
+        self._mission_ended: MissionEnded = lambda why: None
 
     # -- from other threads -------------------------------------------------------------
 
@@ -174,9 +176,12 @@ class ControlLoop:
         replayer = self._replayer
         return None if replayer is None else replayer.playback
 
-    def run_mission(self, mission: Mission) -> None:
-        """Let `mission` drive; the keys, ESTOP, a lost link or `stop_mission` end it."""
-        self._request(lambda: self._start_mission(mission))
+    def run_mission(self, mission: Mission, ended: MissionEnded = lambda why: None) -> None:
+        """Let `mission` drive; the keys, ESTOP, a lost link or `stop_mission` end it.
+
+        `ended` is called with the reason, on the loop's thread, when it is over.
+        """
+        self._request(lambda: self._start_mission(mission, ended))
 
     def stop_mission(self, why: str = "stopped") -> None:
         self._request(lambda: self._end_mission(why))
@@ -304,13 +309,14 @@ class ControlLoop:
         if mission.finished:
             self._end_mission("done", stop=False)
 
-    def _start_mission(self, mission: Mission) -> None:
+    def _start_mission(self, mission: Mission, ended: MissionEnded) -> None:
         if self._replayer is not None:
             self.report(f"{mission.name} not started: a playback is running")
+            ended("not started")
             return
         self._end_mission("replaced")
         self.deadman.release()
-        self._mission = mission
+        self._mission, self._mission_ended = mission, ended
         self.report(f"{mission.name} started")
 
     def _end_mission(self, why: str, stop: bool = True) -> None:
@@ -320,6 +326,7 @@ class ControlLoop:
         if stop:
             self._stop_robot()
         self.report(f"{mission.name} {why}")
+        self._mission_ended(why)
 
     def _stop_robot(self) -> None:
         if self.link is not None and not stop_robot(self.link):

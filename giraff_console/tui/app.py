@@ -18,6 +18,7 @@ from textual.widgets import Footer, Input
 
 from giraff_console.camera.feed import CameraFeed
 from giraff_console.camera.source import RESOLUTIONS as CAMERA_RESOLUTIONS
+from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
 from giraff_console.protocol import Command, CommandError, GiraffError, parse_command, parse_number
 from giraff_console.robot.command_guard import check_command
@@ -55,10 +56,15 @@ CONSOLE_COMMANDS = [
     ("record, record stop", "record a session into recordings/ (also R)"),
     ("play [DIR], play stop", "play the newest session, or DIR, back; stop it (also P)"),
     ("pause, resume, seek S, rate X", "control a playback: seconds in, speed 0.25 to 16"),
+    ("teach NAME, mark PLACE, done", "teach a route by driving it; name places on the way"),
+    ("routes", "list the taught routes and the patrols"),
+    ("replay-route NAME", "drive a taught route again, open-loop (keys or Space stop it)"),
+    ("patrol NAME, patrol pause|resume|stop", "run routes/NAME.patrol.yaml; hold or end it"),
     ("go", "arrives with the planning issue"),
 ]
 LATER = {"go": "planning"}
 SESSION_COMMANDS = ("record", "play", "pause", "resume", "seek", "rate")
+ROUTE_COMMANDS = ("teach", "mark", "done", "routes", "replay-route", "patrol")
 
 
 class GiraffConsole(App[None]):
@@ -129,6 +135,7 @@ class GiraffConsole(App[None]):
         simulator: bool,
         camera: CameraFeed | None = None,
         sessions: Sessions | None = None,
+        routes: RouteBook | None = None,
         play: Path | None = None,
         undock_distance: float = 0.3,
         run_loop: bool = True,
@@ -140,6 +147,7 @@ class GiraffConsole(App[None]):
         self.control = control
         self.camera = camera
         self.sessions = sessions
+        self.routes = routes
         self.play_at_start = play
         self.simulator = simulator
         self.undock_distance = undock_distance
@@ -172,8 +180,9 @@ class GiraffConsole(App[None]):
         self.control.publish = lambda t: self.post_message(TelemetryUpdated(t))
         self.control.report = lambda text: self.post_message(StatusNote(text))
         self.control.observers.append(lambda e: self.post_message(ExchangeSeen(e)))
-        if self.sessions is not None:
-            self.sessions.report = lambda text: self.post_message(StatusNote(text))
+        for service in (self.sessions, self.routes):
+            if service is not None:
+                service.report = lambda text: self.post_message(StatusNote(text))
         if self.simulator:
             self.note("SIMULATOR: no robot is connected; the built-in simulated board answers")
         if self.camera is not None:
@@ -236,6 +245,7 @@ class GiraffConsole(App[None]):
     def action_halt(self) -> None:
         """Stop now: let go of the keys, and stop any move, typed or undocking, as well."""
         self.control.halt()
+        self.control.stop_mission("stopped by the operator")
         self.control.submit(stop_robot)
         self.note("stop")
 
@@ -405,6 +415,31 @@ class GiraffConsole(App[None]):
             else:
                 self._set_rate(value)
 
+    def _route_command(self, word: str, argument: str) -> None:
+        """teach NAME, mark PLACE, done, routes, replay-route NAME, patrol NAME|pause|..."""
+        routes = self.routes
+        if routes is None:
+            self.note("routes are not available")
+        elif word == "done":
+            routes.done()
+        elif word == "routes":
+            for line in routes.listing():
+                self.note(line)
+        elif not argument:
+            self.note(f"refused: usage: {word} NAME")
+        elif word == "teach":
+            routes.teach(argument)
+        elif word == "mark":
+            routes.mark(argument)
+        elif word == "replay-route":
+            routes.replay(argument)
+        elif argument in ("pause", "resume"):
+            self.control.pause_mission(argument == "pause")
+        elif argument == "stop":
+            self.control.stop_mission()
+        else:
+            routes.patrol(argument)
+
     def run_command(self, text: str) -> None:
         """A console command, or a controller command checked against the limits."""
         word, _, rest = text.partition(" ")
@@ -426,6 +461,8 @@ class GiraffConsole(App[None]):
             self.action_processor(word)
         elif word in SESSION_COMMANDS:
             self._session_command(word, rest.strip())
+        elif word in ROUTE_COMMANDS:
+            self._route_command(word, rest.strip())
         elif word in LATER:
             self.note(f"{word} arrives with the {LATER[word]} issue")
         else:

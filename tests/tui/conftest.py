@@ -10,6 +10,7 @@ from textual import events
 
 from giraff_console.cli import camera_feed
 from giraff_console.link import BoardLink
+from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
 from giraff_console.recording.session import RecordingSetup
 from giraff_console.robot.control_loop import ControlLoop
@@ -35,15 +36,18 @@ class Rig:
         if self.camera is not None:
             # Frames are stamped on the virtual clock, like the log, so that they line up.
             self.camera.source.clock = self.clock.now
-        self.sessions = None
+        self.sessions = self.routes = None
         if recordings is not None:
             setup = RecordingSetup(port="giraff-sim://?clock=virtual")
             self.sessions = Sessions(self.control, self.camera, recordings, setup, print)
+            routes = recordings.parent / "routes"
+            self.routes = RouteBook(self.control, self.sessions, routes, print)
         self.app = GiraffConsole(
             self.control,
             simulator=True,
             camera=self.camera,
             sessions=self.sessions,
+            routes=self.routes,
             run_loop=False,
             timestamp=lambda: f"{self.clock.now():.2f}s",
             cursor_blink=False,

@@ -4,7 +4,11 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
+import pytest
+
+from giraff_console.missions.route import load_route
 from giraff_console.recording.control_log import read_log
 from tests.tui.conftest import Rig
 
@@ -89,3 +93,94 @@ async def test_a_session_plays_back_with_the_pose_and_transcript_it_was_recorded
     assert start <= 10
     assert played_lines[start : start + len(live_lines)] == live_lines
     assert "> get v" in live_lines
+
+
+async def type_command(pilot, text: str) -> None:
+    await pilot.press("enter", *text, "enter")
+
+
+async def teach(rig: Rig, pilot, name: str, drive) -> None:
+    await type_command(pilot, f"teach {name}")
+    await rig.run(pilot, 0.1)
+    await drive()
+    await type_command(pilot, "done")
+    await rig.run(pilot, 0.1)
+
+
+async def test_a_taught_route_replays_open_loop_to_where_teaching_ended(tmp_path):
+    recordings = tmp_path / "recordings"
+    rig = Rig(recordings=recordings)
+    async with rig.app.run_test(size=SIZE) as pilot:
+        await rig.run(pilot, 0.2)
+
+        async def drive() -> None:
+            await rig.hold(pilot, "up", 2.0)
+            await rig.run(pilot, 1.0)
+            await type_command(pilot, "mark hall")
+            await rig.hold(pilot, "right", 1.5)
+            await rig.run(pilot, 1.0)
+            await rig.hold(pilot, "pageup", 2.0)
+            await rig.run(pilot, 1.5)
+            await type_command(pilot, "mark kitchen")
+
+        await teach(rig, pilot, "hall-to-kitchen", drive)
+        taught_end = rig.board.true_pose
+        notes = " ".join(rig.app.status_log.texts)
+        assert "route hall-to-kitchen saved" in notes and "marks: hall, kitchen" in notes
+
+    route = load_route(tmp_path / "routes" / "hall-to-kitchen.yaml")
+    assert [mark.name for mark in route.marks] == ["hall", "kitchen"]
+    assert route.session is not None and (Path(route.session) / "control.log").is_file()
+
+    # A fresh board, where teaching began: the route is read from its file again.
+    replay = Rig(recordings=recordings)
+    async with replay.app.run_test(size=SIZE) as pilot:
+        await replay.run(pilot, 0.2)
+        await type_command(pilot, "replay-route hall-to-kitchen")
+        await replay.run(pilot, route.duration + 2.0)
+        assert "hall-to-kitchen done" in " ".join(replay.app.status_log.texts)
+        end = replay.board.true_pose
+    assert math.hypot(end.x - taught_end.x, end.y - taught_end.y) < 0.05
+    assert taught_end.x > 0.5 and abs(taught_end.y) > 0.1  # it went somewhere, and turned
+
+
+async def test_a_two_round_patrol_of_two_routes_runs_to_the_end_with_progress(tmp_path):
+    recordings = tmp_path / "recordings"
+    rig = Rig(camera=True, recordings=recordings)
+    async with rig.app.run_test(size=SIZE) as pilot:
+        await rig.run(pilot, 0.2)
+
+        async def out() -> None:
+            await rig.hold(pilot, "up", 1.5)
+            await rig.run(pilot, 1.0)
+
+        async def back() -> None:
+            await rig.hold(pilot, "down", 1.5)
+            await rig.run(pilot, 1.0)
+
+        await teach(rig, pilot, "out", out)
+        await teach(rig, pilot, "back", back)
+        # Teaching went out and back, but not quite to where it began; each round will too.
+        residual = rig.board.true_pose.x
+        (tmp_path / "routes" / "rounds.patrol.yaml").write_text(
+            "rounds: 2\nsnapshots: true\nstops:\n"
+            "  - {route: out, dwell: 2}\n  - {route: back, dwell: 1}\n"
+        )
+        await rig.show_camera(pilot)  # a frame for the snapshots
+        await type_command(pilot, "patrol rounds")
+        seen: set[str] = set()
+        for _ in range(60):
+            await rig.run(pilot, 0.5)
+            shown = str(rig.app.main_view.render())
+            seen.update(part for part in ("round 1/2", "round 2/2", "stop 2/2") if part in shown)
+            if rig.control.mission is None:
+                break
+        notes = " ".join(rig.app.status_log.texts)
+    assert "rounds done" in notes
+    assert seen == {"round 1/2", "round 2/2", "stop 2/2"}
+    snapshots = sorted(p.name for p in recordings.glob("*/snapshots/*.jpg"))
+    assert snapshots == [
+        "round1-stop1-out.jpg", "round1-stop2-back.jpg",
+        "round2-stop1-out.jpg", "round2-stop2-back.jpg",
+    ]  # fmt: skip
+    assert rig.board.true_pose.x == pytest.approx(3 * residual, abs=0.05)

@@ -1,0 +1,194 @@
+"""Teaching, listing and driving routes and patrols (§2.6.1, §2.5), for any front end.
+
+Teaching records a session as well, so that what the operator saw while teaching can be
+played back; the route file names that session. A patrol records one too, and saves a
+camera snapshot into it at each stop when its file asks for snapshots.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+from giraff_console.missions.patrol import (
+    PatrolError,
+    PatrolRun,
+    StopReached,
+    list_patrols,
+    load_patrol,
+)
+from giraff_console.missions.route import (
+    Route,
+    RouteError,
+    RouteTeacher,
+    list_routes,
+    load_route,
+    save_route,
+)
+from giraff_console.missions.route_replay import RouteReplay
+from giraff_console.missions.sessions import Sessions
+from giraff_console.robot.control_loop import ControlLoop, LinkState, Telemetry
+
+PATROL_SUFFIX = ".patrol.yaml"
+
+
+class RouteBook:
+    """The routes in one directory, and the one being taught; outcomes go to `report`."""
+
+    def __init__(self, control: ControlLoop, sessions: Sessions, directory: Path,
+                 report: Callable[[str], None]) -> None:  # fmt: skip
+        self.control = control
+        self.sessions = sessions
+        self.directory = directory
+        self.report = report
+        self.teacher: RouteTeacher | None = None
+        self._recording_for: str | None = None
+        self._link = LinkState.LOST
+        control.telemetry_observers.append(self._telemetry)
+
+    # -- teaching -----------------------------------------------------------------------
+
+    def teach(self, name: str) -> bool:
+        """Start teaching route `name`: the operator drives, `mark` names places."""
+        if self.teacher is not None:
+            self.report(f"already teaching {self.teacher.name}: `done` saves it first")
+            return False
+        if self.control.playback is not None or self.control.mission is not None:
+            self.report("not teaching: the robot is busy with a playback or a mission")
+            return False
+        settings = self.control.teleop.board_settings
+        if self._link is not LinkState.CONNECTED or not settings:
+            self.report("not teaching: the board's settings are unknown until it answers")
+            return False
+        session = self._record(f"route {name}")
+        try:
+            self.teacher = RouteTeacher(name, self.control.clock.now(),
+                                        self.control.odometry.pose, settings,
+                                        str(session) if session else None)  # fmt: skip
+        except RouteError as error:
+            self._stop_recording()
+            self.report(f"not teaching: {error}")
+            return False
+        self.control.observers.append(self.teacher.observe_exchange)
+        self.report(f"teaching route {name}: drive it, `mark PLACE` names a place, `done` saves")
+        return True
+
+    def mark(self, place: str) -> None:
+        if self.teacher is None:
+            self.report("not teaching: `teach NAME` first")
+            return
+        try:
+            mark = self.teacher.mark(place, self.control.clock.now(), self.control.odometry.pose)
+        except RouteError as error:
+            self.report(f"refused: {error}")
+            return
+        self.report(f"marked {mark.name} at X={mark.x:.2f} Y={mark.y:.2f}")
+
+    def done(self) -> Path | None:
+        """Finish teaching and save the route; its path, or None if it was not saved."""
+        teacher, self.teacher = self.teacher, None
+        if teacher is None:
+            self.report("not teaching: nothing to save")
+            return None
+        self.control.observers.remove(teacher.observe_exchange)
+        self._stop_recording()
+        route = teacher.finish(self.control.clock.now(), self.control.odometry.pose)
+        try:
+            path = save_route(route, self.directory)
+        except (OSError, RouteError) as error:
+            self.report(f"route {route.name} NOT saved: {error}")
+            return None
+        self.report(f"route {route.name} saved to {path}: {route.duration:.0f} s, "
+                    f"{len(route.commands)} commands, marks: "
+                    f"{', '.join(m.name for m in route.marks) or 'none'}")  # fmt: skip
+        return path
+
+    # -- the book -----------------------------------------------------------------------
+
+    def listing(self) -> list[str]:
+        """Lines naming every route and patrol."""
+        routes = list_routes(self.directory)
+        patrols = list_patrols(self.directory)
+        if not routes and not patrols:
+            return [f"no routes in {self.directory}: `teach NAME` makes one"]
+        return [f"routes: {', '.join(routes) or 'none'}",
+                f"patrols: {', '.join(patrols) or 'none'}"]  # fmt: skip
+
+    def replay(self, name: str) -> bool:
+        """Drive route `name` again, open-loop, with its original timing."""
+        route = self._load(name)
+        if route is None or not self._free():
+            return False
+        self.control.run_mission(RouteReplay(route))
+        return True
+
+    def patrol(self, name: str) -> bool:
+        """Run patrol `name` from `<name>.patrol.yaml`."""
+        if not self._free():
+            return False
+        try:
+            patrol = load_patrol(self.directory / f"{name}{PATROL_SUFFIX}")
+        except (OSError, PatrolError, RouteError) as error:
+            self.report(f"no patrol {name}: {error}")
+            return False
+        routes = {}
+        for stop in patrol.stops:
+            route = self._load(stop.route)
+            if route is None:
+                return False
+            routes[stop.route] = route
+        run = PatrolRun(patrol, routes, self._stop_reached if patrol.snapshots else _ignore)
+        if patrol.snapshots:
+            self._record(f"patrol {name}")
+        self.control.run_mission(run, lambda why: self._stop_recording())
+        return True
+
+    # -- helpers ------------------------------------------------------------------------
+
+    def _load(self, name: str) -> Route | None:
+        try:
+            return load_route(self.directory / f"{name}.yaml")
+        except FileNotFoundError:
+            self.report(f"no route {name} in {self.directory}")
+        except (OSError, RouteError) as error:
+            self.report(f"route {name} cannot be used: {error}")
+        return None
+
+    def _free(self) -> bool:
+        if self.teacher is not None:
+            self.report(f"teaching {self.teacher.name}: `done` first")
+            return False
+        if self.control.playback is not None:
+            self.report("a playback is running: P returns to live first")
+            return False
+        return True
+
+    def _record(self, purpose: str) -> Path | None:
+        """A session for `purpose`, unless one is being recorded already."""
+        if self.sessions.recording:
+            return self.sessions.recorder.path if self.sessions.recorder else None
+        path = self.sessions.start_recording()
+        if path is not None:
+            self._recording_for = purpose
+        return path
+
+    def _stop_recording(self) -> None:
+        if self._recording_for is not None:
+            self._recording_for = None
+            self.sessions.stop_recording()
+
+    def _stop_reached(self, stop: StopReached) -> None:
+        label = f"round{stop.round}-stop{stop.stop_index}-{stop.route_name}"
+        path = self.sessions.snapshot(label)
+        if path is not None:
+            self.report(f"snapshot {path.name}")
+
+    def _telemetry(self, telemetry: Telemetry) -> None:
+        self._link = telemetry.link
+        teacher = self.teacher
+        if teacher is not None:
+            teacher.observe_pose(self.control.clock.now(), telemetry.pose)
+
+
+def _ignore(stop: StopReached) -> None:
+    """A patrol without snapshots."""
