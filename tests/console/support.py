@@ -72,8 +72,8 @@ class SimulatedRobot:
         assert stop_sim_process(self.process) == 0
 
 
-def console_command(port: str) -> list[str]:
-    return [sys.executable, "-m", "giraff_console", "--port", port]
+def console_command(port: str, *options: str) -> list[str]:
+    return [sys.executable, "-m", "giraff_console", "--port", port, *options]
 
 
 def run(args: list[str]) -> subprocess.CompletedProcess:
@@ -83,12 +83,12 @@ def run(args: list[str]) -> subprocess.CompletedProcess:
 UP = b"\x1b[A"
 
 
-def spawn_console(port: str) -> tuple[int, int]:
+def spawn_console(port: str, *options: str) -> tuple[int, int]:
     """The real console in a new pseudo-terminal, 80x24; returns its pid and master fd."""
     pid, master = pty.fork()
     if pid == 0:  # the child: the pty is its controlling terminal
         os.environ["TERM"] = "xterm-256color"
-        args = console_command(port)
+        args = console_command(port, *options)
         os.execv(args[0], args)
     fcntl.ioctl(master, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 80, 0, 0))
     return pid, master
@@ -113,3 +113,47 @@ def hold_up(master: int, seconds: float) -> None:
     while time.monotonic() < end:
         os.write(master, UP)
         drain(master, 0.033)
+
+
+class Tmux:
+    def __init__(self, command: list[str]) -> None:
+        self.socket = f"giraff-test-{os.getpid()}"
+        self.tmux(
+            "-f", "/dev/null", "new-session", "-d", "-x", "120", "-y", "40", " ".join(command)
+        )
+        self.tmux("set", "-sg", "escape-time", "10")
+
+    def tmux(self, *args: str) -> str:
+        result = subprocess.run(["tmux", "-L", self.socket, *args], capture_output=True, text=True)
+        return result.stdout
+
+    def keys(self, *keys: str) -> None:
+        self.tmux("send-keys", *keys)
+
+    def screen(self) -> str:
+        return self.tmux("capture-pane", "-p")
+
+    def wait_for(self, text: str, timeout: float = 15.0) -> str:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            screen = self.screen()
+            if text in screen:
+                return screen
+            time.sleep(0.1)
+        raise AssertionError(f"{text!r} never appeared:\n{self.screen()}")
+
+    def hold(self, key: str, seconds: float) -> float:
+        """Press, then repeat every 33 ms after 0.5 s; returns the time of the last repeat."""
+        start = time.monotonic()
+        self.keys(key)
+        next_press = start + 0.5
+        last = start
+        while next_press < start + seconds:
+            time.sleep(max(0.0, next_press - time.monotonic()))
+            self.keys(key)
+            last = time.monotonic()
+            next_press += 0.033
+        return last
+
+    def kill(self) -> None:
+        self.tmux("kill-server")

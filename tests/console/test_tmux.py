@@ -7,61 +7,15 @@ pose, which is how the distances below are measured.
 from __future__ import annotations
 
 import itertools
-import os
 import re
 import shutil
-import subprocess
 import time
 
 import pytest
 
-from tests.console.support import SimulatedRobot, console_command, pose_at, settled
+from tests.console.support import SimulatedRobot, Tmux, console_command, pose_at, settled
 
 pytestmark = pytest.mark.skipif(shutil.which("tmux") is None, reason="tmux is not installed")
-
-
-class Tmux:
-    def __init__(self, command: list[str]) -> None:
-        self.socket = f"giraff-test-{os.getpid()}"
-        self.tmux(
-            "-f", "/dev/null", "new-session", "-d", "-x", "120", "-y", "40", " ".join(command)
-        )
-        self.tmux("set", "-sg", "escape-time", "10")
-
-    def tmux(self, *args: str) -> str:
-        result = subprocess.run(["tmux", "-L", self.socket, *args], capture_output=True, text=True)
-        return result.stdout
-
-    def keys(self, *keys: str) -> None:
-        self.tmux("send-keys", *keys)
-
-    def screen(self) -> str:
-        return self.tmux("capture-pane", "-p")
-
-    def wait_for(self, text: str, timeout: float = 15.0) -> str:
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            screen = self.screen()
-            if text in screen:
-                return screen
-            time.sleep(0.1)
-        raise AssertionError(f"{text!r} never appeared:\n{self.screen()}")
-
-    def hold(self, key: str, seconds: float) -> float:
-        """Press, then repeat every 33 ms after 0.5 s; returns the time of the last repeat."""
-        start = time.monotonic()
-        self.keys(key)
-        next_press = start + 0.5
-        last = start
-        while next_press < start + seconds:
-            time.sleep(max(0.0, next_press - time.monotonic()))
-            self.keys(key)
-            last = time.monotonic()
-            next_press += 0.033
-        return last
-
-    def kill(self) -> None:
-        self.tmux("kill-server")
 
 
 @pytest.fixture
