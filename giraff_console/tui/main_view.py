@@ -36,10 +36,13 @@ class MainView(Static):
         detail = Text(style="dim")
         if state is not None:
             detail.append(f"cdis {state.cdis:.3f} cang {state.cang:.1f}° mode {state.mode}  ")
-        detail.append(f"keys {held} {telemetry.speed:.2f} m/s")
         if telemetry.playback is not None:
-            motion.append("  played back: k pause · . step · j/l ∓10 s · < > speed · p live",
-                          style="green")  # fmt: skip
+            # The keys do not drive while playing back: say which ones do something.
+            detail = Text("k pause · . step · j/l ∓10 s · < > speed · p live", style="green")
+        else:
+            detail.append(f"keys {held} {telemetry.speed:.2f} m/s")
         if telemetry.mission is not None:
             motion.append(f"  {telemetry.mission}", style="bold cyan")
+        for line in (motion, detail):
+            line.no_wrap, line.overflow = True, "ellipsis"
         self.update(Text("\n").join([motion, detail]))

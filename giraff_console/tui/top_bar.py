@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from rich.text import Text
 from textual.widgets import Static
 
@@ -57,7 +59,7 @@ class TopBar(Static):
         playback = telemetry.playback
         if playback is not None:
             state = "paused" if playback.paused else f"{playback.speed:g}x"
-            where = f"{clock_time(playback.position)}/{clock_time(playback.duration)}"
+            where = f"{clock_time(playback.position)}/{clock_time(math.ceil(playback.duration))}"
             badges.append((f"PLAYBACK {where} {state}", "bold black on green"))
         return badges
 

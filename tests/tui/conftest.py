@@ -14,7 +14,7 @@ from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
 from giraff_console.recording.session import RecordingSetup
 from giraff_console.robot.control_loop import ControlLoop
-from giraff_console.robot.deadman import Deadman
+from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.teleop import Teleop
 from giraff_console.tui.app import GiraffConsole
 from giraff_console.tui.messages import CameraPictureUpdated
@@ -108,3 +108,20 @@ def rig() -> Rig:
 @pytest.fixture
 def camera_rig() -> Rig:
     return Rig(camera=True)
+
+
+def record_demo_session(root: Path) -> Path:
+    """Three seconds of driving a curve, with the camera, recorded as `root/demo`."""
+    rig = Rig(camera=True, recordings=root)
+    assert rig.sessions is not None and rig.camera is not None
+    rig.sessions.start_recording()
+    for tick in range(80):
+        if tick < 40:
+            rig.control.press(Intent.FORWARD_LEFT)
+        rig.control.tick()
+        if tick % 2 == 0:
+            rig.camera.picture()
+        rig.clock.advance(TICK)
+    path = rig.sessions.stop_recording()
+    assert path is not None
+    return path.rename(root / "demo")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from giraff_console.link import LinkDisconnected
+from tests.tui.conftest import Rig, record_demo_session
 
 
 def test_start_screen_80x24(snap_compare, rig):
@@ -66,3 +67,18 @@ def test_synthetic_camera_at_a_fixed_pose(snap_compare, camera_rig):
         await rig.show_camera(pilot)
 
     assert snap_compare(rig.app, terminal_size=(120, 40), run_before=camera)
+
+
+def test_playback_paused_with_its_video_pose_and_transcript(snap_compare, tmp_path):
+    session = record_demo_session(tmp_path / "recordings")
+    rig = Rig(camera=True, recordings=tmp_path / "recordings")
+
+    async def play(pilot):
+        await rig.run(pilot, 0.1)
+        rig.app.run_command(f"play {session}")
+        await rig.run(pilot, 1.6)
+        await pilot.press("k")
+        await rig.show_camera(pilot)
+        await rig.run(pilot, 0.1)
+
+    assert snap_compare(rig.app, terminal_size=(120, 40), run_before=play)
