@@ -37,9 +37,10 @@ from giraff_console.protocol import (
 )
 from giraff_console.recording.mcap_export import export_session
 from giraff_console.recording.playback import open_log
-from giraff_console.recording.session import RecordingSetup, SessionError
+from giraff_console.recording.session import RecordingSetup, SessionError, read_meta, start_pose
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
+from giraff_console.robot.odometry import Pose
 from giraff_console.robot.replay import replay_poses
 from giraff_console.robot.teleop import Teleop
 from giraff_console.settings import Settings, SettingsError, config_path, load_settings
@@ -282,7 +283,9 @@ def run_export(args: argparse.Namespace) -> int:
     """A recorded session as an MCAP file."""
     try:
         _, log = open_log(args.session)
-        summary = export_session(args.session, args.out, replay_poses(log))
+        meta = read_meta(args.session) if args.session.is_dir() else {}
+        poses = replay_poses(log, Pose(*start_pose(meta)))
+        summary = export_session(args.session, args.out, poses)
     except SessionError as error:
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_USAGE

@@ -22,6 +22,8 @@ from giraff_console.recording.session import (
     RecordingSetup,
     SessionError,
     SessionRecorder,
+    read_meta,
+    start_pose,
 )
 from giraff_console.robot.control_loop import ControlLoop, Telemetry
 
@@ -57,8 +59,10 @@ class Sessions:
             return None
         self.stop_recording()
         try:
+            pose = self.control.odometry.pose
             recorder = SessionRecorder(
-                self.recordings, self.setup, self.control.clock.now, self._recording_failed
+                self.recordings, self.setup, self.control.clock.now, self._recording_failed,
+                start_pose=(pose.x, pose.y, pose.heading),
             )
         except SessionError as error:
             self.report(f"not recording: {error}")
@@ -128,6 +132,7 @@ class Sessions:
         try:
             path, log = open_log(session)
             times = frame_times(session, log)
+            meta = read_meta(session) if session.is_dir() else {}
         except SessionError as error:
             self.report(f"not playing: {error}")
             return None
@@ -139,7 +144,7 @@ class Sessions:
             self.report(f"not playing: {path} has no playable lines")
             return None
         clock = self.control.clock
-        playback = Playback(session.name, log, clock.now())
+        playback = Playback(session.name, log, clock.now(), start_pose=start_pose(meta))
         video = session / VIDEO
         if self.camera is not None and video.is_file():
             source = RecordedVideo(video, times, lambda: playback.position(clock.now()), clock.now)

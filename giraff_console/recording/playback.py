@@ -22,7 +22,13 @@ from giraff_console.link.exchange import Exchange, ExchangeKind
 from giraff_console.protocol.errors import GiraffError
 from giraff_console.protocol.replies import parse_reply
 from giraff_console.recording.control_log import LogEntry, LogRead, read_log
-from giraff_console.recording.session import CONTROL_LOG, FRAMES, SessionError, read_meta
+from giraff_console.recording.session import (
+    CONTROL_LOG,
+    FRAMES,
+    SessionError,
+    StartPose,
+    read_meta,
+)
 
 SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
 _KINDS: dict[str, ExchangeKind] = {"S": "set", "G": "get", " ": "get", "C": "command"}
@@ -77,8 +83,10 @@ class Playback:
     session.
     """
 
-    def __init__(self, name: str, log: LogRead, now: float, speed: float = 1.0) -> None:
+    def __init__(self, name: str, log: LogRead, now: float, speed: float = 1.0,
+                 start_pose: StartPose = (0.0, 0.0, 0.0)) -> None:  # fmt: skip
         self.name = name
+        self.start_pose = start_pose
         self.log = log
         self.entries = log.entries
         self._offsets = [entry.offset for entry in self.entries]

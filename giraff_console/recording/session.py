@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import json
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -34,6 +35,8 @@ META = "meta.json"
 SNAPSHOTS = "snapshots"
 # The rate the video file declares; frames are placed by their recorded times anyway.
 VIDEO_FPS = 10.0
+
+StartPose = tuple[float, float, float]  # x, y in metres, heading in radians
 
 
 class SessionError(Exception):
@@ -71,6 +74,15 @@ def read_meta(session: Path) -> dict[str, Any]:
     return meta
 
 
+def start_pose(meta: dict[str, Any]) -> StartPose:
+    """The pose recording started from; the origin for a log without one (the original's)."""
+    pose = meta.get("start_pose")
+    if (isinstance(pose, list) and len(pose) == 3
+            and all(isinstance(v, int | float) and math.isfinite(v) for v in pose)):  # fmt: skip
+        return (float(pose[0]), float(pose[1]), float(pose[2]))
+    return (0.0, 0.0, 0.0)
+
+
 @dataclass(frozen=True)
 class RecordingSetup:
     """What meta.json says about where a session came from."""
@@ -89,8 +101,13 @@ class SessionRecorder:
     """
 
     def __init__(self, root: Path, setup: RecordingSetup, clock: Callable[[], float],
-                 on_error: Callable[[str], None] = lambda message: None) -> None:  # fmt: skip
-        """Create the session directory and its log; SessionError if that fails."""
+                 on_error: Callable[[str], None] = lambda message: None,
+                 start_pose: StartPose = (0.0, 0.0, 0.0)) -> None:  # fmt: skip
+        """Create the session directory and its log; SessionError if that fails.
+
+        `start_pose` is the odometry's pose (x, y, heading) as recording starts, so that
+        playback shows the poses that were shown.
+        """
         self.clock = clock
         self.on_error = on_error
         self.path = new_session_dir(root)
@@ -107,6 +124,7 @@ class SessionRecorder:
             "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             "started_unix": time.time(),
             "clock_origin": self.started_at,
+            "start_pose": list(start_pose),
         }
         try:
             (self.path / META).write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")

@@ -36,7 +36,8 @@ class Replayer:
 
     def __init__(self, playback: Playback) -> None:
         self.playback = playback
-        self.odometry = Odometry()
+        self.start = Pose(*playback.start_pose)
+        self.odometry = Odometry(self.start)
         self.state: MotorState | None = None
 
     def advance(self, now: float, notify: Callable[[Exchange], None]) -> None:
@@ -48,7 +49,7 @@ class Replayer:
 
     def seek(self, now: float, offset: float) -> None:
         """Move to `offset`, rebuilding the pose from the start of the session."""
-        self.odometry.reset()
+        self.odometry.reset(self.start)
         self.state = None
         for entry in self.playback.seek(now, offset):
             self._interpret(entry)
@@ -94,9 +95,9 @@ def recorded_state(entry: LogEntry) -> MotorState | None:
         return None
 
 
-def replay_poses(log: LogRead) -> Iterator[PoseSample]:
-    """The pose at every recorded `bulk_data` reply, as the console saw it."""
-    odometry = Odometry()
+def replay_poses(log: LogRead, start: Pose | None = None) -> Iterator[PoseSample]:
+    """The pose at every automatic `bulk_data` poll, as the console saw it."""
+    odometry = Odometry(start)
     for entry in log.entries:
         state = recorded_state(entry)
         if state is None:

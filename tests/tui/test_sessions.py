@@ -30,8 +30,12 @@ def collect_poses(rig: Rig, into: list, playback: bool = False):
 
 
 async def record_a_drive(rig: Rig, pilot) -> tuple[list, list[str]]:
-    """R, a drive with a curve and a turn, R; the live poses and transcript meanwhile."""
+    """A drive, then R, a drive with a curve and a turn, R; the live poses and transcript
+    while recording. Recording starts away from where the odometry started."""
     await rig.run(pilot, 0.2)
+    await rig.hold(pilot, "right", 1.0)
+    await rig.hold(pilot, "up", 1.0)
+    await rig.run(pilot, 1.0)
     await pilot.press("r")
     await rig.run(pilot, 0.1)
     poses: list = []
