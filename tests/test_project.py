@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ast
 import re
 import shutil
 import subprocess
@@ -62,3 +63,40 @@ def test_the_installed_package_carries_the_console_stylesheet(tmp_path):
     assert result.returncode == 0, result.stderr
     (wheel,) = tmp_path.glob("giraff_console-*.whl")
     assert "giraff_console/tui/app.tcss" in zipfile.ZipFile(wheel).namelist()
+
+
+# What each part of the package may import (design.md, "The shape"): the layers below it.
+# The simulator stands apart: it knows the wire format and nothing of the console.
+ALLOWED_IMPORTS = {
+    "protocol": {"protocol"},
+    "clock": set(),
+    "settings": {"robot", "link", "protocol", "clock"},
+    "sim": {"sim", "protocol", "clock"},
+    "link": {"link", "protocol", "clock"},
+    "camera": {"camera", "clock"},
+    "recording": {"recording", "camera", "link", "protocol", "clock"},
+    "robot": {"robot", "recording", "camera", "link", "protocol", "clock"},
+    "missions": {"missions", "robot", "recording", "camera", "link", "protocol", "clock"},
+}
+
+
+def test_each_layer_imports_only_the_layers_below_it():
+    package = ROOT / "giraff_console"
+    wrong = []
+    for path in package.rglob("*.py"):
+        part = path.relative_to(package).parts[0].removesuffix(".py")
+        if part not in ALLOWED_IMPORTS:
+            continue  # tui/, cli.py and the entry points may use everything
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module:
+                names = [node.module]
+            elif isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            else:
+                continue
+            for name in names:
+                if name.startswith("giraff_console."):
+                    layer = name.split(".")[1]
+                    if layer not in ALLOWED_IMPORTS[part] | {"__init__"}:
+                        wrong.append(f"{path.relative_to(ROOT)} imports {name}")
+    assert wrong == []
