@@ -18,8 +18,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from giraff_console.link.motor_state import MotorState
-from giraff_console.missions.route import Route, YamlFile
+from giraff_console.missions.route import Route
 from giraff_console.missions.route_replay import RouteReplay
+from giraff_console.missions.yaml_file import YamlFile
 from giraff_console.protocol.codec import Command
 
 PATROL_SUFFIX = ".patrol.yaml"

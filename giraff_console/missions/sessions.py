@@ -61,7 +61,10 @@ class Sessions:
         try:
             pose = self.control.odometry.pose
             recorder = SessionRecorder(
-                self.recordings, self.setup, self.control.clock.now, self._recording_failed,
+                self.recordings,
+                self.setup,
+                self.control.clock.now,
+                self._recording_failed,
                 start_pose=(pose.x, pose.y, pose.heading),
             )
         except SessionError as error:
