@@ -211,10 +211,10 @@ def report_playback(played: Played, size: int) -> None:
     print(stats_row("arrival - due", played.lateness))
     print(stats_row("  tick start - due (wake-up)", played.wake))
     print(stats_row("    of which loop busy past due", played.busy))
+    # Includes handing out the entries due before it in the same tick.
     in_tick = [total - wake for total, wake in zip(played.lateness, played.wake, strict=True)]
     print(stats_row("  arrival - tick start", in_tick))
     report_late(played)
-    # With many entries handed out in one tick, the in-tick share is the entries before.
     head = [ms for at, ms in zip(played.offsets, played.lateness, strict=True) if at < WINDOW_S]
     tail = [ms for at, ms in zip(played.offsets, played.lateness, strict=True)
             if at > span - WINDOW_S]  # fmt: skip

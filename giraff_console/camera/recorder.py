@@ -82,6 +82,6 @@ class VideoRecorder:
                 self._csv.writerow([self.written, f"{item.frame.captured_at:.4f}", *odometry])
                 self._index.flush()
             except OSError as error:  # a full disk: stop recording, keep everything else
-                self.error = f"recording stopped: {error}"
+                self.error = f"video recording stopped: {error.strerror or error}"
                 return
             self.written += 1

@@ -7,10 +7,12 @@ camera snapshot into it at each stop when its file asks for snapshots.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from pathlib import Path
 
 from giraff_console.missions.patrol import (
+    PATROL_SUFFIX,
     PatrolError,
     PatrolRun,
     StopReached,
@@ -27,9 +29,8 @@ from giraff_console.missions.route import (
 )
 from giraff_console.missions.route_replay import RouteReplay
 from giraff_console.missions.sessions import Sessions
+from giraff_console.recording.session import SessionRecorder
 from giraff_console.robot.control_loop import ControlLoop, LinkState, Telemetry
-
-PATROL_SUFFIX = ".patrol.yaml"
 
 
 class RouteBook:
@@ -42,7 +43,9 @@ class RouteBook:
         self.directory = directory
         self.report = report
         self.teacher: RouteTeacher | None = None
-        self._recording_for: str | None = None
+        # The recording this book started, for teaching or a patrol; it stops it, and
+        # only it, when that is over.
+        self._recording: SessionRecorder | None = None
         self._link = LinkState.LOST
         control.telemetry_observers.append(self._telemetry)
 
@@ -60,7 +63,7 @@ class RouteBook:
         if self._link is not LinkState.CONNECTED or not settings:
             self.report("not teaching: the board's settings are unknown until it answers")
             return False
-        session = self._record(f"route {name}")
+        session = self._record()
         try:
             self.teacher = RouteTeacher(name, self.control.clock.now(),
                                         self.control.odometry.pose, settings,
@@ -70,6 +73,8 @@ class RouteBook:
             self.report(f"not teaching: {error}")
             return False
         self.control.observers.append(self.teacher.observe_exchange)
+        # A playback now would feed recorded commands to the route being taught.
+        self.sessions.busy = f"teaching route {name}: `done` first"
         self.report(f"teaching route {name}: drive it, `mark PLACE` names a place, `done` saves")
         return True
 
@@ -91,6 +96,7 @@ class RouteBook:
             self.report("not teaching: nothing to save")
             return None
         self.control.observers.remove(teacher.observe_exchange)
+        self.sessions.busy = None
         self._stop_recording()
         route = teacher.finish(self.control.clock.now(), self.control.odometry.pose)
         try:
@@ -138,9 +144,14 @@ class RouteBook:
                 return False
             routes[stop.route] = route
         run = PatrolRun(patrol, routes, self._stop_reached if patrol.snapshots else _ignore)
-        if patrol.snapshots:
-            self._record(f"patrol {name}")
-        self.control.run_mission(run, lambda why: self._stop_recording())
+        recording = self._record() if patrol.snapshots else None
+
+        def ended(why: str) -> None:
+            # On the loop's thread: closing the files may take a while on a slow disk.
+            if recording is not None:
+                _in_background(lambda: self._stop_recording(recording))
+
+        self.control.run_mission(run, ended)
         return True
 
     # -- helpers ------------------------------------------------------------------------
@@ -163,25 +174,32 @@ class RouteBook:
             return False
         return True
 
-    def _record(self, purpose: str) -> Path | None:
-        """A session for `purpose`, unless one is being recorded already."""
-        if self.sessions.recording:
-            return self.sessions.recorder.path if self.sessions.recorder else None
+    def _record(self) -> Path | None:
+        """The session being recorded, or a new one this book will stop again."""
+        if self.sessions.recorder is not None:
+            return self.sessions.recorder.path
         path = self.sessions.start_recording()
-        if path is not None:
-            self._recording_for = purpose
+        self._recording = self.sessions.recorder
         return path
 
-    def _stop_recording(self) -> None:
-        if self._recording_for is not None:
-            self._recording_for = None
-            self.sessions.stop_recording()
+    def _stop_recording(self, recording: SessionRecorder | None = None) -> None:
+        """Stop the recording this book started (`recording`, if given), if it still runs."""
+        recorder = recording or self._recording
+        if recorder is not None and recorder is self._recording:
+            self._recording = None
+            self.sessions.stop_recording(only=recorder)
 
     def _stop_reached(self, stop: StopReached) -> None:
+        """On the loop's thread, as the robot comes to rest: the snapshot is encoded and
+        written on another."""
         label = f"round{stop.round}-stop{stop.stop_index}-{stop.route_name}"
-        path = self.sessions.snapshot(label)
-        if path is not None:
-            self.report(f"snapshot {path.name}")
+
+        def snapshot() -> None:
+            path = self.sessions.snapshot(label)
+            if path is not None:
+                self.report(f"snapshot {path.name}")
+
+        _in_background(snapshot)
 
     def _telemetry(self, telemetry: Telemetry) -> None:
         self._link = telemetry.link
@@ -192,3 +210,8 @@ class RouteBook:
 
 def _ignore(stop: StopReached) -> None:
     """A patrol without snapshots."""
+
+
+def _in_background(work: Callable[[], None]) -> None:
+    """Disk work that the control loop must not wait for."""
+    threading.Thread(target=work, name="route-book", daemon=True).start()

@@ -8,6 +8,7 @@ video, both following the same playback position.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from pathlib import Path
 
@@ -42,8 +43,11 @@ class Sessions:
         self.setup = setup
         self.report = report
         self.recorder: SessionRecorder | None = None
+        # Set while something must not be disturbed by a playback: a route being taught.
+        self.busy: str | None = None
         self._history = SampleHistory()
         self._live_camera: CameraSource | None = None
+        self._playing: Playback | None = None
         control.telemetry_observers.append(self._telemetry)
 
     # -- recording ----------------------------------------------------------------------
@@ -66,6 +70,7 @@ class Sessions:
                 self.control.clock.now,
                 self._recording_failed,
                 start_pose=(pose.x, pose.y, pose.heading),
+                warn=lambda message: self.report(message),
             )
         except SessionError as error:
             self.report(f"not recording: {error}")
@@ -77,11 +82,13 @@ class Sessions:
         self.report(f"recording to {recorder.path}")
         return recorder.path
 
-    def stop_recording(self) -> Path | None:
-        """Stop and close the recording, if there is one; returns its directory."""
-        recorder, self.recorder = self.recorder, None
-        if recorder is None:
+    def stop_recording(self, only: SessionRecorder | None = None) -> Path | None:
+        """Stop and close the recording, if there is one (and it is `only`, if given);
+        returns its directory."""
+        recorder = self.recorder
+        if recorder is None or (only is not None and recorder is not only):
             return None
+        self.recorder = None
         self._detach(recorder)
         summary = recorder.close()
         self.report(f"recording stopped: {recorder.path} ({summary})")
@@ -100,11 +107,16 @@ class Sessions:
             recorder.frame(frame, self._history.nearest(frame.captured_at))
 
     def _recording_failed(self, message: str) -> None:
-        # Called from the log writer's thread; driving goes on regardless.
+        """The log could not be written: the recording is over, driving goes on.
+
+        Called from the log writer's own thread, which `close` waits for; so the closing
+        (the video's last frames, the files) happens on a thread of its own.
+        """
         recorder, self.recorder = self.recorder, None
+        self.report(message)
         if recorder is not None:
             self._detach(recorder)
-        self.report(message)
+            threading.Thread(target=recorder.close, name="recording-close", daemon=True).start()
 
     def _detach(self, recorder: SessionRecorder) -> None:
         if recorder.exchange in self.control.observers:
@@ -128,6 +140,9 @@ class Sessions:
         if self.recorder is not None:
             self.report("not playing: a recording is running (R stops it)")
             return None
+        if self.busy is not None:
+            self.report(f"not playing: {self.busy}")
+            return None
         session = session or self.latest()
         if session is None:
             self.report(f"nothing to play: no sessions in {self.recordings}")
@@ -149,10 +164,15 @@ class Sessions:
         clock = self.control.clock
         playback = Playback(session.name, log, clock.now(), start_pose=start_pose(meta))
         video = session / VIDEO
+        self._playing = playback
         if self.camera is not None and video.is_file():
             source = RecordedVideo(video, times, lambda: playback.position(clock.now()), clock.now)
-            self._live_camera = self.camera.switch(source)
-        self.control.play(playback, self._restore_camera)
+            shown = self.camera.switch(source)
+            # A playback that replaces another goes back to the camera, not to the other's video.
+            self._live_camera = self._live_camera or shown
+        elif self._live_camera is not None:
+            self._restore_camera()
+        self.control.play(playback, lambda: self._ended(playback))
         return playback
 
     def stop_playback(self) -> None:
@@ -163,6 +183,12 @@ class Sessions:
         if self.recorder is not None:
             pose = telemetry.pose
             self._history.add(self.control.clock.now(), (pose.x, pose.y, pose.heading))
+
+    def _ended(self, playback: Playback) -> None:
+        """A playback is over; unless another has taken its place, the camera is live."""
+        if self._playing is playback:
+            self._playing = None
+            self._restore_camera()
 
     def _restore_camera(self) -> None:
         live, self._live_camera = self._live_camera, None

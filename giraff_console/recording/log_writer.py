@@ -57,8 +57,10 @@ class LogWriter:
         dirty = False
         try:
             while True:
+                # With lines not yet on disk, wake no later than their fsync is due.
+                due = synced_at + self.fsync_interval - time.monotonic()
                 try:
-                    line = self._queue.get(timeout=self.fsync_interval)
+                    line = self._queue.get(timeout=max(0.0, due) if dirty else None)
                 except queue.Empty:
                     line = ""
                 if line is None:

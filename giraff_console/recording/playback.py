@@ -68,8 +68,9 @@ def frame_times(session: Path, log: LogRead) -> list[float]:
             with index.open(newline="") as file:
                 for row in csv.DictReader(file):
                     times.append(float(row["captured_at"]) - origin)
-        except (OSError, KeyError, ValueError):
-            # A frame index cut short: the frames it names are still placed right.
+        except (OSError, KeyError, TypeError, ValueError):
+            # A frame index cut short (a crash mid-row leaves a row with missing fields):
+            # the frames before it are still placed right.
             pass
         return times
     return [entry.offset for entry in log.entries if entry.frame_marker]
@@ -115,8 +116,10 @@ class Playback:
             return self._position(now)
 
     def finished(self, now: float) -> bool:
+        """Played to the end; a paused playback waits for the operator, even there."""
         with self._lock:
-            return self._next >= len(self.entries) and self._position(now) >= self.duration
+            return (not self._paused and self._next >= len(self.entries)
+                    and self._position(now) >= self.duration)  # fmt: skip
 
     def due(self, now: float) -> list[LogEntry]:
         """The entries whose time has come since the last call, in order."""
@@ -154,12 +157,14 @@ class Playback:
             return self._speed
 
     def step(self, now: float) -> float:
-        """Pause, and move on to the next entry's time; returns the new position."""
+        """Pause, and move on to the time of the next entry after the position; returns
+        the new position."""
         with self._lock:
             self._rebase(now)
             self._paused = True
-            if self._next < len(self.entries):
-                self._base_offset = self._offsets[self._next]
+            following = bisect.bisect_right(self._offsets, self._base_offset + 1e-6)
+            if following < len(self.entries):
+                self._base_offset = self._offsets[following]
             return self._base_offset
 
     def seek(self, now: float, offset: float) -> list[LogEntry]:

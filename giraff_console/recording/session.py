@@ -96,13 +96,15 @@ class SessionRecorder:
     """Records one session: the control log at once, the video from the first frame.
 
     `exchange` is a link observer and `frame` a camera tap; both are called from other
-    threads and return at once. A write error stops the recording and calls `on_error`;
-    whatever drives the robot goes on undisturbed.
+    threads and return at once. A log that cannot be written stops the recording and
+    calls `on_error`; video and snapshots that cannot be written call `warn`, and the
+    log goes on. Whatever drives the robot goes on undisturbed either way.
     """
 
     def __init__(self, root: Path, setup: RecordingSetup, clock: Callable[[], float],
                  on_error: Callable[[str], None] = lambda message: None,
-                 start_pose: StartPose = (0.0, 0.0, 0.0)) -> None:  # fmt: skip
+                 start_pose: StartPose = (0.0, 0.0, 0.0),
+                 warn: Callable[[str], None] = lambda message: None) -> None:  # fmt: skip
         """Create the session directory and its log; SessionError if that fails.
 
         `start_pose` is the odometry's pose (x, y, heading) as recording starts, so that
@@ -110,6 +112,7 @@ class SessionRecorder:
         """
         self.clock = clock
         self.on_error = on_error
+        self.warn = warn
         self.path = new_session_dir(root)
         self.started_at = clock()
         self._video: VideoRecorder | None = None
@@ -152,8 +155,12 @@ class SessionRecorder:
                 self._video = VideoRecorder(self.path / VIDEO, frame.size, VIDEO_FPS)
             except OSError as error:
                 self._video_failed = True
-                self.on_error(f"video not recorded: {error}")
+                self.warn(f"video not recorded: {error}")
                 return
+        if self._video.error is not None:
+            self._video_failed = True
+            self.warn(self._video.error)
+            return
         self._video.submit(RecordedFrame(frame, sample))
 
     def snapshot(self, name: str, frame: Frame) -> Path | None:
@@ -166,7 +173,7 @@ class SessionRecorder:
                 raise OSError("JPEG encoding failed")
             path.write_bytes(data.tobytes())
         except OSError as error:
-            self.on_error(f"snapshot {name} not saved: {error}")
+            self.warn(f"snapshot {name} not saved: {error}")
             return None
         return path
 

@@ -91,9 +91,7 @@ class ControlLoop:
         # Every snapshot, on the loop's thread, as it is published.
         self.telemetry_observers: list[Callable[[Telemetry], None]] = []
         self.link: BoardLink | None = None
-        self._jobs: queue.SimpleQueue[tuple[BoardJob, Callable[[object], None]]] = (
-            queue.SimpleQueue()
-        )
+        self._jobs: queue.SimpleQueue[tuple[BoardJob, JobDone, bool]] = queue.SimpleQueue()
         self._wake = threading.Event()
         self._running = False
         self._thread: threading.Thread | None = None
@@ -146,9 +144,14 @@ class ControlLoop:
         self.deadman.release()
         self._wake.set()
 
-    def submit(self, job: BoardJob, done: JobDone = lambda result: None) -> None:
-        """Run `job(link)` on the loop's thread; `done` gets its result or the GiraffError."""
-        self._jobs.put((job, done))
+    def submit(self, job: BoardJob, done: JobDone = lambda result: None, *,
+               stop: bool = False) -> None:  # fmt: skip
+        """Run `job(link)` on the loop's thread; `done` gets its result or the GiraffError.
+
+        Only a job that stops the robot (`stop`) is run during a playback, when nothing
+        else may reach the robot.
+        """
+        self._jobs.put((job, done, stop))
         self._wake.set()
 
     def play(self, playback: Playback, ended: Callable[[], None] = lambda: None) -> None:
@@ -223,11 +226,7 @@ class ControlLoop:
                 # A scheduled tick: note how late it is, keep to the fixed rate.
                 self._late = now - next_tick
                 next_tick = max(next_tick + self.period, now)
-            try:
-                self.tick(early=early)
-            except Exception:
-                log.exception("control tick failed")
-                self._crash()
+            self.tick(early=early)
             self._wake.wait(max(0.0, min(next_tick, self.next_due()) - self.clock.now()))
 
     def next_due(self) -> float:
@@ -240,8 +239,16 @@ class ControlLoop:
     def tick(self, early: bool = False) -> None:
         """One control cycle; public so that tests can step the loop on a virtual clock.
 
-        `early` marks a tick that a key press brought forward.
+        `early` marks a tick that a key press brought forward. A bug in the cycle stops
+        the robot rather than the loop.
         """
+        try:
+            self._tick(early)
+        except Exception:
+            log.exception("control tick failed")
+            self._crash()
+
+    def _tick(self, early: bool) -> None:
         now = self.clock.now()
         self._recent.append(now)
         while self._recent[0] < now - 1.0:
@@ -355,7 +362,7 @@ class ControlLoop:
         assert self._replayer is not None
         if self.link is not None:
             try:
-                self._run_jobs(self.link)
+                self._run_jobs(self.link, stops_only=True)
             except LinkError as error:
                 self.report(f"LINK LOST: {error}")
                 self._drop_link()
@@ -397,14 +404,20 @@ class ControlLoop:
             self.report("internal error in the control loop; robot commanded to stop")
         if self.link is not None:
             stop_robot(self.link)
+        # Whatever was driving is over: nothing starts moving again by itself.
+        self._end_mission("stopped: internal error", stop=False)
+        self._end_playback("playback stopped: internal error")
         self._drop_link()
 
-    def _run_jobs(self, link: BoardLink) -> None:
+    def _run_jobs(self, link: BoardLink, stops_only: bool = False) -> None:
         while True:
             try:
-                job, done = self._jobs.get_nowait()
+                job, done, stop = self._jobs.get_nowait()
             except queue.Empty:
                 return
+            if stops_only and not stop:
+                done(GiraffError("not sent: playing back, nothing goes to the robot"))
+                continue
             try:
                 result: object = job(link)
             except LinkError:
@@ -466,7 +479,7 @@ class ControlLoop:
         """Nothing typed while the link is down may reach the board when it comes back."""
         while True:
             try:
-                _, done = self._jobs.get_nowait()
+                _, done, _ = self._jobs.get_nowait()
             except queue.Empty:
                 return
             done(LinkError("not sent: no link to the board"))

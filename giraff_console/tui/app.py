@@ -21,8 +21,9 @@ from giraff_console.camera.source import RESOLUTIONS as CAMERA_RESOLUTIONS
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
 from giraff_console.protocol import Command, CommandError, GiraffError, parse_command, parse_number
+from giraff_console.recording.playback import Playback
 from giraff_console.robot.command_guard import check_command
-from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.robot.control_loop import BoardJob, ControlLoop
 from giraff_console.robot.deadman import Intent
 from giraff_console.robot.safety import stop_robot
 from giraff_console.tui.camera_view import CameraView
@@ -246,7 +247,7 @@ class GiraffConsole(App[None]):
         """Stop now: let go of the keys, and stop any move, typed or undocking, as well."""
         self.control.halt()
         self.control.stop_mission("stopped by the operator")
-        self.control.submit(stop_robot)
+        self.control.submit(stop_robot, stop=True)
         self.note("stop")
 
     def action_speed(self, step: int) -> None:
@@ -286,9 +287,13 @@ class GiraffConsole(App[None]):
 
     def action_pause_playback(self) -> None:
         playback = self._playback()
-        if playback is not None:
-            now = self.control.clock.now()
-            playback.resume(now) if playback.paused else playback.pause(now)
+        if playback is None:
+            return
+        now = self.control.clock.now()
+        if playback.paused:
+            playback.resume(now)
+        else:
+            playback.pause(now)
 
     def action_step_playback(self) -> None:
         playback = self._playback()
@@ -310,7 +315,7 @@ class GiraffConsole(App[None]):
         if playback is not None:
             self.note(f"playback at {playback.set_speed(self.control.clock.now(), speed):g}x")
 
-    def _playback(self):
+    def _playback(self) -> Playback | None:
         playback = self.control.playback
         if playback is None:
             self.note("no playback running: P plays the newest session")
@@ -351,7 +356,11 @@ class GiraffConsole(App[None]):
         self.control.stop()
         self.exit()
 
-    def _board_job(self, job) -> None:
+    def _board_job(self, job: BoardJob) -> None:
+        if self.control.playback is not None:
+            self.note("not sent: playing back, nothing goes to the robot (P returns to live)")
+            return
+
         def done(result: object) -> None:
             if isinstance(result, CommandError):
                 self.post_message(StatusNote(f"refused: {result}"))
@@ -400,9 +409,10 @@ class GiraffConsole(App[None]):
                 self._play(Path(argument).expanduser() if argument else None)
         elif word in ("pause", "resume"):
             playback = self._playback()
-            if playback is not None:
-                now = self.control.clock.now()
-                playback.pause(now) if word == "pause" else playback.resume(now)
+            if playback is not None and word == "pause":
+                playback.pause(self.control.clock.now())
+            elif playback is not None:
+                playback.resume(self.control.clock.now())
         else:
             try:
                 value = float(parse_number(argument))

@@ -53,10 +53,11 @@ def test_a_session_killed_mid_recording_plays_up_to_its_last_complete_line(robot
     assert len(shown) == len(log.entries)
     assert replayer.pose.x > 0.3  # the drive is in it
 
-    # The video file was never finished; playing it shows what can be read, or nothing.
+    # Each frame's time was on disk as it was taken; the MP4 itself was never finished,
+    # and an MP4 without its index cannot be read: playback shows no video, and no error.
     times = frame_times(session, log)
+    assert len(times) > 10
     video = RecordedVideo(session / "camera.mp4", times, lambda: log.duration, time.monotonic)
     video.open(800, 600)
-    frame = video.read()
-    assert frame is None or frame.size[0] > 0
+    assert video.read() is None
     video.close()

@@ -72,6 +72,10 @@ async def test_a_session_plays_back_with_the_pose_and_transcript_it_was_recorded
         await replay.run(pilot, 0.05)
         assert "PLAYBACK" in str(replay.app.top_bar.render())
         start = replay.board.true_pose
+        # Nothing typed reaches the robot either, nor do the driving keys.
+        await type_command(pilot, "set p 0.2")
+        await pilot.press("up", "u")
+        assert "not sent: playing back" in " ".join(replay.app.status_log.texts)
         await replay.run(pilot, read_log(session / "control.log").duration + 0.5)
         assert replay.control.playback is None  # back to live at the end
         assert replay.board.true_pose == start  # nothing reached the robot
