@@ -30,7 +30,8 @@ from giraff_console.missions.route import (
 from giraff_console.missions.route_replay import RouteReplay
 from giraff_console.missions.sessions import Sessions
 from giraff_console.recording.session import SessionRecorder
-from giraff_console.robot.control_loop import ControlLoop, LinkState, Telemetry
+from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.robot.telemetry import LinkState, Telemetry
 
 
 class RouteBook:

@@ -26,7 +26,8 @@ from giraff_console.recording.session import (
     read_meta,
     start_pose,
 )
-from giraff_console.robot.control_loop import ControlLoop, Telemetry
+from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.robot.telemetry import Telemetry
 
 # Problems with a log are listed up to this many; the rest are counted.
 SHOWN_PROBLEMS = 5

@@ -30,20 +30,10 @@ from mcap.writer import Writer
 
 from giraff_console.recording.control_log import LogRead
 from giraff_console.recording.playback import frame_times, open_log
-from giraff_console.recording.session import VIDEO, SessionError, read_meta
+from giraff_console.recording.session import VIDEO, PoseSample, SessionError, read_meta
 
 # A message as the streams produce it: seconds into the session, topic, JSON body.
 Message = tuple[float, str, dict[str, Any]]
-
-
-@dataclass(frozen=True)
-class PoseSample:
-    """Where odometry put the robot `offset` seconds into the session."""
-
-    offset: float
-    x: float
-    y: float
-    heading: float  # radians, counter-clockwise from +x
 
 
 @dataclass(frozen=True)

@@ -39,6 +39,16 @@ VIDEO_FPS = 10.0
 StartPose = tuple[float, float, float]  # x, y in metres, heading in radians
 
 
+@dataclass(frozen=True)
+class PoseSample:
+    """Where odometry put the robot `offset` seconds into the session."""
+
+    offset: float
+    x: float
+    y: float
+    heading: float  # radians, counter-clockwise from +x
+
+
 class SessionError(Exception):
     """A session that cannot be recorded or read; the message says why."""
 

@@ -9,20 +9,19 @@ When the board stops answering the loop reports LINK LOST and reconnects with
 back-off; the first thing it sends to a reconnected board is a stop.
 
 Instead of teleop the loop may run a mission (a route, a patrol), or play a recorded
-session back, in which case nothing but a stop goes to the robot (§3.2.1.1).
+session back, in which case nothing but a stop goes to the robot (§3.2.1.1). Since
+everything that reaches the board passes through here, this module is longer than most.
 """
 
 from __future__ import annotations
 
 import collections
-import enum
 import logging
 import math
 import queue
 import sys
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass
 
 from giraff_console.clock import Clock
 from giraff_console.link import BoardLink, Exchange, LinkError, MotorState, Observer
@@ -31,9 +30,10 @@ from giraff_console.recording.playback import Playback
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.mission import Mission
-from giraff_console.robot.odometry import Odometry, Pose
-from giraff_console.robot.replay import PlaybackStatus, Replayer
+from giraff_console.robot.odometry import Odometry
+from giraff_console.robot.replay import Replayer
 from giraff_console.robot.safety import stop_robot
+from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.robot.teleop import Teleop
 
 log = logging.getLogger(__name__)
@@ -45,28 +45,6 @@ Connect = Callable[[], BoardLink]
 BoardJob = Callable[[BoardLink], object]
 JobDone = Callable[[object], None]
 MissionEnded = Callable[[str], None]
-
-
-class LinkState(enum.Enum):
-    CONNECTED = "connected"
-    LOST = "link lost"
-
-
-@dataclass(frozen=True)
-class Telemetry:
-    """What the console shows, as of one control tick."""
-
-    link: LinkState
-    state: MotorState | None
-    pose: Pose
-    intent: Intent | None
-    speed: float
-    board_r: float | None
-    autopoll: bool
-    loop_hz: float
-    late_ms: float
-    playback: PlaybackStatus | None = None
-    mission: str | None = None
 
 
 class ControlLoop:

@@ -15,8 +15,8 @@ from giraff_console.link.exchange import Exchange
 from giraff_console.link.motor_state import MotorState
 from giraff_console.protocol.errors import ProtocolError
 from giraff_console.recording.control_log import LogEntry, LogRead
-from giraff_console.recording.mcap_export import PoseSample
 from giraff_console.recording.playback import Playback, as_exchange
+from giraff_console.recording.session import PoseSample
 from giraff_console.robot.odometry import Odometry, Pose
 
 

@@ -21,7 +21,6 @@ from giraff_console.camera.source import RESOLUTIONS as CAMERA_RESOLUTIONS
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
 from giraff_console.protocol import Command, CommandError, GiraffError, parse_command, parse_number
-from giraff_console.recording.playback import Playback
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.control_loop import BoardJob, ControlLoop
 from giraff_console.robot.deadman import Intent
@@ -36,6 +35,7 @@ from giraff_console.tui.messages import (
     StatusNote,
     TelemetryUpdated,
 )
+from giraff_console.tui.session_commands import ROUTE_COMMANDS, SESSION_COMMANDS, SessionCommands
 from giraff_console.tui.status_log import StatusLog
 from giraff_console.tui.top_bar import TopBar
 from giraff_console.tui.transcript import Transcript
@@ -64,11 +64,9 @@ CONSOLE_COMMANDS = [
     ("go", "arrives with the planning issue"),
 ]
 LATER = {"go": "planning"}
-SESSION_COMMANDS = ("record", "play", "pause", "resume", "seek", "rate")
-ROUTE_COMMANDS = ("teach", "mark", "done", "routes", "replay-route", "patrol")
 
 
-class GiraffConsole(App[None]):
+class GiraffConsole(SessionCommands, App[None]):
     """The operator's screen; `control` runs the robot."""
 
     CSS_PATH = "app.tcss"
@@ -269,63 +267,6 @@ class GiraffConsole(App[None]):
         on = self.camera.pipeline.toggle(name)
         self.note(f"{name} {'on' if on else 'off'}")
 
-    def action_record(self) -> None:
-        if self.sessions is None:
-            self.note("recording is not available")
-        elif self.sessions.recording:
-            self.sessions.stop_recording()
-        else:
-            self.sessions.start_recording()
-
-    def action_playback(self) -> None:
-        if self.sessions is None:
-            self.note("playback is not available")
-        elif self.control.playback is not None:
-            self.sessions.stop_playback()
-        else:
-            self._play(None)
-
-    def action_pause_playback(self) -> None:
-        playback = self._playback()
-        if playback is None:
-            return
-        now = self.control.clock.now()
-        if playback.paused:
-            playback.resume(now)
-        else:
-            playback.pause(now)
-
-    def action_step_playback(self) -> None:
-        playback = self._playback()
-        if playback is not None:
-            playback.step(self.control.clock.now())
-
-    def action_seek(self, seconds: float) -> None:
-        playback = self._playback()
-        if playback is not None:
-            self.control.seek(playback.position(self.control.clock.now()) + seconds)
-
-    def action_rate(self, factor: float) -> None:
-        playback = self._playback()
-        if playback is not None:
-            self._set_rate(playback.speed * factor)
-
-    def _set_rate(self, speed: float) -> None:
-        playback = self._playback()
-        if playback is not None:
-            self.note(f"playback at {playback.set_speed(self.control.clock.now(), speed):g}x")
-
-    def _playback(self) -> Playback | None:
-        playback = self.control.playback
-        if playback is None:
-            self.note("no playback running: P plays the newest session")
-        return playback
-
-    def _play(self, session: Path | None) -> None:
-        assert self.sessions is not None
-        if self.sessions.start_playback(session) is not None:
-            self.transcript.separator("playback")
-
     def action_command_line(self) -> None:
         self.command_line.display = True
         self.command_line.focus()
@@ -392,63 +333,6 @@ class GiraffConsole(App[None]):
         self.command_line.action_close()
         if text:
             self.run_command(text)
-
-    def _session_command(self, word: str, argument: str) -> None:
-        """record [stop], play [DIR|stop], pause, resume, seek SECONDS, rate X."""
-        if self.sessions is None:
-            self.note("sessions are not available")
-        elif word == "record":
-            if argument == "stop":
-                self.sessions.stop_recording()
-            elif not self.sessions.recording:
-                self.sessions.start_recording()
-        elif word == "play":
-            if argument == "stop":
-                self.sessions.stop_playback()
-            else:
-                self._play(Path(argument).expanduser() if argument else None)
-        elif word in ("pause", "resume"):
-            playback = self._playback()
-            if playback is not None and word == "pause":
-                playback.pause(self.control.clock.now())
-            elif playback is not None:
-                playback.resume(self.control.clock.now())
-        else:
-            try:
-                value = float(parse_number(argument))
-            except CommandError:
-                self.note(f"refused: usage: {word} {'12.5' if word == 'seek' else '4'}")
-                return
-            if word == "seek":
-                if self._playback() is not None:
-                    self.control.seek(value)
-            else:
-                self._set_rate(value)
-
-    def _route_command(self, word: str, argument: str) -> None:
-        """teach NAME, mark PLACE, done, routes, replay-route NAME, patrol NAME|pause|..."""
-        routes = self.routes
-        if routes is None:
-            self.note("routes are not available")
-        elif word == "done":
-            routes.done()
-        elif word == "routes":
-            for line in routes.listing():
-                self.note(line)
-        elif not argument:
-            self.note(f"refused: usage: {word} NAME")
-        elif word == "teach":
-            routes.teach(argument)
-        elif word == "mark":
-            routes.mark(argument)
-        elif word == "replay-route":
-            routes.replay(argument)
-        elif argument in ("pause", "resume"):
-            self.control.pause_mission(argument == "pause")
-        elif argument == "stop":
-            self.control.stop_mission()
-        else:
-            routes.patrol(argument)
 
     def run_command(self, text: str) -> None:
         """A console command, or a controller command checked against the limits."""

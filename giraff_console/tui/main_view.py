@@ -5,7 +5,7 @@ from __future__ import annotations
 from rich.text import Text
 from textual.widgets import Static
 
-from giraff_console.robot.control_loop import LinkState, Telemetry
+from giraff_console.robot.telemetry import LinkState, Telemetry
 
 
 class MainView(Static):

@@ -6,7 +6,7 @@ from textual.message import Message
 
 from giraff_console.camera.feed import CameraPicture
 from giraff_console.link import Exchange
-from giraff_console.robot.control_loop import Telemetry
+from giraff_console.robot.telemetry import Telemetry
 
 
 class TelemetryUpdated(Message):

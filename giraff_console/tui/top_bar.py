@@ -8,7 +8,7 @@ from rich.text import Text
 from textual.widgets import Static
 
 from giraff_console.link import MotorState
-from giraff_console.robot.control_loop import LinkState, Telemetry
+from giraff_console.robot.telemetry import LinkState, Telemetry
 
 
 class TopBar(Static):

@@ -16,8 +16,8 @@ from mcap.reader import make_reader
 from giraff_console.camera.recorder import RecordedFrame, VideoRecorder
 from giraff_console.camera.source import Frame
 from giraff_console.recording.control_log import LogEntry, format_entry
-from giraff_console.recording.mcap_export import PoseSample, export_session
-from giraff_console.recording.session import SessionError
+from giraff_console.recording.mcap_export import export_session
+from giraff_console.recording.session import PoseSample, SessionError
 
 STARTED_UNIX = 1_700_000_000.25
 CLOCK_ORIGIN = 5000.0

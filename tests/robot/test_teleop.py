@@ -7,8 +7,9 @@ import math
 import pytest
 
 from giraff_console.link import BoardLink, LinkDisconnected
-from giraff_console.robot.control_loop import ControlLoop, LinkState
+from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
+from giraff_console.robot.telemetry import LinkState
 from giraff_console.robot.teleop import DriveLimits, Teleop
 
 TICK = 0.05
