@@ -48,6 +48,7 @@ class Sessions:
         self.busy: str | None = None
         self._history = SampleHistory()
         self._live_camera: CameraSource | None = None
+        self._live_size = (0, 0)
         self._playing: Playback | None = None
         control.telemetry_observers.append(self._telemetry)
 
@@ -169,8 +170,9 @@ class Sessions:
         if self.camera is not None and video.is_file():
             source = RecordedVideo(video, times, lambda: playback.position(clock.now()), clock.now)
             shown = self.camera.switch(source)
-            # A playback that replaces another goes back to the camera, not to the other's video.
-            self._live_camera = self._live_camera or shown
+            if self._live_camera is None:
+                # Not when a playback replaces another: back to the camera, not its video.
+                self._live_camera, self._live_size = shown, self.camera.size
         elif self._live_camera is not None:
             self._restore_camera()
         self.control.play(playback, lambda: self._ended(playback))
@@ -195,3 +197,5 @@ class Sessions:
         live, self._live_camera = self._live_camera, None
         if live is not None and self.camera is not None:
             self.camera.switch(live)
+            # At the resolution it had, not the recording's.
+            self.camera.set_resolution(*self._live_size)
