@@ -145,7 +145,10 @@ class RouteBook:
                 return False
             routes[stop.route] = route
         run = PatrolRun(patrol, routes, self._stop_reached if patrol.snapshots else _ignore)
-        recording = self._record() if patrol.snapshots else None
+        recording = None
+        if patrol.snapshots:
+            self._record()
+            recording = self._recording  # None if the operator was recording already
 
         def ended(why: str) -> None:
             # On the loop's thread: closing the files may take a while on a slow disk.

@@ -42,7 +42,8 @@ class MainView(Static):
         else:
             detail.append(f"keys {held} {telemetry.speed:.2f} m/s")
         if telemetry.mission is not None:
-            motion.append(f"  {telemetry.mission}", style="bold cyan")
+            # A mission drives, not the keys: its progress takes their place, whole.
+            detail = Text(telemetry.mission, style="bold cyan")
         for line in (motion, detail):
             line.no_wrap, line.overflow = True, "ellipsis"
         self.update(Text("\n").join([motion, detail]))

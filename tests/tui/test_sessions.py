@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import json
 import math
 from pathlib import Path
@@ -183,6 +184,12 @@ async def test_a_two_round_patrol_of_two_routes_runs_to_the_end_with_progress(tm
             seen.update(part for part in ("round 1/2", "round 2/2", "stop 2/2") if part in shown)
             if rig.control.mission is None:
                 break
+        # The patrol's own recording ends with it, closed on a thread of its own.
+        for _ in range(100):
+            if not rig.sessions.recording:
+                break
+            await asyncio.sleep(0.01)
+        assert not rig.sessions.recording
         notes = " ".join(rig.app.status_log.texts)
     assert "rounds done" in notes
     assert seen == {"round 1/2", "round 2/2", "stop 2/2"}
