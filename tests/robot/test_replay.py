@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import bisect
 import csv
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -73,3 +74,17 @@ def test_video_and_pose_stay_in_step_at_any_speed_and_after_a_seek(session):
     check()
     video.close()
     assert checked > 20
+
+
+def test_a_log_of_the_original_console_plays_to_the_pose_it_drove_to():
+    log = read_log(Path(__file__).parents[1] / "recording" / "fixtures" / "original_console.txt")
+    clock = VirtualClock()
+    replayer = Replayer(Playback("original", log, clock.now()))
+    shown = []
+    while not replayer.playback.finished(clock.now()):
+        replayer.advance(clock.now(), shown.append)
+        clock.advance(0.05)
+    assert [exchange.command for exchange in shown[:3]] == ["get bulk_data", "home", "get v"]
+    assert shown[2].value == pytest.approx(0.6)
+    assert replayer.pose.x == pytest.approx(0.6, abs=1e-4) and replayer.pose.y == 0.0
+    assert replayer.state is not None and not replayer.state.moving
