@@ -37,10 +37,14 @@ from giraff_console.protocol import (
 )
 from giraff_console.recording.mcap_export import export_session
 from giraff_console.recording.playback import open_log
-from giraff_console.recording.session import RecordingSetup, SessionError, read_meta, start_pose
+from giraff_console.recording.session import (
+    RecordingSetup,
+    SessionError,
+    SessionStart,
+    read_meta,
+)
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
-from giraff_console.robot.odometry import Pose
 from giraff_console.robot.replay import replay_poses
 from giraff_console.robot.teleop import Teleop
 from giraff_console.settings import Settings, SettingsError, config_path, load_settings
@@ -284,7 +288,7 @@ def run_export(args: argparse.Namespace) -> int:
     try:
         _, log = open_log(args.session)
         meta = read_meta(args.session) if args.session.is_dir() else {}
-        poses = replay_poses(log, Pose(*start_pose(meta)))
+        poses = replay_poses(log, SessionStart.from_meta(meta))
         summary = export_session(args.session, args.out, poses)
     except SessionError as error:
         print(f"giraff-console: {error}", file=sys.stderr)

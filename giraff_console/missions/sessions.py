@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 from giraff_console.camera.association import SampleHistory
@@ -23,8 +24,8 @@ from giraff_console.recording.session import (
     RecordingSetup,
     SessionError,
     SessionRecorder,
+    SessionStart,
     read_meta,
-    start_pose,
 )
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.telemetry import Telemetry
@@ -65,20 +66,33 @@ class Sessions:
             return None
         self.stop_recording()
         try:
-            pose = self.control.odometry.pose
             recorder = SessionRecorder(
                 self.recordings,
                 self.setup,
                 self.control.clock.now,
                 self._recording_failed,
-                start_pose=(pose.x, pose.y, pose.heading),
                 warn=lambda message: self.report(message),
             )
         except SessionError as error:
             self.report(f"not recording: {error}")
             return None
         self.recorder = recorder
-        self.control.observers.append(recorder.exchange)
+
+        def begin() -> None:
+            # Between two ticks: no poll can come between noting where the odometry
+            # stands and recording the next one.
+            odometry = self.control.odometry
+            pose, reference = odometry.pose, odometry.reference
+            start = SessionStart(pose.x, pose.y, pose.heading)
+            if reference is not None and reference.imdl is not None:
+                start = replace(start, imdl=reference.imdl, imdr=reference.imdr,
+                                cvg=reference.cvg,
+                                offset=reference.received_at - recorder.started_at)  # fmt: skip
+            recorder.begin(start)
+            if self.recorder is recorder:
+                self.control.observers.append(recorder.exchange)
+
+        self.control.between_ticks(begin)
         if self.camera is not None:
             self.camera.taps.append(self._frame)
         self.report(f"recording to {recorder.path}")
@@ -164,7 +178,7 @@ class Sessions:
             self.report(f"not playing: {path} has no playable lines")
             return None
         clock = self.control.clock
-        playback = Playback(session.name, log, clock.now(), start_pose=start_pose(meta))
+        playback = Playback(session.name, log, clock.now(), start=SessionStart.from_meta(meta))
         video = session / VIDEO
         self._playing = playback
         if self.camera is not None and video.is_file():

@@ -26,7 +26,7 @@ from giraff_console.recording.session import (
     CONTROL_LOG,
     FRAMES,
     SessionError,
-    StartPose,
+    SessionStart,
     read_meta,
 )
 
@@ -85,9 +85,9 @@ class Playback:
     """
 
     def __init__(self, name: str, log: LogRead, now: float, speed: float = 1.0,
-                 start_pose: StartPose = (0.0, 0.0, 0.0)) -> None:  # fmt: skip
+                 start: SessionStart | None = None) -> None:  # fmt: skip
         self.name = name
-        self.start_pose = start_pose
+        self.start = start or SessionStart()
         self.log = log
         self.entries = log.entries
         self._offsets = [entry.offset for entry in self.entries]

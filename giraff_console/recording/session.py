@@ -12,9 +12,10 @@ from __future__ import annotations
 
 import json
 import math
+import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -35,8 +36,6 @@ META = "meta.json"
 SNAPSHOTS = "snapshots"
 # The rate the video file declares; frames are placed by their recorded times anyway.
 VIDEO_FPS = 10.0
-
-StartPose = tuple[float, float, float]  # x, y in metres, heading in radians
 
 
 @dataclass(frozen=True)
@@ -84,13 +83,32 @@ def read_meta(session: Path) -> dict[str, Any]:
     return meta
 
 
-def start_pose(meta: dict[str, Any]) -> StartPose:
-    """The pose recording started from; the origin for a log without one (the original's)."""
-    pose = meta.get("start_pose")
-    if (isinstance(pose, list) and len(pose) == 3
-            and all(isinstance(v, int | float) and math.isfinite(v) for v in pose)):  # fmt: skip
-        return (float(pose[0]), float(pose[1]), float(pose[2]))
-    return (0.0, 0.0, 0.0)
+@dataclass(frozen=True)
+class SessionStart:
+    """Where the odometry stood as recording began: its pose, and the wheel readings
+    (`imdl`, `imdr`, `cvg`, taken `offset` seconds into the session, so at or before 0)
+    that its next step is taken from. With both, playback integrates the first recorded
+    poll exactly as the live console did, even if recording began mid-drive."""
+
+    x: float = 0.0
+    y: float = 0.0
+    heading: float = 0.0  # radians, counter-clockwise from +x
+    imdl: float | None = None
+    imdr: float | None = None
+    cvg: float = 0.0
+    offset: float = 0.0
+
+    @classmethod
+    def from_meta(cls, meta: dict[str, Any]) -> SessionStart:
+        """As meta.json has it; the origin, with no readings, for a log without one."""
+        start = meta.get("start")
+        if not isinstance(start, dict):
+            return cls()
+        names = {"x", "y", "heading", "imdl", "imdr", "cvg", "offset"}
+        values = {k: v for k, v in start.items() if k in names}
+        if not all(isinstance(v, int | float) and math.isfinite(v) for v in values.values()):
+            return cls()
+        return cls(**values)
 
 
 @dataclass(frozen=True)
@@ -113,13 +131,8 @@ class SessionRecorder:
 
     def __init__(self, root: Path, setup: RecordingSetup, clock: Callable[[], float],
                  on_error: Callable[[str], None] = lambda message: None,
-                 start_pose: StartPose = (0.0, 0.0, 0.0),
                  warn: Callable[[str], None] = lambda message: None) -> None:  # fmt: skip
-        """Create the session directory and its log; SessionError if that fails.
-
-        `start_pose` is the odometry's pose (x, y, heading) as recording starts, so that
-        playback shows the poses that were shown.
-        """
+        """Create the session directory and its log; SessionError if that fails."""
         self.clock = clock
         self.on_error = on_error
         self.warn = warn
@@ -127,7 +140,7 @@ class SessionRecorder:
         self.started_at = clock()
         self._video: VideoRecorder | None = None
         self._video_failed = False
-        meta = {
+        self.meta: dict[str, Any] = {
             "format": 1,
             "giraff_console": __version__,
             "opencv": cv2.__version__,
@@ -137,14 +150,30 @@ class SessionRecorder:
             "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             "started_unix": time.time(),
             "clock_origin": self.started_at,
-            "start_pose": list(start_pose),
         }
         try:
-            (self.path / META).write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
+            self._write_meta()
             self.log = LogWriter(self.path / CONTROL_LOG, self._failed)
         except OSError as error:
             raise SessionError(f"cannot record in {self.path}: {error.strerror}") from None
         self.stopped = False
+
+    def begin(self, start: SessionStart) -> None:
+        """Note where the odometry stood as the first exchange is recorded.
+
+        Called on the control loop's thread, so meta.json is written again on another.
+        """
+        self.meta["start"] = {k: v for k, v in asdict(start).items() if v is not None}
+        threading.Thread(target=self._rewrite_meta, name="session-meta", daemon=True).start()
+
+    def _write_meta(self) -> None:
+        (self.path / META).write_text(json.dumps(self.meta, indent=2) + "\n", encoding="utf-8")
+
+    def _rewrite_meta(self) -> None:
+        try:
+            self._write_meta()
+        except OSError as error:
+            self.warn(f"{self.path / META} not updated: {error.strerror}")
 
     @property
     def error(self) -> str | None:

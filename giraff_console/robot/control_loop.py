@@ -137,11 +137,11 @@ class ControlLoop:
 
         `ended` is called, on the loop's thread, when the console is live again.
         """
-        self._request(lambda: self._start_playback(playback, ended))
+        self.between_ticks(lambda: self._start_playback(playback, ended))
 
     def stop_playback(self) -> None:
         """Back to live."""
-        self._request(lambda: self._end_playback("playback stopped; live again"))
+        self.between_ticks(lambda: self._end_playback("playback stopped; live again"))
 
     def seek(self, offset: float) -> None:
         """Move the playback to `offset` seconds into the session."""
@@ -150,7 +150,7 @@ class ControlLoop:
             if self._replayer is not None:
                 self._replayer.seek(self.clock.now(), offset)
 
-        self._request(seek)
+        self.between_ticks(seek)
 
     @property
     def playback(self) -> Playback | None:
@@ -162,10 +162,10 @@ class ControlLoop:
 
         `ended` is called with the reason, on the loop's thread, when it is over.
         """
-        self._request(lambda: self._start_mission(mission, ended))
+        self.between_ticks(lambda: self._start_mission(mission, ended))
 
     def stop_mission(self, why: str = "stopped") -> None:
-        self._request(lambda: self._end_mission(why))
+        self.between_ticks(lambda: self._end_mission(why))
 
     def pause_mission(self, paused: bool) -> None:
         """Pause (the robot stops) or resume the mission."""
@@ -180,14 +180,15 @@ class ControlLoop:
                 self._mission.resume(self.clock.now())
             self.report(f"{self._mission.name} {'paused' if paused else 'resumed'}")
 
-        self._request(pause)
+        self.between_ticks(pause)
 
     @property
     def mission(self) -> Mission | None:
         return self._mission
 
-    def _request(self, change: Callable[[], None]) -> None:
-        """Changes of what the loop does are made on its own thread, between ticks."""
+    def between_ticks(self, change: Callable[[], None]) -> None:
+        """Run `change` on the loop's thread before its next tick: changes of what the
+        loop does, and anything that must not fall between a poll and its use."""
         self._requests.put(change)
         self._wake.set()
 

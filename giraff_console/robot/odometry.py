@@ -50,10 +50,16 @@ class Odometry:
         self.pose = pose or Pose()
         self._last: MotorState | None = None
 
-    def reset(self, pose: Pose | None = None) -> None:
-        """Start again from `pose`; the next state is taken as the new reference."""
+    def reset(self, pose: Pose | None = None, reference: MotorState | None = None) -> None:
+        """Start again from `pose`; the next step is taken from `reference`, or, without
+        one, the next state is taken as the new reference."""
         self.pose = pose or Pose()
-        self._last = None
+        self._last = reference
+
+    @property
+    def reference(self) -> MotorState | None:
+        """The state the next step will be taken from."""
+        return self._last
 
     def update(self, state: MotorState) -> Pose:
         """Advance the pose by what the wheels did since the previous state."""

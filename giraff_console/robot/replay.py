@@ -16,7 +16,7 @@ from giraff_console.link.motor_state import MotorState
 from giraff_console.protocol.errors import ProtocolError
 from giraff_console.recording.control_log import LogEntry, LogRead
 from giraff_console.recording.playback import Playback, as_exchange
-from giraff_console.recording.session import PoseSample
+from giraff_console.recording.session import PoseSample, SessionStart
 from giraff_console.robot.odometry import Odometry, Pose
 
 
@@ -36,8 +36,7 @@ class Replayer:
 
     def __init__(self, playback: Playback) -> None:
         self.playback = playback
-        self.start = Pose(*playback.start_pose)
-        self.odometry = Odometry(self.start)
+        self.odometry = starting_odometry(playback.start)
         self.state: MotorState | None = None
 
     def advance(self, now: float, notify: Callable[[Exchange], None]) -> None:
@@ -49,7 +48,7 @@ class Replayer:
 
     def seek(self, now: float, offset: float) -> None:
         """Move to `offset`, rebuilding the pose from the start of the session."""
-        self.odometry.reset(self.start)
+        self.odometry = starting_odometry(self.playback.start)
         self.state = None
         for entry in self.playback.seek(now, offset):
             self._interpret(entry)
@@ -95,9 +94,21 @@ def recorded_state(entry: LogEntry) -> MotorState | None:
         return None
 
 
-def replay_poses(log: LogRead, start: Pose | None = None) -> Iterator[PoseSample]:
+def starting_odometry(start: SessionStart) -> Odometry:
+    """An odometry where the live one stood as recording began."""
+    odometry = Odometry()
+    reference = None
+    if start.imdl is not None and start.imdr is not None:
+        reference = MotorState(cang=0.0, cdis=0.0, gvr=0.0, speed=0.0, cvg=start.cvg, tilt=None,
+                               imdl=start.imdl, imdr=start.imdr, mode=0,
+                               received_at=start.offset)  # fmt: skip
+    odometry.reset(Pose(start.x, start.y, start.heading), reference)
+    return odometry
+
+
+def replay_poses(log: LogRead, start: SessionStart | None = None) -> Iterator[PoseSample]:
     """The pose at every automatic `bulk_data` poll, as the console saw it."""
-    odometry = Odometry(start)
+    odometry = starting_odometry(start or SessionStart())
     for entry in log.entries:
         state = recorded_state(entry)
         if state is None:
