@@ -234,9 +234,15 @@ def run_console(args: argparse.Namespace) -> int:
     simulator = None
     if port is None:
         simulator = serial.serial_for_url(IN_PROCESS_SIMULATOR)
-    if args.command == "replay" and not args.session.exists():
-        print(f"giraff-console: no session at {args.session}", file=sys.stderr)
-        return EXIT_USAGE
+    if args.command == "replay":
+        try:
+            log_path, log = open_log(args.session)
+        except SessionError as error:
+            print(f"giraff-console: {error}", file=sys.stderr)
+            return EXIT_USAGE
+        if not log.entries:
+            print(f"giraff-console: nothing to play in {log_path}", file=sys.stderr)
+            return EXIT_USAGE
     control = ControlLoop(
         board_connector(port, settings, simulator),
         teleop=Teleop(settings.teleop.limits()),
@@ -280,7 +286,8 @@ def run_console(args: argparse.Namespace) -> int:
         app.run()
     finally:
         control.stop()
-    return 0
+    # Non-zero if the console itself failed; the robot was stopped all the same.
+    return app.return_code or 0
 
 
 def run_export(args: argparse.Namespace) -> int:

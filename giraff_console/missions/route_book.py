@@ -23,6 +23,7 @@ from giraff_console.missions.route import (
     Route,
     RouteError,
     RouteTeacher,
+    check_name,
     list_routes,
     load_route,
     save_route,
@@ -47,6 +48,11 @@ class RouteBook:
         # The recording this book started, for teaching or a patrol; it stops it, and
         # only it, when that is over.
         self._recording: SessionRecorder | None = None
+        self._owner: object = None
+        # The owner of a recording made for teaching.
+        self._teaching = object()
+        # Recordings start and stop on the UI thread and, when a patrol ends, on another.
+        self._lock = threading.Lock()
         self._link = LinkState.LOST
         control.telemetry_observers.append(self._telemetry)
 
@@ -64,15 +70,14 @@ class RouteBook:
         if self._link is not LinkState.CONNECTED or not settings:
             self.report("not teaching: the board's settings are unknown until it answers")
             return False
-        session = self._record()
         try:
-            self.teacher = RouteTeacher(name, self.control.clock.now(),
-                                        self.control.odometry.pose, settings,
-                                        str(session) if session else None)  # fmt: skip
+            check_name(name, "route")
         except RouteError as error:
-            self._stop_recording()
             self.report(f"not teaching: {error}")
             return False
+        session = self._record(owner=self._teaching)
+        self.teacher = RouteTeacher(name, self.control.clock.now(), self.control.odometry.pose,
+                                    settings, str(session) if session else None)  # fmt: skip
         self.control.observers.append(self.teacher.observe_exchange)
         # A playback now would feed recorded commands to the route being taught.
         self.sessions.busy = f"teaching route {name}: `done` first"
@@ -98,7 +103,7 @@ class RouteBook:
             return None
         self.control.observers.remove(teacher.observe_exchange)
         self.sessions.busy = None
-        self._stop_recording()
+        self._stop_recording(owner=self._teaching)
         route = teacher.finish(self.control.clock.now(), self.control.odometry.pose)
         try:
             path = save_route(route, self.directory)
@@ -145,15 +150,12 @@ class RouteBook:
                 return False
             routes[stop.route] = route
         run = PatrolRun(patrol, routes, self._stop_reached if patrol.snapshots else _ignore)
-        recording = None
         if patrol.snapshots:
-            self._record()
-            recording = self._recording  # None if the operator was recording already
+            self._record(owner=run)
 
         def ended(why: str) -> None:
             # On the loop's thread: closing the files may take a while on a slow disk.
-            if recording is not None:
-                _in_background(lambda: self._stop_recording(recording))
+            _in_background(lambda: self._stop_recording(owner=run))
 
         self.control.run_mission(run, ended)
         return True
@@ -178,20 +180,28 @@ class RouteBook:
             return False
         return True
 
-    def _record(self) -> Path | None:
-        """The session being recorded, or a new one this book will stop again."""
-        if self.sessions.recorder is not None:
-            return self.sessions.recorder.path
-        path = self.sessions.start_recording()
-        self._recording = self.sessions.recorder
-        return path
+    def _record(self, owner: object) -> Path | None:
+        """The session being recorded, or a new one; `owner` (a teacher, a patrol run)
+        stops it when done, unless the operator started it. A recording this book started
+        passes to the new owner, as when a patrol is started again."""
+        with self._lock:
+            recorder = self.sessions.recorder
+            if recorder is not None:
+                if recorder is self._recording:
+                    self._owner = owner
+                return recorder.path
+            path = self.sessions.start_recording()
+            self._recording, self._owner = self.sessions.recorder, owner
+            return path
 
-    def _stop_recording(self, recording: SessionRecorder | None = None) -> None:
-        """Stop the recording this book started (`recording`, if given), if it still runs."""
-        recorder = recording or self._recording
-        if recorder is not None and recorder is self._recording:
-            self._recording = None
-            self.sessions.stop_recording(only=recorder)
+    def _stop_recording(self, owner: object) -> None:
+        """Stop the recording this book started, if `owner` still owns it."""
+        with self._lock:
+            recorder = self._recording
+            if recorder is None or self._owner is not owner:
+                return
+            self._recording = self._owner = None
+        self.sessions.stop_recording(only=recorder)
 
     def _stop_reached(self, stop: StopReached) -> None:
         """On the loop's thread, as the robot comes to rest: the snapshot is encoded and

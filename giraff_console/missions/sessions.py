@@ -8,6 +8,7 @@ video, both following the same playback position.
 
 from __future__ import annotations
 
+import contextlib
 import threading
 from collections.abc import Callable
 from dataclasses import replace
@@ -45,6 +46,8 @@ class Sessions:
         self.setup = setup
         self.report = report
         self.recorder: SessionRecorder | None = None
+        # Recordings stop on the UI thread, and on others (a full disk, a patrol's end).
+        self._lock = threading.Lock()
         # Set while something must not be disturbed by a playback: a route being taught.
         self.busy: str | None = None
         self._history = SampleHistory()
@@ -89,8 +92,9 @@ class Sessions:
                                 cvg=reference.cvg,
                                 offset=reference.received_at - recorder.started_at)  # fmt: skip
             recorder.begin(start)
-            if self.recorder is recorder:
-                self.control.observers.append(recorder.exchange)
+            with self._lock:
+                if self.recorder is recorder:
+                    self.control.observers.append(recorder.exchange)
 
         self.control.between_ticks(begin)
         if self.camera is not None:
@@ -101,21 +105,26 @@ class Sessions:
     def stop_recording(self, only: SessionRecorder | None = None) -> Path | None:
         """Stop and close the recording, if there is one (and it is `only`, if given);
         returns its directory."""
-        recorder = self.recorder
-        if recorder is None or (only is not None and recorder is not only):
-            return None
-        self.recorder = None
+        with self._lock:
+            recorder = self.recorder
+            if recorder is None or (only is not None and recorder is not only):
+                return None
+            self.recorder = None
         self._detach(recorder)
         summary = recorder.close()
         self.report(f"recording stopped: {recorder.path} ({summary})")
         return recorder.path
 
     def snapshot(self, name: str) -> Path | None:
-        """The camera's latest frame, saved into the session being recorded."""
+        """The camera's latest frame, saved into the session being recorded; None, with a
+        message, if it could not be."""
+        recorder = self.recorder
         frame = self.camera.last_frame if self.camera is not None else None
-        if self.recorder is None or frame is None:
+        if recorder is None or frame is None:
+            why = "no session is being recorded" if recorder is None else "no camera picture"
+            self.report(f"snapshot {name} not taken: {why}")
             return None
-        return self.recorder.snapshot(name, frame)
+        return recorder.snapshot(name, frame)
 
     def _frame(self, frame: Frame) -> None:
         recorder = self.recorder
@@ -128,17 +137,19 @@ class Sessions:
         Called from the log writer's own thread, which `close` waits for; so the closing
         (the video's last frames, the files) happens on a thread of its own.
         """
-        recorder, self.recorder = self.recorder, None
+        with self._lock:
+            recorder, self.recorder = self.recorder, None
         self.report(message)
         if recorder is not None:
             self._detach(recorder)
             threading.Thread(target=recorder.close, name="recording-close", daemon=True).start()
 
     def _detach(self, recorder: SessionRecorder) -> None:
-        if recorder.exchange in self.control.observers:
+        with contextlib.suppress(ValueError):  # never attached: stopped before it began
             self.control.observers.remove(recorder.exchange)
-        if self.camera is not None and self._frame in self.camera.taps:
-            self.camera.taps.remove(self._frame)
+        if self.camera is not None:
+            with contextlib.suppress(ValueError):
+                self.camera.taps.remove(self._frame)
 
     # -- playback -----------------------------------------------------------------------
 

@@ -14,6 +14,7 @@ camera, and `giraff.ControllerLine` for the log lines. A session without a video
 from __future__ import annotations
 
 import base64
+import contextlib
 import heapq
 import itertools
 import json
@@ -93,10 +94,10 @@ def export_session(session: Path, out: Path, poses: Iterable[PoseSample], *,
     The file is written beside `out` under a temporary name and renamed at the end, so
     a failure part way leaves no half file under the real name.
     """
-    if not session.exists():
-        raise SessionError(f"no session at {session}")
     # A directory of ours, or a log file of the original console's.
     log_path, log = open_log(session)
+    if not log.entries:
+        raise SessionError(f"nothing to export: {log_path} has no log lines")
     problems = [f"control.log {problem}" for problem in log.problems]
     streams = {"/controller": _controller(log), "/pose": _poses(poses)}
     if (session / VIDEO).is_file():
@@ -116,7 +117,9 @@ def export_session(session: Path, out: Path, poses: Iterable[PoseSample], *,
     except OSError as error:
         raise SessionError(f"cannot write {out}: {error.strerror or error}") from None
     finally:
-        temp.unlink(missing_ok=True)
+        # Where it could not be written, it cannot be removed either: nothing to do.
+        with contextlib.suppress(OSError):
+            temp.unlink(missing_ok=True)
     return ExportSummary(counts, problems)
 
 

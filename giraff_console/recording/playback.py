@@ -48,13 +48,13 @@ def as_exchange(entry: LogEntry, at: float) -> Exchange:
 
 def open_log(session: Path) -> tuple[Path, LogRead]:
     """The control log of a session directory, or a log file given directly."""
-    path = session / CONTROL_LOG if session.is_dir() else session
-    if not path.is_file():
-        raise SessionError(f"no session log at {path}")
     try:
+        path = session / CONTROL_LOG if session.is_dir() else session
+        if not path.is_file():
+            raise SessionError(f"no session log at {path}")
         return path, read_log(path)
-    except OSError as error:
-        raise SessionError(f"cannot read {path}: {error.strerror}") from None
+    except OSError as error:  # unreadable, a name too long, ...
+        raise SessionError(f"cannot read {session}: {error.strerror or error}") from None
 
 
 def frame_times(session: Path, log: LogRead) -> list[float]:
@@ -167,8 +167,8 @@ class Playback:
                 self._base_offset = self._offsets[following]
             return self._base_offset
 
-    def seek(self, now: float, offset: float) -> list[LogEntry]:
-        """Move to `offset` seconds in; returns every entry up to there, from the start.
+    def seek(self, now: float, offset: float) -> int:
+        """Move to `offset` seconds in; returns how many entries lie up to there.
 
         Playback cannot undo what it handed out, so the caller rebuilds its picture
         (the pose) from those entries; the next `due` goes on from `offset`.
@@ -177,7 +177,7 @@ class Playback:
             offset = min(max(offset, 0.0), self.duration)
             self._base_offset, self._base_time = offset, now
             self._next = bisect.bisect_right(self._offsets, offset)
-            return self.entries[: self._next]
+            return self._next
 
     def _position(self, now: float) -> float:
         if self._paused:

@@ -84,6 +84,7 @@ class ControlLoop:
         self._requests: queue.SimpleQueue[Callable[[], None]] = queue.SimpleQueue()
         self._replayer: Replayer | None = None
         self._playback_ended: Callable[[], None] = lambda: None
+        self._seek_to: float | None = None
         self._mission: Mission | None = None
         self._mission_ended: MissionEnded = lambda why: None
 
@@ -146,9 +147,15 @@ class ControlLoop:
     def seek(self, offset: float) -> None:
         """Move the playback to `offset` seconds into the session."""
 
+        # Seeks asked for faster than the loop makes them (a held key) come to one.
+        pending, self._seek_to = self._seek_to, offset
+        if pending is not None:
+            return
+
         def seek() -> None:
-            if self._replayer is not None:
-                self._replayer.seek(self.clock.now(), offset)
+            target, self._seek_to = self._seek_to, None
+            if self._replayer is not None and target is not None:
+                self._replayer.seek(self.clock.now(), target)
 
         self.between_ticks(seek)
 
@@ -238,6 +245,9 @@ class ControlLoop:
             self._play(now)
             self._publish()
             return
+        if self.link is None:
+            # Nothing drives by itself once the link is back: the operator starts it again.
+            self._end_mission("stopped: no link to the board", stop=False)
         if self.link is None and not self._reconnect():
             self._fail_jobs()
             self._publish()
@@ -271,6 +281,7 @@ class ControlLoop:
         except BoardRebootedError as error:
             # Its odometers restarted from zero: keep the pose, take new references.
             self.report(f"{error}; its settings are back at power-up")
+            self._end_mission("stopped: the board restarted", stop=False)
             self.odometry.reset(self.odometry.pose)
             self.teleop.forget_board()
             self.deadman.release()
@@ -296,8 +307,9 @@ class ControlLoop:
             self._end_mission("done", stop=False)
 
     def _start_mission(self, mission: Mission, ended: MissionEnded) -> None:
-        if self._replayer is not None:
-            self.report(f"{mission.name} not started: a playback is running")
+        if self._replayer is not None or self.link is None:
+            why = "a playback is running" if self._replayer else "no link to the board"
+            self.report(f"{mission.name} not started: {why}")
             ended("not started")
             return
         self._end_mission("replaced")
@@ -323,6 +335,8 @@ class ControlLoop:
         self._end_mission("stopped for playback")
         self.deadman.release()
         self._stop_robot()
+        # Teleop's move, if any, was just stopped; it must not wait for it to end.
+        self.teleop.halt()
         self._replayer = Replayer(playback)
         self._playback_ended = ended
         self.report(f"playing back {playback.name} ({playback.duration:.1f} s); nothing is sent "

@@ -19,6 +19,9 @@ from giraff_console.recording.playback import Playback, as_exchange
 from giraff_console.recording.session import PoseSample, SessionStart
 from giraff_console.robot.odometry import Odometry, Pose
 
+# A minute of automatic polls at 20 Hz.
+CHECKPOINT_ENTRIES = 1200
+
 
 @dataclass(frozen=True)
 class PlaybackStatus:
@@ -32,12 +35,22 @@ class PlaybackStatus:
 
 
 class Replayer:
-    """A playback and the pose and motor state it implies."""
+    """A playback and the pose and motor state it implies.
+
+    The pose after a seek is integrated again from the nearest point already passed, not
+    from the start, so that seeking in an hour-long session stays quick: a checkpoint of
+    the odometry is kept every CHECKPOINT_ENTRIES entries.
+    """
 
     def __init__(self, playback: Playback) -> None:
         self.playback = playback
         self.odometry = starting_odometry(playback.start)
         self.state: MotorState | None = None
+        self._done = 0  # entries interpreted so far
+        # Entries interpreted -> (pose, odometry reference, state) at that point.
+        self._checkpoints: dict[int, tuple[Pose, MotorState | None, MotorState | None]] = {
+            0: (self.odometry.pose, self.odometry.reference, None)
+        }
 
     def advance(self, now: float, notify: Callable[[Exchange], None]) -> None:
         """Hand out what has fallen due, and take the odometry along."""
@@ -47,10 +60,13 @@ class Replayer:
             self._interpret(entry)
 
     def seek(self, now: float, offset: float) -> None:
-        """Move to `offset`, rebuilding the pose from the start of the session."""
-        self.odometry = starting_odometry(self.playback.start)
-        self.state = None
-        for entry in self.playback.seek(now, offset):
+        """Move to `offset`, the pose with it."""
+        target = self.playback.seek(now, offset)
+        start = max(index for index in self._checkpoints if index <= target)
+        pose, reference, self.state = self._checkpoints[start]
+        self.odometry.reset(pose, reference)
+        self._done = start
+        for entry in self.playback.entries[start:target]:
             self._interpret(entry)
 
     def status(self, now: float) -> PlaybackStatus:
@@ -63,15 +79,17 @@ class Replayer:
         return self.odometry.pose
 
     def _interpret(self, entry: LogEntry) -> None:
+        self._done += 1
         state = recorded_state(entry)
-        if state is None:
-            return
-        try:
-            self.odometry.update(state)
-        except ProtocolError:
-            # A board without wheel distances: the pose cannot follow.
-            return
-        self.state = state
+        if state is not None:
+            try:
+                self.odometry.update(state)
+                self.state = state
+            except ProtocolError:
+                pass  # a board without wheel distances: the pose cannot follow
+        if self._done % CHECKPOINT_ENTRIES == 0:
+            self._checkpoints[self._done] = (self.odometry.pose, self.odometry.reference,
+                                             self.state)  # fmt: skip
 
 
 def recorded_state(entry: LogEntry) -> MotorState | None:

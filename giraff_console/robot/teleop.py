@@ -117,6 +117,11 @@ class Teleop:
         }  # fmt: skip
         return [Command("set", name, value) for name, value in plan.items()]
 
+    def halt(self) -> None:
+        """The robot was stopped by other means (a playback began): teleop is idle."""
+        self._style = None
+        self._stopping = False
+
     def forget_board(self) -> None:
         """The board's settings are unknown again (a new connection, a restart)."""
         self._board.clear()

@@ -340,7 +340,7 @@ class GiraffConsole(SessionCommands, App[None]):
         if word == "help":
             self.action_help()
         elif word == "quit":
-            self.exit()
+            self.run_worker(self.action_quit())
         elif word == "stop":
             self.action_halt()
         elif word == "speed":

@@ -103,7 +103,12 @@ class SessionCommands:
             if argument == "stop":
                 self.sessions.stop_playback()
             else:
-                self._play(Path(argument).expanduser() if argument else None)
+                try:
+                    session = Path(argument).expanduser() if argument else None
+                except RuntimeError as error:  # ~nosuchuser
+                    self.note(f"not playing: {error}")
+                    return
+                self._play(session)
         elif word in ("pause", "resume"):
             playback = self._playback()
             if playback is not None and word == "pause":

@@ -181,8 +181,14 @@ def test_an_original_log_without_meta_ends_at_its_modification_time(tmp_path):
 
 
 def test_a_missing_session_or_control_log_is_a_session_error(tmp_path):
-    with pytest.raises(SessionError, match="no session at"):
+    with pytest.raises(SessionError, match="no session log at"):
         export_session(tmp_path / "nowhere", tmp_path / "out.mcap", POSES)
+    with pytest.raises(SessionError, match="cannot read"):
+        export_session(tmp_path / ("x" * 300), tmp_path / "out.mcap", POSES)  # name too long
+    not_a_log = tmp_path / "notes.txt"
+    not_a_log.write_text("shopping list\nmilk\n")
+    with pytest.raises(SessionError, match="no log lines"):
+        export_session(not_a_log, tmp_path / "out.mcap", POSES)
     session = make_session(tmp_path, video=False)
     (session / "control.log").unlink()
     with pytest.raises(SessionError, match="no session log"):

@@ -95,7 +95,7 @@ def test_seek_returns_everything_up_to_there_and_goes_on_from_it(clock):
     play = playback(clock)
     clock.advance(3.0)
     play.due(clock.now())
-    assert offsets(play.seek(clock.now(), 1.2)) == [0.0, 0.5, 1.0]
+    assert play.seek(clock.now(), 1.2) == 3  # 0.0, 0.5 and 1.0 lie before
     clock.advance(0.3)
     assert offsets(play.due(clock.now())) == [1.5]
-    assert offsets(play.seek(clock.now(), 99)) == OFFSETS  # held to the end
+    assert play.seek(clock.now(), 99) == len(OFFSETS)  # held to the end

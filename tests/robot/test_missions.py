@@ -6,7 +6,7 @@ import pytest
 import serial
 
 from giraff_console.cli import board_connector
-from giraff_console.link import MotorState
+from giraff_console.link import LinkDisconnected, MotorState
 from giraff_console.protocol.codec import Command
 from giraff_console.protocol.errors import GiraffError
 from giraff_console.protocol.mode import ModeBit
@@ -179,3 +179,46 @@ def test_during_a_playback_only_a_stop_reaches_the_robot(loop):
     assert isinstance(results[0], GiraffError) and "playing back" in str(results[0])
     assert results[1] is True
     assert loop.board.true_pose.x == 0.0
+
+
+def test_a_mission_never_starts_by_itself_when_a_lost_link_comes_back(loop):
+    loop.run(0.1)
+    loop.port.close()
+    connect = loop.control.connect
+    loop.control.connect = lambda: (_ for _ in ()).throw(LinkDisconnected("unplugged"))
+    loop.run(0.2)
+    loop.control.run_mission(Ahead())
+    loop.run(1.0)
+    assert loop.control.mission is None
+    assert "ahead not started: no link to the board" in loop.notes
+    loop.control.connect = connect
+    loop.run(5.0)
+    assert loop.board.true_pose.x == 0.0
+
+
+def test_a_board_that_restarts_ends_the_mission(loop):
+    loop.start(Ahead())
+    loop.port.dtr = False  # a brown-out: the board loses power and greets again
+    loop.port.dtr = True
+    loop.run(0.3)
+    assert loop.control.mission is None
+    assert "ahead stopped: the board restarted" in loop.notes
+    x = loop.board.true_pose.x
+    loop.run(3.0)
+    assert loop.board.true_pose.x == pytest.approx(x, abs=0.3)  # at most the last target
+    assert loop.at_rest_after()
+
+
+def test_a_playback_begun_while_driving_leaves_teleop_idle_for_the_next_mission(loop):
+    loop.run(0.1)
+    for _ in range(30):
+        loop.control.press(Intent.FORWARD)
+        loop.run(0.05)
+    log = LogRead([LogEntry(t / 10, "G", "v", "0.40000") for t in range(10)], [])
+    loop.control.play(Playback("test", log, loop.clock.now()))
+    loop.run(3.0)
+    assert loop.control.playback is None
+    mission = Ahead()
+    loop.control.run_mission(mission)
+    loop.run(1.0)
+    assert mission.steps > 0 and loop.control.mission is mission

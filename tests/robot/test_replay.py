@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from giraff_console.clock import VirtualClock
-from giraff_console.recording.control_log import read_log
+from giraff_console.recording.control_log import LogEntry, LogRead, read_log
 from giraff_console.recording.playback import Playback, frame_times
 from giraff_console.recording.recorded_video import RecordedVideo
-from giraff_console.robot.replay import Replayer
+from giraff_console.robot.replay import Replayer, replay_poses
 from tests.tui.conftest import record_demo_session
 
 
@@ -88,3 +88,25 @@ def test_a_log_of_the_original_console_plays_to_the_pose_it_drove_to():
     assert shown[2].value == pytest.approx(0.6)
     assert replayer.pose.x == pytest.approx(0.6, abs=1e-4) and replayer.pose.y == 0.0
     assert replayer.state is not None and not replayer.state.moving
+
+
+def test_a_seek_anywhere_in_a_long_session_gives_the_pose_integrated_from_the_start():
+    # Four minutes of polls at 20 Hz, driving a slow curve: several odometry checkpoints.
+    entries = []
+    for i in range(4800):
+        left, right = i * 0.0199, i * 0.0201
+        reply = (f"cang:0.00000,cdis:0.00000,gvr:0.20000,tilt_angle_from_home:0.08727,"
+                 f"imdl:{left:.5f},imdr:{right:.5f},cvg:0.00000,mode:128,")  # fmt: skip
+        entries.append(LogEntry(i * 0.05, " ", "bulk_data", reply))
+    log = LogRead(entries, [])
+    expected = list(replay_poses(log))
+    clock = VirtualClock()
+    replayer = Replayer(Playback("long", log, clock.now(), speed=16))
+    while not replayer.playback.finished(clock.now()):
+        replayer.advance(clock.now(), lambda exchange: None)
+        clock.advance(0.05)
+    for offset in (12.34, 200.0, 0.7, 239.0, 61.0):
+        replayer.seek(clock.now(), offset)
+        pose = [p for p in expected if p.offset <= offset][-1]
+        assert replayer.pose.x == pytest.approx(pose.x, abs=1e-9)
+        assert replayer.pose.heading == pytest.approx(pose.heading, abs=1e-12)
