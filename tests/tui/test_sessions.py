@@ -203,3 +203,31 @@ async def test_a_two_round_patrol_of_two_routes_runs_to_the_end_with_progress(tm
         "round2-stop1-out.jpg", "round2-stop2-back.jpg",
     ]  # fmt: skip
     assert rig.board.true_pose.x == pytest.approx(3 * residual, abs=0.05)
+
+
+async def test_a_patrol_started_again_keeps_its_recording_and_snapshots(tmp_path):
+    recordings = tmp_path / "recordings"
+    rig = Rig(camera=True, recordings=recordings)
+    async with rig.app.run_test(size=SIZE) as pilot:
+        await rig.run(pilot, 0.2)
+
+        async def out() -> None:
+            await rig.hold(pilot, "up", 0.6)
+            await rig.run(pilot, 1.0)
+
+        await teach(rig, pilot, "out", out)
+        (tmp_path / "routes" / "once.patrol.yaml").write_text("rounds: 1\nstops: [{route: out}]\n")
+        await rig.show_camera(pilot)
+        await type_command(pilot, "patrol once")
+        await rig.run(pilot, 0.3)
+        await type_command(pilot, "patrol once")  # the operator starts it over
+        for _ in range(20):
+            await rig.run(pilot, 0.5)
+            if rig.control.mission is None:
+                break
+        for _ in range(100):
+            if not rig.sessions.recording:
+                break
+            await asyncio.sleep(0.01)
+        assert not rig.sessions.recording
+    assert [p.name for p in recordings.glob("*/snapshots/*.jpg")] == ["round1-stop1-out.jpg"]
