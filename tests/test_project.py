@@ -76,7 +76,17 @@ ALLOWED_IMPORTS = {
     "camera": {"camera", "clock"},
     "recording": {"recording", "camera", "link", "protocol", "clock"},
     "robot": {"robot", "recording", "camera", "link", "protocol", "clock"},
-    "missions": {"missions", "robot", "recording", "camera", "link", "protocol", "clock"},
+    "planning": {"planning", "robot", "recording", "camera", "link", "protocol", "clock"},
+    "missions": {
+        "missions",
+        "planning",
+        "robot",
+        "recording",
+        "camera",
+        "link",
+        "protocol",
+        "clock",
+    },
 }
 
 

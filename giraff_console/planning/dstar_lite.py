@@ -1,0 +1,264 @@
+"""D* Lite on an 8-connected grid: replanning as obstacles appear and vanish (§2.6.4).
+
+The thesis recommends D* rather than A* for a robot that maps obstacles as it goes, "to
+minimize time wasted replanning the route whenever an obstacle is detected". This is
+D* Lite (S. Koenig and M. Likhachev, "D* Lite", AAAI 2002), in the optimised version of
+the paper's Figure 4: it searches backwards from the goal, so when cells change near the
+robot only the part of the search those changes invalidate is repaired, and the robot's
+own movement costs nothing but an increase of the key modifier km.
+
+The grid is 8-connected without corner cutting: a diagonal move needs both orthogonal
+neighbours free, or the robot would clip the corner of an obstacle. Costs are integers,
+10 for a straight move and 14 for a diagonal one, and the heuristic is the octile
+distance in the same units, which is admissible and consistent. Integer keys compare
+exactly, so the search never stops early on a rounding error; infinity is math.inf,
+which adds and compares exactly with integers.
+
+Cells are numbered in a flat array with a one-cell border of blocked cells, so that
+neighbours are constant offsets and the inner loop needs no bounds checks.
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Iterable
+from math import inf
+
+import numpy as np
+
+Cell = tuple[int, int]
+STRAIGHT = 10
+DIAGONAL = 14
+
+
+class DStarLite:
+    """A shortest path from `start` to `goal` through the cells that are not `blocked`,
+    kept up to date as cells change and the robot moves.
+
+    `plan()` returns the path, or None when there is none. After `move_to` and
+    `update_cells`, `plan()` repairs the previous search instead of starting again. The
+    goal is fixed; a new goal needs a new planner.
+    """
+
+    def __init__(self, blocked: np.ndarray, start: Cell, goal: Cell) -> None:
+        blocked = np.asarray(blocked, dtype=bool)
+        if blocked.ndim != 2:
+            raise ValueError(f"a grid is two-dimensional, not {blocked.shape}")
+        self.shape: tuple[int, int] = blocked.shape
+        rows, cols = blocked.shape
+        width = cols + 2
+        self._width = width
+        padded = np.ones((rows + 2, width), dtype=bool)
+        padded[1:-1, 1:-1] = blocked
+        self._blocked: list[bool] = padded.ravel().tolist()
+        n = padded.size
+        self._row_of: list[int] = (np.arange(n) // width).tolist()
+        self._col_of: list[int] = (np.arange(n) % width).tolist()
+        # (offset, cost, corner, corner): a straight move's corners are its own cell,
+        # free by the time they are checked, so one loop serves both kinds of move.
+        self._moves = tuple(
+            (dr * width + dc, DIAGONAL, dr * width, dc)
+            if dr and dc
+            else (dr * width + dc, STRAIGHT, 0, 0)
+            for dr in (-1, 0, 1)
+            for dc in (-1, 0, 1)
+            if dr or dc
+        )
+        self._start = self._index(start)
+        self._goal = self._index(goal)
+        self._g = [inf] * n
+        self._rhs = [inf] * n
+        self._km = 0
+        # The priority queue is a binary heap with lazy deletion: heapq cannot change or
+        # remove an entry in place, so an update pushes a new entry and `_queued` maps
+        # each queued cell to its one live entry. Entries that are no longer live are
+        # dropped when they reach the top. This is O(log n) per operation, against the
+        # O(n) of searching the heap to delete.
+        self._heap: list[tuple[float, float, int]] = []
+        self._queued: dict[int, tuple[float, float, int]] = {}
+        self._rhs[self._goal] = 0
+        self._update_vertex(self._goal)
+
+    @property
+    def start(self) -> Cell:
+        return self._cell(self._start)
+
+    @property
+    def goal(self) -> Cell:
+        return self._cell(self._goal)
+
+    @property
+    def cost(self) -> int | None:
+        """The cost of the shortest path in tenths of a cell side, or None if none."""
+        if not self._compute():
+            return None
+        return self._rhs[self._start]
+
+    def plan(self) -> list[Cell] | None:
+        """The shortest path from start to goal, both included, or None if there is none."""
+        if not self._compute():
+            return None
+        g, blocked, goal = self._g, self._blocked, self._goal
+        cell = self._start
+        path = [cell]
+        # Each step lowers g by its own cost, so the walk reaches the goal in fewer steps
+        # than there are cells; the bound only guards against a broken invariant.
+        for _ in range(len(g)):
+            if cell == goal:
+                return [self._cell(i) for i in path]
+            best, step = inf, cell
+            for offset, cost, corner_a, corner_b in self._moves:
+                t = cell + offset
+                if blocked[t] or blocked[cell + corner_a] or blocked[cell + corner_b]:
+                    continue
+                if cost + g[t] < best:
+                    best, step = cost + g[t], t
+            cell = step
+            path.append(cell)
+        raise RuntimeError("D* Lite could not follow its own search to the goal")
+
+    def move_to(self, cell: Cell) -> None:
+        """The robot is now at `cell`. Keys already queued were computed from the old
+        start; raising km by the heuristic between the two keeps them lower bounds, so
+        nothing is re-queued (the paper does this at the next change of costs; doing it
+        on each move is equally correct, since the heuristic obeys the triangle
+        inequality, and lets `plan()` run at any time)."""
+        new = self._index(cell)
+        self._km += self._heuristic(self._start, new)
+        self._start = new
+
+    def update_cells(self, changes: Iterable[tuple[Cell, bool]]) -> None:
+        """Cells became blocked (True) or free (False). The next `plan()` replans."""
+        blocked = self._blocked
+        touched: set[int] = set()
+        for cell, now_blocked in changes:
+            i = self._index(cell)
+            if blocked[i] != bool(now_blocked):
+                blocked[i] = bool(now_blocked)
+                # A cell's state is in the cost of the moves into and out of it, and of
+                # the diagonal moves round its corners: all from the cell or its neighbours.
+                touched.add(i)
+                touched.update(i + offset for offset, _, _, _ in self._moves)
+        touched.discard(self._goal)
+        for s in touched:
+            # Recomputing rhs from all eight successors gives the same result as the
+            # paper's per-edge test, at the cost of a handful of lookups.
+            self._rhs[s] = self._lookahead(s)
+            self._update_vertex(s)
+
+    def _index(self, cell: Cell) -> int:
+        row, col = cell
+        if not (0 <= row < self.shape[0] and 0 <= col < self.shape[1]):
+            raise ValueError(f"{cell} is off the grid {self.shape}")
+        return (row + 1) * self._width + col + 1
+
+    def _cell(self, i: int) -> Cell:
+        row, col = divmod(i, self._width)
+        return row - 1, col - 1
+
+    def _heuristic(self, a: int, b: int) -> int:
+        """The octile distance between two cells, in the units of the move costs."""
+        dr = abs(self._row_of[a] - self._row_of[b])
+        dc = abs(self._col_of[a] - self._col_of[b])
+        return STRAIGHT * max(dr, dc) + (DIAGONAL - STRAIGHT) * min(dr, dc)
+
+    def _lookahead(self, s: int) -> float:
+        """rhs(s): the best cost to the goal through one of s's successors."""
+        blocked, g = self._blocked, self._g
+        if blocked[s]:
+            return inf
+        best = inf
+        for offset, cost, corner_a, corner_b in self._moves:
+            t = s + offset
+            if blocked[t] or blocked[s + corner_a] or blocked[s + corner_b]:
+                continue
+            if cost + g[t] < best:
+                best = cost + g[t]
+        return best
+
+    def _update_vertex(self, s: int) -> None:
+        g, rhs = self._g[s], self._rhs[s]
+        if g != rhs:
+            m = g if g < rhs else rhs
+            entry = (m + self._heuristic(self._start, s) + self._km, m, s)
+            self._queued[s] = entry
+            heapq.heappush(self._heap, entry)
+        else:
+            self._queued.pop(s, None)
+
+    def _compute(self) -> bool:
+        """ComputeShortestPath; False if there is no path.
+
+        A blocked start or goal has no path, and the search waits until it is freed.
+        """
+        blocked, start, goal = self._blocked, self._start, self._goal
+        if blocked[start] or blocked[goal]:
+            return False
+        g, rhs, heap, queued, moves = self._g, self._rhs, self._heap, self._queued, self._moves
+        if len(heap) > 2 * len(queued) + 1024:
+            # Dead entries deep in the heap are only dropped when they surface; on a long
+            # mission they would pile up, so now and then the heap is rebuilt from the
+            # live ones, in time linear in its size.
+            heap[:] = queued.values()
+            heapq.heapify(heap)
+        row_of, col_of, km = self._row_of, self._col_of, self._km
+        sr, sc = row_of[start], col_of[start]
+        straight, extra = STRAIGHT, DIAGONAL - STRAIGHT  # octile distance, inlined
+        heappop, heappush, heapreplace = heapq.heappop, heapq.heappush, heapq.heapreplace
+        while heap:
+            entry = heap[0]
+            k1, k2, u = entry
+            if queued.get(u) is not entry:  # superseded or removed: lazy deletion
+                heappop(heap)
+                continue
+            # Done once the start is not underconsistent and its key is no more than
+            # the smallest queued key: nothing left in the queue can lower its cost.
+            start_rhs = rhs[start]
+            if start_rhs <= g[start] and (
+                k1 > start_rhs + km or (k1 == start_rhs + km and k2 >= start_rhs)
+            ):
+                break
+            gu, ru = g[u], rhs[u]
+            m = gu if gu < ru else ru
+            dr, dc = abs(row_of[u] - sr), abs(col_of[u] - sc)
+            h = straight * dr + extra * dc if dr > dc else straight * dc + extra * dr
+            if k1 < m + h + km or (k1 == m + h + km and k2 < m):  # queued before a move
+                entry = (m + h + km, m, u)
+                queued[u] = entry
+                heapreplace(heap, entry)
+                continue
+            heappop(heap)
+            del queued[u]
+            if gu > ru:  # overconsistent: settle g and relax the predecessors
+                g[u] = ru  # u is free: a blocked cell's rhs is infinite, the goal's aside
+                for offset, cost, corner_a, corner_b in moves:
+                    # Most neighbours have been reached already, so the cheap test first.
+                    s = u + offset
+                    v = ru + cost
+                    if v >= rhs[s]:  # always true of the goal, whose rhs is 0
+                        continue
+                    if blocked[s] or blocked[u + corner_a] or blocked[u + corner_b]:
+                        continue
+                    rhs[s] = v
+                    gs = g[s]
+                    if gs == v:
+                        queued.pop(s, None)
+                        continue
+                    ms = v if v < gs else gs
+                    dr, dc = abs(row_of[s] - sr), abs(col_of[s] - sc)
+                    h = straight * dr + extra * dc if dr > dc else straight * dc + extra * dr
+                    entry = (ms + h + km, ms, s)
+                    queued[s] = entry
+                    heappush(heap, entry)
+            else:  # underconsistent: raise g and repair those that relied on it
+                g[u] = inf
+                if not blocked[u]:
+                    for offset, cost, corner_a, corner_b in moves:
+                        s = u + offset
+                        if blocked[s] or blocked[u + corner_a] or blocked[u + corner_b]:
+                            continue
+                        if s != goal and rhs[s] == gu + cost:
+                            rhs[s] = self._lookahead(s)
+                            self._update_vertex(s)
+                self._update_vertex(u)
+        return rhs[start] != inf
