@@ -1,0 +1,413 @@
+"""Floor plans: the building as named rooms and the doorways between them (thesis §2.6.2).
+
+The thesis proposes giving the robot "a floor plan of the building ... naming each room
+and the available doorways between them", stored as a graph that A* searches to find
+which doors to go through (room_graph.py). An optional occupancy grid (§2.6.4) lies under
+it for planning between the doors. Floor plans are written by hand, so every mistake is
+reported as `file:line: message` naming the key, all of them at once, and never as a
+traceback; floorplans/README.md documents the schema and the rules checked here.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import cv2
+import networkx as nx
+import numpy as np
+import yaml
+
+Point = tuple[float, float]
+
+DOOR_WIDTH_M = 0.9
+# How far a door's centre may lie from a wall of each of its rooms' outlines: outlines
+# drawn on either face of a thin wall still share the door.
+DOOR_TOLERANCE_M = 0.1
+
+_ID = re.compile(r"[A-Za-z0-9_-]{1,64}\Z")  # ids are typed in commands: "go room-101"
+_TOP = {"name": True, "rooms": True, "doors": True, "grid": False, "start": False}
+_ROOM = {"label": False, "at": True, "heading": False, "outline": False}
+_DOOR = {"between": True, "at": True, "width": False, "open": False, "id": False}
+_GRID = {"image": True, "resolution": True, "origin": False, "negate": False}
+_GRID |= {"occupied_thresh": False, "free_thresh": False}
+
+
+@dataclass(frozen=True)
+class Room:
+    id: str
+    label: str
+    at: Point  # where "go <id>" ends, metres in the map frame
+    heading: float | None  # arrival heading, degrees counter-clockwise from +x
+    outline: tuple[Point, ...] | None  # a polygon whose edges are walls
+
+
+@dataclass(frozen=True)
+class Door:
+    id: str
+    between: tuple[str, str]
+    at: Point  # the centre of the doorway
+    width: float
+    open: bool
+
+
+@dataclass(frozen=True)
+class GridSpec:
+    """Where the occupancy grid is and how to read it, as a ROS map_server YAML says."""
+
+    image: Path
+    resolution: float  # metres per pixel
+    origin: tuple[float, float, float]  # x, y, yaw of the lower-left pixel's corner
+    negate: int
+    occupied_thresh: float
+    free_thresh: float
+
+
+@dataclass(frozen=True)
+class FloorPlan:
+    name: str
+    rooms: dict[str, Room]
+    doors: list[Door]
+    grid: GridSpec | None
+    start: str | None
+    path: Path
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One mistake in a floor plan file; prints as `path:line: message`."""
+
+    path: Path
+    line: int | None
+    message: str
+
+    def __str__(self) -> str:
+        where = f"{self.path}:{self.line}" if self.line else str(self.path)
+        return f"{where}: {self.message}"
+
+
+class FloorPlanError(Exception):
+    """A floor plan that cannot be used, with every problem found in it."""
+
+    def __init__(self, problems: list[Problem]) -> None:
+        self.problems = problems
+        super().__init__("\n".join(map(str, problems)))
+
+
+def load_floorplan(path: str | Path) -> FloorPlan:
+    """The floor plan in `path`; raises FloorPlanError listing its problems."""
+    plan, problems = _read(Path(path))
+    if problems or plan is None:
+        raise FloorPlanError(problems)
+    return plan
+
+
+def check_floorplan(path: str | Path) -> list[Problem]:
+    """Every problem in the floor plan file at `path`; empty if it can be used."""
+    return _read(Path(path))[1]
+
+
+Where = tuple[str | int, ...]
+
+
+def _dotted(where: Where) -> str:
+    text = ""
+    for part in where:
+        text += f"[{part}]" if isinstance(part, int) else f".{part}" if text else part
+    return text or "the file"
+
+
+def _node_lines(node: yaml.Node, where: Where, lines: dict, duplicates: list) -> None:
+    """Record the line of every key and list item under `node`, and duplicate keys,
+    which PyYAML's loader would silently drop (it keeps the last)."""
+    if isinstance(node, yaml.MappingNode):
+        seen = set()
+        for key, value in node.value:
+            name = key.value if isinstance(key, yaml.ScalarNode) else repr(key)
+            if name in seen:
+                duplicates.append((where, name, key.start_mark.line + 1))
+            seen.add(name)
+            lines.setdefault((*where, name), key.start_mark.line + 1)
+            _node_lines(value, (*where, name), lines, duplicates)
+    elif isinstance(node, yaml.SequenceNode):
+        for i, item in enumerate(node.value):
+            lines[(*where, i)] = item.start_mark.line + 1
+            _node_lines(item, (*where, i), lines, duplicates)
+
+
+class _Reader:
+    """Turns the loaded YAML into a FloorPlan, collecting problems rather than stopping."""
+
+    def __init__(self, path: Path, lines: dict[Where, int]) -> None:
+        self.path, self.lines = path, lines
+        self.problems: list[Problem] = []
+
+    def add(self, where: Where, message: str) -> None:
+        while where and where not in self.lines:
+            where = where[:-1]
+        self.problems.append(Problem(self.path, self.lines.get(where), message))
+
+    def bad(self, where: Where, what: str, value: Any) -> None:
+        self.add(where, f"{_dotted(where)} should be {what}, not {value!r}")
+
+    def mapping(self, value: Any, where: Where, keys: dict[str, bool]) -> dict | None:
+        if not isinstance(value, dict):
+            return self.bad(where, "a mapping of keys", value)
+        for key in value:
+            if key not in keys:
+                sub = (*where, str(key))
+                self.add(sub, f"unknown key {_dotted(sub)} (expected {', '.join(keys)})")
+        for key, required in keys.items():
+            if required and key not in value:
+                self.add(where, f"missing key {_dotted((*where, key))}")
+        return value
+
+    def number(self, value: Any, where: Where, low: float = -math.inf, high=math.inf) -> Any:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            self.bad(where, "a number", value)
+        elif not math.isfinite(value):
+            self.bad(where, "a finite number", value)
+        elif not low <= value <= high:
+            self.add(where, f"{_dotted(where)} is {value}, out of range [{low}, {high}]")
+        else:
+            return float(value)
+        return None
+
+    def numbers(self, value: Any, where: Where, count: int, what: str) -> Any:
+        good = isinstance(value, list) and len(value) == count
+        if good and all(self.number(v, (*where, i)) is not None for i, v in enumerate(value)):
+            return tuple(float(v) for v in value)
+        if not good:
+            self.bad(where, what, value)
+        return None
+
+    def point(self, value: Any, where: Where) -> Any:
+        return self.numbers(value, where, 2, "a pair of numbers [x, y] in metres")
+
+    def text(self, value: Any, where: Where, is_id: bool = False) -> Any:
+        if is_id and not (isinstance(value, str) and _ID.match(value)):
+            self.bad(where, "an id of letters, digits, '-' and '_' (up to 64)", value)
+        elif not isinstance(value, str):
+            self.bad(where, "text", value)
+        else:
+            return value
+        return None
+
+    def room(self, room_id: str, value: Any) -> Room | None:
+        where: Where = ("rooms", room_id)
+        raw = self.mapping(value, where, _ROOM)
+        if raw is None or "at" not in raw:
+            return None
+        before = len(self.problems)
+        label = self.text(raw.get("label", room_id), (*where, "label"))
+        at = self.point(raw["at"], (*where, "at"))
+        heading = raw.get("heading")
+        if heading is not None:
+            heading = self.number(heading, (*where, "heading"))
+        outline = raw.get("outline")
+        if outline is not None:
+            if isinstance(outline, list) and len(outline) >= 3:
+                corners = [self.point(p, (*where, "outline", i)) for i, p in enumerate(outline)]
+                outline = tuple(corners)
+            else:
+                self.bad((*where, "outline"), "a list of at least 3 points [x, y]", outline)
+        if len(self.problems) > before:
+            return None
+        return Room(room_id, label, at, heading, outline)
+
+    def door(self, i: int, value: Any, room_ids: set[str]) -> Door | None:
+        where: Where = ("doors", i)
+        raw = self.mapping(value, where, _DOOR)
+        if raw is None or "at" not in raw or "between" not in raw:
+            return None
+        before = len(self.problems)
+        between = raw["between"]
+        pair = isinstance(between, list) and len(between) == 2
+        if not pair or not all(isinstance(side, str) for side in between):
+            self.bad((*where, "between"), "two room ids [a, b]", between)
+        elif between[0] == between[1]:
+            self.add((*where, "between"), f"door {i} leads from {between[0]!r} to itself")
+        else:
+            for side in between:
+                if side not in room_ids:
+                    self.add((*where, "between"), f"door {i} leads to an unknown room {side!r}")
+        at = self.point(raw["at"], (*where, "at"))
+        width = self.number(raw.get("width", DOOR_WIDTH_M), (*where, "width"), 0.01, 100.0)
+        is_open = raw.get("open", True)
+        if not isinstance(is_open, bool):
+            self.bad((*where, "open"), "true or false", is_open)
+        if len(self.problems) > before:
+            return None
+        door_id = f"{between[0]}-{between[1]}"
+        if "id" in raw and self.text(raw["id"], (*where, "id"), is_id=True) is None:
+            return None
+        return Door(raw.get("id", door_id), (between[0], between[1]), at, width, is_open)
+
+    def grid(self, value: Any) -> GridSpec | None:
+        raw = self.mapping(value, ("grid",), _GRID)
+        if raw is None or "image" not in raw or "resolution" not in raw:
+            return None
+        before = len(self.problems)
+        image = self.text(raw["image"], ("grid", "image"))
+        resolution = self.number(raw["resolution"], ("grid", "resolution"), 1e-6)
+        origin = self.numbers(
+            raw.get("origin", [0, 0, 0]), ("grid", "origin"), 3, "three numbers [x, y, yaw]"
+        )
+        negate = raw.get("negate", 0)
+        if negate not in (0, 1) or isinstance(negate, float):
+            self.bad(("grid", "negate"), "0 or 1", negate)
+        occupied = self.number(raw.get("occupied_thresh", 0.65), ("grid", "occupied_thresh"), 0, 1)
+        free = self.number(raw.get("free_thresh", 0.196), ("grid", "free_thresh"), 0, 1)
+        if occupied is not None and free is not None and free > occupied:
+            self.add(("grid", "free_thresh"), "grid.free_thresh is above grid.occupied_thresh")
+        if len(self.problems) > before:
+            return None
+        return GridSpec(self.path.parent / image, resolution, origin, int(negate), occupied, free)
+
+
+def _read(path: Path) -> tuple[FloorPlan | None, list[Problem]]:
+    try:
+        source = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as error:
+        return None, [Problem(path, None, f"cannot read it: {error}")]
+    try:
+        node = yaml.compose(source, Loader=yaml.SafeLoader)
+        document = yaml.safe_load(source)
+    except yaml.YAMLError as error:
+        mark = getattr(error, "problem_mark", None)
+        what = ", ".join(filter(None, (getattr(error, k, None) for k in ("context", "problem"))))
+        message = f"not YAML: {what or ' '.join(str(error).split())}"
+        return None, [Problem(path, mark.line + 1 if mark else None, message)]
+    lines: dict[Where, int] = {}
+    duplicates: list[tuple[Where, str, int]] = []
+    if node is not None:
+        _node_lines(node, (), lines, duplicates)
+    reader = _Reader(path, lines)
+    for where, key, line in duplicates:
+        reader.problems.append(Problem(path, line, f"duplicate key {_dotted((*where, key))}"))
+    top = reader.mapping(document, (), _TOP)
+    if top is None:
+        return None, reader.problems
+    name = reader.text(top.get("name", ""), ("name",))
+    raw_rooms = top.get("rooms", {})
+    if "rooms" in top and (not isinstance(raw_rooms, dict) or not raw_rooms):
+        reader.bad(("rooms",), "a mapping of room ids to rooms", raw_rooms)
+        raw_rooms = {}
+    rooms = {}
+    for room_id, value in raw_rooms.items():
+        if reader.text(room_id, ("rooms", str(room_id)), is_id=True) is not None:
+            room = reader.room(room_id, value)
+            if room is not None:
+                rooms[room_id] = room
+    raw_doors = top.get("doors", [])
+    if raw_doors is None:
+        raw_doors = []  # "doors:" with nothing after it: a building of one room
+    if not isinstance(raw_doors, list):
+        reader.bad(("doors",), "a list of doors", raw_doors)
+        raw_doors = []
+    doors = [reader.door(i, value, set(raw_rooms)) for i, value in enumerate(raw_doors)]
+    grid = reader.grid(top["grid"]) if top.get("grid") is not None else None
+    start = top.get("start")
+    if start is not None and (not isinstance(start, str) or start not in raw_rooms):
+        reader.add(("start",), f"start names an unknown room {start!r}")
+        start = None
+    _check_ids(reader, doors, set(raw_rooms))
+    for i, door in enumerate(doors):
+        if door:
+            _check_door_on_walls(reader, i, door, rooms)
+    good_doors = [door for door in doors if door]
+    if not reader.problems:  # a broken door would make rooms look unreachable
+        _check_reachable(reader, list(rooms), good_doors, start)
+    if grid is not None:
+        _check_grid(reader, grid, rooms)
+    if reader.problems:
+        return None, reader.problems
+    return FloorPlan(name, rooms, good_doors, grid, start, path), []
+
+
+def _check_ids(reader: _Reader, doors: list[Door | None], room_ids: set[str]) -> None:
+    seen: set[str] = set()
+    for i, door in enumerate(doors):
+        if door is None:
+            continue
+        if door.id in room_ids:
+            reader.add(("doors", i), f"door id {door.id!r} is also a room id")
+        elif door.id in seen:
+            reader.add(("doors", i), f"duplicate door id {door.id!r}: give one of them another id")
+        seen.add(door.id)
+
+
+def _distance_to_outline(point: Point, outline: tuple[Point, ...]) -> float:
+    px, py = point
+    best = math.inf
+    for (ax, ay), (bx, by) in zip(outline, outline[1:] + outline[:1], strict=True):
+        dx, dy = bx - ax, by - ay
+        span = dx * dx + dy * dy
+        t = 0.0 if span == 0 else max(0.0, min(1.0, ((px - ax) * dx + (py - ay) * dy) / span))
+        best = min(best, math.hypot(px - ax - t * dx, py - ay - t * dy))
+    return best
+
+
+def _check_door_on_walls(reader: _Reader, i: int, door: Door, rooms: dict[str, Room]) -> None:
+    """A door is a gap in a wall the two rooms share: it must lie on both outlines."""
+    sides = [rooms.get(room_id) for room_id in door.between]
+    if any(room is None or room.outline is None for room in sides):
+        return
+    for room in sides:
+        assert room is not None and room.outline is not None
+        gap = _distance_to_outline(door.at, room.outline)
+        if gap > DOOR_TOLERANCE_M:
+            reader.add(
+                ("doors", i, "at"),
+                f"door {door.id!r} at {list(door.at)} is {gap:.2f} m "
+                f"from the walls of {room.id!r} (at most {DOOR_TOLERANCE_M} m)",
+            )
+
+
+def _check_reachable(reader: _Reader, rooms: list[str], doors: list[Door], start: Any) -> None:
+    """Every room must be reachable through some door, open or closed: doors are part of
+    the building, closing one is something that happens while the robot runs."""
+    if not rooms:
+        return
+    graph = nx.Graph()
+    graph.add_nodes_from(rooms)
+    graph.add_edges_from(door.between for door in doors)
+    root = start if start is not None else rooms[0]
+    reached = nx.node_connected_component(graph, root)
+    for room_id in rooms:
+        if room_id not in reached:
+            reader.add(
+                ("rooms", room_id),
+                f"room {room_id!r} cannot be reached from {root!r}: no chain of doors leads to it",
+            )
+
+
+def _check_grid(reader: _Reader, grid: GridSpec, rooms: dict[str, Room]) -> None:
+    """The grid image must load, and every room's `at` must be a free cell of it, read by
+    ROS map_server's rules: row 0 is the top, `origin` the lower-left pixel's corner."""
+    pixels = cv2.imread(str(grid.image), cv2.IMREAD_UNCHANGED) if grid.image.is_file() else None
+    if pixels is None:
+        state = "unreadable" if grid.image.is_file() else "missing"
+        reader.add(("grid", "image"), f"grid image {str(grid.image)!r} is {state}")
+        return
+    if pixels.ndim == 3:  # colour: the mean of the colour channels, alpha ignored
+        pixels = pixels[:, :, : 3 if pixels.shape[2] >= 3 else 1].mean(axis=2)
+    scale = float(np.iinfo(pixels.dtype).max) if pixels.dtype.kind in "ui" else 255.0
+    value = pixels.astype(np.float64) / scale
+    occupancy = value if grid.negate else 1.0 - value
+    rows, cols = occupancy.shape
+    for room in rooms.values():
+        col = math.floor((room.at[0] - grid.origin[0]) / grid.resolution)
+        row = rows - 1 - math.floor((room.at[1] - grid.origin[1]) / grid.resolution)
+        where = ("rooms", room.id, "at")
+        if not (0 <= row < rows and 0 <= col < cols):
+            reader.add(where, f"room {room.id!r} at {list(room.at)} is off the grid")
+        elif occupancy[row, col] > grid.occupied_thresh:
+            reader.add(
+                where,
+                f"room {room.id!r} at {list(room.at)} is on an occupied cell "
+                f"(row {row}, column {col} of {grid.image.name})",
+            )
