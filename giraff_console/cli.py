@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import signal
 import sys
@@ -26,6 +27,8 @@ from giraff_console.clock import RealClock
 from giraff_console.link import DEFAULT_TIMEOUT_S, BoardLink, LinkError
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
+from giraff_console.planning.floorplan import FloorPlanError, check_floorplan, load_floorplan
+from giraff_console.planning.room_graph import PlanningError, RoomGraph, UnknownRoomError
 from giraff_console.protocol import (
     BoardError,
     GiraffError,
@@ -59,6 +62,9 @@ EXIT_USAGE = 2
 EXIT_LINK_ERROR = 3
 
 IN_PROCESS_SIMULATOR = "giraff-sim://"
+# No route between two rooms that exist.
+EXIT_NO_ROUTE = 1
+EXAMPLE_FLOORPLAN = Path("floorplans/care-home.yaml")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -166,6 +172,32 @@ def build_parser() -> argparse.ArgumentParser:
     export.add_argument("session", type=Path, metavar="SESSION")
     export.add_argument("out", type=Path, metavar="OUT.mcap")
 
+    plan = commands.add_parser(
+        "plan",
+        help="plan a route between two rooms of a floor plan",
+        description="Plan the shortest route from room FROM to room TO over the floor "
+        "plan's room graph (A*, §2.6.2): the rooms and doors it passes, its length and its "
+        "polyline. Exits 2 for an unknown room or a bad floor plan, 1 when there is no route.",
+    )
+    plan.add_argument(
+        "--floorplan", type=Path, default=EXAMPLE_FLOORPLAN, metavar="FILE",
+        help="floor plan YAML (default: %(default)s); floorplans/README.md has the format",
+    )  # fmt: skip
+    plan.add_argument("--json", action="store_true", help="print the route as JSON")
+    plan.add_argument("origin", metavar="FROM", help="room id to start from, e.g. dock")
+    plan.add_argument("destination", metavar="TO", help="room id to go to, e.g. day-room")
+
+    floorplan = commands.add_parser(
+        "floorplan",
+        help="check a floor plan file",
+        description="Check FILE against the floor plan format (floorplans/README.md) and "
+        "print every problem as FILE:LINE: message. Exits 0 if there is none, 2 otherwise.",
+    )
+    floorplan_commands = floorplan.add_subparsers(dest="floorplan_command", metavar="ACTION",
+                                                  required=True)  # fmt: skip
+    check = floorplan_commands.add_parser("check", help="report every problem in a floor plan")
+    check.add_argument("file", type=Path, metavar="FILE")
+
     send = commands.add_parser(
         "send",
         help="send controller commands and print the decoded replies",
@@ -208,6 +240,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return run_send(args)
     if args.command == "export":
         return run_export(args)
+    if args.command == "plan":
+        return run_plan(args)
+    if args.command == "floorplan":
+        return run_floorplan_check(args)
     return run_console(args)
 
 
@@ -288,6 +324,38 @@ def run_console(args: argparse.Namespace) -> int:
         control.stop()
     # Non-zero if the console itself failed; the robot was stopped all the same.
     return app.return_code or 0
+
+
+def run_plan(args: argparse.Namespace) -> int:
+    """The route between two rooms, as text or JSON."""
+    try:
+        route = RoomGraph(load_floorplan(args.floorplan)).route(args.origin, args.destination)
+    except FloorPlanError as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    except UnknownRoomError as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    except PlanningError as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_NO_ROUTE
+    if args.json:
+        print(json.dumps(route.as_json()))
+    else:
+        print(f"{' → '.join(route.rooms)}: {route.length_m:.2f} m")
+        print(f"doors: {', '.join(route.doors) or 'none'}")
+    return 0
+
+
+def run_floorplan_check(args: argparse.Namespace) -> int:
+    """Every problem in a floor plan, one per line."""
+    problems = check_floorplan(args.file)
+    for problem in problems:
+        print(problem)
+    if problems:
+        return EXIT_USAGE
+    print(f"{args.file}: no problems")
+    return 0
 
 
 def run_export(args: argparse.Namespace) -> int:

@@ -1,0 +1,71 @@
+"""`giraff-console plan` and `floorplan check` from the shell."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+from pathlib import Path
+
+import networkx as nx
+
+from giraff_console.cli import main
+from giraff_console.planning.floorplan import load_floorplan
+
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLE = ROOT / "floorplans" / "care-home.yaml"
+
+
+def polyline_length(path: list[list[float]]) -> float:
+    return sum(math.dist(a, b) for a, b in itertools.pairwise(path))
+
+
+def optimal_length(plan_path: Path, origin: str, destination: str) -> float:
+    """The shortest way by a graph built here from the file: room points and open doors,
+    doors of one room joined to each other and to its point."""
+    plan = load_floorplan(plan_path)
+    graph = nx.Graph()
+    for door in plan.doors:
+        if not door.open:
+            continue
+        for room in door.between:
+            graph.add_edge(("room", room), ("door", door.id),
+                           weight=math.dist(plan.rooms[room].at, door.at))  # fmt: skip
+            for other in plan.doors:
+                if other.open and other is not door and room in other.between:
+                    graph.add_edge(("door", door.id), ("door", other.id),
+                                   weight=math.dist(door.at, other.at))  # fmt: skip
+    return nx.dijkstra_path_length(graph, ("room", origin), ("room", destination))
+
+
+def test_plan_prints_an_optimal_route_as_json(capsys):
+    assert main(["plan", "--floorplan", str(EXAMPLE), "dock", "activity-room", "--json"]) == 0
+    route = json.loads(capsys.readouterr().out)
+    assert set(route) == {"from", "to", "rooms", "doors", "length_m", "path"}
+    assert route["rooms"] == ["dock", "corridor", "day-room", "activity-room"]
+    assert route["doors"] == ["dock-corridor", "day-room-corridor", "activity-room-day-room"]
+    assert route["length_m"] == round(polyline_length(route["path"]), 3)
+    assert math.isclose(route["length_m"], optimal_length(EXAMPLE, "dock", "activity-room"),
+                        abs_tol=1e-3)  # fmt: skip
+    assert route["path"][0] == [2.0, 7.0] and route["path"][-1] == [42.0, 16.0]
+
+
+def test_an_unknown_room_and_no_route_exit_non_zero_with_a_message(tmp_path, capsys):
+    assert main(["plan", "--floorplan", str(EXAMPLE), "dock", "attic"]) == 2
+    assert "no room called 'attic'" in capsys.readouterr().err
+    # Two rooms whose only door is shut.
+    shut = tmp_path / "shut.yaml"
+    shut.write_text("name: shut\nrooms:\n  a: {at: [0, 0]}\n  b: {at: [2, 0]}\n"
+                    "doors:\n  - {between: [a, b], at: [1, 0], open: false}\n")  # fmt: skip
+    assert main(["plan", "--floorplan", str(shut), "a", "b"]) == 1
+    assert "no route" in capsys.readouterr().err.lower()
+
+
+def test_floorplan_check_lists_problems_and_exits_2(tmp_path, capsys):
+    assert main(["floorplan", "check", str(EXAMPLE)]) == 0
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\nrooms:\n  a: {at: [0, 0]}\ndoors:\n  - between: [a, b]\n"
+                   "    at: [1, 0]\n")  # fmt: skip
+    assert main(["floorplan", "check", str(bad)]) == 2
+    out = capsys.readouterr().out
+    assert f"{bad}:5:" in out and "b" in out
