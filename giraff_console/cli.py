@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import signal
 import sys
 from collections.abc import Sequence
@@ -28,6 +29,7 @@ from giraff_console.link import DEFAULT_TIMEOUT_S, BoardLink, LinkError
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
 from giraff_console.planning.floorplan import FloorPlanError, check_floorplan, load_floorplan
+from giraff_console.planning.plan_drawing import draw_plan
 from giraff_console.planning.room_graph import PlanningError, RoomGraph, UnknownRoomError
 from giraff_console.protocol import (
     BoardError,
@@ -197,6 +199,15 @@ def build_parser() -> argparse.ArgumentParser:
                                                   required=True)  # fmt: skip
     check = floorplan_commands.add_parser("check", help="report every problem in a floor plan")
     check.add_argument("file", type=Path, metavar="FILE")
+    show = floorplan_commands.add_parser(
+        "show", help="draw a floor plan in the terminal",
+        description="Draw FILE's grid (or, without one, its outlines) with each room's id.",
+    )  # fmt: skip
+    show.add_argument("file", type=Path, metavar="FILE")
+    show.add_argument(
+        "--width", type=int, metavar="COLUMNS",
+        help="columns to fit the drawing in (default: the terminal's width)",
+    )  # fmt: skip
 
     send = commands.add_parser(
         "send",
@@ -233,7 +244,16 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    try:
+        return run(build_parser().parse_args(argv))
+    except BrokenPipeError:
+        # The output went to a pager or `head` that stopped reading: not an error.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    """The command `args` names."""
     if args.command == "sim":
         return run_sim(args)
     if args.command == "send":
@@ -242,6 +262,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return run_export(args)
     if args.command == "plan":
         return run_plan(args)
+    if args.command == "floorplan" and args.floorplan_command == "show":
+        return run_floorplan_show(args)
     if args.command == "floorplan":
         return run_floorplan_check(args)
     return run_console(args)
@@ -355,6 +377,18 @@ def run_floorplan_check(args: argparse.Namespace) -> int:
     if problems:
         return EXIT_USAGE
     print(f"{args.file}: no problems")
+    return 0
+
+
+def run_floorplan_show(args: argparse.Namespace) -> int:
+    """The plan drawn in the terminal."""
+    width = args.width or shutil.get_terminal_size().columns
+    try:
+        lines = draw_plan(load_floorplan(args.file), width)
+    except (FloorPlanError, OSError, ValueError) as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    print("\n".join(lines))
     return 0
 
 

@@ -69,3 +69,29 @@ def test_floorplan_check_lists_problems_and_exits_2(tmp_path, capsys):
     assert main(["floorplan", "check", str(bad)]) == 2
     out = capsys.readouterr().out
     assert f"{bad}:5:" in out and "b" in out
+
+
+def test_floorplan_show_draws_the_rooms_walls_and_doors_within_the_width(capsys):
+    assert main(["floorplan", "show", "--width", "100", str(EXAMPLE)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert max(len(line) for line in lines) <= 100
+    drawing = "\n".join(lines)
+    for label in ("dock", "corridor", "day-room", "dining-room", "101", "113"):
+        assert label in drawing
+    # The corridor's walls have gaps where the doors are.
+    corridor = next(i for i, line in enumerate(lines) if "corridor" in line)
+    wall = lines[corridor - 1]
+    assert wall.count("█") > 60 and "   " in wall.strip("░ ")
+
+
+def test_floorplan_show_draws_outlines_when_there_is_no_grid(tmp_path, capsys):
+    plan = tmp_path / "two.yaml"
+    plan.write_text("name: two\nrooms:\n"
+                    "  a: {at: [1, 1], outline: [[0, 0], [2, 0], [2, 2], [0, 2]]}\n"
+                    "  b: {at: [3, 1], outline: [[2, 0], [4, 0], [4, 2], [2, 2]]}\n"
+                    "doors:\n  - {between: [a, b], at: [2, 1]}\n")  # fmt: skip
+    assert main(["floorplan", "show", "--width", "40", str(plan)]) == 0
+    drawing = capsys.readouterr().out
+    assert "a" in drawing and "b" in drawing and "█" in drawing
+    assert main(["floorplan", "show", str(tmp_path / "none.yaml")]) == 2
+    assert "cannot read" in capsys.readouterr().err
