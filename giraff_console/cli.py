@@ -30,7 +30,8 @@ from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
 from giraff_console.planning.floorplan import FloorPlanError, check_floorplan, load_floorplan
 from giraff_console.planning.plan_drawing import draw_plan
-from giraff_console.planning.room_graph import PlanningError, RoomGraph, UnknownRoomError
+from giraff_console.planning.room_graph import PlanningError, UnknownRoomError
+from giraff_console.planning.route_planner import RoutePlanner, walls_of
 from giraff_console.protocol import (
     BoardError,
     GiraffError,
@@ -177,9 +178,11 @@ def build_parser() -> argparse.ArgumentParser:
     plan = commands.add_parser(
         "plan",
         help="plan a route between two rooms of a floor plan",
-        description="Plan the shortest route from room FROM to room TO over the floor "
-        "plan's room graph (A*, §2.6.2): the rooms and doors it passes, its length and its "
-        "polyline. Exits 2 for an unknown room or a bad floor plan, 1 when there is no route.",
+        description="Plan the shortest route from room FROM to room TO: the doors to pass "
+        "from A* over the floor plan's room graph (§2.6.2), the way across each room from "
+        "D* Lite on its grid (§2.6.4), for a robot of 0.3 m radius. Prints the rooms and "
+        "doors passed, the length and the polyline. Exits 2 for an unknown room or a bad "
+        "floor plan, 1 when there is no route.",
     )
     plan.add_argument(
         "--floorplan", type=Path, default=EXAMPLE_FLOORPLAN, metavar="FILE",
@@ -351,21 +354,19 @@ def run_console(args: argparse.Namespace) -> int:
 def run_plan(args: argparse.Namespace) -> int:
     """The route between two rooms, as text or JSON."""
     try:
-        route = RoomGraph(load_floorplan(args.floorplan)).route(args.origin, args.destination)
-    except FloorPlanError as error:
-        print(f"giraff-console: {error}", file=sys.stderr)
-        return EXIT_USAGE
-    except UnknownRoomError as error:
+        plan = load_floorplan(args.floorplan)
+        planned = RoutePlanner(plan, walls_of(plan)).between_rooms(args.origin, args.destination)
+    except (FloorPlanError, OSError, UnknownRoomError) as error:
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_USAGE
     except PlanningError as error:
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_NO_ROUTE
     if args.json:
-        print(json.dumps(route.as_json()))
+        print(json.dumps(planned.as_json()))
     else:
-        print(f"{' → '.join(route.rooms)}: {route.length_m:.2f} m")
-        print(f"doors: {', '.join(route.doors) or 'none'}")
+        print(f"{' → '.join(planned.route.rooms)}: {planned.length_m:.2f} m")
+        print(f"doors: {', '.join(planned.route.doors) or 'none'}")
     return 0
 
 

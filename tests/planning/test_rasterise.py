@@ -43,8 +43,10 @@ def test_dstar_lite_finds_the_way_through_the_doors_and_none_when_one_is_shut():
         centre = np.array(grid.cell_of(*door_at.at))
         half_width = door_at.width / 2 / grid.resolution
         assert min(np.abs(np.array(p) - centre).max() for p in path) <= half_width
-    # The kitchen is reached only through the dining room: shut its door, and no way.
-    shut = rasterise(plan, closed=frozenset({"kitchen-dining-room"})).inflated(ROBOT_RADIUS_M)
+    # The kitchen is reached through the dining room or the east hall: shut both doors,
+    # and there is no way.
+    kitchen_doors = frozenset({"kitchen-dining-room", "kitchen-east-hall"})
+    shut = rasterise(plan, closed=kitchen_doors).inflated(ROBOT_RADIUS_M)
     changes = [((r, c), True) for r, c in zip(*np.nonzero(shut.blocked() & ~grid.blocked()),
                                                strict=True)]  # fmt: skip
     planner.update_cells(changes)

@@ -91,17 +91,52 @@ def test_a_route_as_json(home):
     assert data["path"] == [[5, 1], [2, 2], [2, 6], [2, 7]]
 
 
-def test_the_edge_length_hook_can_remove_and_lengthen_edges():
+def test_measured_legs_can_be_missing_or_longer_than_the_straight_line():
     plan = load_floorplan(FIXTURES / "small-home.yaml")
+    asked = []
 
-    def edge_length(a, b):
+    def leg_length(a, b, room):
+        asked.append(room)
         if {a, b} == {(4, 4), (7, 2)}:
             return None  # say the lounge is blocked between these doors
         return 2 * math.dist(a, b)
 
-    route = RoomGraph(plan, edge_length).route("office", "kitchen")
+    route = RoomGraph(plan, leg_length).route("office", "kitchen")
     assert route.doors == ["office-hall", "kitchen-hall"]
     assert route.length_m == pytest.approx(2 * (2 + math.sqrt(65) + math.sqrt(8)))
+    assert set(asked) <= set(plan.rooms)
+
+
+def test_legs_are_measured_only_as_routes_need_them():
+    plan = load_floorplan(FIXTURES / "small-home.yaml")
+    asked = []
+
+    def leg_length(a, b, room):
+        asked.append((a, b))
+        return math.dist(a, b)
+
+    graph = RoomGraph(plan, leg_length)
+    route = graph.route("office", "kitchen")
+    # The straight lines are the lengths here, so the route is the one without a grid,
+    # found by measuring only its own legs.
+    assert route == RoomGraph(plan).route("office", "kitchen")
+    assert len(asked) == len(route.path) - 1 < graph.graph.number_of_edges()
+    graph.measure_all()
+    assert len(asked) == graph.graph.number_of_edges()
+    assert graph.route("office", "kitchen") == route
+
+
+def test_a_route_from_a_point_starts_there_and_takes_the_nearer_door():
+    graph = RoomGraph(load_floorplan(FIXTURES / "small-home.yaml"))
+    # In the office next to its door to the lounge (4, 4): through it, not via the
+    # office's point (2, 4).
+    route = graph.route_from((3.8, 4.5), "office", "kitchen")
+    assert route.rooms == ["office", "lounge", "hall", "kitchen"]
+    assert route.path[0] == (3.8, 4.5) and route.path[1] == (4, 4)
+    assert route.length_m == pytest.approx(
+        math.dist((3.8, 4.5), (4, 4)) + math.sqrt(13) + math.sqrt(10) + math.sqrt(8)
+    )
+    assert ("robot", "") not in graph.graph
 
 
 def random_plan(seed: int) -> FloorPlan:

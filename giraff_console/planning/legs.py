@@ -1,0 +1,214 @@
+"""Legs across one room on the occupancy grid: D* Lite between two points (§2.6.4).
+
+The room graph (§2.6.2) says which doors to pass; a leg is the way from one of those
+points to the next, across the room they share. The thesis would hold "each room ...
+internally represented as a bitmap" and run D* on it, so each leg plans on a window of
+the grid around its room's outline rather than on the whole building: a corridor's
+window is a few tens of thousands of cells where the care home has half a million.
+
+The planner's 8-connected staircase is then shortened by line of sight: every corner the
+robot could skip without its disc touching an obstacle (the grid is inflated by its
+radius) is dropped, so that what is driven, and what a leg measures, is a polyline of
+few corners. Shortening runs on the same inflated grid, so it never cuts a corner the
+planner went round.
+"""
+
+from __future__ import annotations
+
+import math
+from itertools import pairwise
+
+import numpy as np
+
+from giraff_console.planning.dstar_lite import DStarLite
+from giraff_console.planning.floorplan import FloorPlan, Point
+from giraff_console.planning.grid import Cell, OccupancyGrid
+
+# How far round a room's outline its window reaches: its doors' far sides, and the walls.
+WINDOW_MARGIN_M = 0.6
+# Without an outline, how far round the two ends the window reaches.
+OPEN_MARGIN_M = 3.0
+# An end that falls on a blocked cell (a robot close to a wall) starts from the nearest
+# free cell within this distance.
+NEAREST_FREE_M = 0.6
+
+
+class Leg:
+    """The way between two points within a window of the grid, replanned incrementally
+    as cells change (`update`) and the robot moves along it (`move_to`)."""
+
+    def __init__(self, grid: OccupancyGrid, blocked: np.ndarray, start: Point, goal: Point,
+                 window: tuple[int, int, int, int]) -> None:  # fmt: skip
+        self.grid, self.start, self.goal = grid, start, goal
+        top, left, bottom, right = window
+        self.offset = (top, left)
+        view = blocked[top:bottom, left:right]
+        self._start_cell = self._free_near(view, self._local(start))
+        self._goal_cell = self._free_near(view, self._local(goal))
+        self._planner: DStarLite | None = None
+        if self._start_cell is not None and self._goal_cell is not None:
+            self._planner = DStarLite(view, self._start_cell, self._goal_cell)
+
+    def cells(self) -> list[Cell] | None:
+        """The grid cells of the way, in whole-grid (row, col); None if there is none."""
+        if self._planner is None:
+            return None
+        local = self._planner.plan()
+        if local is None:
+            return None
+        top, left = self.offset
+        return [(row + top, col + left) for row, col in local]
+
+    def update(self, changes: list[tuple[Cell, bool]]) -> None:
+        """Cells of the whole grid became blocked (True) or free; those in the window
+        are passed to D* Lite, which repairs its search on the next `cells()`."""
+        if self._planner is None:
+            return
+        top, left = self.offset
+        rows, cols = self._planner.shape
+        inside = [
+            ((row - top, col - left), now)
+            for (row, col), now in changes
+            if 0 <= row - top < rows and 0 <= col - left < cols
+        ]
+        self._planner.update_cells(inside)
+
+    def move_to(self, point: Point) -> None:
+        """The robot is now at `point`: plan on from there."""
+        self.start = point
+        if self._planner is None:
+            return
+        cell = self._local(point)
+        rows, cols = self._planner.shape
+        if 0 <= cell[0] < rows and 0 <= cell[1] < cols:
+            self._planner.move_to(cell)
+
+    def _local(self, point: Point) -> Cell:
+        row, col = self.grid.cell_of(*point)
+        return row - self.offset[0], col - self.offset[1]
+
+    def _free_near(self, view: np.ndarray, cell: Cell) -> Cell | None:
+        """`cell` if it is in the window and free, else the nearest free cell close by."""
+        rows, cols = view.shape
+        row, col = cell
+        if not (0 <= row < rows and 0 <= col < cols):
+            return None
+        if not view[row, col]:
+            return cell
+        reach = max(1, round(NEAREST_FREE_M / self.grid.resolution))
+        top, left = max(0, row - reach), max(0, col - reach)
+        patch = view[top : row + reach + 1, left : col + reach + 1]
+        free = np.argwhere(~patch)
+        if free.size == 0:
+            return None
+        distance = np.hypot(free[:, 0] + top - row, free[:, 1] + left - col)
+        best = free[int(np.argmin(distance))]
+        if distance.min() > reach:
+            return None
+        return int(best[0] + top), int(best[1] + left)
+
+
+class GridLegs:
+    """Legs on a floor plan's grid inflated by the robot's radius; also the room graph's
+    `leg_length`."""
+
+    def __init__(self, plan: FloorPlan, inflated: OccupancyGrid) -> None:
+        self.plan = plan
+        self.grid = inflated
+        self.blocked = inflated.blocked()
+        # Ways found so far: the room graph measures a leg, then the route drives it.
+        self._paths: dict[tuple[Point, Point, str | None], list[Point] | None] = {}
+
+    def leg(self, a: Point, b: Point, room_id: str | None) -> Leg:
+        return Leg(self.grid, self.blocked, a, b, self.window(a, b, room_id))
+
+    def path(self, a: Point, b: Point, room_id: str | None) -> list[Point] | None:
+        """The way from a to b across the room, shortened by line of sight."""
+        key = (a, b, room_id)
+        if key not in self._paths:
+            self._paths[key] = self.points(self.leg(a, b, room_id))
+        return self._paths[key]
+
+    def points(self, leg: Leg) -> list[Point] | None:
+        """A leg's way as map points from its start to its goal, shortened."""
+        cells = leg.cells()
+        if cells is None:
+            return None
+        corners = [self.grid.centre_of(row, col) for row, col in _turns(cells)[1:-1]]
+        return self.shorten([leg.start, *corners, leg.goal])
+
+    def length(self, a: Point, b: Point, room_id: str) -> float | None:
+        """The length of the way from a to b across `room_id`, or None if there is none."""
+        points = self.path(a, b, room_id)
+        return None if points is None else polyline_length(points)
+
+    def window(self, a: Point, b: Point, room_id: str | None) -> tuple[int, int, int, int]:
+        """(top, left, bottom, right) cells of the grid round the room, and a and b."""
+        xs, ys = [a[0], b[0]], [a[1], b[1]]
+        room = self.plan.rooms.get(room_id) if room_id is not None else None
+        margin = OPEN_MARGIN_M
+        if room is not None and room.outline:
+            xs += [x for x, _ in room.outline]
+            ys += [y for _, y in room.outline]
+            margin = WINDOW_MARGIN_M
+        grid = self.grid
+        rows, cols = grid.shape
+        x0, y0 = grid.origin
+        step = grid.resolution
+        left = max(0, math.floor((min(xs) - margin - x0) / step))
+        right = min(cols, math.ceil((max(xs) + margin - x0) / step) + 1)
+        top = max(0, rows - 1 - math.floor((max(ys) + margin - y0) / step))
+        bottom = min(rows, rows - math.floor((min(ys) - margin - y0) / step))
+        return top, left, bottom, right
+
+    def clear(self, a: Point, b: Point) -> bool:
+        """Whether the straight line from a to b crosses only free cells.
+
+        The line is sampled every quarter cell, which finds every cell it crosses by
+        more than a sliver; the inflation's margin covers the slivers.
+        """
+        grid = self.grid
+        steps = max(2, math.ceil(math.dist(a, b) / (grid.resolution / 4)) + 1)
+        t = np.arange(steps) / (steps - 1)
+        scale = 1.0 / grid.resolution
+        col = ((a[0] - grid.origin[0] + t * (b[0] - a[0])) * scale).astype(np.int64)
+        up = ((a[1] - grid.origin[1] + t * (b[1] - a[1])) * scale).astype(np.int64)
+        rows, cols = self.blocked.shape
+        # astype truncates towards zero: -0.5 becomes 0, so negatives are tested first.
+        if min(a[0], b[0]) < grid.origin[0] or min(a[1], b[1]) < grid.origin[1]:
+            return False
+        if col.max() >= cols or up.max() >= rows:
+            return False
+        return not self.blocked[rows - 1 - up, col].any()
+
+    def shorten(self, points: list[Point]) -> list[Point]:
+        """Drop the corners that line of sight can skip (string pulling): from each kept
+        point, go on while the next point is still in sight, and keep the last one that
+        was. The ends are kept whatever the grid says under them: a robot close to a
+        wall starts where it stands."""
+        if len(points) <= 2:
+            return list(points)
+        kept = [points[0]]
+        anchor = 0
+        for j in range(2, len(points)):
+            if not self.clear(points[anchor], points[j]):
+                anchor = j - 1
+                kept.append(points[anchor])
+        kept.append(points[-1])
+        return kept
+
+
+def _turns(cells: list[Cell]) -> list[Cell]:
+    """The cells of a grid path where it changes direction, and its two ends: the only
+    corners that shortening by line of sight needs to consider."""
+    kept = [cells[0]]
+    for before, here, after in zip(cells, cells[1:], cells[2:], strict=False):
+        if (here[0] - before[0], here[1] - before[1]) != (after[0] - here[0], after[1] - here[1]):
+            kept.append(here)
+    if len(cells) > 1:
+        kept.append(cells[-1])
+    return kept
+
+
+def polyline_length(points: list[Point]) -> float:
+    return sum(math.dist(a, b) for a, b in pairwise(points))
