@@ -7,8 +7,10 @@ On 100x100 and 200x200 grids, random obstacles and rooms with doors, in one run:
 - re-routing when a door on the path closes (all of its cells blocked);
 - each next to networkx A* from scratch on the same grid, whose graph is built before
   the timing starts, as a planner that kept its graph would.
-And the room-graph query time on the example care home (21 rooms, 20 doors), next to
-networkx A* on the same graph.
+And on the example care home, with the legs measured on its grid: the room-graph query
+time once every leg is measured (what a console that has planned a while sees), next to
+networkx A* on the same graph; and the time of a first route, measuring its legs as it
+goes (LazySP), and of measuring every leg up front.
 
 Usage: python bench/planning.py [--trials N] [--seed S]
 """
@@ -30,7 +32,9 @@ import numpy as np
 import giraff_console
 from giraff_console.planning.dstar_lite import DStarLite
 from giraff_console.planning.floorplan import load_floorplan
+from giraff_console.planning.legs import GridLegs
 from giraff_console.planning.room_graph import RoomGraph
+from giraff_console.planning.route_planner import ROBOT_RADIUS_M, walls_of
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "floorplans" / "care-home.yaml"
 
@@ -137,7 +141,14 @@ def trial(blocked: np.ndarray, doors) -> dict[str, float] | None:
 def room_graph_queries(count: int = 20000) -> None:
     """Every pair of rooms, again and again; then the same queries by networkx A*."""
     plan = load_floorplan(EXAMPLE)
-    graph = RoomGraph(plan)
+    legs = GridLegs(plan, walls_of(plan).inflated(ROBOT_RADIUS_M))
+    graph = RoomGraph(plan, legs.length)
+    begin = time.perf_counter()
+    graph.route("dock", "kitchen")
+    first = (time.perf_counter() - begin) * 1e3
+    begin = time.perf_counter()
+    graph.measure_all()
+    every = (time.perf_counter() - begin) * 1e3
     pairs = [(a, b) for a in plan.rooms for b in plan.rooms]
     begin = time.perf_counter()
     for i in range(count):
@@ -157,8 +168,10 @@ def room_graph_queries(count: int = 20000) -> None:
         )
     peer = (time.perf_counter() - begin) / (count // 20) * 1e6
     print(
-        f"room graph, {len(plan.rooms)} rooms {len(plan.doors)} doors: "
-        f"query {ours:.2f} us, networkx A* {peer:.1f} us ({peer / ours:.0f}x)"
+        f"room graph, {len(plan.rooms)} rooms {len(plan.doors)} doors, "
+        f"{nodes.number_of_edges()} legs: query {ours:.2f} us, networkx A* {peer:.1f} us "
+        f"({peer / ours:.0f}x); first route dock-kitchen {first:.0f} ms (legs measured as "
+        f"needed), every leg measured {every:.0f} ms"
     )
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import shutil
 import signal
@@ -26,12 +27,19 @@ from giraff_console.camera.processors import (
 from giraff_console.camera.source import DEFAULT_RESOLUTION, SyntheticCamera, open_camera
 from giraff_console.clock import RealClock
 from giraff_console.link import DEFAULT_TIMEOUT_S, BoardLink, LinkError
+from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
-from giraff_console.planning.floorplan import FloorPlanError, check_floorplan, load_floorplan
+from giraff_console.planning.floorplan import (
+    FloorPlan,
+    FloorPlanError,
+    check_floorplan,
+    load_floorplan,
+)
 from giraff_console.planning.plan_drawing import draw_plan
 from giraff_console.planning.room_graph import PlanningError, UnknownRoomError
-from giraff_console.planning.route_planner import RoutePlanner, walls_of
+from giraff_console.planning.route_planner import ROBOT_RADIUS_M, RoutePlanner, walls_of
+from giraff_console.planning.walls import wall_segments
 from giraff_console.protocol import (
     BoardError,
     GiraffError,
@@ -56,8 +64,9 @@ from giraff_console.robot.teleop import Teleop
 from giraff_console.settings import Settings, SettingsError, config_path, load_settings
 from giraff_console.sim import BoardConfig, GiraffBoard, Imperfections, PtyServer
 from giraff_console.sim.camera import WorldCamera
+from giraff_console.sim.drive import TruePose
 from giraff_console.sim.pose_log import PoseLog
-from giraff_console.sim.world import demo_world
+from giraff_console.sim.world import DOOR_FRAME, POSTER_WIDTH, WALL, Wall, World, demo_world
 
 # Exit codes: a refused or garbled command, and a link that could not be used.
 EXIT_BOARD_ERROR = 1
@@ -111,6 +120,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--routes", metavar="DIR", type=Path, default=Path("routes"),
         help="where taught routes and patrols are kept (default: %(default)s)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--floorplan", metavar="FILE", type=Path,
+        help=f"the building to plan and show routes on (default: {EXAMPLE_FLOORPLAN} if it is "
+        "there); the robot starts in its start room; floorplans/README.md has the format",
     )  # fmt: skip
     parser.add_argument(
         "--config", metavar="FILE", type=Path,
@@ -185,10 +199,16 @@ def build_parser() -> argparse.ArgumentParser:
         "floor plan, 1 when there is no route.",
     )
     plan.add_argument(
-        "--floorplan", type=Path, default=EXAMPLE_FLOORPLAN, metavar="FILE",
-        help="floor plan YAML (default: %(default)s); floorplans/README.md has the format",
+        # SUPPRESS: given here or before the command (`giraff-console --floorplan F plan`).
+        "--floorplan", type=Path, default=argparse.SUPPRESS, metavar="FILE",
+        help=f"floor plan YAML (default: {EXAMPLE_FLOORPLAN}); floorplans/README.md has the "
+        "format",
     )  # fmt: skip
     plan.add_argument("--json", action="store_true", help="print the route as JSON")
+    plan.add_argument(
+        "--robot-radius", type=float, default=ROBOT_RADIUS_M, metavar="M",
+        help="metres the walls are grown by for planning (default: %(default)s)",
+    )  # fmt: skip
     plan.add_argument("origin", metavar="FROM", help="room id to start from, e.g. dock")
     plan.add_argument("destination", metavar="TO", help="room id to go to, e.g. day-room")
 
@@ -211,6 +231,26 @@ def build_parser() -> argparse.ArgumentParser:
         "--width", type=int, metavar="COLUMNS",
         help="columns to fit the drawing in (default: the terminal's width)",
     )  # fmt: skip
+    imports = floorplan_commands.add_parser(
+        "import", help="make a floor plan from an Open-RMF building map",
+        description="Write OUT, a floor plan made from one level of SOURCE, an Open-RMF "
+        "*.building.yaml: its named vertices become rooms, its lanes and doors the doors "
+        "between them (floorplans/README.md, \"Importing\"). The result must pass `floorplan "
+        "check`, or nothing is written. Exits 0 when written, 2 for a bad SOURCE or MAP.",
+    )  # fmt: skip
+    imports.add_argument("source", type=Path, metavar="SOURCE.building.yaml")
+    imports.add_argument("out", type=Path, metavar="OUT.yaml")
+    imports.add_argument(
+        "--level", metavar="NAME", help="the level to import (default: the only one)",
+    )  # fmt: skip
+    imports.add_argument(
+        "--grid", type=Path, metavar="MAP.yaml",
+        help="a ROS map_server map to use as the grid; its image is copied next to OUT",
+    )  # fmt: skip
+    imports.add_argument(
+        "--name", metavar="TEXT", help="the floor plan's name (default: building and level)",
+    )  # fmt: skip
+    imports.add_argument("--force", action="store_true", help="overwrite OUT and its image")
 
     send = commands.add_parser(
         "send",
@@ -267,6 +307,8 @@ def run(args: argparse.Namespace) -> int:
         return run_plan(args)
     if args.command == "floorplan" and args.floorplan_command == "show":
         return run_floorplan_show(args)
+    if args.command == "floorplan" and args.floorplan_command == "import":
+        return run_floorplan_import(args)
     if args.command == "floorplan":
         return run_floorplan_check(args)
     return run_console(args)
@@ -291,6 +333,12 @@ def run_console(args: argparse.Namespace) -> int:
     if args.fast_threshold < 1 or args.camera_fps <= 0:
         print("giraff-console: --fast-threshold and --camera-fps must be positive", file=sys.stderr)
         return EXIT_USAGE
+    try:
+        plan, plan_note = console_floorplan(args.floorplan)
+        navigator = Navigator(plan, walls_of(plan), settings.robot_radius) if plan else None
+    except (FloorPlanError, OSError) as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_USAGE
     clock = RealClock()
     simulator = None
     if port is None:
@@ -311,8 +359,16 @@ def run_console(args: argparse.Namespace) -> int:
         rate_hz=settings.control_rate,
         clock=clock,
     )
+    start = navigator.start_pose if navigator is not None else None
+    if start is not None:
+        # The console has no way to find the robot on the plan by itself (§2.3): it
+        # starts where the plan says, and so does the simulated robot.
+        control.odometry.reset(start)
+        if simulator is not None:
+            simulator.board.place(TruePose(start.x, start.y, start.heading))
+    world = plan_world(plan) if plan is not None else None
     camera = camera_feed(
-        args.camera, simulator, args.calibration, args.fast_threshold, args.camera_fps
+        args.camera, simulator, args.calibration, args.fast_threshold, args.camera_fps, world
     )
     setup = RecordingSetup(
         port=port or IN_PROCESS_SIMULATOR,
@@ -331,7 +387,9 @@ def run_console(args: argparse.Namespace) -> int:
         routes=RouteBook(control, sessions, args.routes, lambda text: None),
         undock_distance=settings.teleop.undock_distance,
         play=args.session if args.command == "replay" else None,
+        navigator=navigator,
     )
+    app.notes_at_start.append(plan_note)
 
     def on_signal(signum: int, frame: object) -> None:
         # Stop the robot first, whatever else happens (design.md).
@@ -351,11 +409,34 @@ def run_console(args: argparse.Namespace) -> int:
     return app.return_code or 0
 
 
+def console_floorplan(path: Path | None) -> tuple[FloorPlan | None, str]:
+    """The floor plan asked for, else the example if it is there; and a note saying
+    which. FloorPlanError for a plan asked for that cannot be used."""
+    if path is None and not EXAMPLE_FLOORPLAN.is_file():
+        return None, f"no floor plan ({EXAMPLE_FLOORPLAN} is not here): go is off; --floorplan FILE"
+    plan = load_floorplan(path or EXAMPLE_FLOORPLAN)
+    where = f", starting in {plan.start}" if plan.start else ""
+    return plan, f"floor plan: {plan.name} ({len(plan.rooms)} rooms){where}"
+
+
+def plan_world(plan: FloorPlan) -> World:
+    """The building as the synthetic camera sees it: the plan's walls, door frames dark,
+    a poster half-way along every wall long enough to hang one."""
+    kinds = {"wall": WALL, "frame": DOOR_FRAME, "door": DOOR_FRAME}
+    walls = []
+    for segment in wall_segments(plan):
+        (ax, ay), (bx, by) = segment.a, segment.b
+        poster = (segment.length - POSTER_WIDTH) / 2 if segment.length > 2.0 else math.nan
+        walls.append(Wall(ax, ay, bx, by, kinds[segment.kind], poster))
+    return World(walls)
+
+
 def run_plan(args: argparse.Namespace) -> int:
     """The route between two rooms, as text or JSON."""
     try:
-        plan = load_floorplan(args.floorplan)
-        planned = RoutePlanner(plan, walls_of(plan)).between_rooms(args.origin, args.destination)
+        plan = load_floorplan(args.floorplan or EXAMPLE_FLOORPLAN)
+        planner = RoutePlanner(plan, walls_of(plan), args.robot_radius)
+        planned = planner.between_rooms(args.origin, args.destination)
     except (FloorPlanError, OSError, UnknownRoomError) as error:
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_USAGE
@@ -393,6 +474,35 @@ def run_floorplan_show(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_floorplan_import(args: argparse.Namespace) -> int:
+    """A floor plan made from an Open-RMF building map, with a ROS map as its grid."""
+    # Imported here: of all the commands, only this one reads RMF and ROS maps.
+    from giraff_console.planning.rmf_import import read_building, write_floorplan
+    from giraff_console.planning.ros_map import read_ros_map
+
+    try:
+        imported = read_building(args.source, args.level, args.name)
+        grid = read_ros_map(args.grid) if args.grid is not None else None
+        written = write_floorplan(imported, args.out, grid, force=args.force)
+    except FloorPlanError as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    except FileExistsError as error:
+        print(f"giraff-console: {error.filename} exists: --force overwrites it", file=sys.stderr)
+        return EXIT_USAGE
+    except OSError as error:
+        print(f"giraff-console: cannot write {args.out}: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    for note in imported.notes:
+        print(f"giraff-console: {args.source}: {note}", file=sys.stderr)
+    rooms, doors = imported.plan["rooms"], [door["id"] for door in imported.plan["doors"]]
+    print(f"wrote {written[0]}: {len(rooms)} rooms ({', '.join(rooms)}), "
+          f"{len(doors)} doors ({', '.join(doors) or 'none'})")  # fmt: skip
+    for image in written[1:]:
+        print(f"wrote {image}: the grid image of {args.grid}")
+    return 0
+
+
 def run_export(args: argparse.Namespace) -> int:
     """A recorded session as an MCAP file."""
     try:
@@ -416,15 +526,16 @@ def camera_feed(
     calibration: str | None = None,
     fast_threshold: int = FAST_THRESHOLD,
     fps: float = DEFAULT_FPS,
+    world: World | None = None,
 ) -> CameraFeed:
-    """The camera asked for, else the synthetic one with the simulator, else camera 0;
-    a test pattern when none of them is there (§3.4.1)."""
+    """The camera asked for, else the synthetic one with the simulator (seeing `world`,
+    or a demo world), else camera 0; a test pattern when none of them is there (§3.4.1)."""
     synthetic = None
     if simulator is not None:
-        world = WorldCamera(demo_world())
+        camera_world = WorldCamera(world or demo_world())
         board = simulator.board
         synthetic = SyntheticCamera(
-            lambda width, height: world.render(board.true_pose, width, height)
+            lambda width, height: camera_world.render(board.true_pose, width, height)
         )
     if device is None and synthetic is None:
         device = "0"

@@ -7,6 +7,7 @@ The file is `$XDG_CONFIG_HOME/giraff-console/config.toml` (usually
     power_line = "dtr"         # dtr, rts (FTDI cables), both or none
     timeout = 1.0              # seconds to wait for each reply
     control_rate = 20          # control-loop ticks per second
+    robot_radius = 0.3         # metres the walls are grown by for planning
 
     [teleop]
     speed = 0.4                # m/s, the thesis's KBD_MOVE_SPEED
@@ -26,6 +27,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from giraff_console.link import DEFAULT_TIMEOUT_S
+from giraff_console.planning.route_planner import ROBOT_RADIUS_M
 from giraff_console.protocol.errors import GiraffError
 from giraff_console.robot.control_loop import DEFAULT_RATE_HZ
 from giraff_console.robot.deadman import DEFAULT_GRACE_S, DEFAULT_REPEAT_TIMEOUT_S
@@ -58,6 +60,7 @@ class Settings:
     power_line: str = "dtr"
     timeout: float = DEFAULT_TIMEOUT_S
     control_rate: float = DEFAULT_RATE_HZ
+    robot_radius: float = ROBOT_RADIUS_M
     teleop: TeleopSettings = field(default_factory=TeleopSettings)
     source: str = "built-in defaults"
 
@@ -84,8 +87,8 @@ def load_settings(path: Path | None = None) -> Settings:
         settings = Settings(**_checked(path, "", Settings, data), teleop=teleop, source=str(path))
         if settings.power_line not in ("dtr", "rts", "both", "none"):
             raise ValueError("power_line must be dtr, rts, both or none")
-        if settings.timeout <= 0 or settings.control_rate <= 0:
-            raise ValueError("timeout and control_rate must be positive")
+        if settings.timeout <= 0 or settings.control_rate <= 0 or settings.robot_radius <= 0:
+            raise ValueError("timeout, control_rate and robot_radius must be positive")
         limits = teleop.limits()
         if teleop.grace <= 0 or teleop.repeat_timeout <= 0:
             raise ValueError("grace and repeat_timeout must be positive")

@@ -6,8 +6,10 @@ transcript lines come back as messages. The app never talks to the board itself.
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 from textual import on
@@ -18,23 +20,30 @@ from textual.widgets import Footer, Input
 
 from giraff_console.camera.feed import CameraFeed
 from giraff_console.camera.source import RESOLUTIONS as CAMERA_RESOLUTIONS
+from giraff_console.missions.navigation import NavigationState, Navigator
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
 from giraff_console.protocol import Command, CommandError, GiraffError, parse_command, parse_number
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.control_loop import BoardJob, ControlLoop
 from giraff_console.robot.deadman import Intent
+from giraff_console.robot.odometry import Pose
 from giraff_console.robot.safety import stop_robot
 from giraff_console.tui.camera_view import CameraView
 from giraff_console.tui.command_line import CommandLine
 from giraff_console.tui.help_screen import HelpScreen
 from giraff_console.tui.main_view import MainView
+from giraff_console.tui.map_canvas import MapScene, plan_scene
+from giraff_console.tui.map_view import MapView
 from giraff_console.tui.messages import (
     CameraPictureUpdated,
     ExchangeSeen,
+    NavigationChanged,
     StatusNote,
     TelemetryUpdated,
 )
+from giraff_console.tui.navigation_commands import NAVIGATION_COMMANDS, NavigationCommands
+from giraff_console.tui.room_palette import RoomCommands
 from giraff_console.tui.session_commands import ROUTE_COMMANDS, SESSION_COMMANDS, SessionCommands
 from giraff_console.tui.status_log import StatusLog
 from giraff_console.tui.top_bar import TopBar
@@ -61,16 +70,19 @@ CONSOLE_COMMANDS = [
     ("routes", "list the taught routes and the patrols"),
     ("replay-route NAME", "drive a taught route again, open-loop (keys or Space stop it)"),
     ("patrol NAME, patrol pause|resume|stop", "run routes/NAME.patrol.yaml; hold or end it"),
-    ("go", "arrives with the planning issue"),
+    ("go ROOM", "plan a route from where the robot is to ROOM; shown on the map"),
+    ("close DOOR, open DOOR", "shut or open a door of the floor plan; the route is planned again"),
 ]
-LATER = {"go": "planning"}
+# The layouts of the centre that M steps through: camera and map, the map, the camera.
+LAYOUTS = ("both", "map", "camera")
 
 
-class GiraffConsole(SessionCommands, App[None]):
+class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
     """The operator's screen; `control` runs the robot."""
 
     CSS_PATH = "app.tcss"
     TITLE = "giraff-console"
+    COMMANDS = App.COMMANDS | {RoomCommands}
     # Nothing takes the focus by itself: the keys belong to driving until Enter is pressed.
     AUTO_FOCUS = None
     BINDINGS = [
@@ -124,6 +136,21 @@ class GiraffConsole(SessionCommands, App[None]):
         Binding("t", "tilt", "Tilt", show=False, id="tilt", tooltip="tilt the head up"),
         Binding("u", "undock", "Undock", show=False, id="undock",
                 tooltip="back out of the dock and turn around"),
+        Binding("m", "layout", "Map", id="map", tooltip="camera and map, the map, the camera"),
+        Binding("z", "zoom(1.5)", "Zoom in", show=False, id="zoom-in",
+                tooltip="zoom the map in (also the mouse wheel)"),
+        Binding("x", "zoom(0.6667)", "Zoom out", show=False, id="zoom-out",
+                tooltip="zoom the map out"),
+        Binding("shift+left", "pan(-4, 0)", "Pan", show=False, id="pan-left",
+                tooltip="move the map view left (Shift+arrows; or drag it)"),
+        Binding("shift+right", "pan(4, 0)", "Pan", show=False, id="pan-right",
+                tooltip="move the map view right"),
+        Binding("shift+up", "pan(0, -2)", "Pan", show=False, id="pan-up",
+                tooltip="move the map view up"),
+        Binding("shift+down", "pan(0, 2)", "Pan", show=False, id="pan-down",
+                tooltip="move the map view down"),
+        Binding("c", "follow", "Follow", show=False, id="follow",
+                tooltip="keep the robot in view on the map again"),
         Binding("question_mark", "help", "Help", id="help", tooltip="this screen"),
     ]  # fmt: skip
 
@@ -136,6 +163,7 @@ class GiraffConsole(SessionCommands, App[None]):
         sessions: Sessions | None = None,
         routes: RouteBook | None = None,
         play: Path | None = None,
+        navigator: Navigator | None = None,
         undock_distance: float = 0.3,
         run_loop: bool = True,
         timestamp: Callable[[], str] = lambda: time.strftime("%H:%M:%S"),
@@ -148,6 +176,13 @@ class GiraffConsole(SessionCommands, App[None]):
         self.sessions = sessions
         self.routes = routes
         self.play_at_start = play
+        self.navigator = navigator
+        start = navigator.start_pose if navigator is not None else None
+        self.pose = start or Pose()
+        # Lines for the status log once it is on screen (how the console was set up).
+        self.notes_at_start: list[str] = []
+        self._scene: MapScene | None = None
+        self._layout = 0
         self.simulator = simulator
         self.undock_distance = undock_distance
         self.run_loop = run_loop
@@ -161,9 +196,11 @@ class GiraffConsole(SessionCommands, App[None]):
             yield StatusLog(id="status")
             with Vertical(id="centre"):
                 yield CameraView(id="camera")
+                truecolor = os.environ.get("COLORTERM") in ("truecolor", "24bit")
+                yield MapView(truecolor, id="map")
                 yield MainView(id="main")
             yield Transcript(id="transcript")
-        command_line = CommandLine(id="command-line")
+        command_line = CommandLine(self._navigation_words(), id="command-line")
         command_line.cursor_blink = self.cursor_blink
         command_line.display = False
         yield command_line
@@ -176,6 +213,13 @@ class GiraffConsole(SessionCommands, App[None]):
         self.transcript = self.query_one(Transcript)
         self.command_line = self.query_one(CommandLine)
         self.camera_view = self.query_one(CameraView)
+        self.map_view = self.query_one(MapView)
+        navigator = self.navigator
+        if navigator is not None and navigator.walls is not None:
+            self._scene = plan_scene(navigator.plan, navigator.walls)
+            self._show_map()
+        else:
+            self.map_view.display = False  # nothing to draw: the camera has the room
         self.control.publish = lambda t: self.post_message(TelemetryUpdated(t))
         self.control.report = lambda text: self.post_message(StatusNote(text))
         self.control.observers.append(lambda e: self.post_message(ExchangeSeen(e)))
@@ -184,6 +228,8 @@ class GiraffConsole(SessionCommands, App[None]):
                 service.report = lambda text: self.post_message(StatusNote(text))
         if self.simulator:
             self.note("SIMULATOR: no robot is connected; the built-in simulated board answers")
+        for text in self.notes_at_start:
+            self.note(text)
         if self.camera is not None:
             camera = self.camera
             camera.publish = lambda picture: self.post_message(CameraPictureUpdated(picture))
@@ -221,6 +267,25 @@ class GiraffConsole(SessionCommands, App[None]):
         self.top_bar.recording = self.sessions is not None and self.sessions.recording
         self.top_bar.show(message.telemetry)
         self.main_view.show(message.telemetry)
+        if message.telemetry.pose != self.pose:
+            self.pose = message.telemetry.pose
+            self._show_map()
+
+    def on_navigation_changed(self, message: NavigationChanged) -> None:
+        self._show_map(message.state)
+
+    def _show_map(self, state: NavigationState | None = None) -> None:
+        """Draw the robot where it is, with the route and the doors as they are now."""
+        if self._scene is None or self.navigator is None:
+            return
+        if state is not None:
+            closed = state.closed
+            doors = tuple(replace(door, open=door.id not in closed) for door in self._scene.doors)
+            path = tuple(state.planned.path) if state.planned is not None else ()
+            self._scene = replace(self._scene, doors=doors, path=path)
+        pose = self.pose
+        self._scene = replace(self._scene, robot=(pose.x, pose.y, pose.heading))
+        self.map_view.show(self._scene)
 
     def on_exchange_seen(self, message: ExchangeSeen) -> None:
         self.transcript.add(message.exchange)
@@ -288,6 +353,28 @@ class GiraffConsole(SessionCommands, App[None]):
         # The thesis's console sent a negative distance (B.2 Undock).
         self._board_command(Command("set", "undock", -self.undock_distance))
 
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        """The map's keys are off, and out of the footer, when there is no map."""
+        if action in ("layout", "zoom", "pan", "follow"):
+            return self._scene is not None
+        return True
+
+    def action_layout(self) -> None:
+        """Step the centre through camera and map, the map alone, the camera alone."""
+        self._layout = (self._layout + 1) % len(LAYOUTS)
+        centre = self.query_one("#centre")
+        for layout in LAYOUTS:
+            centre.set_class(layout == LAYOUTS[self._layout], f"-{layout}")
+
+    def action_zoom(self, factor: float) -> None:
+        self.map_view.zoom(factor)
+
+    def action_pan(self, columns: int, rows: int) -> None:
+        self.map_view.pan(columns, rows)
+
+    def action_follow(self) -> None:
+        self.map_view.centre_on_robot()
+
     def action_help(self) -> None:
         self.push_screen(HelpScreen(list(self.BINDINGS), CONSOLE_COMMANDS))
 
@@ -296,6 +383,14 @@ class GiraffConsole(SessionCommands, App[None]):
         # Stop first: the app takes a while to close its screens after exit().
         self.control.stop()
         self.exit()
+
+    def _navigation_words(self) -> list[str]:
+        """What the command line offers to complete: every room and door by name."""
+        if self.navigator is None:
+            return []
+        rooms = [f"go {room_id}" for room_id in self.navigator.room_ids()]
+        doors = self.navigator.door_ids()
+        return rooms + [f"close {door}" for door in doors] + [f"open {door}" for door in doors]
 
     def _board_job(self, job: BoardJob) -> None:
         if self.control.playback is not None:
@@ -357,8 +452,8 @@ class GiraffConsole(SessionCommands, App[None]):
             self._session_command(word, rest.strip())
         elif word in ROUTE_COMMANDS:
             self._route_command(word, rest.strip())
-        elif word in LATER:
-            self.note(f"{word} arrives with the {LATER[word]} issue")
+        elif word in NAVIGATION_COMMANDS:
+            self._navigation_command(word, rest.strip())
         else:
             try:
                 command = parse_command(text)

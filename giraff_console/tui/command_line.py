@@ -28,10 +28,14 @@ class CommandLine(Input):
         Binding("tab", "cursor_right", "Complete", show=False),
     ]
 
-    def __init__(self, **kwargs) -> None:
+    def __init__(self, words: list[str] | None = None, **kwargs) -> None:
+        """`words` are completions besides the board's and the console's own, such as
+        the floor plan's rooms."""
         super().__init__(
             placeholder="controller command (get v, set v 0.3) or console command (help)",
-            suggester=SuggestFromList(BOARD_WORDS + CONSOLE_WORDS, case_sensitive=True),
+            suggester=SuggestFromList(
+                BOARD_WORDS + CONSOLE_WORDS + (words or []), case_sensitive=True
+            ),
             **kwargs,
         )
         self.history: list[str] = []

@@ -6,6 +6,7 @@ from textual.message import Message
 
 from giraff_console.camera.feed import CameraPicture
 from giraff_console.link import Exchange
+from giraff_console.missions.navigation import NavigationState
 from giraff_console.robot.telemetry import Telemetry
 
 
@@ -45,3 +46,11 @@ class CameraPictureUpdated(Message):
 
     def can_replace(self, message: Message) -> bool:
         return isinstance(message, CameraPictureUpdated)
+
+
+class NavigationChanged(Message):
+    """The route shown on the map, or the doors, changed."""
+
+    def __init__(self, state: NavigationState) -> None:
+        super().__init__()
+        self.state = state

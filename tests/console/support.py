@@ -72,8 +72,13 @@ class SimulatedRobot:
         assert stop_sim_process(self.process) == 0
 
 
+# Where the simulator starts the robot: the origin, facing +x.
+OPEN_FLOOR = Path(__file__).with_name("open-floor.yaml")
+
+
 def console_command(port: str, *options: str) -> list[str]:
-    return [sys.executable, "-m", "giraff_console", "--port", port, *options]
+    return [sys.executable, "-m", "giraff_console", "--port", port,
+            "--floorplan", str(OPEN_FLOOR), *options]  # fmt: skip
 
 
 def run(args: list[str]) -> subprocess.CompletedProcess:

@@ -10,22 +10,28 @@ from textual import events
 
 from giraff_console.cli import camera_feed
 from giraff_console.link import BoardLink
+from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
+from giraff_console.planning.floorplan import load_floorplan
+from giraff_console.planning.route_planner import walls_of
 from giraff_console.recording.session import RecordingSetup
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.teleop import Teleop
+from giraff_console.sim.drive import TruePose
 from giraff_console.tui.app import GiraffConsole
 from giraff_console.tui.messages import CameraPictureUpdated
 
 TICK = 0.05
+EXAMPLE = Path(__file__).resolve().parents[2] / "floorplans" / "care-home.yaml"
 
 
 class Rig:
     """The app, its control loop and the simulated board behind it."""
 
-    def __init__(self, camera: bool = False, recordings: Path | None = None) -> None:
+    def __init__(self, camera: bool = False, recordings: Path | None = None,
+                 floorplan: Path | None = None) -> None:  # fmt: skip
         self.link = BoardLink.open("giraff-sim://?clock=virtual")
         self.clock = self.link.port.clock
         self.board = self.link.port.board
@@ -42,8 +48,17 @@ class Rig:
             self.sessions = Sessions(self.control, self.camera, recordings, setup, print)
             routes = recordings.parent / "routes"
             self.routes = RouteBook(self.control, self.sessions, routes, print)
+        self.navigator = None
+        if floorplan is not None:
+            plan = load_floorplan(floorplan)
+            self.navigator = Navigator(plan, walls_of(plan))
+            start = self.navigator.start_pose
+            assert start is not None
+            self.control.odometry.reset(start)
+            self.board.place(TruePose(start.x, start.y, start.heading))
         self.app = GiraffConsole(
             self.control,
+            navigator=self.navigator,
             simulator=True,
             camera=self.camera,
             sessions=self.sessions,
@@ -108,6 +123,11 @@ def rig() -> Rig:
 @pytest.fixture
 def camera_rig() -> Rig:
     return Rig(camera=True)
+
+
+@pytest.fixture
+def care_home_rig() -> Rig:
+    return Rig(floorplan=EXAMPLE)
 
 
 def record_demo_session(root: Path) -> Path:

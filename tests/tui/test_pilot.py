@@ -92,11 +92,14 @@ async def test_poll_toggle_and_help_screen(rig):
         assert rig.app.screen.__class__.__name__ != "HelpScreen"
 
 
-async def test_a_later_feature_says_so_in_the_status_log(rig):
+async def test_go_without_a_floor_plan_says_how_to_get_one(rig):
     async with rig.app.run_test(size=SIZE) as pilot:
         rig.app.run_command("go kitchen")
         await pilot.pause()
-        assert "go arrives with the planning issue" in " ".join(rig.app.status_log.texts)
+        assert "go: no floor plan (start the console with --floorplan FILE)" in " ".join(
+            rig.app.status_log.texts
+        )
+        assert not rig.app.map_view.display
 
 
 async def test_escape_quits_and_leaves_the_robot_stopped(rig):

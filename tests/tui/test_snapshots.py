@@ -82,3 +82,16 @@ def test_playback_paused_with_its_video_pose_and_transcript(snap_compare, tmp_pa
         await rig.run(pilot, 0.1)
 
     assert snap_compare(rig.app, terminal_size=(120, 40), run_before=play)
+
+
+def test_the_map_shows_the_route_to_the_day_room(snap_compare, care_home_rig):
+    rig = care_home_rig
+
+    async def go(pilot):
+        await rig.run(pilot, 0.2)
+        rig.app.run_command("go day-room")
+        await rig.app.workers.wait_for_complete()
+        await rig.run(pilot, 0.1)
+        await pilot.press("m")  # the map alone
+
+    assert snap_compare(rig.app, terminal_size=(120, 40), run_before=go)

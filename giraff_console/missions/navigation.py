@@ -1,0 +1,99 @@
+"""Where the operator sends the robot: `go <room>` on the floor plan (thesis §2.5, §2.6).
+
+"Typically, the destination is selected by the user ... resulting in a set of target
+coordinates being given to the route planner" (§2.5). The navigator keeps the floor
+plan, plans from the pose the odometry gives to the room asked for, and keeps that plan
+up to date as the operator closes and opens doors. The console shows its `state`.
+
+Planning a route measures legs on the grid and can take a few hundred milliseconds, so
+the console calls it from a worker thread; the state it publishes is immutable and
+replaced whole, so the screen can read it at any time.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+
+from giraff_console.planning.floorplan import FloorPlan
+from giraff_console.planning.grid import OccupancyGrid
+from giraff_console.planning.room_graph import PlanningError
+from giraff_console.planning.route_planner import ROBOT_RADIUS_M, PlannedPath, RoutePlanner
+from giraff_console.robot.odometry import Pose
+
+
+@dataclass(frozen=True)
+class NavigationState:
+    """What the map shows: the goal, its plan, and which doors are shut."""
+
+    goal: str | None = None
+    planned: PlannedPath | None = None
+    closed: frozenset[str] = frozenset()
+    problem: str | None = None  # why there is a goal but no plan
+
+
+class Navigator:
+    """The floor plan and the route on it; safe to call from any thread."""
+
+    def __init__(self, plan: FloorPlan, walls: OccupancyGrid | None,
+                 robot_radius: float = ROBOT_RADIUS_M) -> None:  # fmt: skip
+        self.plan = plan
+        self.planner = RoutePlanner(plan, walls, robot_radius)
+        self._lock = threading.Lock()
+        self.state = NavigationState(closed=frozenset(self.planner.graph.closed))
+
+    @property
+    def walls(self) -> OccupancyGrid | None:
+        """The plan's grid, not inflated: what the map draws."""
+        return self.planner.walls
+
+    @property
+    def start_pose(self) -> Pose | None:
+        """Where the plan says the robot starts: its start room's point and heading."""
+        if self.plan.start is None:
+            return None
+        room = self.plan.rooms[self.plan.start]
+        return Pose(room.at[0], room.at[1], math.radians(room.heading or 0.0))
+
+    def room_ids(self) -> list[str]:
+        return sorted(self.plan.rooms)
+
+    def door_ids(self) -> list[str]:
+        return sorted(door.id for door in self.plan.doors)
+
+    def go(self, room_id: str, pose: Pose) -> PlannedPath:
+        """Plan from `pose` to `room_id` and make it the route shown; PlanningError with
+        a message for the operator if there is none."""
+        with self._lock:
+            planned = self.planner.from_point((pose.x, pose.y), room_id)
+            self.state = NavigationState(room_id, planned, self.state.closed)
+            return planned
+
+    def close(self, door_id: str, pose: Pose) -> NavigationState:
+        """Shut a door; the route, if any, is planned again from `pose`."""
+        with self._lock:
+            self.planner.close(door_id)
+            return self._replan(pose)
+
+    def open(self, door_id: str, pose: Pose) -> NavigationState:
+        """Open a door; the route, if any, is planned again from `pose`."""
+        with self._lock:
+            self.planner.open(door_id)
+            return self._replan(pose)
+
+    def forget(self) -> None:
+        """No goal any more (arrived, or the operator stopped it)."""
+        with self._lock:
+            self.state = NavigationState(closed=self.state.closed)
+
+    def _replan(self, pose: Pose) -> NavigationState:
+        closed = frozenset(self.planner.graph.closed)
+        goal, planned, problem = self.state.goal, None, None
+        if goal is not None:
+            try:
+                planned = self.planner.from_point((pose.x, pose.y), goal)
+            except PlanningError as error:
+                problem = str(error)
+        self.state = NavigationState(goal, planned, closed, problem)
+        return self.state

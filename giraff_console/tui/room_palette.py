@@ -1,0 +1,44 @@
+"""The command palette's floor plan entries: one "go" per room, and the doors.
+
+An operator who does not remember a room's id finds it by its label ("Day room") in
+the palette (Ctrl+P); picking an entry runs the same typed command as the command line.
+"""
+
+from __future__ import annotations
+
+from functools import partial
+
+from textual.command import DiscoveryHit, Hit, Hits, Provider
+
+
+class RoomCommands(Provider):
+    """`go <room>` for every room, `close`/`open` for every door of the floor plan."""
+
+    def _entries(self) -> list[tuple[str, str]]:
+        """(command, help) pairs, rooms first."""
+        navigator = getattr(self.app, "navigator", None)
+        if navigator is None:
+            return []
+        entries = [
+            (f"go {room.id}", f"plan a route to {room.label}")
+            for room in sorted(navigator.plan.rooms.values(), key=lambda room: room.label)
+        ]
+        closed = navigator.state.closed
+        for door_id in navigator.door_ids():
+            verb = "open" if door_id in closed else "close"
+            entries.append((f"{verb} {door_id}", f"{verb} the door {door_id} and plan again"))
+        return entries
+
+    async def discover(self) -> Hits:
+        for command, help_text in self._entries():
+            if command.startswith("go "):
+                yield DiscoveryHit(command, partial(self.app.run_command, command), help=help_text)
+
+    async def search(self, query: str) -> Hits:
+        matcher = self.matcher(query)
+        for command, help_text in self._entries():
+            # The label is searched too: "day" finds "go day-room (Day room)".
+            score = max(matcher.match(command), matcher.match(help_text))
+            if score > 0:
+                yield Hit(score, matcher.highlight(command),
+                          partial(self.app.run_command, command), help=help_text)  # fmt: skip
