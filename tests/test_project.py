@@ -77,9 +77,11 @@ ALLOWED_IMPORTS = {
     "recording": {"recording", "camera", "link", "protocol", "clock"},
     "robot": {"robot", "recording", "camera", "link", "protocol", "clock"},
     "planning": {"planning", "robot", "recording", "camera", "link", "protocol", "clock"},
+    "motion": {"motion", "robot", "recording", "camera", "link", "protocol", "clock"},
     "missions": {
         "missions",
         "planning",
+        "motion",
         "robot",
         "recording",
         "camera",

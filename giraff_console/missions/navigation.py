@@ -14,10 +14,10 @@ from __future__ import annotations
 
 import math
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from giraff_console.planning.floorplan import FloorPlan
-from giraff_console.planning.grid import OccupancyGrid
+from giraff_console.planning.grid import Cell, OccupancyGrid
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.planning.route_planner import ROBOT_RADIUS_M, PlannedPath, RoutePlanner
 from giraff_console.robot.odometry import Pose
@@ -31,6 +31,7 @@ class NavigationState:
     planned: PlannedPath | None = None
     closed: frozenset[str] = frozenset()
     problem: str | None = None  # why there is a goal but no plan
+    obstacles: tuple[tuple[float, float], ...] = ()  # sensed, map frame
 
 
 class Navigator:
@@ -67,7 +68,8 @@ class Navigator:
         a message for the operator if there is none."""
         with self._lock:
             planned = self.planner.from_point((pose.x, pose.y), room_id)
-            self.state = NavigationState(room_id, planned, self.state.closed)
+            self.state = NavigationState(room_id, planned, self.state.closed,
+                                         obstacles=self.state.obstacles)  # fmt: skip
             return planned
 
     def close(self, door_id: str, pose: Pose) -> NavigationState:
@@ -85,7 +87,21 @@ class Navigator:
     def forget(self) -> None:
         """No goal any more (arrived, or the operator stopped it)."""
         with self._lock:
-            self.state = NavigationState(closed=self.state.closed)
+            self.state = NavigationState(closed=self.state.closed, obstacles=self.state.obstacles)
+
+    def report_obstacles(self, points: list[tuple[float, float]]) -> list[tuple[Cell, bool]]:
+        """Obstacles sensed at `points` (map frame): the grid's cells round them are
+        blocked, legs are measured again as routes need them. Returns the cells that
+        changed, for the D* Lite planner of the leg being driven."""
+        legs = self.planner.legs
+        if legs is None or not points:
+            return []
+        with self._lock:
+            changes = legs.block(points, self.planner.robot_radius)
+            if changes:
+                self.planner.graph.forget_legs()
+                self.state = replace(self.state, obstacles=self.state.obstacles + tuple(points))
+            return changes
 
     def _replan(self, pose: Pose) -> NavigationState:
         closed = frozenset(self.planner.graph.closed)
@@ -95,5 +111,5 @@ class Navigator:
                 planned = self.planner.from_point((pose.x, pose.y), goal)
             except PlanningError as error:
                 problem = str(error)
-        self.state = NavigationState(goal, planned, closed, problem)
+        self.state = NavigationState(goal, planned, closed, problem, self.state.obstacles)
         return self.state

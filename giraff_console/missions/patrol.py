@@ -169,6 +169,10 @@ class PatrolRun:
         return self._leg == len(self._legs)
 
     @property
+    def problem(self) -> str | None:
+        return None if self.finished else self._replay.problem
+
+    @property
     def time_left(self) -> float:
         """An estimate: what is left of this stop, then the taught durations and dwells."""
         if self.finished:

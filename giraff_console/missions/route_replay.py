@@ -18,6 +18,9 @@ from giraff_console.protocol.codec import Command, format_number, parse_number
 class RouteReplay:
     """A Mission that drives a taught route again."""
 
+    # Open-loop: it never finds out that anything went wrong.
+    problem: str | None = None
+
     def __init__(self, route: Route) -> None:
         self.route = route
         self.name = route.name

@@ -119,6 +119,28 @@ class GridLegs:
         # Ways found so far: the room graph measures a leg, then the route drives it.
         self._paths: dict[tuple[Point, Point, str | None], list[Point] | None] = {}
 
+    def block(self, points: list[Point], radius: float) -> list[tuple[Cell, bool]]:
+        """Obstacles sensed at `points`: the free cells within `radius` of each (the
+        robot's, as the grid's inflation) become blocked. Returns the cells that changed,
+        as (cell, True) pairs for `Leg.update`; the ways found before are forgotten."""
+        grid, rows, cols = self.grid, *self.blocked.shape
+        reach = math.ceil(radius / grid.resolution)
+        changes = []
+        for x, y in points:
+            try:
+                row, col = grid.cell_of(x, y)
+            except ValueError:
+                continue  # off the map: nothing to plan round
+            for r in range(max(0, row - reach), min(rows, row + reach + 1)):
+                for c in range(max(0, col - reach), min(cols, col + reach + 1)):
+                    cx, cy = grid.centre_of(r, c)
+                    if not self.blocked[r, c] and math.hypot(cx - x, cy - y) <= radius:
+                        self.blocked[r, c] = True
+                        changes.append(((r, c), True))
+        if changes:
+            self._paths.clear()
+        return changes
+
     def leg(self, a: Point, b: Point, room_id: str | None) -> Leg:
         return Leg(self.grid, self.blocked, a, b, self.window(a, b, room_id))
 

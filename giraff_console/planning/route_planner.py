@@ -25,6 +25,13 @@ from giraff_console.planning.room_graph import NoRouteError, RoomGraph, Route
 
 # The Giraff's base is about 0.6 m across.
 ROBOT_RADIUS_M = 0.3
+# The walls are grown by this much more than the robot's radius, so that a path along
+# the edge of the free space keeps the robot off them, not touching.
+CLEARANCE_M = 0.05
+# A doorway is driven straight through, square to its wall, from this far before it to
+# this far after it (shorter where that is blocked): the turns into and out of it then
+# happen in the rooms, where they have room, rather than across the door frame.
+APPROACH_M = (0.9, 0.7, 0.5)
 
 
 @dataclass(frozen=True)
@@ -34,6 +41,7 @@ class PlannedPath:
     route: Route
     legs: tuple[tuple[Point, ...], ...]  # each leg's polyline, ends included
     goal_heading: float | None  # radians counter-clockwise from +x, if the room asks one
+    doorways: frozenset[Point] = frozenset()  # door centres crossed straight, square on
 
     @property
     def path(self) -> list[Point]:
@@ -75,13 +83,16 @@ class RoutePlanner:
         self.plan = plan
         self.walls = grid
         self.robot_radius = robot_radius
-        self.legs = GridLegs(plan, grid.inflated(robot_radius)) if grid is not None else None
+        self.legs = (
+            GridLegs(plan, grid.inflated(robot_radius + CLEARANCE_M)) if grid is not None else None
+        )
         self.graph = RoomGraph(plan, self.legs.length if self.legs is not None else None)
         self._outlines = {
             room.id: np.array(room.outline, dtype=np.float32).reshape(-1, 1, 2)
             for room in plan.rooms.values()
             if room.outline
         }
+        self._doors_at = {door.at: door for door in plan.doors}
 
     def close(self, door_id: str) -> None:
         self.graph.close(door_id)
@@ -119,23 +130,82 @@ class RoutePlanner:
         whose legs all exist; the loop is only a guard against a grid that changed."""
         for _ in range(len(self.plan.rooms) + len(self.plan.doors) + 1):
             route: Route = find_route()
-            legs = self._legs(route)
-            if legs is not None:
+            found = self._legs(route)
+            if found is not None:
                 heading = self.plan.rooms[to_room].heading
                 goal_heading = None if heading is None else math.radians(heading)
-                return PlannedPath(route, legs, goal_heading)
+                legs, doorways = found
+                return PlannedPath(route, legs, goal_heading, doorways)
             self.graph.forget_legs()
         raise NoRouteError(f"no way to {to_room!r} on the grid")
 
-    def _legs(self, route: Route) -> tuple[tuple[Point, ...], ...] | None:
+    def _legs(self, route: Route) -> tuple[tuple[tuple[Point, ...], ...], frozenset[Point]] | None:
+        """The route's legs on the grid, and the door centres crossed square on; None if
+        a leg has no way across its room."""
         if len(route.path) == 1:
-            return ((route.path[0],),)
+            return ((route.path[0],),), frozenset()
         if self.legs is None:
-            return tuple((a, b) for a, b in pairwise(route.path))
+            return tuple((a, b) for a, b in pairwise(route.path)), frozenset()
+        # Each door crossed becomes a straight stretch through it, from an approach
+        # point in the room before to one in the room after; the grid's ways join them.
+        # Each waypoint carries the room of the leg that arrives at it (None: straight).
+        waypoints: list[tuple[Point, str | None]] = [(route.path[0], None)]
+        doorways = set()
+        for i, point in enumerate(route.path[1:-1], start=1):
+            before, after = route.leg_rooms[i - 1], route.leg_rooms[i]
+            door = self._doors_at.get(point)
+            ends = self._approach(door.at, before, after) if door and before != after else None
+            if ends is None:
+                waypoints.append((point, before))
+            else:
+                waypoints += [(ends[0], before), (point, None), (ends[1], None)]
+                doorways.add(point)
+        waypoints.append((route.path[-1], route.leg_rooms[-1]))
         legs = []
-        for (a, b), room in zip(pairwise(route.path), route.leg_rooms, strict=True):
-            points = self.legs.path(a, b, room)
+        for (a, _), (b, room) in pairwise(waypoints):
+            points = [a, b] if room is None else self.legs.path(a, b, room)
             if points is None:
                 return None
             legs.append(tuple(points))
-        return tuple(legs)
+        return tuple(legs), frozenset(doorways)
+
+    def _approach(self, at: Point, before: str, after: str) -> tuple[Point, Point] | None:
+        """Where to start and end a straight crossing of the door at `at`, square to its
+        wall, from room `before` to room `after`; None without an outline to take the
+        wall from, or when no crossing is clear."""
+        assert self.legs is not None
+        normal = self._door_normal(at, before, after)
+        if normal is None:
+            return None
+        for reach in APPROACH_M:
+            entry = (at[0] - normal[0] * reach, at[1] - normal[1] * reach)
+            exit_ = (at[0] + normal[0] * reach, at[1] + normal[1] * reach)
+            if self.legs.clear(entry, exit_):
+                return entry, exit_
+        return None
+
+    def _door_normal(self, at: Point, before: str, after: str) -> Point | None:
+        """The unit vector square to the wall the door is in, from `before` to `after`."""
+        for room_id, way in ((before, 1.0), (after, -1.0)):
+            room = self.plan.rooms[room_id]
+            if not room.outline:
+                continue
+            corners = [*room.outline, room.outline[0]]
+            a, b = min(pairwise(corners), key=lambda edge: _distance_to_edge(at, *edge))
+            length = math.dist(a, b)
+            if length == 0:
+                continue
+            normal = ((b[1] - a[1]) / length, -(b[0] - a[0]) / length)
+            # Outward from `before` (or inward to `after`): away from the room's inside.
+            probe = (at[0] - normal[0] * 0.05, at[1] - normal[1] * 0.05)
+            inside = cv2.pointPolygonTest(self._outlines[room_id], probe, False) >= 0
+            sign = way if inside else -way
+            return normal[0] * sign, normal[1] * sign
+        return None
+
+
+def _distance_to_edge(p: Point, a: Point, b: Point) -> float:
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    span = dx * dx + dy * dy
+    t = 0.0 if span == 0 else max(0.0, min(1.0, ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / span))
+    return math.hypot(p[0] - a[0] - t * dx, p[1] - a[1] - t * dy)

@@ -32,7 +32,7 @@ from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.mission import Mission
 from giraff_console.robot.odometry import Odometry
 from giraff_console.robot.replay import Replayer
-from giraff_console.robot.safety import stop_robot
+from giraff_console.robot.safety import rotation_wheel_speed, stop_robot
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.robot.teleop import Teleop
 
@@ -296,15 +296,33 @@ class ControlLoop:
         if state is not None and state.estop:
             self._end_mission("stopped by ESTOP", stop=False)
             return
+        speed = self._speed_bound(state)
         for command in mission.step(self.clock.now(), state):
             try:
-                check_command(command, self.teleop.limits, self.teleop.board_settings)
+                check_command(command, self.teleop.limits, self.teleop.board_settings, speed)
             except CommandError as error:
                 self._end_mission(f"stopped: {command} refused: {error}")
                 return
             link.send(command)
-        if mission.finished:
+        if mission.problem is not None:
+            self._end_mission(f"stopped: {mission.problem}")
+        elif mission.finished:
             self._end_mission("done", stop=False)
+
+    def _speed_bound(self, state: MotorState | None) -> float | None:
+        """How fast the robot (its wheels, turning on the spot) may be going when a move
+        sent now starts: the speed just polled and what a tick at full acceleration
+        adds. None when it is not known."""
+        if state is None:
+            return None
+        style = self.teleop.board_r
+        if style is not None and style <= 0:
+            speed: float | None = rotation_wheel_speed(state, style)
+        else:
+            speed = state.speed
+        if speed is None or not math.isfinite(speed):
+            return None
+        return abs(speed) + self.teleop.limits.accel * self.period
 
     def _start_mission(self, mission: Mission, ended: MissionEnded) -> None:
         if self._replayer is not None or self.link is None:

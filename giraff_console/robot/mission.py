@@ -3,8 +3,9 @@
 A mission is stepped by the control loop, on its thread, once per tick and whenever
 the time it asked for comes: it gets the latest motor state and answers with the
 commands to send now. The loop checks every command against the same limits as typed
-commands, stops the mission when the operator takes the keys, on ESTOP and when the
-link is lost, and stops the robot when a mission is stopped or paused.
+commands (knowing the speed just polled), stops the mission when the operator takes the
+keys, on ESTOP, when the link is lost and when the mission reports a problem, and stops
+the robot when a mission is stopped or paused.
 """
 
 from __future__ import annotations
@@ -38,6 +39,12 @@ class Mission(Protocol):
 
     @property
     def finished(self) -> bool: ...
+
+    @property
+    def problem(self) -> str | None:
+        """Why the mission cannot go on (a stall, no way left), if it cannot; the loop
+        then stops the robot and ends it."""
+        ...
 
     @property
     def progress(self) -> str:

@@ -12,7 +12,7 @@ import networkx as nx
 from giraff_console.cli import main
 from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.planning.legs import GridLegs
-from giraff_console.planning.route_planner import ROBOT_RADIUS_M, walls_of
+from giraff_console.planning.route_planner import CLEARANCE_M, ROBOT_RADIUS_M, walls_of
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "floorplans" / "care-home.yaml"
@@ -22,12 +22,13 @@ def polyline_length(path: list[list[float]]) -> float:
     return sum(math.dist(a, b) for a, b in itertools.pairwise(path))
 
 
-def optimal_length(plan_path: Path, origin: str, destination: str) -> float:
-    """The shortest way by a graph built here from the file: room points and open doors,
-    doors of one room joined to each other and to its point, every leg measured on the
-    grid beforehand (where the console measures only the legs a route may use)."""
+def optimal_route(plan_path: Path, origin: str, destination: str) -> tuple[float, list[str]]:
+    """The shortest way by a graph built here from the file, and the doors on it: room
+    points and open doors, doors of one room joined to each other and to its point,
+    every leg measured on the grid beforehand (where the console measures only the legs
+    a route may use)."""
     plan = load_floorplan(plan_path)
-    legs = GridLegs(plan, walls_of(plan).inflated(ROBOT_RADIUS_M))
+    legs = GridLegs(plan, walls_of(plan).inflated(ROBOT_RADIUS_M + CLEARANCE_M))
     graph = nx.Graph()
 
     def join(a, b, a_xy, b_xy, room):
@@ -43,7 +44,8 @@ def optimal_length(plan_path: Path, origin: str, destination: str) -> float:
             for other in plan.doors:
                 if other.open and other is not door and room in other.between:
                     join(("door", door.id), ("door", other.id), door.at, other.at, room)
-    return nx.dijkstra_path_length(graph, ("room", origin), ("room", destination))
+    length, nodes = nx.single_source_dijkstra(graph, ("room", origin), ("room", destination))
+    return length, [node[1] for node in nodes if node[0] == "door"]
 
 
 def test_plan_prints_an_optimal_route_as_json(capsys):
@@ -53,8 +55,11 @@ def test_plan_prints_an_optimal_route_as_json(capsys):
     assert route["rooms"] == ["dock", "corridor", "day-room", "activity-room"]
     assert route["doors"] == ["dock-corridor", "day-room-corridor", "activity-room-day-room"]
     assert math.isclose(route["length_m"], polyline_length(route["path"]), abs_tol=2e-3)
-    assert math.isclose(route["length_m"], optimal_length(EXAMPLE, "dock", "activity-room"),
-                        abs_tol=2e-3)  # fmt: skip
+    # The optimal route; its path then crosses each door square on, which is a little
+    # longer than the legs measured from door centre to door centre.
+    best, doors = optimal_route(EXAMPLE, "dock", "activity-room")
+    assert route["doors"] == doors
+    assert best <= route["length_m"] <= best * 1.05
     assert route["path"][0] == [2.0, 7.0] and route["path"][-1] == [42.0, 16.0]
 
 
@@ -62,7 +67,7 @@ def test_the_planned_path_keeps_the_robot_off_the_walls(capsys):
     assert main(["plan", "--floorplan", str(EXAMPLE), "room-101", "kitchen", "--json"]) == 0
     route = json.loads(capsys.readouterr().out)
     plan = load_floorplan(EXAMPLE)
-    legs = GridLegs(plan, walls_of(plan).inflated(ROBOT_RADIUS_M))
+    legs = GridLegs(plan, walls_of(plan).inflated(ROBOT_RADIUS_M + CLEARANCE_M))
     assert all(legs.clear(a, b) for a, b in itertools.pairwise(route["path"]))
     # Longer than the straight lines through the doors: it goes round the door jambs.
     doors = {door.id: door.at for door in plan.doors}

@@ -1,0 +1,77 @@
+"""A simulated range finder on the robot's front: distances to what is in the way.
+
+The thesis would add "an infrared laser range finder ... to minimize the risk of
+crashing into things" (§6): with one, obstacles "are typically not too hard to detect"
+(§2.4), and a LIDAR sweeps its beam across what is in front of it (§2.2.5). This one
+sweeps `rays` beams evenly over its field of view, centred on the heading, and reports
+the nearest hit of each within range.
+
+It senses only the `Surroundings` (boxes, closed doors), not the building's walls: the
+floor plan already has those, and what the console needs from the sensor is what the
+plan does not know (§2.1: blueprints leave out "furniture or people").
+
+Readings are in the robot's frame. The console must turn them into map points with its
+own pose estimate (odometry, §2.3): it never sees the simulator's true pose, so an
+obstacle lands on its map where the console believes the robot saw it, errors and all,
+as it would with a real sensor. `scan_points` uses the true pose, for tests only.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from giraff_console.sim.drive import TruePose
+from giraff_console.sim.surroundings import Surroundings, cast_rays
+
+
+class SimRangeFinder:
+    """A planar scanner at the robot's centre; thread-safe, since it keeps no state."""
+
+    def __init__(
+        self,
+        pose: Callable[[], TruePose],
+        surroundings: Surroundings,
+        range_m: float = 1.5,
+        fov_deg: float = 70.0,
+        rays: int = 36,
+    ) -> None:
+        if rays < 1 or not range_m > 0 or not 0 < fov_deg <= 360:
+            raise ValueError("a range finder needs rays, a range and a field of view")
+        self.pose = pose
+        self.surroundings = surroundings
+        self.range_m = range_m
+        half = math.radians(fov_deg) / 2
+        # The first and last beams at the edges of the field of view, as a LIDAR's
+        # angle_min and angle_max; one beam looks straight ahead.
+        self.bearings = np.linspace(-half, half, rays) if rays > 1 else np.zeros(1)
+        self.bearings.setflags(write=False)
+
+    def readings(self) -> list[tuple[float, float]]:
+        """(distance m, bearing rad, positive to the left) of each beam that hits
+        something within range, from right to left."""
+        _, distance, bearing = self._scan()
+        return list(zip(distance.tolist(), bearing.tolist(), strict=True))
+
+    def scan_points(self) -> list[tuple[float, float]]:
+        """The same hits as (x, y) on the map, placed with the true pose: tests only."""
+        pose, distance, bearing = self._scan()
+        angle = pose.heading + bearing
+        x = pose.x + distance * np.cos(angle)
+        y = pose.y + distance * np.sin(angle)
+        return list(zip(x.tolist(), y.tolist(), strict=True))
+
+    def _scan(self) -> tuple[TruePose, np.ndarray, np.ndarray]:
+        """One sweep: the pose and the surroundings are read once, so that every beam
+        starts from the same place and sees the same things."""
+        pose = self.pose()
+        starts, ends = self.surroundings.segments()
+        if not len(starts):
+            return pose, np.empty(0), np.empty(0)
+        angle = pose.heading + self.bearings
+        t, _ = cast_rays(pose.x, pose.y, np.cos(angle), np.sin(angle), starts, ends)
+        distance = t.min(axis=1)
+        hit = distance <= self.range_m
+        return pose, distance[hit], self.bearings[hit]
