@@ -25,7 +25,8 @@ from giraff_console.camera.processors import (
     Undistortion,
 )
 from giraff_console.camera.source import DEFAULT_RESOLUTION, SyntheticCamera, open_camera
-from giraff_console.clock import RealClock
+from giraff_console.clock import Clock, RealClock
+from giraff_console.go_command import add_go_parser, run_go
 from giraff_console.link import DEFAULT_TIMEOUT_S, BoardLink, LinkError
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.route_book import RouteBook
@@ -39,7 +40,6 @@ from giraff_console.planning.floorplan import (
 from giraff_console.planning.plan_drawing import draw_plan
 from giraff_console.planning.room_graph import PlanningError, UnknownRoomError
 from giraff_console.planning.route_planner import ROBOT_RADIUS_M, RoutePlanner, walls_of
-from giraff_console.planning.walls import wall_segments
 from giraff_console.protocol import (
     BoardError,
     GiraffError,
@@ -66,7 +66,9 @@ from giraff_console.sim import BoardConfig, GiraffBoard, Imperfections, PtyServe
 from giraff_console.sim.camera import WorldCamera
 from giraff_console.sim.drive import TruePose
 from giraff_console.sim.pose_log import PoseLog
-from giraff_console.sim.world import DOOR_FRAME, POSTER_WIDTH, WALL, Wall, World, demo_world
+from giraff_console.sim.surroundings import Surroundings
+from giraff_console.sim.world import World, demo_world
+from giraff_console.sim_site import SimulatedSite
 
 # Exit codes: a refused or garbled command, and a link that could not be used.
 EXIT_BOARD_ERROR = 1
@@ -95,6 +97,11 @@ def build_parser() -> argparse.ArgumentParser:
         "file; without one, the built-in simulator)",
     )  # fmt: skip
     parser.add_argument("--sim", action="store_true", help="use the built-in simulator")
+    parser.add_argument(
+        "--sim-speed", type=float, default=1.0, metavar="K",
+        help="run the built-in simulator's clock K times faster than real time "
+        "(default: %(default)s)",
+    )  # fmt: skip
     parser.add_argument(
         "--fast-threshold", type=int, default=FAST_THRESHOLD, metavar="N",
         help="FAST corner threshold (default: %(default)s, as in the thesis)",
@@ -163,6 +170,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="how a set is answered (default: value, as in the thesis)",
     )
     sim.add_argument("--auto-home", action="store_true", help="home the head at power-up")
+    sim.add_argument(
+        "--floorplan", type=Path, default=argparse.SUPPRESS, metavar="FILE",
+        help="put the robot at this floor plan's start room, facing its heading (default: "
+        "at the origin, facing +x)",
+    )  # fmt: skip
     sim.add_argument(
         "--pose-log",
         type=Path,
@@ -252,6 +264,8 @@ def build_parser() -> argparse.ArgumentParser:
     )  # fmt: skip
     imports.add_argument("--force", action="store_true", help="overwrite OUT and its image")
 
+    add_go_parser(commands, EXAMPLE_FLOORPLAN)
+
     send = commands.add_parser(
         "send",
         help="send controller commands and print the decoded replies",
@@ -305,6 +319,14 @@ def run(args: argparse.Namespace) -> int:
         return run_export(args)
     if args.command == "plan":
         return run_plan(args)
+    if args.command == "go":
+        try:
+            settings = load_settings(args.config)
+        except SettingsError as error:
+            print(f"giraff-console: {error}", file=sys.stderr)
+            return EXIT_USAGE
+        port = None if args.sim else (args.port or settings.port)
+        return run_go(args, settings, port, EXAMPLE_FLOORPLAN)
     if args.command == "floorplan" and args.floorplan_command == "show":
         return run_floorplan_show(args)
     if args.command == "floorplan" and args.floorplan_command == "import":
@@ -339,10 +361,19 @@ def run_console(args: argparse.Namespace) -> int:
     except (FloorPlanError, OSError) as error:
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_USAGE
-    clock = RealClock()
+    if args.sim_speed <= 0:
+        print("giraff-console: --sim-speed must be positive", file=sys.stderr)
+        return EXIT_USAGE
+    clock: Clock = RealClock()
     simulator = None
+    stepped = None
     if port is None:
-        simulator = serial.serial_for_url(IN_PROCESS_SIMULATOR)
+        if args.sim_speed != 1:
+            # A clock of the simulator's own, which the control loop moves on.
+            simulator = serial.serial_for_url(IN_PROCESS_SIMULATOR + "?clock=virtual")
+            clock, stepped = simulator.clock, args.sim_speed
+        else:
+            simulator = serial.serial_for_url(IN_PROCESS_SIMULATOR)
     if args.command == "replay":
         try:
             log_path, log = open_log(args.session)
@@ -364,12 +395,13 @@ def run_console(args: argparse.Namespace) -> int:
         # The console has no way to find the robot on the plan by itself (§2.3): it
         # starts where the plan says, and so does the simulated robot.
         control.odometry.reset(start)
-        if simulator is not None:
-            simulator.board.place(TruePose(start.x, start.y, start.heading))
-    world = plan_world(plan) if plan is not None else None
+    site = None
+    if simulator is not None and plan is not None:
+        site = SimulatedSite(simulator.board, plan, start, settings.motion.sensing_range)
     camera = camera_feed(
-        args.camera, simulator, args.calibration, args.fast_threshold, args.camera_fps, world
-    )
+        args.camera, simulator, args.calibration, args.fast_threshold, args.camera_fps,
+        site.world if site else None, site.surroundings if site else None,
+    )  # fmt: skip
     setup = RecordingSetup(
         port=port or IN_PROCESS_SIMULATOR,
         camera={
@@ -388,6 +420,9 @@ def run_console(args: argparse.Namespace) -> int:
         undock_distance=settings.teleop.undock_distance,
         play=args.session if args.command == "replay" else None,
         navigator=navigator,
+        site=site,
+        motion=settings.motion.limits(),
+        stepped=stepped,
     )
     app.notes_at_start.append(plan_note)
 
@@ -417,18 +452,6 @@ def console_floorplan(path: Path | None) -> tuple[FloorPlan | None, str]:
     plan = load_floorplan(path or EXAMPLE_FLOORPLAN)
     where = f", starting in {plan.start}" if plan.start else ""
     return plan, f"floor plan: {plan.name} ({len(plan.rooms)} rooms){where}"
-
-
-def plan_world(plan: FloorPlan) -> World:
-    """The building as the synthetic camera sees it: the plan's walls, door frames dark,
-    a poster half-way along every wall long enough to hang one."""
-    kinds = {"wall": WALL, "frame": DOOR_FRAME, "door": DOOR_FRAME}
-    walls = []
-    for segment in wall_segments(plan):
-        (ax, ay), (bx, by) = segment.a, segment.b
-        poster = (segment.length - POSTER_WIDTH) / 2 if segment.length > 2.0 else math.nan
-        walls.append(Wall(ax, ay, bx, by, kinds[segment.kind], poster))
-    return World(walls)
 
 
 def run_plan(args: argparse.Namespace) -> int:
@@ -527,12 +550,14 @@ def camera_feed(
     fast_threshold: int = FAST_THRESHOLD,
     fps: float = DEFAULT_FPS,
     world: World | None = None,
+    surroundings: Surroundings | None = None,
 ) -> CameraFeed:
     """The camera asked for, else the synthetic one with the simulator (seeing `world`,
-    or a demo world), else camera 0; a test pattern when none of them is there (§3.4.1)."""
+    or a demo world, and `surroundings`), else camera 0; a test pattern when none of
+    them is there (§3.4.1)."""
     synthetic = None
     if simulator is not None:
-        camera_world = WorldCamera(world or demo_world())
+        camera_world = WorldCamera(world or demo_world(), surroundings=surroundings)
         board = simulator.board
         synthetic = SyntheticCamera(
             lambda width, height: camera_world.render(board.true_pose, width, height)
@@ -580,6 +605,15 @@ def run_sim(args: argparse.Namespace) -> int:
         imperfections=imperfections,
     )
     board = GiraffBoard(RealClock(), config)
+    if args.floorplan is not None:
+        try:
+            plan = load_floorplan(args.floorplan)
+        except FloorPlanError as error:
+            print(f"giraff-console: {error}", file=sys.stderr)
+            return EXIT_USAGE
+        if plan.start is not None:
+            room = plan.rooms[plan.start]
+            board.place(TruePose(room.at[0], room.at[1], math.radians(room.heading or 0.0)))
     server = PtyServer(board, paced=args.pace)
     signal.signal(signal.SIGTERM, lambda *_: server.stop())
     signal.signal(signal.SIGINT, lambda *_: server.stop())

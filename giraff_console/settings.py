@@ -17,6 +17,14 @@ The file is `$XDG_CONFIG_HOME/giraff-console/config.toml` (usually
     grace = 0.7                # deadman: seconds after a first key press
     repeat_timeout = 0.15      # deadman: seconds between key repeats
     undock_distance = 0.3      # metres backed out by U
+
+    [motion]                   # how `go` drives
+    v_max = 0.4                # m/s, at most teleop's max_speed
+    a_max = 0.5                # m/s^2, at most teleop's accel
+    j_max = 1.0                # m/s^3
+    lateral_accel = 0.3        # m/s^2 in turns
+    door_speed = 0.25          # m/s through doorways
+    sensing_range = 1.5        # metres the simulated range finder sees
 """
 
 from __future__ import annotations
@@ -27,6 +35,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from giraff_console.link import DEFAULT_TIMEOUT_S
+from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.planning.route_planner import ROBOT_RADIUS_M
 from giraff_console.protocol.errors import GiraffError
 from giraff_console.robot.control_loop import DEFAULT_RATE_HZ
@@ -55,6 +64,24 @@ class TeleopSettings:
 
 
 @dataclass(frozen=True)
+class MotionSettings:
+    v_max: float = 0.4
+    a_max: float = 0.5
+    j_max: float = 1.0
+    lateral_accel: float = 0.3
+    door_speed: float = 0.25
+    sensing_range: float = 1.5
+
+    def limits(self) -> MotionLimits:
+        """ValueError for limits that do not make sense."""
+        return MotionLimits(
+            v_max=self.v_max, a_max=self.a_max, j_max=self.j_max,
+            lateral_accel=self.lateral_accel, door_speed=min(self.door_speed, self.v_max),
+            rotation_speed=self.v_max,
+        )  # fmt: skip
+
+
+@dataclass(frozen=True)
 class Settings:
     port: str | None = None
     power_line: str = "dtr"
@@ -62,6 +89,7 @@ class Settings:
     control_rate: float = DEFAULT_RATE_HZ
     robot_radius: float = ROBOT_RADIUS_M
     teleop: TeleopSettings = field(default_factory=TeleopSettings)
+    motion: MotionSettings = field(default_factory=MotionSettings)
     source: str = "built-in defaults"
 
 
@@ -80,11 +108,15 @@ def load_settings(path: Path | None = None) -> Settings:
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
         raise SettingsError(f"{path}: {error}") from None
     teleop_data = data.pop("teleop", {})
-    if not isinstance(teleop_data, dict):
-        raise SettingsError(f"{path}: [teleop] must be a table")
+    motion_data = data.pop("motion", {})
+    for table, value in (("teleop", teleop_data), ("motion", motion_data)):
+        if not isinstance(value, dict):
+            raise SettingsError(f"{path}: [{table}] must be a table")
     try:
         teleop = TeleopSettings(**_checked(path, "teleop.", TeleopSettings, teleop_data))
-        settings = Settings(**_checked(path, "", Settings, data), teleop=teleop, source=str(path))
+        motion = MotionSettings(**_checked(path, "motion.", MotionSettings, motion_data))
+        settings = Settings(**_checked(path, "", Settings, data), teleop=teleop, motion=motion,
+                            source=str(path))  # fmt: skip
         if settings.power_line not in ("dtr", "rts", "both", "none"):
             raise ValueError("power_line must be dtr, rts, both or none")
         if settings.timeout <= 0 or settings.control_rate <= 0 or settings.robot_radius <= 0:
@@ -94,13 +126,21 @@ def load_settings(path: Path | None = None) -> Settings:
             raise ValueError("grace and repeat_timeout must be positive")
         if not 0 < teleop.undock_distance <= limits.runaway:
             raise ValueError(f"undock_distance must be in (0, {limits.runaway}] m")
+        motion.limits()
+        if motion.v_max > teleop.max_speed or motion.a_max > teleop.accel:
+            raise ValueError(
+                "motion.v_max and motion.a_max may not exceed teleop's max_speed and accel: "
+                "every move is checked against those"
+            )
+        if motion.sensing_range <= 0:
+            raise ValueError("motion.sensing_range must be positive")
     except ValueError as error:
         raise SettingsError(f"{path}: {error}") from None
     return settings
 
 
 def _checked(path: Path, prefix: str, kind: type, data: dict) -> dict:
-    allowed = {f.name: f for f in fields(kind) if f.name not in ("teleop", "source")}
+    allowed = {f.name: f for f in fields(kind) if f.name not in ("teleop", "motion", "source")}
     for key, value in data.items():
         if key not in allowed:
             raise SettingsError(f"{path}: unknown key {prefix}{key}")

@@ -70,7 +70,7 @@ def test_the_installed_package_carries_the_console_stylesheet(tmp_path):
 ALLOWED_IMPORTS = {
     "protocol": {"protocol"},
     "clock": set(),
-    "settings": {"planning", "robot", "link", "protocol", "clock"},
+    "settings": {"motion", "planning", "robot", "link", "protocol", "clock"},
     "sim": {"sim", "protocol", "clock"},
     "link": {"link", "protocol", "clock"},
     "camera": {"camera", "clock"},

@@ -49,6 +49,10 @@ def test_a_file_overrides_what_it_names(tmp_path):
         ("[teleop]\nundock_distance = 5", "undock_distance must be in"),
         ("timeout = [", "config.toml"),
         ("teleop = 3", "must be a table"),
+        ("motion = 3", "[motion] must be a table"),
+        ("[motion]\nv_max = 0.6", "may not exceed"),
+        ("[motion]\nj_max = 0", "j_max"),
+        ("[motion]\nwarp = 9", "unknown key motion.warp"),
     ],
 )
 def test_bad_files_are_refused_with_the_path_and_the_key(tmp_path, text, message):

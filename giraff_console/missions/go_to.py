@@ -139,6 +139,13 @@ class GoTo:
         pose = self._pose()
         if self._sense is not None and not self._restart:
             self._watch(now, pose)
+        closed = self.navigator.state.closed
+        if closed != self._closed:
+            self._closed = closed
+            if closed & set(self._planned.route.doors) and not self._restart:
+                # The operator shut a door on the route: round it, from a stop.
+                self.executor.brake(now)
+                self._restart = True
         if self._restart and self.executor.finished:
             if state.moving:
                 return []
@@ -225,6 +232,7 @@ class GoTo:
                          legs.clear if legs is not None else None, self.turn_limits,
                          planned.doorways)  # fmt: skip
         self._planned = planned
+        self._closed = self.navigator.state.closed
         self._leg, self._leg_index = None, -1
         doors = [door.at for door in self.navigator.plan.doors if door.id in planned.route.doors]
         speed = self.limits.door_speed

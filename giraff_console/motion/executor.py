@@ -59,6 +59,8 @@ GEAR_RATE_RANGE = (0.05, 2.0)  # per metre: never zero, which would jump (A.2.3)
 MIN_SPEED = 0.002
 # A section is done when this little is left and the board has stopped.
 DONE_M = 0.002
+# The speed at which a robot that fell behind its profile covers the rest.
+CREEP_SPEED = 0.05
 # Motion commanded but the wheels not turning for this long is a stall (§2.3.2).
 STALL_S = 1.0
 STALL_M = 0.001
@@ -130,6 +132,10 @@ class Executor:
         self._progress = 0.0
         self._plan_time = 0.0  # where the present section's profile is, in its own time
         self._plan_clock: float | None = None  # when _plan_time was last advanced
+        self._creep_since: float | None = None  # when the profile ran out short of the end
+        # A turn on the spot: the odometry's heading at its start, and the angle to turn.
+        self._start_heading: float | None = None
+        self._turn = 0.0
         # A stop asked for mid-drive: when it began, its speed curve, the path metres
         # there and how far it takes.
         self._brake: tuple[float, ruckig.Trajectory, float, float] | None = None
@@ -228,7 +234,7 @@ class Executor:
             if self.index + 1 < len(self.sections):
                 self.trace.stops.append(now)
             self.index += 1
-            self._t0 = self._plan_clock = None
+            self._t0 = self._plan_clock = self._creep_since = self._start_heading = None
             self._progress = self._plan_time = 0.0
             return []
         self._check_stall(now, state)
@@ -256,7 +262,7 @@ class Executor:
         self._progress = s
         remaining = drive.length - s
         speed = state.speed or 0.0
-        self._note_gear(state.cvg, travelled)
+        self._note_gear(state, travelled)
         if self._brake is not None:
             began, curve, at, distance = self._brake
             remaining = max(0.0, at + distance - s)
@@ -270,7 +276,7 @@ class Executor:
             v_cmd = curve.at_time(min(now - began + self.tick, curve.duration))[1][0]
         elif t >= profile.duration and remaining > DONE_M:
             # Behind the plan at its end: creep the rest at the speed it ended with.
-            v_cmd = max(v_cmd, min(0.05, remaining))
+            v_cmd = max(v_cmd, self._creep(now, remaining))
         self._record(now, v_cmd)
         v_cmd = max(v_cmd, MIN_SPEED)
         target = min(remaining, RUNAWAY_M)
@@ -314,8 +320,13 @@ class Executor:
         assert self._t0 is not None
         t = now - self._t0
         way = 1.0 if rotation.angle > 0 else -1.0  # +1: left, counter-clockwise
-        # The heading the odometry has is the truth here: what is left is measured from it.
-        left_to_turn = way * wrap(rotation.end.heading - pose.heading)
+        # What is left is measured from the odometry's heading, which is not wrapped: a
+        # half turn has no ambiguity. The turn ends at the plan's heading, even if the
+        # robot set off a little away from it.
+        if self._start_heading is None:
+            self._start_heading = pose.heading
+            self._turn = rotation.angle + wrap(rotation.at.heading - pose.heading)
+        left_to_turn = way * (self._turn - (pose.heading - self._start_heading))
         remaining = left_to_turn * TURN_RADIUS_M  # wheel metres
         self._progress = profile.length - remaining
         wheel = abs(rotation_wheel_speed(state, 0.0))
@@ -324,7 +335,7 @@ class Executor:
         done = profile.length - remaining
         _, v_cmd, _ = profile.at(self._advance_plan(profile, done, now) + self.tick)
         if t >= profile.duration:
-            v_cmd = max(v_cmd, min(0.05, abs(remaining)))
+            v_cmd = max(v_cmd, self._creep(now, abs(remaining)))
         if abs(remaining) < 1e-4:
             return []
         self._record(now, v_cmd)
@@ -337,6 +348,14 @@ class Executor:
                               wheel_metres=target)  # fmt: skip
 
     # -- shared -------------------------------------------------------------------------
+
+    def _creep(self, now: float, remaining: float) -> float:
+        """The speed to cover what the profile left over (a robot that fell behind it):
+        up to CREEP_SPEED, eased in within the jerk limit, and down towards the end."""
+        if self._creep_since is None:
+            self._creep_since = now
+        eased = self.limits.j_max * JERK_SPARE * (now - self._creep_since) ** 2 / 2
+        return min(CREEP_SPEED, eased, remaining)
 
     def _advance_plan(self, profile: Profile, done: float, now: float) -> float:
         """Where in its profile the section is: the clock's time since the last tick,
@@ -373,15 +392,16 @@ class Executor:
         self.trace.times.append(now)
         self.trace.speeds.append(v_cmd)
 
-    def _note_gear(self, cvg: float, travelled: float) -> None:
+    def _note_gear(self, state: MotorState, travelled: float) -> None:
         """Count gear ratio changes since the last tick beyond what the ramp asked for
-        allows over the distance driven: a jump (§3.2.1.4)."""
-        if self._last is not None:
+        allows over the distance driven: a jump (§3.2.1.4). The board puts the ratio
+        back to zero when a move ends; at a standstill that moves nothing."""
+        if self._last is not None and state.moving:
             last_gear, last_s = self._last
             allowed = abs(self._vgr) * abs(travelled - last_s) + 1e-3
-            if abs(cvg - last_gear) > allowed:
+            if abs(state.cvg - last_gear) > allowed:
                 self.trace.gear_jumps += 1
-        self._last = (cvg, travelled)
+        self._last = (state.cvg, travelled)
 
     def _check_stall(self, now: float, state: MotorState) -> None:
         """Motion commanded for a while and the odometers not moving (§2.3.2)."""

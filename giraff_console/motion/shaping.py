@@ -98,6 +98,12 @@ def shape(points: Sequence[Point], heading: float, goal_heading: float | None = 
         sections.append(Rotation(here, angle))
         here = Pose(here.x, here.y, direction)
 
+    # The tangent each corner needs at the least: its sharpest turn (0 on the spot).
+    needs = [0.0] * len(corners)
+    for i in range(1, len(corners) - 1):
+        deflection = wrap(directions[i] - directions[i - 1])
+        if STRAIGHT_RAD < abs(deflection) <= MAX_CURVE_TURN_RAD:
+            needs[i] = turn_shape(deflection, limits.max_sharpness, limits.max_curvature)[0]
     rotate_to(directions[0])
     # How much of each leg is left for the turn at its far end.
     free_before = lengths[0]
@@ -108,7 +114,9 @@ def shape(points: Sequence[Point], heading: float, goal_heading: float | None = 
             free_before = lengths[i]
             continue
         last = i + 1 == len(corners) - 1 or corners[i + 1] in pins
-        room_after = lengths[i] if last else lengths[i] / 2
+        # The leg after is shared with the next corner: this one may take what that one
+        # needs at the least, or half, whichever leaves this one more.
+        room_after = lengths[i] if last else max(lengths[i] / 2, lengths[i] - needs[i + 1])
         turn = None
         if abs(deflection) <= MAX_CURVE_TURN_RAD:
             turn = _fitting_turn(corners[i], directions[i - 1], deflection,
@@ -205,6 +213,12 @@ def _simplified(points: Sequence[Point], pins: frozenset[Point]) -> list[Point]:
     for point in points[1:]:
         if math.dist(point, kept[-1]) >= MIN_LEG_M:
             kept.append(point)
+    if kept[-1] != points[-1]:
+        # The goal is kept, in place of a point close to it (or after the start).
+        if len(kept) > 1:
+            kept[-1] = points[-1]
+        elif math.dist(points[-1], kept[0]) > 0:
+            kept.append(points[-1])
     if len(kept) == 1:
         return kept
     straightened = [kept[0]]

@@ -42,6 +42,29 @@ def wall_segments(plan: FloorPlan, closed: frozenset[str] = frozenset()) -> list
     return segments
 
 
+def doorway(plan: FloorPlan, door: Door) -> tuple[Point, Point]:
+    """The two ends of a door's doorway, its jambs: along the wall it is in, the outline
+    edge of one of its rooms, or, without one, square to the line between their points."""
+    for room_id in door.between:
+        outline = plan.rooms[room_id].outline
+        if not outline:
+            continue
+        for a, b in pairwise([*outline, outline[0]]):
+            if _on_edge(door, a, b):
+                length = math.dist(a, b)
+                ux, uy = (b[0] - a[0]) / length, (b[1] - a[1]) / length
+                return _jambs(door, ux, uy)
+    (ax, ay), (bx, by) = (plan.rooms[room_id].at for room_id in door.between)
+    length = math.hypot(bx - ax, by - ay) or 1.0
+    return _jambs(door, -(by - ay) / length, (bx - ax) / length)
+
+
+def _jambs(door: Door, ux: float, uy: float) -> tuple[Point, Point]:
+    half = door.width / 2
+    x, y = door.at
+    return (x - ux * half, y - uy * half), (x + ux * half, y + uy * half)
+
+
 def _on_edge(door: Door, a: Point, b: Point) -> bool:
     return _along(door.at, a, b) is not None
 

@@ -23,7 +23,7 @@ import sys
 import threading
 from collections.abc import Callable
 
-from giraff_console.clock import Clock
+from giraff_console.clock import Clock, VirtualClock
 from giraff_console.link import BoardLink, Exchange, LinkError, MotorState, Observer
 from giraff_console.protocol.errors import BoardRebootedError, CommandError, GiraffError
 from giraff_console.recording.playback import Playback
@@ -90,12 +90,16 @@ class ControlLoop:
 
     # -- from other threads -------------------------------------------------------------
 
-    def start(self) -> None:
+    def start(self, stepped: float | None = None) -> None:
+        """Run the loop on its own thread. With `stepped`, the clock must be a
+        VirtualClock, which the loop moves on itself, `stepped` times faster than real
+        time (math.inf: as fast as it can); see `_run_stepped`."""
         # A busy screen holds the GIL for up to the switch interval (5 ms by default)
         # before this thread gets it; 1 ms keeps ticks on time.
         sys.setswitchinterval(0.001)
         self._running = True
-        self._thread = threading.Thread(target=self._run, name="control-loop", daemon=True)
+        run = self._run if stepped is None else lambda: self._run_stepped(stepped)
+        self._thread = threading.Thread(target=run, name="control-loop", daemon=True)
         self._thread.start()
 
     def stop(self) -> None:
@@ -214,6 +218,26 @@ class ControlLoop:
                 next_tick = max(next_tick + self.period, now)
             self.tick(early=early)
             self._wake.wait(max(0.0, min(next_tick, self.next_due()) - self.clock.now()))
+
+    def _run_stepped(self, speed: float) -> None:
+        """The loop on a virtual clock (a simulator's `--sim-speed`): tick, move the
+        clock on to the next tick or to what a mission asks for, and wait that long
+        divided by `speed` in real time. The ticks fall at the same virtual times
+        whatever the speed, so a faster clock changes nothing but the wall time."""
+        clock = self.clock
+        assert isinstance(clock, VirtualClock), "a stepped loop needs a VirtualClock"
+        next_tick = clock.now()
+        while self._running:
+            now = clock.now()
+            early = now < next_tick
+            if not early:
+                next_tick += self.period
+            self.tick(early=early)
+            step = max(0.0, min(next_tick, self.next_due()) - clock.now())
+            if speed != math.inf:
+                self._wake.wait(step / speed)
+                self._wake.clear()
+            clock.advance(step)
 
     def next_due(self) -> float:
         """When a playback or a mission next wants a tick, if before the next one; inf if

@@ -237,8 +237,10 @@ class Drive:
             elapsed -= step
             if self._stall is not None and self._motion_time >= self._stall.after:
                 self._stall_left, self._stall = self._stall.seconds, None
+                self.imperfections.stalled()
                 self.stalled = self._move is not None
             if self._estop_at is not None and self._motion_time >= self._estop_at:
+                self.imperfections.estopped()
                 self.set_estop(True, self._last_clock)
                 release = self._last_clock - elapsed + self.imperfections.config.estop_seconds
                 self._estop_release = release
@@ -266,6 +268,7 @@ class Drive:
         """
         t = self._motion_time - move.started
         t_end = until - move.started
+        self.imperfections.moved(t_end - t)
         steps = 1
         if move.style is Style.PATH and (move.gear is not NO_GEAR or self.imperfections.misaligned):
             travelled = move.profile.arc_length_at(t_end) - move.profile.arc_length_at(t)

@@ -6,6 +6,10 @@
   about 45 degrees more before they have (§3.2.1.5). The wheel odometry never sees it.
 - A wheel can stall: motion is commanded but the odometry stops changing (§2.3.2).
 - The board can raise ESTOP when something with the wheels is wrong (A.4.8).
+
+Stalls and ESTOPs come at rates per second of motion, not per move: a console that
+renews its move every tick (teleop, a streamed path) sends twenty moves a second, and
+the wheels do not fail twenty times as often for it.
 """
 
 from __future__ import annotations
@@ -22,9 +26,9 @@ class Imperfections:
     move_error_m: float = 0.0
     caster_drift_deg: float = 0.0
     caster_settle_m: float = 0.3
-    stall_probability: float = 0.0
+    stall_rate: float = 0.0  # stalls per second of motion
     stall_seconds: tuple[float, float] = (0.5, 2.0)
-    estop_probability: float = 0.0
+    estop_rate: float = 0.0  # ESTOPs per second of motion
     estop_seconds: float = 3.0
     seed: int | None = None
 
@@ -34,8 +38,8 @@ class Imperfections:
         return cls(
             move_error_m=0.003,
             caster_drift_deg=20.0,
-            stall_probability=0.02,
-            estop_probability=0.005,
+            stall_rate=0.005,
+            estop_rate=0.001,
             seed=seed,
         )
 
@@ -55,6 +59,12 @@ class ImperfectionModel:
         self.config = config
         self._random = random.Random(config.seed)
         self._caster_misalignment = 0.0
+        # Seconds of motion until the next stall and the next ESTOP.
+        self._stall_in = self._wait(config.stall_rate)
+        self._estop_in = self._wait(config.estop_rate)
+
+    def _wait(self, rate: float) -> float:
+        return self._random.expovariate(rate) if rate > 0 else math.inf
 
     def distance_error(self) -> float:
         """Metres by which the next move misses its target."""
@@ -64,17 +74,30 @@ class ImperfectionModel:
         return max(-3 * sigma, min(3 * sigma, self._random.gauss(0.0, sigma)))
 
     def stall(self, move_seconds: float) -> Mishap | None:
-        """A stall during a move of `move_seconds`, or None."""
-        if self._random.random() >= self.config.stall_probability:
+        """The stall due within a move of `move_seconds`, or None."""
+        if self._stall_in >= move_seconds:
             return None
         low, high = self.config.stall_seconds
-        return Mishap(self._random.uniform(0, move_seconds), self._random.uniform(low, high))
+        return Mishap(self._stall_in, self._random.uniform(low, high))
 
     def estop(self, move_seconds: float) -> Mishap | None:
-        """An ESTOP during a move of `move_seconds`, or None."""
-        if self._random.random() >= self.config.estop_probability:
+        """The ESTOP due within a move of `move_seconds`, or None."""
+        if self._estop_in >= move_seconds:
             return None
-        return Mishap(self._random.uniform(0, move_seconds), self.config.estop_seconds)
+        return Mishap(self._estop_in, self.config.estop_seconds)
+
+    def moved(self, seconds: float) -> None:
+        """The wheels were driven for `seconds`: the next mishaps come that much closer."""
+        self._stall_in = max(0.0, self._stall_in - seconds)
+        self._estop_in = max(0.0, self._estop_in - seconds)
+
+    def stalled(self) -> None:
+        """The stall due has happened: the next one is drawn."""
+        self._stall_in = self._wait(self.config.stall_rate)
+
+    def estopped(self) -> None:
+        """The ESTOP due has happened: the next one is drawn."""
+        self._estop_in = self._wait(self.config.estop_rate)
 
     def rotated_in_place(self, degrees: float) -> None:
         """Note a rotation in place: the casters are now out of line with the wheels."""

@@ -23,12 +23,14 @@ from giraff_console.camera.source import RESOLUTIONS as CAMERA_RESOLUTIONS
 from giraff_console.missions.navigation import NavigationState, Navigator
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
+from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.protocol import Command, CommandError, GiraffError, parse_command, parse_number
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.control_loop import BoardJob, ControlLoop
 from giraff_console.robot.deadman import Intent
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.safety import stop_robot
+from giraff_console.sim_site import SimulatedSite
 from giraff_console.tui.camera_view import CameraView
 from giraff_console.tui.command_line import CommandLine
 from giraff_console.tui.help_screen import HelpScreen
@@ -70,8 +72,10 @@ CONSOLE_COMMANDS = [
     ("routes", "list the taught routes and the patrols"),
     ("replay-route NAME", "drive a taught route again, open-loop (keys or Space stop it)"),
     ("patrol NAME, patrol pause|resume|stop", "run routes/NAME.patrol.yaml; hold or end it"),
-    ("go ROOM", "plan a route from where the robot is to ROOM; shown on the map"),
-    ("close DOOR, open DOOR", "shut or open a door of the floor plan; the route is planned again"),
+    ("go ROOM", "drive to ROOM: the route is planned, shown on the map and driven"),
+    ("pause, resume", "hold the robot where it is on its way, and go on (also playbacks)"),
+    ("close DOOR, open DOOR", "shut or open a door (in the simulator too); routes go round"),
+    ("block X Y, unblock X Y", "simulator: put a box in the way at X, Y metres, or take it"),
 ]
 # The layouts of the centre that M steps through: camera and map, the map, the camera.
 LAYOUTS = ("both", "map", "camera")
@@ -164,6 +168,9 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
         routes: RouteBook | None = None,
         play: Path | None = None,
         navigator: Navigator | None = None,
+        site: SimulatedSite | None = None,
+        motion: MotionLimits | None = None,
+        stepped: float | None = None,
         undock_distance: float = 0.3,
         run_loop: bool = True,
         timestamp: Callable[[], str] = lambda: time.strftime("%H:%M:%S"),
@@ -177,6 +184,10 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
         self.routes = routes
         self.play_at_start = play
         self.navigator = navigator
+        self.site = site
+        self.motion = motion or MotionLimits()
+        self.stepped = stepped
+        self._shown_state: NavigationState | None = None
         start = navigator.start_pose if navigator is not None else None
         self.pose = start or Pose()
         # Lines for the status log once it is on screen (how the console was set up).
@@ -239,7 +250,7 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
             if self.run_loop:
                 camera.start()
         if self.run_loop:
-            self.control.start()
+            self.control.start(stepped=self.stepped)
         if self.play_at_start is not None:
             self._play(self.play_at_start)
 
@@ -267,9 +278,10 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
         self.top_bar.recording = self.sessions is not None and self.sessions.recording
         self.top_bar.show(message.telemetry)
         self.main_view.show(message.telemetry)
-        if message.telemetry.pose != self.pose:
+        navigation = self.navigator.state if self.navigator is not None else None
+        if message.telemetry.pose != self.pose or navigation is not self._shown_state:
             self.pose = message.telemetry.pose
-            self._show_map()
+            self._show_map(navigation)
 
     def on_navigation_changed(self, message: NavigationChanged) -> None:
         self._show_map(message.state)
@@ -278,11 +290,12 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
         """Draw the robot where it is, with the route and the doors as they are now."""
         if self._scene is None or self.navigator is None:
             return
-        if state is not None:
+        if state is not None and state is not self._shown_state:
+            self._shown_state = state
             closed = state.closed
             doors = tuple(replace(door, open=door.id not in closed) for door in self._scene.doors)
             path = tuple(state.planned.path) if state.planned is not None else ()
-            self._scene = replace(self._scene, doors=doors, path=path)
+            self._scene = replace(self._scene, doors=doors, path=path, obstacles=state.obstacles)
         pose = self.pose
         self._scene = replace(self._scene, robot=(pose.x, pose.y, pose.heading))
         self.map_view.show(self._scene)

@@ -92,7 +92,7 @@ class SessionCommands:
 
     def _session_command(self, word: str, argument: str) -> None:
         """record [stop], play [DIR|stop], pause, resume, seek SECONDS, rate X."""
-        if self.sessions is None:
+        if self.sessions is None and word not in ("pause", "resume"):
             self.note("sessions are not available")
         elif word == "record":
             if argument == "stop":
@@ -109,6 +109,10 @@ class SessionCommands:
                     self.note(f"not playing: {error}")
                     return
                 self._play(session)
+        elif word in ("pause", "resume") and (
+            self.control.playback is None and self.control.mission is not None
+        ):
+            self.control.pause_mission(word == "pause")
         elif word in ("pause", "resume"):
             playback = self._playback()
             if playback is not None and word == "pause":

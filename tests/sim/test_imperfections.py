@@ -35,17 +35,17 @@ def test_off_by_default_the_square_closes_exactly(sim):
 def test_same_seed_same_world():
     poses = []
     for _ in range(2):
-        sim = imperfect(7, stall_probability=0, estop_probability=0)
+        sim = imperfect(7, stall_rate=0, estop_rate=0)
         drive_square(sim)
         poses.append(sim.board.true_pose)
     assert poses[0] == poses[1]
-    other = imperfect(8, stall_probability=0, estop_probability=0)
+    other = imperfect(8, stall_rate=0, estop_rate=0)
     drive_square(other)
     assert other.board.true_pose != poses[0]
 
 
 def test_moves_miss_their_target_by_a_few_millimetres_and_report_it():
-    sim = imperfect(3, caster_drift_deg=0, stall_probability=0, estop_probability=0)
+    sim = imperfect(3, caster_drift_deg=0, stall_rate=0, estop_rate=0)
     misses = []
     for _ in range(10):
         sim.run("set r 1", "set a 0.5", "set v 0.4", "set p 0.5")
@@ -58,7 +58,7 @@ def test_moves_miss_their_target_by_a_few_millimetres_and_report_it():
 
 
 def test_casters_turn_the_robot_after_rotating_in_place_unseen_by_the_wheels():
-    sim = imperfect(5, move_error_m=0, stall_probability=0, estop_probability=0)
+    sim = imperfect(5, move_error_m=0, stall_rate=0, estop_rate=0)
     sim.run("set r 0", "set a 0.5", "set v 0.3", "set p 90")
     sim.run_until_stopped()
     sim.run("set r 1", "set p 1")
@@ -70,7 +70,7 @@ def test_casters_turn_the_robot_after_rotating_in_place_unseen_by_the_wheels():
 
 
 def test_random_stalls_happen_when_likely():
-    sim = imperfect(1, stall_probability=1.0, estop_probability=0)
+    sim = imperfect(1, stall_rate=100.0, estop_rate=0)
     sim.run("set r 1", "set a 0.5", "set v 0.4", "set p 1")
     stalled_samples = 0
     while sim.bulk()["mode"] & 128:
@@ -81,12 +81,12 @@ def test_random_stalls_happen_when_likely():
 
 
 def test_random_estop_stops_the_move_and_clears_later():
-    sim = imperfect(2, estop_probability=1.0, stall_probability=0)
+    sim = imperfect(2, estop_rate=100.0, stall_rate=0)
     sim.run("set r 1", "set a 0.5", "set v 0.4", "set p 5")
     sim.advance(20)
     assert sim.board.true_pose.x < 5
     modes = set()
-    sim2 = imperfect(2, estop_probability=1.0, stall_probability=0)
+    sim2 = imperfect(2, estop_rate=100.0, stall_rate=0)
     sim2.run("set r 1", "set a 0.5", "set v 0.4", "set p 5")
     for _ in range(400):
         modes.add(sim2.bulk()["mode"])

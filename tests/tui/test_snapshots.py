@@ -84,14 +84,14 @@ def test_playback_paused_with_its_video_pose_and_transcript(snap_compare, tmp_pa
     assert snap_compare(rig.app, terminal_size=(120, 40), run_before=play)
 
 
-def test_the_map_shows_the_route_to_the_day_room(snap_compare, care_home_rig):
+def test_the_map_shows_the_robot_on_its_way_to_the_day_room(snap_compare, care_home_rig):
     rig = care_home_rig
 
     async def go(pilot):
         await rig.run(pilot, 0.2)
         rig.app.run_command("go day-room")
         await rig.app.workers.wait_for_complete()
-        await rig.run(pilot, 0.1)
+        await rig.run(pilot, 20.0)  # through the dock's door and along the corridor
         await pilot.press("m")  # the map alone
 
     assert snap_compare(rig.app, terminal_size=(120, 40), run_before=go)

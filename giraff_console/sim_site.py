@@ -1,0 +1,75 @@
+"""A simulated board in a floor plan's building: what `--sim` drives in (§3.2.2).
+
+The thesis's simulator computed "only the motor odometry ... not the Giraff's resulting
+position in space"; this one also knows where the robot really is, and here it is put
+in the building the console plans on: it starts at the plan's start room, the plan's
+closed doors and anything the operator blocks are obstacles, which the simulated range
+finder (standing in for the one §6 recommends adding) reports and the synthetic camera
+shows. The console never reads the true pose; only this module, the camera and the
+tests do.
+
+It sits above both the simulator and the console's planning layer, as the command line
+does: the simulator itself knows nothing of floor plans.
+"""
+
+from __future__ import annotations
+
+import math
+
+from giraff_console.planning.floorplan import FloorPlan
+from giraff_console.planning.walls import doorway, wall_segments
+from giraff_console.robot.odometry import Pose
+from giraff_console.sim.board import GiraffBoard
+from giraff_console.sim.drive import TruePose
+from giraff_console.sim.range_finder import SimRangeFinder
+from giraff_console.sim.surroundings import Surroundings
+from giraff_console.sim.world import DOOR_FRAME, POSTER_WIDTH, WALL, Wall, World
+
+# The simulated range finder: how far it sees, and how wide.
+SENSING_RANGE_M = 1.5
+SENSING_FOV_DEG = 70.0
+
+
+class SimulatedSite:
+    """The board, placed in the building, with its obstacles and range finder."""
+
+    def __init__(self, board: GiraffBoard, plan: FloorPlan, start: Pose | None,
+                 sensing_range: float = SENSING_RANGE_M) -> None:  # fmt: skip
+        self.board = board
+        self.plan = plan
+        if start is not None:
+            board.place(TruePose(start.x, start.y, start.heading))
+        self.surroundings = Surroundings()
+        for door in plan.doors:
+            if not door.open:
+                self.surroundings.close_door(door.id, *doorway(plan, door))
+        self.range_finder = SimRangeFinder(
+            lambda: board.true_pose, self.surroundings, sensing_range, SENSING_FOV_DEG
+        )
+        self.world = plan_world(plan)
+        self._doors = {door.id: door for door in plan.doors}
+
+    def true_pose(self) -> Pose:
+        pose = self.board.true_pose
+        return Pose(pose.x, pose.y, pose.heading)
+
+    def close_door(self, door_id: str) -> None:
+        """Shut a door of the plan in the simulated building (KeyError if none)."""
+        self.surroundings.close_door(door_id, *doorway(self.plan, self._doors[door_id]))
+
+    def open_door(self, door_id: str) -> None:
+        self.surroundings.open_door(door_id)
+
+
+def plan_world(plan: FloorPlan) -> World:
+    """The building as the synthetic camera sees it: the plan's walls, door frames dark,
+    a poster half-way along every wall long enough to hang one."""
+    kinds = {"wall": WALL, "frame": DOOR_FRAME, "door": DOOR_FRAME}
+    walls = []
+    for segment in wall_segments(plan):
+        if segment.kind == "door":
+            continue  # shut doors are the surroundings', which can open them
+        (ax, ay), (bx, by) = segment.a, segment.b
+        poster = (segment.length - POSTER_WIDTH) / 2 if segment.length > 2.0 else math.nan
+        walls.append(Wall(ax, ay, bx, by, kinds[segment.kind], poster))
+    return World(walls)
