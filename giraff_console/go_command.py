@@ -19,6 +19,7 @@ import math
 import signal
 import sys
 import threading
+from collections.abc import Callable
 from pathlib import Path
 
 import serial
@@ -56,6 +57,15 @@ def add_go_parser(commands: argparse._SubParsersAction, example: Path) -> None:
     go.add_argument(
         "--floorplan", type=Path, default=argparse.SUPPRESS, metavar="FILE",
         help=f"floor plan YAML (default: {example})",
+    )  # fmt: skip
+    go.add_argument(
+        "--port", metavar="PORT|URL", default=argparse.SUPPRESS,
+        help="the motor board's serial device or pyserial URL (default: from the settings "
+        "file; without one, the built-in simulator)",
+    )  # fmt: skip
+    go.add_argument(
+        "--sim", action="store_true", default=argparse.SUPPRESS,
+        help="use the built-in simulator, in the floor plan's building",
     )  # fmt: skip
     go.add_argument("--json", action="store_true", help="print how it went as JSON")
     go.add_argument(
@@ -125,22 +135,27 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
     control.telemetry_observers.append(
         lambda telemetry: connected.set() if telemetry.link is LinkState.CONNECTED else None
     )
+    try:
+        # Planned before the loop starts, so that the simulator's clock has not moved
+        # on by however long planning took.
+        sense = site.range_finder.readings if site is not None else None
+        mission = GoTo(navigator, args.room, lambda: control.odometry.pose,
+                       tick=control.period, limits=limits, sense=sense)  # fmt: skip
+    except PlanningError as error:
+        return _fail(str(error), EXIT_USAGE if isinstance(error, UnknownRoomError) else EXIT_FAILED)
     control.start(stepped=args.sim_speed if site is not None else None)
     try:
         if not connected.wait(CONNECT_TIMEOUT_S):
             return _fail("no answer from the board", EXIT_FAILED)
-        try:
-            mission = GoTo(navigator, args.room, lambda: control.odometry.pose, tick=control.period,
-                           limits=limits,
-                           sense=site.range_finder.readings if site else None)  # fmt: skip
-        except PlanningError as error:
-            return _fail(str(error), EXIT_FAILED if not isinstance(error, UnknownRoomError)
-                         else EXIT_USAGE)  # fmt: skip
-        why = _drive(control, mission)
+        # The report and the true pose are taken on the loop's thread as the mission
+        # ends, at a virtual time that does not depend on how fast the clock runs.
+        ended: list = []
+        _drive(control, mission, lambda why: ended.append(
+            (mission.report(why), site.true_pose() if site is not None else None)))  # fmt: skip
     finally:
         control.stop()
-    report = mission.report(why)
-    pose_true = site.true_pose() if site is not None else None
+    report, pose_true = ended[0]
+    why = report.why
     if args.json:
         print(json.dumps(report.as_json(pose_true)))
     else:
@@ -152,13 +167,13 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
     return EXIT_ARRIVED if report.arrived else EXIT_FAILED
 
 
-def _drive(control: ControlLoop, mission: GoTo) -> str:
-    """Run the mission to its end, showing progress; SIGINT and SIGTERM stop it."""
-    ended: list[str] = []
+def _drive(control: ControlLoop, mission: GoTo, ended: Callable[[str], None]) -> None:
+    """Run the mission to its end, showing progress; SIGINT and SIGTERM stop it.
+    `ended` gets the reason, on the loop's thread."""
     done = threading.Event()
 
     def finish(why: str) -> None:
-        ended.append(why)
+        ended(why)
         done.set()
 
     def interrupt(signum: int, frame: object) -> None:
@@ -176,7 +191,6 @@ def _drive(control: ControlLoop, mission: GoTo) -> str:
             signal.signal(sig, handler)
     if tty:
         print(file=sys.stderr)
-    return ended[0]
 
 
 def _point(text: str) -> tuple[float, float]:

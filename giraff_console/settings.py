@@ -23,7 +23,7 @@ The file is `$XDG_CONFIG_HOME/giraff-console/config.toml` (usually
     a_max = 0.5                # m/s^2, at most teleop's accel
     j_max = 1.0                # m/s^3
     lateral_accel = 0.3        # m/s^2 in turns
-    door_speed = 0.25          # m/s through doorways
+    door_speed = 0.3           # m/s through doorways
     sensing_range = 1.5        # metres the simulated range finder sees
 """
 
@@ -69,7 +69,7 @@ class MotionSettings:
     a_max: float = 0.5
     j_max: float = 1.0
     lateral_accel: float = 0.3
-    door_speed: float = 0.25
+    door_speed: float = 0.3
     sensing_range: float = 1.5
 
     def limits(self) -> MotionLimits:

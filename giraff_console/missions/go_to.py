@@ -37,7 +37,7 @@ Sense = Callable[[], list[tuple[float, float]]]
 # How far along the path ahead sensed obstacles are looked for.
 LOOKOUT_M = 3.0
 # A doorway is passed slowly this far either side of its centre.
-DOOR_ZONE_M = 0.6
+DOOR_ZONE_M = 0.4
 PROGRESS_BAR = 16
 
 
@@ -137,7 +137,7 @@ class GoTo:
         if self._paused or state is None or self.finished or self.problem is not None:
             return []
         pose = self._pose()
-        if self._sense is not None and not self._restart:
+        if self._sense is not None:
             self._watch(now, pose)
         closed = self.navigator.state.closed
         if closed != self._closed:
@@ -243,32 +243,37 @@ class GoTo:
         return executor
 
     def _watch(self, now: float, pose: Pose) -> None:
-        """Put what the range finder sees into the grid; if it lies across the path
-        ahead, stop and plan again (D* Lite across this room, else the room graph)."""
+        """Put what the range finder sees into the grid (while stopping too, so that the
+        new plan knows all it can); if the grid now blocks the path ahead, stop and plan
+        again (D* Lite across this room, else the room graph)."""
         readings = self._sense() if self._sense is not None else []
         points = [
             (pose.x + r * math.cos(pose.heading + b), pose.y + r * math.sin(pose.heading + b))
             for r, b in readings
         ]
         changes = self.navigator.report_obstacles(points)
-        if not changes or not self._blocks_path_ahead():
+        if changes:
+            leg = self._current_leg(pose)
+            if leg is not None:
+                leg.update(changes)
+        if self._restart or not self.navigator.state.obstacles:
             return
-        leg = self._current_leg(pose)
-        if leg is not None:
-            leg.update(changes)
-        self.executor.brake(now)
-        self._restart = True
+        if self._blocks_path_ahead():
+            self.executor.brake(now)
+            self._restart = True
 
     def _blocks_path_ahead(self) -> bool:
-        """Whether the grid, as it now is, blocks the path within LOOKOUT_M ahead."""
+        """Whether the grid, as it now is, blocks the path within LOOKOUT_M ahead: of
+        the drive under way, or of the next one after a turn on the spot."""
         legs = self.navigator.planner.legs
         executor = self.executor
         if legs is None or executor.finished:
             return False
-        section = executor.sections[executor.index]
-        if not isinstance(section, Drive):
+        drives = [s for s in executor.sections[executor.index :] if isinstance(s, Drive)]
+        if not drives:
             return False
-        start = executor.progress
+        section = drives[0]
+        start = executor.progress if section is executor.sections[executor.index] else 0.0
         end = min(section.length, start + LOOKOUT_M)
         samples = max(2, math.ceil((end - start) / 0.05) + 1)
         points = []

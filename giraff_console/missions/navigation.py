@@ -19,7 +19,12 @@ from dataclasses import dataclass, replace
 from giraff_console.planning.floorplan import FloorPlan
 from giraff_console.planning.grid import Cell, OccupancyGrid
 from giraff_console.planning.room_graph import PlanningError
-from giraff_console.planning.route_planner import ROBOT_RADIUS_M, PlannedPath, RoutePlanner
+from giraff_console.planning.route_planner import (
+    CLEARANCE_M,
+    ROBOT_RADIUS_M,
+    PlannedPath,
+    RoutePlanner,
+)
 from giraff_console.robot.odometry import Pose
 
 
@@ -97,7 +102,7 @@ class Navigator:
         if legs is None or not points:
             return []
         with self._lock:
-            changes = legs.block(points, self.planner.robot_radius)
+            changes = legs.block(points, self.planner.robot_radius + CLEARANCE_M)
             if changes:
                 self.planner.graph.forget_legs()
                 self.state = replace(self.state, obstacles=self.state.obstacles + tuple(points))

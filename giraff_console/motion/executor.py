@@ -48,6 +48,9 @@ from giraff_console.robot.safety import rotation_wheel_speed
 
 # design.md: a console that dies must let the robot go at most this far.
 RUNAWAY_M = 0.3
+# How far ahead each move reaches: under the runaway limit, with 2 cm to spare for the
+# poll and the commands that a tick takes on a real serial line.
+LOOKAHEAD_M = 0.28
 PATH_STYLE, ROTATE_STYLE = 1000, 0
 # Steering correction: it settles over about this distance (the L above).
 STEER_DISTANCE_M = 0.4
@@ -57,8 +60,12 @@ MAX_GEAR = 0.5
 GEAR_RATE_RANGE = (0.05, 2.0)  # per metre: never zero, which would jump (A.2.3)
 # Speeds (m/s) below which the board is given this much instead: it takes no zero speed.
 MIN_SPEED = 0.002
-# A section is done when this little is left and the board has stopped.
+# A section is done when this little is left and the board has stopped; once its
+# profile is over, when this much is: a real board's moves miss by a few millimetres
+# (§5.5), and chasing the last of them would hunt back and forth.
 DONE_M = 0.002
+SETTLE_M = 0.005
+SETTLE_TURN_M = 0.003  # wheel metres: 0.7 degrees
 # The speed at which a robot that fell behind its profile covers the rest.
 CREEP_SPEED = 0.05
 # Motion commanded but the wheels not turning for this long is a stall (§2.3.2).
@@ -268,7 +275,9 @@ class Executor:
             remaining = max(0.0, at + distance - s)
             if (remaining <= DONE_M or now - began >= curve.duration) and not state.moving:
                 return None
-        elif remaining <= DONE_M and not state.moving:
+        elif not state.moving and (
+            remaining <= DONE_M or (t >= profile.duration and remaining <= SETTLE_M)
+        ):
             return None
         _, v_cmd, _ = profile.at(self._advance_plan(profile, s, now) + self.tick)
         if self._brake is not None:
@@ -279,10 +288,10 @@ class Executor:
             v_cmd = max(v_cmd, self._creep(now, remaining))
         self._record(now, v_cmd)
         v_cmd = max(v_cmd, MIN_SPEED)
-        target = min(remaining, RUNAWAY_M)
+        target = min(remaining, LOOKAHEAD_M)
         if target < 1e-4:
             return []  # stopping right there already
-        accel = self._accel(speed, v_cmd, target, ahead=remaining > RUNAWAY_M)
+        accel = self._accel(speed, v_cmd, target, ahead=remaining - speed * self.tick > DONE_M)
         # Steering: the path's curvature where the robot will be, plus the correction.
         ahead = s + max(speed, 0.0) * self.tick
         correction = -(lateral / STEER_DISTANCE_M**2 + 2 * heading_error / STEER_DISTANCE_M)
@@ -295,15 +304,16 @@ class Executor:
         turning = gear if gear != 0 else state.cvg
         self._vgr = rate if turning >= 0 else -rate
         return self._commands(
-            {"r": PATH_STYLE, "mode": 0, "cdp": RUNAWAY_M, "a": accel, "v": v_cmd,
+            {"r": PATH_STYLE, "mode": 0, "cdp": LOOKAHEAD_M, "a": accel, "v": v_cmd,
              "vg": gear, "vgr": self._vgr}, target)  # fmt: skip
 
     def _accel(self, speed: float, v_cmd: float, target: float, ahead: bool) -> float:
         """The acceleration that reaches `v_cmd` in a tick, but never below
         - what stops the robot within the runaway limit from the speed it may have by
           the time the move starts (the bound the control loop checks);
-        - while more path lies beyond the target, what keeps the board's own stop at the
-          target out of this tick; on the last stretch, what stops it at the target."""
+        - until the tick that reaches the target, what keeps the board's own stop at
+          the target out of this tick, so that the board follows the profile rather
+          than braking early; in that last tick, what stops it at the target."""
         limits, u = self.limits, abs(speed)
         runaway = (u + limits.a_max * self.tick) ** 2 / (2 * RUNAWAY_M)
         if ahead:
@@ -330,7 +340,10 @@ class Executor:
         remaining = left_to_turn * TURN_RADIUS_M  # wheel metres
         self._progress = profile.length - remaining
         wheel = abs(rotation_wheel_speed(state, 0.0))
-        if abs(remaining) <= DONE_M / 4 and not state.moving:
+        settled = abs(remaining) <= DONE_M / 4 or (
+            t >= profile.duration and abs(remaining) <= SETTLE_TURN_M
+        )
+        if settled and not state.moving:
             return None
         done = profile.length - remaining
         _, v_cmd, _ = profile.at(self._advance_plan(profile, done, now) + self.tick)
@@ -340,8 +353,9 @@ class Executor:
             return []
         self._record(now, v_cmd)
         v_cmd = max(v_cmd, MIN_SPEED)
-        target = max(-RUNAWAY_M, min(RUNAWAY_M, remaining))
-        accel = self._accel(wheel, v_cmd, abs(target), ahead=abs(remaining) > RUNAWAY_M)
+        target = max(-LOOKAHEAD_M, min(LOOKAHEAD_M, remaining))
+        accel = self._accel(wheel, v_cmd, abs(target),
+                            ahead=abs(remaining) - wheel * self.tick > DONE_M)  # fmt: skip
         # set p in degrees, positive to the right (A.2.2): against our left-positive way.
         degrees = -way * target * TURN_FACTOR_DEG_PER_M
         return self._commands({"r": ROTATE_STYLE, "mode": 0, "a": accel, "v": v_cmd}, degrees,

@@ -51,7 +51,7 @@ class MotionLimits:
     a_max: float = 0.5  # the thesis's DEF_ACCEL (B.2)
     j_max: float = 1.0
     lateral_accel: float = 0.3  # v^2 * |k| in turns
-    door_speed: float = 0.25  # through doorways
+    door_speed: float = 0.3  # through doorways
     rotation_speed: float = 0.4  # wheel speed when turning on the spot
 
     def __post_init__(self) -> None:

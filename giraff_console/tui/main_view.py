@@ -30,7 +30,7 @@ class MainView(Static):
         else:
             speed = "?" if state.speed is None else f"{state.speed:.2f}"
             moving = "moving" if state.moving else "stopped"
-            motion = Text(f"{moving} {speed} m/s  vg {state.cvg:.2f}")
+            motion = Text(f"{moving} {speed} m/s  vg {round(state.cvg, 2) + 0.0:.2f}")
         if state is not None and state.estop:
             motion.append("  ESTOP", style="bold red")
         detail = Text(style="dim")

@@ -52,9 +52,9 @@ def settled(samples: list[Sample], after: float) -> Sample:
 class SimulatedRobot:
     """`giraff-console sim --pty --pose-log` in another process."""
 
-    def __init__(self, tmp_path: Path) -> None:
+    def __init__(self, tmp_path: Path, *options: str) -> None:
         self.log = tmp_path / "pose.log"
-        self.process, self.path = start_sim_process("--pose-log", str(self.log))
+        self.process, self.path = start_sim_process("--pose-log", str(self.log), *options)
 
     def samples(self) -> list[Sample]:
         return read_pose_log(self.log)
