@@ -18,10 +18,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from giraff_console.link.motor_state import MotorState
+from giraff_console.missions.path_mission import PathMission
 from giraff_console.missions.route import Route
 from giraff_console.missions.route_replay import RouteReplay
 from giraff_console.missions.yaml_file import YamlFile
+from giraff_console.planning.room_graph import PlanningError
 from giraff_console.protocol.codec import Command
+from giraff_console.robot.mission import Mission
 
 PATROL_SUFFIX = ".patrol.yaml"
 
@@ -32,10 +35,18 @@ class PatrolError(Exception):
 
 @dataclass(frozen=True)
 class Stop:
-    """Drive the taught route `route`, then wait `dwell` seconds where it ends."""
+    """Drive the taught route `route` (replayed, or followed closed-loop with `follow`),
+    or go to the floor plan's room `room`; then wait `dwell` seconds there."""
 
-    route: str
+    route: str | None
     dwell: float
+    room: str | None = None
+    follow: bool = False
+
+    @property
+    def place(self) -> str:
+        """What the stop drives to, for the operator: the room, or the route's name."""
+        return self.room if self.room is not None else str(self.route)
 
 
 @dataclass(frozen=True)
@@ -72,7 +83,7 @@ def load_patrol(path: Path) -> Patrol:
         file.fail(f"snapshots should be true or false, not {snapshots!r}")
     stops = doc["stops"]
     if not isinstance(stops, list) or not stops:
-        file.fail("stops should be a list of {route: NAME, dwell: SECONDS}, at least one")
+        file.fail("stops should be a list of {route: NAME} or {room: ROOM}, at least one")
     return Patrol(
         name, rounds, snapshots, [_stop(file, s, f"stops[{i}]") for i, s in enumerate(stops)]
     )
@@ -86,18 +97,31 @@ def list_patrols(directory: Path) -> list[str]:
 
 
 def _stop(file: YamlFile, item: object, where: str) -> Stop:
-    if isinstance(item, dict) and "place" in item:
-        file.fail(f"{where}: places need route planning (go <room>), which is not built yet")
-    fields = file.table(item, where, ("route", "dwell"), required=("route",))
+    fields = file.table(item, where, ("route", "room", "follow", "dwell"), required=())
+    if ("route" in fields) == ("room" in fields):
+        file.fail(f"{where}: a stop names either a route or a room")
     dwell = file.number(fields.get("dwell", 0), f"{where}.dwell", minimum=0)
-    return Stop(file.name(fields["route"], "route"), dwell)
+    follow = fields.get("follow", False)
+    if not isinstance(follow, bool) or (follow and "room" in fields):
+        file.fail(f"{where}.follow should be true or false, and only for a route")
+    if "room" in fields:
+        return Stop(None, dwell, room=file.name(fields["room"], "room"))
+    return Stop(file.name(fields["route"], "route"), dwell, follow=follow)
+
+
+# Missions for a stop's leg, made as the leg starts: to a room, or along a taught route
+# closed-loop. They raise PlanningError when there is no way.
+GoToRoom = Callable[[str], Mission]
+FollowTaught = Callable[[Route], Mission]
 
 
 class PatrolRun:
-    """A Mission that drives a patrol: each stop's route, a call to `on_stop`, a dwell.
+    """A Mission that drives a patrol: each stop's leg, a call to `on_stop`, a dwell.
 
-    `on_stop` is called on the control loop's thread, as the robot comes to rest at the
-    end of a route; the console takes its snapshot there, so it must not block.
+    A stop's leg replays its taught route, follows it closed-loop (`go`-style), or goes
+    to a room of the floor plan, with the missions `follow` and `go` make. `on_stop` is
+    called on the control loop's thread, as the robot comes to rest at the end of a
+    leg; the console takes its snapshot there, so it must not block.
     """
 
     def __init__(
@@ -105,26 +129,51 @@ class PatrolRun:
         patrol: Patrol,
         routes: dict[str, Route],
         on_stop: Callable[[StopReached], None] = lambda stop: None,
+        *,
+        go: GoToRoom | None = None,
+        follow: FollowTaught | None = None,
     ) -> None:
-        missing = sorted({stop.route for stop in patrol.stops} - routes.keys())
+        needed = {stop.route for stop in patrol.stops if stop.route is not None}
+        missing = sorted(needed - routes.keys())
         if missing:
             raise PatrolError(
                 f"patrol {patrol.name} needs routes not taught yet: {', '.join(missing)}"
             )
+        if go is None and any(stop.room for stop in patrol.stops):
+            raise PatrolError(f"patrol {patrol.name} goes to rooms: it needs a floor plan")
+        if follow is None and any(stop.follow for stop in patrol.stops):
+            raise PatrolError(f"patrol {patrol.name} follows routes: it needs the console's go")
         self.patrol = patrol
         self.name = patrol.name
         self._routes = routes
         self._on_stop = on_stop
+        self._go, self._follow = go, follow
         # (round, stop index) for every stop of every round, in the order they are made.
         self._legs = [(n, i) for n in range(1, patrol.rounds + 1) for i in range(len(patrol.stops))]
         self._leg = 0
-        self._replay = RouteReplay(routes[patrol.stops[0].route])
+        self._problem: str | None = None
+        self._mission = self._start_leg(patrol.stops[0])
         self._dwell_end: float | None = None
         self._paused_at: float | None = None
         self._now: float | None = None
 
+    def _start_leg(self, stop: Stop) -> Mission:
+        """The mission that drives to `stop`; a leg that cannot start ends the patrol."""
+        try:
+            if stop.room is not None:
+                assert self._go is not None
+                return self._go(stop.room)
+            route = self._routes[str(stop.route)]
+            if stop.follow:
+                assert self._follow is not None
+                return self._follow(route)
+            return RouteReplay(route)
+        except PlanningError as error:
+            self._problem = f"stop {stop.place}: {error}"
+            return _Idle()
+
     def step(self, now: float, state: MotorState | None) -> list[Command]:
-        if self._paused_at is not None or self.finished:
+        if self._paused_at is not None or self.finished or self._problem is not None:
             return []
         self._now = now
         if self._dwell_end is not None:
@@ -133,11 +182,11 @@ class PatrolRun:
             self._leg, self._dwell_end = self._leg + 1, None
             if self.finished:
                 return []
-            self._replay = RouteReplay(self._routes[self._stop().route])
-        commands = self._replay.step(now, state)
-        if self._replay.finished:
+            self._mission = self._start_leg(self._stop())
+        commands = self._mission.step(now, state)
+        if self._mission.finished:
             round_number, index = self._legs[self._leg]
-            self._on_stop(StopReached(round_number, index + 1, self._replay.name))
+            self._on_stop(StopReached(round_number, index + 1, self._stop().place))
             self._dwell_end = now + self._stop().dwell
         return commands
 
@@ -145,13 +194,13 @@ class PatrolRun:
         """The end of the dwell, or when the route being driven next sends something."""
         if self._paused_at is not None or self.finished:
             return None
-        return self._dwell_end if self._dwell_end is not None else self._replay.next_due()
+        return self._dwell_end if self._dwell_end is not None else self._mission.next_due()
 
     def pause(self, now: float) -> None:
         if self._paused_at is None:
             self._paused_at = now
             if self._dwell_end is None:
-                self._replay.pause(now)
+                self._mission.pause(now)
 
     def resume(self, now: float) -> None:
         """Carry on: the route from where it paused, or the rest of the dwell."""
@@ -160,7 +209,7 @@ class PatrolRun:
         if self._dwell_end is not None:
             self._dwell_end += now - self._paused_at
         else:
-            self._replay.resume(now)
+            self._mission.resume(now)
         self._paused_at = None
 
     @property
@@ -170,21 +219,25 @@ class PatrolRun:
 
     @property
     def problem(self) -> str | None:
-        return None if self.finished else self._replay.problem
+        if self._problem is not None:
+            return self._problem
+        return None if self.finished else self._mission.problem
 
     @property
     def time_left(self) -> float:
-        """An estimate: what is left of this stop, then the taught durations and dwells."""
+        """An estimate: what is left of this leg, then the taught durations and dwells.
+        Legs to rooms count only once they have started: their plan is made then."""
         if self.finished:
             return 0.0
+        at = self._paused_at if self._paused_at is not None else self._now
         if self._dwell_end is None:
-            left = self._replay.route.duration - self._replay.elapsed + self._stop().dwell
+            left = _mission_time_left(self._mission, at or 0.0) + self._stop().dwell
         else:
-            at = self._paused_at if self._paused_at is not None else self._now
             left = max(self._dwell_end - (at or 0.0), 0.0)
         for _, index in self._legs[self._leg + 1 :]:
             stop = self.patrol.stops[index]
-            left += self._routes[stop.route].duration + stop.dwell
+            taught = self._routes[stop.route].duration if stop.route is not None else 0.0
+            left += taught + stop.dwell
         return left
 
     @property
@@ -194,12 +247,41 @@ class PatrolRun:
         round_number, index = self._legs[self._leg]
         return (
             f"patrol {self.name}: round {round_number}/{self.patrol.rounds}, "
-            f"stop {index + 1}/{len(self.patrol.stops)} ({self._stop().route}), "
+            f"stop {index + 1}/{len(self.patrol.stops)} ({self._stop().place}), "
             f"{_minutes(self.time_left)} left"
         )
 
     def _stop(self) -> Stop:
         return self.patrol.stops[self._legs[self._leg][1]]
+
+
+def _mission_time_left(mission: Mission, now: float) -> float:
+    if isinstance(mission, RouteReplay):
+        return max(mission.route.duration - mission.elapsed, 0.0)
+    if isinstance(mission, PathMission):
+        return mission.executor.remaining_time(now)
+    return 0.0
+
+
+class _Idle:
+    """The leg of a stop that could not start: nothing to do, and never finished."""
+
+    name = "idle"
+    problem = None
+    finished = False
+    progress = ""
+
+    def step(self, now: float, state: MotorState | None) -> list[Command]:
+        return []
+
+    def next_due(self) -> float | None:
+        return None
+
+    def pause(self, now: float) -> None:
+        pass
+
+    def resume(self, now: float) -> None:
+        pass
 
 
 def _minutes(seconds: float) -> str:

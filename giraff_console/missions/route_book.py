@@ -11,6 +11,10 @@ import threading
 from collections.abc import Callable
 from pathlib import Path
 
+from giraff_console.missions.follow_route import FollowRoute
+from giraff_console.missions.go_to import GoTo
+from giraff_console.missions.navigation import Navigator
+from giraff_console.missions.path_mission import Sense
 from giraff_console.missions.patrol import (
     PATROL_SUFFIX,
     PatrolError,
@@ -30,6 +34,8 @@ from giraff_console.missions.route import (
 )
 from giraff_console.missions.route_replay import RouteReplay
 from giraff_console.missions.sessions import Sessions
+from giraff_console.motion.speed_profile import MotionLimits
+from giraff_console.planning.room_graph import PlanningError
 from giraff_console.recording.session import SessionRecorder
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.telemetry import LinkState, Telemetry
@@ -38,9 +44,22 @@ from giraff_console.robot.telemetry import LinkState, Telemetry
 class RouteBook:
     """The routes in one directory, and the one being taught; outcomes go to `report`."""
 
-    def __init__(self, control: ControlLoop, sessions: Sessions, directory: Path,
-                 report: Callable[[str], None]) -> None:  # fmt: skip
+    def __init__(
+        self,
+        control: ControlLoop,
+        sessions: Sessions,
+        directory: Path,
+        report: Callable[[str], None],
+        navigator: Navigator | None = None,
+        limits: MotionLimits | None = None,
+        sense: Sense | None = None,
+    ) -> None:
+        """With a `navigator` (the floor plan), patrols can go to rooms; `limits` and
+        `sense` (the range finder) are for routes followed closed-loop and rooms."""
         self.control = control
+        self.navigator = navigator
+        self.limits = limits
+        self.sense = sense
         self.sessions = sessions
         self.directory = directory
         self.report = report
@@ -134,6 +153,31 @@ class RouteBook:
         self.control.run_mission(RouteReplay(route))
         return True
 
+    def follow(self, name: str) -> bool:
+        """Drive route `name` along its taught path, closed-loop, from where the robot
+        stands (it must be near the route's start)."""
+        route = self._load(name)
+        if route is None or not self._free():
+            return False
+        try:
+            mission = self._follow_mission(route)
+        except PlanningError as error:
+            self.report(f"not following {name}: {error}")
+            return False
+        self.control.run_mission(mission)
+        return True
+
+    def _follow_mission(self, route: Route) -> FollowRoute:
+        control = self.control
+        return FollowRoute(route, self.navigator, lambda: control.odometry.pose,
+                           tick=control.period, limits=self.limits, sense=self.sense)  # fmt: skip
+
+    def _go_mission(self, room: str) -> GoTo:
+        assert self.navigator is not None
+        control = self.control
+        return GoTo(self.navigator, room, lambda: control.odometry.pose, tick=control.period,
+                    limits=self.limits, sense=self.sense)  # fmt: skip
+
     def patrol(self, name: str) -> bool:
         """Run patrol `name` from `<name>.patrol.yaml`."""
         if not self._free():
@@ -145,11 +189,19 @@ class RouteBook:
             return False
         routes = {}
         for stop in patrol.stops:
+            if stop.route is None:
+                continue
             route = self._load(stop.route)
             if route is None:
                 return False
             routes[stop.route] = route
-        run = PatrolRun(patrol, routes, self._stop_reached if patrol.snapshots else _ignore)
+        go = self._go_mission if self.navigator is not None else None
+        try:
+            run = PatrolRun(patrol, routes, self._stop_reached if patrol.snapshots else _ignore,
+                            go=go, follow=self._follow_mission)  # fmt: skip
+        except PatrolError as error:
+            self.report(str(error))
+            return False
         if patrol.snapshots:
             self._record(owner=run)
 

@@ -71,6 +71,7 @@ CONSOLE_COMMANDS = [
     ("teach NAME, mark PLACE, done", "teach a route by driving it; name places on the way"),
     ("routes", "list the taught routes and the patrols"),
     ("replay-route NAME", "drive a taught route again, open-loop (keys or Space stop it)"),
+    ("follow-route NAME", "drive a taught route's path closed-loop, like go (from its start)"),
     ("patrol NAME, patrol pause|resume|stop", "run routes/NAME.patrol.yaml; hold or end it"),
     ("go ROOM", "drive to ROOM: the route is planned, shown on the map and driven"),
     ("pause, resume", "hold the robot where it is on its way, and go on (also playbacks)"),

@@ -17,7 +17,7 @@ from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.tui.transcript import Transcript
 
 SESSION_COMMANDS = ("record", "play", "pause", "resume", "seek", "rate")
-ROUTE_COMMANDS = ("teach", "mark", "done", "routes", "replay-route", "patrol")
+ROUTE_COMMANDS = ("teach", "mark", "done", "routes", "replay-route", "follow-route", "patrol")
 
 
 class SessionCommands:
@@ -149,6 +149,8 @@ class SessionCommands:
             routes.mark(argument)
         elif word == "replay-route":
             routes.replay(argument)
+        elif word == "follow-route":
+            routes.follow(argument)
         elif argument in ("pause", "resume"):
             self.control.pause_mission(argument == "pause")
         elif argument == "stop":

@@ -8,62 +8,13 @@ from __future__ import annotations
 
 import copy
 import math
-from pathlib import Path
 
 import pytest
 
-from giraff_console.link import BoardLink
-from giraff_console.missions.go_to import GoTo
 from giraff_console.missions.navigation import Navigator
-from giraff_console.motion.speed_profile import MotionLimits
-from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.planning.route_planner import walls_of
-from giraff_console.robot.control_loop import ControlLoop
-from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.odometry import Pose
-from giraff_console.robot.teleop import Teleop
-from giraff_console.sim_site import SimulatedSite
-
-EXAMPLE = Path(__file__).resolve().parents[2] / "floorplans" / "care-home.yaml"
-PLAN = load_floorplan(EXAMPLE)
-TICK = 0.05
-LIMITS = MotionLimits()
-
-
-class Site:
-    """A simulated board in the care home, its control loop, and a `go` run on them."""
-
-    def __init__(self, navigator: Navigator, imperfect: int | None = None) -> None:
-        options = "clock=virtual" + (f"&imperfect=1&seed={imperfect}" if imperfect else "")
-        self.link = BoardLink.open(f"giraff-sim://?{options}")
-        self.clock = self.link.port.clock
-        self.board = self.link.port.board
-        self.navigator = navigator
-        start = navigator.start_pose
-        self.site = SimulatedSite(self.board, PLAN, start)
-        self.control = ControlLoop(lambda: self.link, teleop=Teleop(),
-                                   deadman=Deadman(self.clock), clock=self.clock)  # fmt: skip
-        self.control.odometry.reset(start)
-        self.notes: list[str] = []
-        self.control.report = self.notes.append
-        self.ended: list[str] = []
-        self.control.tick()
-
-    def go(self, room: str) -> GoTo:
-        mission = GoTo(self.navigator, room, lambda: self.control.odometry.pose, tick=TICK,
-                       limits=LIMITS, sense=self.site.range_finder.readings)  # fmt: skip
-        self.control.run_mission(mission, self.ended.append)
-        return mission
-
-    def run(self, seconds: float, until_ended: bool = True) -> None:
-        """Tick at 20 Hz for `seconds` of virtual time, or until the mission ends."""
-        end = self.clock.now() + seconds
-        while self.clock.now() < end and not (until_ended and self.ended):
-            self.control.tick()
-            self.clock.advance(TICK)
-
-    def true_pose(self) -> Pose:
-        return self.site.true_pose()
+from tests.missions.site import LIMITS, PLAN, TICK, Site
 
 
 @pytest.fixture(scope="module")
@@ -132,7 +83,7 @@ def test_a_corridor_blocked_ahead_is_replanned_through_other_doors_and_reached(n
     assert mission.replans >= 1
     assert navigator.state.obstacles  # what the range finder saw is on the map
     # Round by the lobby and the north corridor, into the corridor's east end.
-    assert "north-corridor" in mission._planned.route.rooms
+    assert "north-corridor" in mission.planned.route.rooms
     pose = site.true_pose()
     assert math.dist((pose.x, pose.y), PLAN.rooms["room-113"].at) <= 0.03
 
@@ -146,7 +97,7 @@ def test_a_door_blocked_mid_route_is_gone_round(navigator):
     site.run(600)
     assert site.ended == ["done"]
     assert mission.replans >= 1
-    assert "day-room-corridor" not in mission._planned.route.doors
+    assert "day-room-corridor" not in mission.planned.route.doors
     assert math.dist((site.true_pose().x, site.true_pose().y), (36, 16)) <= 0.03
 
 
@@ -157,7 +108,7 @@ def test_closing_a_door_on_the_route_while_driving_goes_round_it(navigator):
     navigator.close("day-room-corridor", site.control.odometry.pose)
     site.run(600)
     assert site.ended == ["done"]
-    assert "day-room-corridor" not in mission._planned.route.doors
+    assert "day-room-corridor" not in mission.planned.route.doors
 
 
 def test_cancelling_stops_within_the_braking_distance(shared_navigator):

@@ -82,10 +82,25 @@ def test_a_patrol_file_loads(tmp_path):
     assert list_patrols(tmp_path) == ["quiet", "rounds"]
 
 
-def test_a_stop_at_a_place_is_refused_until_planning_exists(tmp_path):
-    path = write(tmp_path, {"rounds": 1, "stops": [{"place": "kitchen", "dwell": 5}]})
-    with pytest.raises(PatrolError, match=r"stops\[0\]: places need route planning"):
-        load_patrol(path)
+def test_a_stop_names_a_route_or_a_room(tmp_path):
+    path = write(tmp_path, {"rounds": 1, "stops": [
+        {"room": "kitchen", "dwell": 5}, {"route": "hall", "follow": True}]})  # fmt: skip
+    patrol = load_patrol(path)
+    assert [stop.place for stop in patrol.stops] == ["kitchen", "hall"]
+    assert patrol.stops[0].room == "kitchen" and patrol.stops[0].route is None
+    assert patrol.stops[1].follow and patrol.stops[1].room is None
+    both = write(tmp_path, {"rounds": 1, "stops": [{"room": "kitchen", "route": "hall"}]})
+    with pytest.raises(PatrolError, match=r"stops\[0\]: a stop names either a route or a room"):
+        load_patrol(both)
+    room_follow = write(tmp_path, {"rounds": 1, "stops": [{"room": "kitchen", "follow": True}]})
+    with pytest.raises(PatrolError, match=r"follow should be true or false, and only for a route"):
+        load_patrol(room_follow)
+
+
+def test_rooms_in_a_patrol_need_a_floor_plan(tmp_path):
+    patrol = load_patrol(write(tmp_path, {"rounds": 1, "stops": [{"room": "kitchen"}]}))
+    with pytest.raises(PatrolError, match="needs a floor plan"):
+        PatrolRun(patrol, {})
 
 
 @pytest.mark.parametrize(
@@ -98,7 +113,7 @@ def test_a_stop_at_a_place_is_refused_until_planning_exists(tmp_path):
         ({"rounds": 1, "stops": []}, "stops should be a list"),
         ({"rounds": 1, "stops": STOPS, "snapshot": False}, "unknown key snapshot"),
         ({"rounds": 1, "snapshots": "yes please", "stops": STOPS}, "snapshots should be true"),
-        ({"rounds": 1, "stops": [{"dwell": 5}]}, "missing key stops[0].route"),
+        ({"rounds": 1, "stops": [{"dwell": 5}]}, "stops[0]: a stop names either a route or"),
         ({"rounds": 1, "stops": [{"route": "a", "dwell": -1}]}, "stops[0].dwell is -1"),
         ({"rounds": 1, "stops": ["a"]}, "stops[0] should be a mapping"),
     ],
