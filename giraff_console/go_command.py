@@ -140,7 +140,8 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
         # on by however long planning took.
         sense = site.range_finder.readings if site is not None else None
         mission = GoTo(navigator, args.room, lambda: control.odometry.pose,
-                       tick=control.period, limits=limits, sense=sense)  # fmt: skip
+                       tick=control.period, limits=limits, sense=sense,
+                       notify=control.report)  # fmt: skip
     except PlanningError as error:
         return _fail(str(error), EXIT_USAGE if isinstance(error, UnknownRoomError) else EXIT_FAILED)
     control.start(stepped=args.sim_speed if site is not None else None)

@@ -42,6 +42,7 @@ class FollowRoute(PathMission):
         limits: MotionLimits | None = None,
         turn_limits: TurnLimits | None = None,
         sense: Sense | None = None,
+        notify: Callable[[str], None] = lambda text: None,
     ) -> None:
         if not route.path:
             raise PlanningError(f"route {route.name} has no path to follow (taught before "
@@ -52,7 +53,7 @@ class FollowRoute(PathMission):
         self._goal_heading = route.path[-1].heading
         self._passed = 0  # path points behind the robot
         super().__init__(navigator, pose, tick=tick, limits=limits, turn_limits=turn_limits,
-                         sense=sense)  # fmt: skip
+                         sense=sense, notify=notify)  # fmt: skip
 
     def _course(self, pose: Pose) -> Course:
         here = (pose.x, pose.y)

@@ -82,11 +82,12 @@ class GoTo(PathMission):
         limits: MotionLimits | None = None,
         turn_limits: TurnLimits | None = None,
         sense: Sense | None = None,
+        notify: Callable[[str], None] = lambda text: None,
     ) -> None:
         self.room = room
         self.name = f"go {room}"
         super().__init__(navigator, pose, tick=tick, limits=limits, turn_limits=turn_limits,
-                         sense=sense)  # fmt: skip
+                         sense=sense, notify=notify)  # fmt: skip
 
     def _course(self, pose: Pose) -> Course:
         assert self.navigator is not None

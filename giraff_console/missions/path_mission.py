@@ -72,8 +72,11 @@ class PathMission:
         limits: MotionLimits | None = None,
         turn_limits: TurnLimits | None = None,
         sense: Sense | None = None,
+        notify: Callable[[str], None] = lambda text: None,
     ) -> None:
+        """`notify` gets a line for the operator when the mission changes its plan."""
         self.navigator = navigator
+        self.notify = notify
         self.limits = limits or MotionLimits()
         self.turn_limits = turn_limits or TurnLimits()
         self.tick = tick
@@ -113,6 +116,8 @@ class PathMission:
             self._closed = closed
             if closed & set(self._doors) and not self._restart:
                 # The operator shut a door on the route: round it, from a stop.
+                self.notify(f"{self.name}: {', '.join(sorted(closed & set(self._doors)))} "
+                            "closed on the route; stopping to go round")  # fmt: skip
                 self.executor.brake(now)
                 self._restart = True
         if self._restart and self.executor.finished:
@@ -126,6 +131,8 @@ class PathMission:
                 return []
             self._restart = False
             self.replans += 1
+            through = f" through {', '.join(self._doors)}" if self._doors else ""
+            self.notify(f"{self.name}: new way, {self.executor.remaining():.1f} m{through}")
         commands = self.executor.step(now, state, pose)
         if self.executor.problem is not None:
             self.problem = self.executor.problem
@@ -214,6 +221,8 @@ class PathMission:
         if self._restart or not self.navigator.state.obstacles:
             return
         if self._blocks_path_ahead():
+            self.notify(f"{self.name}: something in the way ahead of ({pose.x:.1f}, "
+                        f"{pose.y:.1f}); stopping to plan again")  # fmt: skip
             self.executor.brake(now)
             self._restart = True
 

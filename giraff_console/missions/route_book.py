@@ -170,13 +170,14 @@ class RouteBook:
     def _follow_mission(self, route: Route) -> FollowRoute:
         control = self.control
         return FollowRoute(route, self.navigator, lambda: control.odometry.pose,
-                           tick=control.period, limits=self.limits, sense=self.sense)  # fmt: skip
+                           tick=control.period, limits=self.limits, sense=self.sense,
+                           notify=self.report)  # fmt: skip
 
     def _go_mission(self, room: str) -> GoTo:
         assert self.navigator is not None
         control = self.control
         return GoTo(self.navigator, room, lambda: control.odometry.pose, tick=control.period,
-                    limits=self.limits, sense=self.sense)  # fmt: skip
+                    limits=self.limits, sense=self.sense, notify=self.report)  # fmt: skip
 
     def patrol(self, name: str) -> bool:
         """Run patrol `name` from `<name>.patrol.yaml`."""

@@ -85,7 +85,8 @@ class NavigationCommands:
         site = self.site
         mission = GoTo(navigator, room, lambda: control.odometry.pose, tick=control.period,
                        limits=self.motion,
-                       sense=site.range_finder.readings if site is not None else None)  # fmt: skip
+                       sense=site.range_finder.readings if site is not None else None,
+                       notify=lambda text: self.post_message(StatusNote(text)))  # fmt: skip
         planned = navigator.state.planned
         if planned is not None:
             route = planned.route
