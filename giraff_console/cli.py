@@ -321,11 +321,10 @@ def run(args: argparse.Namespace) -> int:
         return run_plan(args)
     if args.command == "go":
         try:
-            settings = load_settings(args.config)
+            settings, port = settings_and_port(args)
         except SettingsError as error:
             print(f"giraff-console: {error}", file=sys.stderr)
             return EXIT_USAGE
-        port = None if args.sim else (args.port or settings.port)
         return run_go(args, settings, port, EXAMPLE_FLOORPLAN)
     if args.command == "floorplan" and args.floorplan_command == "show":
         return run_floorplan_show(args)
@@ -336,16 +335,22 @@ def run(args: argparse.Namespace) -> int:
     return run_console(args)
 
 
+def settings_and_port(args: argparse.Namespace) -> tuple[Settings, str | None]:
+    """The settings file's settings, and the port to use: none (the simulator) with
+    --sim, else --port, else the settings'. SettingsError for a bad file."""
+    settings = load_settings(args.config)
+    return settings, None if args.sim else (args.port or settings.port)
+
+
 def run_console(args: argparse.Namespace) -> int:
     """The operator console on a real board or the simulator (§3.2: it falls back)."""
     from giraff_console.tui.app import GiraffConsole
 
     try:
-        settings = load_settings(args.config)
+        settings, port = settings_and_port(args)
     except SettingsError as error:
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_USAGE
-    port = None if args.sim else (args.port or settings.port)
     if args.calibration:
         try:
             Undistortion.from_file(args.calibration)

@@ -138,8 +138,9 @@ def _node_lines(node: yaml.Node, where: Where, lines: dict, duplicates: list) ->
             _node_lines(item, (*where, i), lines, duplicates)
 
 
-class _Reader:
-    """Turns the loaded YAML into a FloorPlan, collecting problems rather than stopping."""
+class ProblemLog:
+    """Problems found in a YAML file, each at the line of the key or item it is about
+    (or of the nearest one above it that has a line)."""
 
     def __init__(self, path: Path, lines: dict[Where, int]) -> None:
         self.path, self.lines = path, lines
@@ -149,6 +150,10 @@ class _Reader:
         while where and where not in self.lines:
             where = where[:-1]
         self.problems.append(Problem(self.path, self.lines.get(where), message))
+
+
+class _Reader(ProblemLog):
+    """Turns the loaded YAML into a FloorPlan, collecting problems rather than stopping."""
 
     def bad(self, where: Where, what: str, value: Any) -> None:
         self.add(where, f"{_dotted(where)} should be {what}, not {value!r}")

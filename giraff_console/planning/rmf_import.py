@@ -40,6 +40,7 @@ from giraff_console.planning.floorplan import (
     GridSpec,
     Point,
     Problem,
+    ProblemLog,
     Where,
     _dotted,
     check_floorplan,
@@ -72,17 +73,8 @@ def sanitise_id(text: str) -> str:
     return _NOT_ID.sub("-", text).strip("-")[:64].rstrip("-")
 
 
-class _Source:
+class _Source(ProblemLog):
     """A building map's problems, each at the line of the item it is about."""
-
-    def __init__(self, path: Path, lines: dict[Where, int]) -> None:
-        self.path, self.lines = path, lines
-        self.problems: list[Problem] = []
-
-    def add(self, where: Where, message: str) -> None:
-        while where and where not in self.lines:
-            where = where[:-1]
-        self.problems.append(Problem(self.path, self.lines.get(where), message))
 
     def fail(self, where: Where, message: str) -> NoReturn:
         self.add(where, message)
