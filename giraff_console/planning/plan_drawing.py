@@ -10,33 +10,18 @@ from __future__ import annotations
 import math
 import re
 
-import cv2
-
 from giraff_console.planning.floorplan import FloorPlan
-from giraff_console.planning.grid import FREE, OCCUPIED, OccupancyGrid
-from giraff_console.planning.rasterise import rasterise
+from giraff_console.planning.grid import FREE, OCCUPIED
+from giraff_console.planning.route_planner import walls_of
 
 WALL, OPEN, UNSEEN = "█", " ", "░"
 
 
-def plan_grid(plan: FloorPlan) -> OccupancyGrid:
-    """The plan's own grid image if it has one, else one drawn from its outlines.
-
-    OSError if the image cannot be read; ValueError if there is neither.
-    """
-    spec = plan.grid
-    if spec is None:
-        return rasterise(plan)
-    pixels = cv2.imread(str(spec.image), cv2.IMREAD_UNCHANGED)
-    if pixels is None:
-        raise OSError(f"cannot read the grid image {spec.image}")
-    return OccupancyGrid.from_image(pixels, spec.resolution, spec.origin[:2], spec.negate,
-                                    spec.occupied_thresh, spec.free_thresh)  # fmt: skip
-
-
 def draw_plan(plan: FloorPlan, width: int = 100) -> list[str]:
     """The plan in at most `width` columns, one string per terminal line."""
-    grid = plan_grid(plan)
+    grid = walls_of(plan)
+    if grid is None:
+        raise ValueError(f"{plan.path}: no grid and no room outline to draw")
     rows, cols = grid.shape
     step = max(1, math.ceil(cols / max(1, width)))
     lines = []

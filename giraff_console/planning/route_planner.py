@@ -20,7 +20,7 @@ import numpy as np
 from giraff_console.planning.floorplan import FloorPlan, Point
 from giraff_console.planning.grid import OccupancyGrid
 from giraff_console.planning.legs import GridLegs, polyline_length
-from giraff_console.planning.plan_drawing import plan_grid
+from giraff_console.planning.rasterise import rasterise
 from giraff_console.planning.room_graph import NoRouteError, RoomGraph, Route
 
 # The Giraff's base is about 0.6 m across.
@@ -66,9 +66,16 @@ class PlannedPath:
 def walls_of(plan: FloorPlan) -> OccupancyGrid | None:
     """The plan's grid: its own image, else one drawn from its outlines, else (a plan of
     points and doors alone) none. OSError if the image cannot be read."""
-    if plan.grid is None and not any(room.outline for room in plan.rooms.values()):
-        return None
-    return plan_grid(plan)
+    spec = plan.grid
+    if spec is None:
+        if not any(room.outline for room in plan.rooms.values()):
+            return None
+        return rasterise(plan)
+    pixels = cv2.imread(str(spec.image), cv2.IMREAD_UNCHANGED)
+    if pixels is None:
+        raise OSError(f"cannot read the grid image {spec.image}")
+    return OccupancyGrid.from_image(pixels, spec.resolution, spec.origin[:2], spec.negate,
+                                    spec.occupied_thresh, spec.free_thresh)  # fmt: skip
 
 
 class RoutePlanner:
