@@ -146,7 +146,6 @@ class Executor:
         # A stop asked for mid-drive: when it began, its speed curve, the path metres
         # there and how far it takes.
         self._brake: tuple[float, ruckig.Trajectory, float, float] | None = None
-        self.stopped_early = False
 
     @property
     def finished(self) -> bool:
@@ -177,7 +176,6 @@ class Executor:
         if isinstance(self.sections[self.index], Rotation):
             self.sections = self.sections[: self.index + 1]
             self.profiles = self.profiles[: self.index + 1]
-            self.stopped_early = True
             return
         speed = self.trace.speeds[-1] if self.trace.speeds else 0.0
         limits = self.limits
@@ -194,13 +192,11 @@ class Executor:
         self._brake = (now, curve, self._progress, distance)
         self.sections = self.sections[: self.index + 1]
         self.profiles = self.profiles[: self.index + 1]
-        self.stopped_early = True
 
     def abandon(self) -> None:
         """Give the rest up (the robot was stopped by other means): finished at once."""
         self.sections = self.sections[: self.index]
         self.profiles = self.profiles[: self.index]
-        self.stopped_early = True
 
     @property
     def progress(self) -> float:
@@ -358,8 +354,7 @@ class Executor:
                             ahead=abs(remaining) - wheel * self.tick > DONE_M)  # fmt: skip
         # set p in degrees, positive to the right (A.2.2): against our left-positive way.
         degrees = -way * target * TURN_FACTOR_DEG_PER_M
-        return self._commands({"r": ROTATE_STYLE, "mode": 0, "a": accel, "v": v_cmd}, degrees,
-                              wheel_metres=target)  # fmt: skip
+        return self._commands({"r": ROTATE_STYLE, "mode": 0, "a": accel, "v": v_cmd}, degrees)
 
     # -- shared -------------------------------------------------------------------------
 
@@ -386,8 +381,7 @@ class Executor:
         self._plan_clock = now
         return self._plan_time
 
-    def _commands(self, settings: dict[str, Number], target: float,
-                  wheel_metres: float | None = None) -> list[Command]:  # fmt: skip
+    def _commands(self, settings: dict[str, Number], target: float) -> list[Command]:
         """The settings the board does not hold yet, then the move; `r` first, since
         changing the style resets the board's counters (A.4.8)."""
         commands = []

@@ -31,11 +31,6 @@ def gear_of(curvature: float) -> float:
     return -curvature * TURN_RADIUS_M
 
 
-def curvature_of(gear: float) -> float:
-    """The curvature (positive left) of a gear ratio (positive right)."""
-    return -gear / TURN_RADIUS_M
-
-
 def wrap(angle: float) -> float:
     """An angle in (-pi, pi]."""
     return math.pi - (math.pi - angle) % (2 * math.pi)
@@ -61,9 +56,6 @@ class Segment:
 
     def curvature_at(self, s: float) -> float:
         return self.k0 + self.sharpness * min(max(s, 0.0), self.length)
-
-    def heading_at(self, s: float) -> float:
-        return self.start.heading + self.k0 * s + self.sharpness * s * s / 2
 
     def pose_at(self, s: float) -> Pose:
         """The pose after `s` metres of this segment (0 <= s <= length)."""
