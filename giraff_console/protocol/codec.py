@@ -129,11 +129,13 @@ def parse_command(text: str) -> Command:
     """A command typed by a person (`set v 0.3`, `get bulk_data`, `home`).
 
     Anything that is not exactly one well-formed command is refused, so that typed input
-    containing CR or LF can never send a second command.
+    containing CR or LF can never send a second command. Names are read without regard
+    to case and come back in lower case, the board's own spelling (A.4): `set P 5` is
+    `set p 5`, and it is that command that is checked and sent.
     """
     if any(ch in text for ch in "\r\n") or not text.isascii() or not text.isprintable():
         raise CommandError("a command must be one line of printable ASCII")
-    words = text.split()
+    words = text.lower().split()
     if not words:
         raise CommandError("empty command")
     op = words[0]

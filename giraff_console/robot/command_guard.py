@@ -1,25 +1,162 @@
-"""The safety limits that every typed controller command must respect (design.md).
+"""The one guard every command for the board passes, whoever sends it (design.md).
 
-Speed, acceleration and gear ratio limits hold for typed commands as for teleop, and a
-typed `set p` may not put the robot further ahead than a dead console may let it run.
+The command line, `giraff-console send` and the missions all send through
+`check_command`: the board is told nothing the guard has not checked, in the very form
+that goes on the wire (the value as `format_number` writes it, the name in lower case as
+`parse_command` writes it).
+
+- A `get` must name something the board can read (A.4); a bare command must be one the
+  board knows, and it knows only `home` (A.4.10; B.2's SimulateCommand answers anything
+  else with `Unknown name`). Reads and homing do not move the wheels.
+- A `set` must name a setting in `setting_bounds`, the table of what each may be and
+  why; anything else is refused. `set undock` is refused outright (REFUSED_SETTINGS).
+- A move (`set p`) is allowed only when everything it will use is known and within the
+  bounds, and it may not put the robot further ahead than the console's reach
+  (`DriveLimits.reach`, robot/safety.py), on the outer wheel in a curve; in rotation
+  (r = 0) `p` is in degrees (A.2.2).
+- No line is longer than MAX_LINE_CHARS.
 
 The board brakes at the acceleration `a` of its last move, so `a` bounds a runaway too:
-from a speed u the robot needs u^2 / 2a to stop. A typed command is checked without
-knowing how fast the robot goes, so `a` must stop it from the top speed within the
-runaway limit. A mission's commands are checked on the control loop's thread right
-after a poll, knowing the speed the robot may have when the move starts; its moves may
-use any acceleration that still stops the robot within the limit from that speed,
-which is what lets a jerk-limited profile ease into and out of its ramps.
+from a speed u the robot needs u^2 / 2a to stop, and a target nearer than that is
+braked through (B.2). A typed command is checked without knowing how fast the robot
+goes, so `a` must stop it from the top speed within the reach. A mission's commands
+are checked on the control loop's thread right after a poll, knowing the speed the
+robot may have when the move starts; its moves may use any acceleration that still
+stops the robot within design.md's runaway limit from that speed, which is what lets a
+jerk-limited profile ease into and out of its ramps. (The executor itself keeps every
+stop within its target: motion/executor.py.)
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 
-from giraff_console.protocol.codec import Command
+from giraff_console.protocol.codec import DECIMALS, Command
 from giraff_console.protocol.errors import CommandError
-from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M
+from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, TURN_RADIUS_M
 from giraff_console.robot.teleop import DriveLimits
+
+# The longest line sent, CR not counted. The firmware's input buffer is documented
+# nowhere: Appendix A gives no size, Appendix B is the host's side only (its 256-byte
+# `buf` is what GiraffMotor reads replies into), and wire-facts is silent; the simulator
+# assumes 256 (sim/line.py). 64 is a conservative bound that every real command fits
+# in: the longest name, tilt_angle_from_home, with the longest value format_number
+# writes (20 characters) makes 45.
+MAX_LINE_CHARS = 64
+
+# The only bare command the board knows (A.4.10): the head's homing sequence.
+BARE_COMMANDS = frozenset({"home"})
+
+# Every setting the board takes (A.4; wire-facts: the encoders and height stalk of
+# later firmware). Each has a `get` that reads it back (A.4).
+SETTINGS = frozenset({
+    "v", "a", "r", "p", "mode", "undock", "tilt_angle_from_home", "vg", "vgr", "cdp", "h",
+    "enc0", "enc1",
+})  # fmt: skip
+# What the board can read: its settings, and its state (A.4.5-A.4.21; wire-facts: the
+# charger).
+READINGS = SETTINGS | {
+    "cang", "cdis", "gvr", "cvg", "tilt_homing_state", "but0", "but1", "dial",
+    "button_data", "bulk_data", "charger_data",
+}  # fmt: skip
+
+# The board's own undock queues a back-out and then a 180-degree turn in place (A.4.9):
+# pi * 0.2495 m of wheel travel that nothing but a live console could stop.
+REFUSED_SETTINGS = {
+    "undock": (
+        f"the board's undock queues a 180-degree turn in place ({math.pi * TURN_RADIUS_M:.3f} "
+        "m of wheel travel, A.4.9) that a dead console could not stop; the console's "
+        "undock streams it in bounded steps instead"
+    ),
+}
+
+# |vg| must stay below this: at 0.51 the thesis saw the board misbehave (§3.2.1.4).
+GEAR_RATIO_LIMIT = 0.51
+# The steepest ramp of the gear ratio, per metre: from straight to the top ratio in a
+# quarter of a metre. A steeper ramp is a jump of the ratio, which jerks and stresses
+# the hardware (A.2.3). Teleop ramps at 1.0 (DEF_VGACCEL, B.2), missions at up to 2.0
+# (motion/executor.py GEAR_RATE_RANGE).
+MAX_GEAR_RATE = 2.0
+# The styles of A.4.2 are r = 0 (rotate), 0 < r <= 50 (straight) and r > 50 (curved);
+# the thesis sends only 0 and 1000 (B.2 GiraffMotor). r < 0 is undocumented.
+MAX_STYLE = 1000.0
+MAX_STRAIGHT_STYLE = 50.0
+# The resolution of a value on the wire (codec.format_number).
+_WIRE_STEP = 10.0**-DECIMALS
+
+
+@dataclass(frozen=True)
+class Bound:
+    """The values a setting may take, and why."""
+
+    low: float
+    high: float
+    why: str
+    unit: str = ""
+    open_low: bool = False
+    open_high: bool = False
+    whole: bool = False
+
+    def admits(self, value: float) -> bool:
+        """True if `value`, as it goes on the wire, is within the bounds. Values go out
+        rounded to DECIMALS places, so a closed bound is met to within that."""
+        if self.whole and value != int(value):
+            return False
+        above = value > self.low if self.open_low else value >= self.low - _WIRE_STEP
+        below = value < self.high if self.open_high else value <= self.high + _WIRE_STEP
+        return above and below
+
+    def __str__(self) -> str:
+        unit = f" {self.unit}" if self.unit else ""
+        if self.low == self.high:
+            return f"{self.low:.4g}{unit}"
+        low, high = "(" if self.open_low else "[", ")" if self.open_high else "]"
+        return f"in {low}{self.low:.4g}, {self.high:.4g}{high}{unit}"
+
+
+def setting_bounds(limits: DriveLimits, speed: float | None = None) -> dict[str, Bound]:
+    """Every setting the guard lets through, with its bounds and the reason for them.
+
+    `p` is not here: how far a move may reach depends on the style (see check_command).
+    `speed`, when known, bounds how fast the robot may be going as a move starts.
+    """
+    gentlest = limits.min_accel if speed is None else braking_accel(speed, limits.runaway)
+    return {
+        "v": Bound(0, limits.max_speed, "the console's top speed (design.md); a move at "
+                   "zero speed cannot be planned", "m/s", open_low=True),
+        "a": Bound(gentlest, limits.accel, "it must stop the robot within the runaway "
+                   "limit from the fastest it may be going, and no harder than the "
+                   "console's own acceleration (B.2 DEF_ACCEL)", "m/s^2",
+                   open_low=gentlest <= _WIRE_STEP),  # never a = 0 (wire-facts)
+        "vg": Bound(-GEAR_RATIO_LIMIT, GEAR_RATIO_LIMIT, "|vg| must stay below 0.51 "
+                    "(§3.2.1.4)", open_low=True, open_high=True),
+        "vgr": Bound(-MAX_GEAR_RATE, MAX_GEAR_RATE, "a steeper ramp of the gear ratio is "
+                     "a jump, which jerks the robot (A.2.3)", "per metre"),
+        "cdp": Bound(-limits.reach, limits.reach, "it is a point within the move "
+                     "(A.4.15), and no move reaches further than the console's reach", "m"),
+        "r": Bound(0, MAX_STYLE, "the movement styles of A.4.2: 0 rotates, up to 50 "
+                   "drives straight, above 50 curves"),
+        "mode": Bound(0, 0, "commands drive in relative, unbuffered mode 0: "
+                      "absolute targets can lie anywhere, and buffered moves add up (A.4.8)",
+                      whole=True),
+        "tilt_angle_from_home": Bound(0.087, 2.094, "the head's travel from home "
+                                      "(wire-facts, Head)", "rad"),
+        "h": Bound(0, 1000, "the height stalk's range (wire-facts)", whole=True),
+        "enc0": Bound(0, 0, "drivers only zero the wheel encoders (wire-facts)", whole=True),
+        "enc1": Bound(0, 0, "drivers only zero the wheel encoders (wire-facts)", whole=True),
+    }  # fmt: skip
+
+
+def check_line(command: Command) -> None:
+    """Raise CommandError for a command longer than the board's line (MAX_LINE_CHARS)."""
+    length = len(command.text)
+    if length > MAX_LINE_CHARS:
+        raise CommandError(
+            f"a {length}-character line is longer than the board's line of "
+            f"{MAX_LINE_CHARS} characters"
+        )
 
 
 def check_command(command: Command, limits: DriveLimits, board: Mapping[str, str],
@@ -27,30 +164,30 @@ def check_command(command: Command, limits: DriveLimits, board: Mapping[str, str
     """Raise CommandError, saying why, for a command outside the limits.
 
     `board` is what the board holds for its next move, as sent on the wire. A move
-    (`set p`, `set undock`) is only allowed when everything it will use is known and
-    within the limits; in rotation (r <= 0) `p` is in degrees (A.2.2). `speed`, when
-    known, bounds how fast the robot (its wheels, when rotating) may go as the move
-    starts, in m/s.
+    (`set p`) is only allowed when everything it will use is known and within the
+    limits; in rotation (r = 0) `p` is in degrees (A.2.2). `speed`, when known, bounds
+    how fast the robot (its wheels, when rotating) may go as the move starts, in m/s.
     """
-    if command.kind != "set":
+    check_line(command)
+    name = command.name
+    if command.kind == "get":
+        if name not in READINGS:
+            raise CommandError(f"the board has no reading called {name!r}")
         return
-    name, value = command.name, float(command.value)  # type: ignore[arg-type]
-    _check_setting(name, value, limits, speed)
-    if name in ("p", "undock"):
-        for needed in ("r", "mode", "v", "a", "vg"):
-            if needed not in board:
-                raise CommandError(f"the board's {needed} is unknown; set it first")
-            _check_setting(needed, float(board[needed]), limits, speed)
-    if name == "p":
-        rotating = float(board["r"]) <= 0
-        reach = abs(value) / TURN_FACTOR_DEG_PER_M if rotating else abs(value)
-        if reach > limits.runaway:
-            unit = (
-                f"{limits.runaway * TURN_FACTOR_DEG_PER_M:.0f} degrees"
-                if rotating
-                else f"{limits.runaway} m"
+    if command.kind == "command":
+        if name not in BARE_COMMANDS:
+            raise CommandError(
+                f"{name!r} is not a command the board knows; its only bare command is home (A.4.10)"
             )
-            raise CommandError(f"p beyond {unit}; a dead console would let the robot run that far")
+        return
+    if name in REFUSED_SETTINGS:
+        raise CommandError(f"set {name} is refused: {REFUSED_SETTINGS[name]}")
+    # The value as it goes on the wire, which is what the board will act on.
+    value = float(command.text.split()[2])
+    if name == "p":
+        _check_move(value, limits, board, speed)
+    else:
+        _check_setting(name, value, limits, speed)
 
 
 def braking_accel(speed: float, runaway: float) -> float:
@@ -59,17 +196,37 @@ def braking_accel(speed: float, runaway: float) -> float:
 
 
 def _check_setting(name: str, value: float, limits: DriveLimits, speed: float | None) -> None:
-    if name == "v" and not 0 < value <= limits.max_speed:
-        raise CommandError(f"v must be in (0, {limits.max_speed}] m/s")
-    if name == "a":
-        low = limits.min_accel if speed is None else braking_accel(speed, limits.runaway)
-        if value <= 0 or not low <= value <= limits.accel:
-            raise CommandError(f"a must be in [{low:.3f}, {limits.accel}] m/s^2")
-    if name == "vg" and abs(value) >= 0.51:
-        raise CommandError("|vg| must stay below 0.51 (§3.2.1.4)")
-    if name == "mode" and value != 0:
-        # Absolute targets can lie anywhere, and buffered moves add up: either would let
-        # a typed target reach further than the runaway limit.
-        raise CommandError("typed commands drive in relative, unbuffered mode 0")
-    if name == "undock" and not 0 < abs(value) <= limits.runaway:
-        raise CommandError(f"undock must back out at most {limits.runaway} m")
+    bound = setting_bounds(limits, speed).get(name)
+    if bound is None:
+        known = ", ".join(sorted(SETTINGS - REFUSED_SETTINGS.keys()))
+        raise CommandError(f"the board has no setting called {name!r} (settings: {known})")
+    if not bound.admits(value):
+        raise CommandError(f"{name} must be {bound}: {bound.why}")
+
+
+def _check_move(target: float, limits: DriveLimits, board: Mapping[str, str],
+                speed: float | None) -> None:  # fmt: skip
+    """A move uses r, mode, v, a and vg as the board holds them; each must be known and
+    within its bounds, and the target within the runaway limit."""
+    held: dict[str, float] = {}
+    for needed in ("r", "mode", "v", "a", "vg"):
+        if needed not in board:
+            unread = " (its writable bits cannot be read back, A.4.8)" if needed == "mode" else ""
+            raise CommandError(f"the board's {needed} is unknown{unread}; set it first")
+        try:
+            held[needed] = float(board[needed])
+        except ValueError:
+            raise CommandError(f"the board's {needed} is not a number: {board[needed]!r}") from None
+        _check_setting(needed, held[needed], limits, speed)
+    rotating = held["r"] == 0
+    # In a curve (r > 50) the outer wheel goes 1 + |vg| times as far as the middle
+    # (A.2.3); turning on the spot `p` is degrees, v and a the wheels' (A.2.2).
+    outer = 1 + abs(held["vg"]) if held["r"] > MAX_STRAIGHT_STYLE else 1.0
+    reach = abs(target) / TURN_FACTOR_DEG_PER_M if rotating else abs(target) * outer
+    if reach > limits.reach + _WIRE_STEP:
+        unit = (
+            f"{limits.reach * TURN_FACTOR_DEG_PER_M:.0f} degrees"
+            if rotating
+            else f"{limits.reach} m" + (" on the outer wheel" if outer > 1 else "")
+        )
+        raise CommandError(f"p beyond {unit}; a dead console would let the robot run that far")

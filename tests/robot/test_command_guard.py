@@ -3,11 +3,25 @@ runaway limit from the fastest it may be going."""
 
 from __future__ import annotations
 
-import pytest
+import math
 
-from giraff_console.protocol import Command, CommandError
-from giraff_console.robot.command_guard import braking_accel, check_command
-from giraff_console.robot.teleop import DriveLimits
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from giraff_console.protocol import Command, CommandError, format_number, parse_command
+from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, TURN_RADIUS_M
+from giraff_console.robot.command_guard import (
+    READINGS,
+    REFUSED_SETTINGS,
+    SETTINGS,
+    braking_accel,
+    check_command,
+    check_line,
+    setting_bounds,
+)
+from giraff_console.robot.teleop import DriveLimits, Teleop
+from tests.conftest import SimBench
 
 LIMITS = DriveLimits()
 BOARD = {"r": "1000", "mode": "0", "v": "0.4", "vg": "0", "a": "0.5"}
@@ -20,7 +34,7 @@ def test_without_the_speed_an_acceleration_must_stop_the_robot_from_top_speed():
 
 
 def test_knowing_the_speed_a_gentler_acceleration_is_allowed_at_low_speed():
-    # At 0.1 m/s the robot stops within 0.3 m at 1/60 m/s^2.
+    # At 0.1 m/s the robot stops within design.md's 0.3 m at 1/60 m/s^2.
     check_command(Command("set", "a", 0.02), LIMITS, BOARD, speed=0.1)
     with pytest.raises(CommandError):
         check_command(Command("set", "a", 0.01), LIMITS, BOARD, speed=0.1)
@@ -30,19 +44,223 @@ def test_knowing_the_speed_a_gentler_acceleration_is_allowed_at_low_speed():
 
 
 def test_a_move_is_checked_against_the_acceleration_the_board_holds():
-    gentle = BOARD | {"a": "0.02"}
-    check_command(Command("set", "p", 0.28), LIMITS, gentle, speed=0.1)
+    gentle = BOARD | {"a": "0.021"}
+    check_command(Command("set", "p", 0.24), LIMITS, gentle, speed=0.1)
     with pytest.raises(CommandError):
-        check_command(Command("set", "p", 0.28), LIMITS, gentle, speed=0.3)
+        check_command(Command("set", "p", 0.24), LIMITS, gentle, speed=0.3)
     with pytest.raises(CommandError, match="p beyond"):
-        check_command(Command("set", "p", 0.31), LIMITS, BOARD, speed=0.0)
+        check_command(Command("set", "p", 0.26), LIMITS, BOARD, speed=0.0)
 
 
-def test_a_zero_acceleration_is_never_allowed():
+@pytest.mark.parametrize("speed", [0.0, 1e-5])
+def test_a_zero_acceleration_is_never_allowed(speed):
     with pytest.raises(CommandError):
-        check_command(Command("set", "a", 0.0), LIMITS, BOARD, speed=0.0)
+        check_command(Command("set", "a", 0.0), LIMITS, BOARD, speed=speed)
 
 
 def test_the_braking_acceleration_stops_the_robot_at_the_runaway():
     accel = braking_accel(0.4, 0.3)
     assert 0.4**2 / (2 * accel) == pytest.approx(0.3)
+
+
+# -- one guard for every path to the board (issue 12) ------------------------------------
+
+
+def refusal(text: str, board: dict[str, str] = BOARD) -> str | None:
+    """Why the guard refuses a typed line, or None if it lets it through."""
+    try:
+        check_command(parse_command(text), LIMITS, board)
+    except CommandError as error:
+        return str(error)
+    return None
+
+
+def test_names_are_checked_whatever_their_case():
+    assert parse_command("SET P 5") == Command("set", "p", 5)
+    assert "p beyond" in refusal("set P 5")
+    assert "v must be" in refusal("Set V 0.6")
+    assert refusal("GET BULK_DATA") is None
+    # A command built in code is checked as it is written, so as it would be sent.
+    with pytest.raises(CommandError, match="no setting called 'P'"):
+        check_command(Command("set", "P", 0.1), LIMITS, BOARD)
+
+
+def test_home_is_the_only_bare_command():
+    assert refusal("home") is None
+    assert refusal("HOME") is None
+    for text in ("reset", "stop", "undock", "anything"):
+        assert "only bare command is home" in refusal(text)
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["set vgr 2.01", "set vgr -3", "set cdp 0.26", "set cdp -1", "set r -1", "set r 1000.5",
+     "set r 100000", "set vg 0.51", "set vg -0.51", "set mode 1", "set mode 0.5",
+     "set tilt_angle_from_home 3", "set tilt_angle_from_home 0", "set h 1001", "set h 1.5",
+     "set enc0 7", "set v 0", "set v 0.41", "set a 0.6", "set p 58"],
+)  # fmt: skip
+def test_every_setting_has_bounds(text):
+    assert refusal(text, BOARD | {"r": "0"} if text == "set p 58" else BOARD)
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["set vgr 2", "set vgr -1", "set vgr 0", "set cdp 0.24", "set cdp -0.25", "set r 0",
+     "set r 1", "set r 1000", "set vg -0.5", "set mode 0", "set tilt_angle_from_home 1",
+     "set h 1000", "set enc1 0", "set v 0.05", "set a 0.5", "set p -0.25"],
+)  # fmt: skip
+def test_values_within_the_bounds_pass(text):
+    assert refusal(text) is None
+
+
+def test_a_rotation_may_turn_as_far_as_the_reach_in_wheel_travel():
+    rotating = BOARD | {"r": "0"}
+    assert refusal("set p 57", rotating) is None
+    assert "p beyond 57 degrees" in refusal("set p 58", rotating)
+
+
+def test_the_bounds_cover_every_setting_the_board_takes():
+    assert {*setting_bounds(LIMITS), "p", *REFUSED_SETTINGS} == SETTINGS
+    assert all(bound.why for bound in setting_bounds(LIMITS).values())
+
+
+@pytest.mark.parametrize("name", ["nonsense", "xyz", "twm"])
+def test_unknown_names_are_refused(name):
+    assert "no setting called" in refusal(f"set {name} 0")
+    assert "no reading called" in refusal(f"get {name}")
+
+
+@pytest.mark.parametrize("name", sorted(READINGS))
+def test_every_reading_may_be_read(name):
+    assert refusal(f"get {name}") is None
+
+
+@pytest.mark.parametrize("value", ["-0.3", "0.3", "0.01", "-5"])
+def test_the_board_s_own_undock_is_refused(value):
+    assert "undock is refused" in refusal(f"set undock {value}")
+
+
+def test_a_line_longer_than_the_board_s_is_refused():
+    line = "get " + "x" * 100_000
+    assert "longer than the board's line" in refusal(line)
+    with pytest.raises(CommandError):
+        check_line(parse_command(line))
+    check_line(parse_command("set tilt_angle_from_home -123456789.123456789"))
+
+
+def test_the_value_checked_is_the_value_sent():
+    # 1e-12 goes on the wire as 0: a move at zero speed.
+    assert "v must be" in refusal("set v 0.000000000001")
+
+
+def test_the_console_s_own_settings_pass():
+    teleop = Teleop(LIMITS)
+    board: dict[str, str] = {}
+    for command in teleop.safe_settings():
+        check_command(command, LIMITS, board)
+        board[command.name] = command.text.split()[2]
+    check_command(Command("set", "p", LIMITS.reach), LIMITS, board)
+
+
+def _set(name: str, values: st.SearchStrategy) -> st.SearchStrategy[str]:
+    return st.builds(lambda value: f"set {name} {value}", values)
+
+
+# Lines that set each move setting near and beyond its bounds, so that moves are often
+# accepted; and any name the board takes or not, in any case, with any value.
+_ANY_VALUE = st.one_of(
+    st.floats(-1000, 1000, allow_nan=False), st.integers(-(10**10), 10**10),
+    st.sampled_from([0, 1, -1, 0.25, -0.25, 0.4, 0.32, 0.5, 0.51, 57, -57.4, 1000]),
+)  # fmt: skip
+_LINE = st.one_of(
+    _set("r", st.sampled_from([0, 1, 50, 51, 1000, -1, 1001])),
+    _set("mode", st.sampled_from([0, 0, 1, 4])),
+    _set("v", st.floats(0, 0.45)),
+    _set("a", st.floats(0.25, 0.6)),
+    _set("vg", st.floats(-0.6, 0.6)),
+    _set("vgr", st.floats(-2.5, 2.5)),
+    _set("cdp", st.floats(-0.3, 0.3)),
+    _set("p", st.floats(-0.3, 0.3)),
+    _set("p", st.floats(-70, 70)),
+    st.builds(lambda name, value: f"set {name} {value}",
+              st.sampled_from(sorted(SETTINGS | {"P", "V", "Mode", "twm", "xyz"})), _ANY_VALUE),
+)  # fmt: skip
+# Mostly after settings that let a move go, in any order; sometimes from the board's own.
+_SETUP = st.one_of(
+    st.just([]),
+    st.tuples(
+        _set("r", st.sampled_from([0, 1, 1000])), st.just("set mode 0"),
+        _set("v", st.floats(0.01, 0.4)), _set("a", st.floats(0.32, 0.5)),
+        _set("vg", st.floats(-0.5, 0.5)),
+    ).flatmap(st.permutations),
+)  # fmt: skip
+_LINES = st.builds(lambda setup, lines: [*setup, *lines], _SETUP,
+                   st.lists(_LINE, min_size=1, max_size=9))  # fmt: skip
+
+
+def _accepted(text: str, board: dict[str, str]) -> Command | None:
+    try:
+        command = parse_command(text)
+        check_command(command, LIMITS, board)
+    except CommandError:
+        return None
+    if command.kind == "set":
+        board[command.name] = command.text.split()[2]
+    return command
+
+
+@settings(max_examples=2000, deadline=None)
+@given(_LINES)
+def test_no_accepted_line_puts_a_target_beyond_the_reach(lines):
+    board: dict[str, str] = {}
+    for text in lines:
+        command = _accepted(text, board)
+        if command is None or command.name != "p":
+            continue
+        target, style = float(board["p"]), float(board["r"])
+        # On the outer wheel in a curve (A.2.3), in wheel metres turning on the spot.
+        outer = 1 + abs(float(board["vg"])) if style > 50 else 1.0
+        reach = target / TURN_FACTOR_DEG_PER_M if style <= 0 else target * outer
+        assert abs(reach) <= LIMITS.reach + 1e-9
+        # And the board will brake from any speed it may have within that distance.
+        assert float(board["v"]) <= LIMITS.max_speed
+        assert LIMITS.max_speed**2 / (2 * float(board["a"])) <= LIMITS.reach + 1e-9
+
+
+@settings(max_examples=150, deadline=None)
+@given(_LINES, st.lists(st.floats(0, 1.5), min_size=14, max_size=14))
+def test_after_the_last_accepted_line_the_robot_stays_within_the_reach(lines, gaps):
+    """On the simulator, measured with its true pose: whatever was accepted, and however
+    the robot was moving when the last command went out, it then stops within the
+    console's reach (wheel travel, when it turns on the spot)."""
+    sim = SimBench()
+    board = {name: format_number(sim.value(f"get {name}")) for name in ("r", "v", "a", "vg")}
+    sent: list[tuple[Command, float]] = []  # and the time until the next one
+    for text, gap in zip(lines, gaps, strict=False):
+        command = _accepted(text, board)
+        if command is not None:
+            sent.append((command, gap))
+            # Moves at under 1 cm/s take too long to watch; the reach does not
+            # depend on the speed.
+            assume(command.name != "p" or float(board["v"]) >= 0.01)
+        elif sent:
+            sent[-1] = (sent[-1][0], sent[-1][1] + gap)
+    for index, (command, gap) in enumerate(sent):
+        sim.cmd(command.text)  # the simulator knows no encoders or height stalk
+        if index < len(sent) - 1:
+            sim.advance(gap)
+    # Then the console dies: the robot is watched from where it is now.
+    start = sim.board.true_pose
+    farthest = turned = 0.0
+    for _ in range(4000):
+        pose = sim.board.true_pose
+        farthest = max(farthest, math.hypot(pose.x - start.x, pose.y - start.y))
+        turn = (pose.heading - start.heading + math.pi) % (2 * math.pi) - math.pi
+        turned = max(turned, abs(turn))
+        if not sim.bulk()["mode"] & 128:
+            break
+        sim.advance(0.01)
+    else:
+        pytest.fail("the robot never stopped")
+    assert farthest <= LIMITS.reach + 1e-3
+    assert turned * TURN_RADIUS_M <= LIMITS.reach + 1e-3
