@@ -85,7 +85,7 @@ def full_pipeline(seconds: float) -> tuple[float, float, int, int]:
     pipeline = Pipeline([FastCorners()])
     pipeline.toggle("fast")
     with tempfile.TemporaryDirectory() as scratch:
-        recorder = VideoRecorder(Path(scratch) / "camera.mp4", SIZE)
+        recorder = VideoRecorder(Path(scratch) / "camera", SIZE)
 
         class Recorded:
             name = "synthetic camera"

@@ -16,7 +16,6 @@ from __future__ import annotations
 import base64
 import contextlib
 import heapq
-import itertools
 import json
 import math
 import os
@@ -31,7 +30,8 @@ from mcap.writer import Writer
 
 from giraff_console.recording.control_log import LogRead
 from giraff_console.recording.playback import frame_times, open_log
-from giraff_console.recording.session import VIDEO, PoseSample, SessionError, read_meta
+from giraff_console.recording.recorded_video import session_video, video_frames
+from giraff_console.recording.session import PoseSample, SessionError, read_meta
 
 # A message as the streams produce it: seconds into the session, topic, JSON body.
 Message = tuple[float, str, dict[str, Any]]
@@ -100,9 +100,10 @@ def export_session(session: Path, out: Path, poses: Iterable[PoseSample], *,
         raise SessionError(f"nothing to export: {log_path} has no log lines")
     problems = [f"control.log {problem}" for problem in log.problems]
     streams = {"/controller": _controller(log), "/pose": _poses(poses)}
-    if (session / VIDEO).is_file():
+    video = session_video(session)
+    if video is not None:
         times = frame_times(session, log)
-        streams["/camera"] = _frames(session / VIDEO, times, jpeg_quality, problems)
+        streams["/camera"] = _frames(video, times, jpeg_quality, problems)
     start = read_meta(session).get("started_unix")
     if not isinstance(start, int | float):
         # An original console's log: it was last written at its last line.
@@ -165,26 +166,19 @@ def _poses(poses: Iterable[PoseSample]) -> Iterator[Message]:
 
 def _frames(path: Path, times: list[float], quality: int, problems: list[str]) -> Iterator[Message]:
     """Each frame at its recorded time (camera.frames.csv), re-encoded as JPEG."""
-    video = cv2.VideoCapture(str(path))
-    if not video.isOpened():
+    untimed, read = 0, 0
+    for index, image in video_frames(path):
+        read += 1
+        if index >= len(times):  # the frame index was cut short
+            untimed += 1
+            continue
+        ok, jpeg = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, quality])
+        if not ok:
+            problems.append(f"video: frame {index} could not be encoded as JPEG; skipped")
+            continue
+        data = base64.b64encode(jpeg).decode("ascii")
+        yield times[index], "/camera", {"frame_id": "camera", "format": "jpeg", "data": data}
+    if not read:
         problems.append(f"video: cannot read {path.name}; no frames exported")
-        return
-    untimed = 0
-    try:
-        for index in itertools.count():
-            ok, image = video.read()
-            if not ok:
-                break
-            if index >= len(times):  # the frame index was cut short
-                untimed += 1
-                continue
-            ok, jpeg = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, quality])
-            if not ok:
-                problems.append(f"video: frame {index} could not be encoded as JPEG; skipped")
-                continue
-            data = base64.b64encode(jpeg).decode("ascii")
-            yield times[index], "/camera", {"frame_id": "camera", "format": "jpeg", "data": data}
-    finally:
-        video.release()
     if untimed:
         problems.append(f"video: {untimed} frames without a time; skipped")

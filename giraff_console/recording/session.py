@@ -1,8 +1,9 @@
 """A recorded session on disk: `recordings/<YYYYmmdd_HHMMSS>/` (§3.2.1.1, §3.8).
 
 - `control.log`: every exchange with the board, in the original's format (control_log).
-- `camera.mp4` and `camera.frames.csv`: the video, and each frame's capture time and
-  nearest odometry sample (camera.recorder).
+- `camera/` and `camera.frames.csv`: the video, as one-second MP4 segments that a
+  crash cannot spoil, and each frame's capture time and nearest odometry sample
+  (camera.recorder). Sessions recorded before the segments have one `camera.mp4`.
 - `meta.json`: versions, port, floor plan, camera settings, and when it started, on the
   wall clock and on the monotonic clock the log and frame times are taken from.
 - `snapshots/`: JPEG pictures taken on purpose, for example at the stops of a patrol.
@@ -30,7 +31,9 @@ from giraff_console.recording.control_log import entry_for, format_entry
 from giraff_console.recording.log_writer import LogWriter
 
 CONTROL_LOG = "control.log"
-VIDEO = "camera.mp4"
+VIDEO = "camera"
+# The single-file video of sessions recorded before segments, still played.
+SINGLE_FILE_VIDEO = "camera.mp4"
 FRAMES = "camera.frames.csv"
 META = "meta.json"
 SNAPSHOTS = "snapshots"
@@ -75,12 +78,37 @@ def read_meta(session: Path) -> dict[str, Any]:
     if not path.exists():
         return {}
     try:
-        meta = json.loads(path.read_text(encoding="utf-8"))
+        meta = json.loads(
+            path.read_text(encoding="utf-8"),
+            parse_int=_finite_int,
+            parse_float=_finite_float,
+            parse_constant=_no_constant,
+        )
     except (OSError, ValueError) as error:
-        raise SessionError(f"{path}: {error}") from None
+        raise SessionError(f"{path}: {str(error)[:200]}") from None
+    except RecursionError:
+        raise SessionError(f"{path}: nested too deeply") from None
     if not isinstance(meta, dict):
         raise SessionError(f"{path}: not a JSON object")
     return meta
+
+
+# meta.json's numbers are times and poses: one a float cannot hold (NaN, 1e400, an int
+# of 400 digits) is garbage, refused here rather than overflowing where it is used.
+def _finite_float(text: str) -> float:
+    number = float(text)
+    if not math.isfinite(number):
+        raise ValueError(f"number out of range: {text[:20]}")
+    return number
+
+
+def _finite_int(text: str) -> int:
+    _finite_float(text)
+    return int(text)
+
+
+def _no_constant(text: str) -> float:
+    raise ValueError(f"{text} is not a number meta.json may hold")
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ from giraff_console.camera.recorder import RecordedFrame, VideoRecorder
 from giraff_console.camera.source import Frame
 from giraff_console.recording.control_log import LogEntry, format_entry
 from giraff_console.recording.mcap_export import export_session
-from giraff_console.recording.session import PoseSample, SessionError
+from giraff_console.recording.session import VIDEO, PoseSample, SessionError
 
 STARTED_UNIX = 1_700_000_000.25
 CLOCK_ORIGIN = 5000.0
@@ -42,7 +42,7 @@ def make_session(root: Path, video: bool = True) -> Path:
     meta = {"started_unix": STARTED_UNIX, "clock_origin": CLOCK_ORIGIN}
     (session / "meta.json").write_text(json.dumps(meta))
     if video:
-        recorder = VideoRecorder(session / "camera.mp4", SIZE)
+        recorder = VideoRecorder(session / VIDEO, SIZE)
         for i, offset in enumerate(FRAME_OFFSETS):
             image = np.full((SIZE[1], SIZE[0], 3), i * 40, dtype=np.uint8)
             while not recorder.submit(RecordedFrame(Frame(image, CLOCK_ORIGIN + offset))):

@@ -6,14 +6,14 @@ import bisect
 import csv
 from pathlib import Path
 
-import cv2
 import numpy as np
 import pytest
 
 from giraff_console.clock import VirtualClock
 from giraff_console.recording.control_log import LogEntry, LogRead, read_log
 from giraff_console.recording.playback import Playback, frame_times
-from giraff_console.recording.recorded_video import RecordedVideo
+from giraff_console.recording.recorded_video import RecordedVideo, video_frames
+from giraff_console.recording.session import VIDEO
 from giraff_console.robot.replay import Replayer, replay_poses
 from tests.tui.conftest import record_demo_session
 
@@ -24,12 +24,7 @@ def session(tmp_path_factory):
 
 
 def all_frames(path) -> list[np.ndarray]:
-    video, frames = cv2.VideoCapture(str(path)), []
-    while True:
-        ok, image = video.read()
-        if not ok:
-            return frames
-        frames.append(image)
+    return [image for _, image in video_frames(path)]
 
 
 def test_video_and_pose_stay_in_step_at_any_speed_and_after_a_seek(session):
@@ -37,13 +32,13 @@ def test_video_and_pose_stay_in_step_at_any_speed_and_after_a_seek(session):
     times = frame_times(session, log)
     with (session / "camera.frames.csv").open() as file:
         frame_poses = [(float(row["x"]), float(row["y"])) for row in csv.DictReader(file)]
-    frames = all_frames(session / "camera.mp4")
+    frames = all_frames(session / VIDEO)
     assert len(frames) == len(times) == len(frame_poses) > 10
 
     clock = VirtualClock()
     playback = Playback(session.name, log, clock.now())
     replayer = Replayer(playback)
-    video = RecordedVideo(session / "camera.mp4", times,
+    video = RecordedVideo(session / VIDEO, times,
                           lambda: playback.position(clock.now()), clock.now)  # fmt: skip
     video.open(800, 600)
     checked = 0
