@@ -70,13 +70,24 @@ def test_the_installed_package_carries_the_console_stylesheet(tmp_path):
 ALLOWED_IMPORTS = {
     "protocol": {"protocol"},
     "clock": set(),
-    "settings": {"motion", "planning", "robot", "link", "protocol", "clock"},
+    # Reading YAML with a line for every problem: a leaf that any layer may use.
+    "yaml_source": set(),
+    "settings": {"missions", "motion", "planning", "robot", "link", "protocol", "clock"},
     "sim": {"sim", "protocol", "clock"},
     "link": {"link", "protocol", "clock"},
-    "camera": {"camera", "clock"},
-    "recording": {"recording", "camera", "link", "protocol", "clock"},
-    "robot": {"robot", "recording", "camera", "link", "protocol", "clock"},
-    "planning": {"planning", "robot", "recording", "camera", "link", "protocol", "clock"},
+    "camera": {"camera", "clock", "yaml_source"},
+    "recording": {"recording", "camera", "link", "protocol", "clock", "yaml_source"},
+    "robot": {"robot", "recording", "camera", "link", "protocol", "clock", "yaml_source"},
+    "planning": {
+        "planning",
+        "robot",
+        "recording",
+        "camera",
+        "link",
+        "protocol",
+        "clock",
+        "yaml_source",
+    },
     "motion": {"motion", "robot", "recording", "camera", "link", "protocol", "clock"},
     "missions": {
         "missions",
@@ -88,6 +99,7 @@ ALLOWED_IMPORTS = {
         "link",
         "protocol",
         "clock",
+        "yaml_source",
     },
 }
 

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
-import os
+import re
 from dataclasses import dataclass, field
 from typing import Protocol
 
 import cv2
 import numpy as np
+
+from giraff_console.yaml_source import YamlSourceError, parse_yaml
 
 # FAST's threshold in the thesis (B.9), and its pink: BGR (128, 0, 255).
 FAST_THRESHOLD = 50
@@ -88,10 +90,52 @@ class Pipeline:
         return result
 
 
+class CalibrationError(ValueError):
+    """A calibration file whose contents cannot undistort frames; the message says why."""
+
+
+# No camera this console drives has a side longer; a calibration claiming more is garbage.
+MAX_CALIBRATED_SIDE = 100_000
+# OpenCV FileStorage's YAML: a `%YAML:1.0` line PyYAML does not take, and matrices
+# tagged `!!opencv-matrix`. They are read here rather than by cv2.FileStorage, whose
+# parser crashes the process (heap corruption, stack overflow) on some damaged files.
+_OPENCV_HEADER = re.compile(rb"\A%YAML[:\s]1\.[0-9]\s*\n")
+_OPENCV_MATRIX = b"!!opencv-matrix"
+
+
+def _matrix(path: str, document: dict, key: str, shape: tuple[int, int]) -> np.ndarray:
+    """The matrix `key` of an OpenCV calibration, of `shape` (either way round)."""
+    node = document.get(key)
+    data = node.get("data") if isinstance(node, dict) else None
+    if not isinstance(data, list) or len(data) != shape[0] * shape[1]:
+        raise CalibrationError(
+            f"{path}: not a fisheye calibration: {key} should be a {shape[0]}x{shape[1]} matrix"
+        )
+    if not all(isinstance(v, int | float) and not isinstance(v, bool) for v in data):
+        raise CalibrationError(f"{path}: not a fisheye calibration: {key} should hold only numbers")
+    try:
+        matrix = np.array(data, dtype=np.float64).reshape(shape)
+    except OverflowError:
+        matrix = np.full(shape, np.inf)
+    if not np.isfinite(matrix).all():
+        raise CalibrationError(f"{path}: {key} holds numbers that are not finite")
+    return matrix
+
+
+def _side(path: str, document: dict, key: str) -> int:
+    side = document.get(key)
+    if isinstance(side, bool) or not isinstance(side, int) or not 1 <= side <= MAX_CALIBRATED_SIDE:
+        raise CalibrationError(
+            f"{path}: not a fisheye calibration: {key} should be a whole number of "
+            f"pixels, 1 to {MAX_CALIBRATED_SIDE}"
+        )
+    return side
+
+
 class Undistortion:
     """Removes the wide-angle lens's fisheye distortion, from an OpenCV calibration.
 
-    The calibration file is OpenCV FileStorage (YAML or XML) with `camera_matrix` (3x3),
+    The calibration file is OpenCV FileStorage's YAML with `camera_matrix` (3x3),
     `distortion_coefficients` (the fisheye model's four) and `image_width`/`image_height`.
     The maps are scaled to whatever resolution the camera delivers.
     """
@@ -105,24 +149,26 @@ class Undistortion:
 
     @classmethod
     def from_file(cls, path: str) -> Undistortion:
-        if not os.path.isfile(path):  # before OpenCV, which would log its own error
-            raise OSError(f"cannot read the calibration file {path}")
-        storage = cv2.FileStorage(path, cv2.FILE_STORAGE_READ)
-        if not storage.isOpened():
-            raise OSError(f"cannot read the calibration file {path}")
+        """The calibration in `path`: OSError if it cannot be read, CalibrationError (a
+        ValueError) for anything in it that is not a usable fisheye calibration."""
+        with open(path, "rb") as file:
+            data = file.read()
+        data = _OPENCV_HEADER.sub(b"", data, count=1).replace(_OPENCV_MATRIX, b"")
         try:
-            matrix = storage.getNode("camera_matrix").mat()
-            distortion = storage.getNode("distortion_coefficients").mat()
-            size = (
-                int(storage.getNode("image_width").real()),
-                int(storage.getNode("image_height").real()),
+            _, document = parse_yaml(data)
+        except YamlSourceError as error:
+            where = f"{path}:{error.line}" if error.line else path
+            raise CalibrationError(f"{where}: {error.message}") from None
+        if not isinstance(document, dict):
+            raise CalibrationError(
+                f"{path}: not a fisheye calibration (camera_matrix, distortion_coefficients, "
+                "image_width and image_height in OpenCV's YAML)"
             )
-        finally:
-            storage.release()
-        if matrix is None or distortion is None or distortion.size != 4 or min(size) <= 0:
-            raise ValueError(
-                f"{path}: not a fisheye calibration (camera_matrix, 4 coefficients, size)"
-            )
+        matrix = _matrix(path, document, "camera_matrix", (3, 3))
+        distortion = _matrix(path, document, "distortion_coefficients", (4, 1))
+        if not (matrix[0, 0] > 0 and matrix[1, 1] > 0):
+            raise CalibrationError(f"{path}: the focal lengths fx and fy must be positive")
+        size = (_side(path, document, "image_width"), _side(path, document, "image_height"))
         return cls(matrix, distortion, size)
 
     def apply(self, image: np.ndarray) -> np.ndarray:

@@ -72,6 +72,13 @@ class MotorState:
             tilt=optional("tilt_angle_from_home"),
             imdl=optional("imdl"),
             imdr=optional("imdr"),
-            mode=int(values["mode"]),
+            mode=_mode_bits(values["mode"]),
             received_at=received_at,
         )
+
+
+def _mode_bits(value: Number) -> int:
+    """The mode bitmask; a board or a recording may garble it into inf or NaN (A.4.8)."""
+    if not math.isfinite(value) or value != int(value):
+        raise ProtocolError(f"bulk_data with a mode that is not a bitmask: {value!r}")
+    return int(value)

@@ -21,15 +21,19 @@ from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.path_mission import PathMission
 from giraff_console.missions.route import Route
 from giraff_console.missions.route_replay import RouteReplay
-from giraff_console.missions.yaml_file import YamlFile
+from giraff_console.missions.yaml_file import YamlFile, shown
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.protocol.codec import Command
+from giraff_console.protocol.errors import GiraffError
 from giraff_console.robot.mission import Mission
 
 PATROL_SUFFIX = ".patrol.yaml"
+# A patrol is planned as a list of every leg of every round, so rounds are bounded; this
+# many rounds of one short stop is weeks of driving.
+MAX_ROUNDS = 10_000
 
 
-class PatrolError(Exception):
+class PatrolError(GiraffError):
     """A patrol that cannot be read or run; the message says why."""
 
 
@@ -76,14 +80,16 @@ def load_patrol(path: Path) -> Patrol:
     name = file.name(file.path.name.removesuffix(PATROL_SUFFIX), "patrol")
     doc = file.mapping(required=("rounds", "stops"), optional=("snapshots",))
     rounds = doc["rounds"]
-    if isinstance(rounds, bool) or not isinstance(rounds, int) or rounds < 1:
-        file.fail(f"rounds should be a whole number, at least 1, not {rounds!r}")
+    if isinstance(rounds, bool) or not isinstance(rounds, int) or not 1 <= rounds <= MAX_ROUNDS:
+        file.fail(
+            f"rounds should be a whole number from 1 to {MAX_ROUNDS}, not {shown(rounds)}", "rounds"
+        )
     snapshots = doc.get("snapshots", True)
     if not isinstance(snapshots, bool):
-        file.fail(f"snapshots should be true or false, not {snapshots!r}")
+        file.fail(f"snapshots should be true or false, not {shown(snapshots)}", "snapshots")
     stops = doc["stops"]
     if not isinstance(stops, list) or not stops:
-        file.fail("stops should be a list of {route: NAME} or {room: ROOM}, at least one")
+        file.fail("stops should be a list of {route: NAME} or {room: ROOM}, at least one", "stops")
     return Patrol(
         name, rounds, snapshots, [_stop(file, s, f"stops[{i}]") for i, s in enumerate(stops)]
     )
@@ -99,14 +105,16 @@ def list_patrols(directory: Path) -> list[str]:
 def _stop(file: YamlFile, item: object, where: str) -> Stop:
     fields = file.table(item, where, ("route", "room", "follow", "dwell"), required=())
     if ("route" in fields) == ("room" in fields):
-        file.fail(f"{where}: a stop names either a route or a room")
+        file.fail(f"{where}: a stop names either a route or a room", where)
     dwell = file.number(fields.get("dwell", 0), f"{where}.dwell", minimum=0)
     follow = fields.get("follow", False)
     if not isinstance(follow, bool) or (follow and "room" in fields):
-        file.fail(f"{where}.follow should be true or false, and only for a route")
+        file.fail(
+            f"{where}.follow should be true or false, and only for a route", f"{where}.follow"
+        )
     if "room" in fields:
-        return Stop(None, dwell, room=file.name(fields["room"], "room"))
-    return Stop(file.name(fields["route"], "route"), dwell, follow=follow)
+        return Stop(None, dwell, room=file.name(fields["room"], "room", f"{where}.room"))
+    return Stop(file.name(fields["route"], "route", f"{where}.route"), dwell, follow=follow)
 
 
 # Missions for a stop's leg, made as the leg starts: to a room, or along a taught route

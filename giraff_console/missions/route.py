@@ -23,9 +23,9 @@ from pathlib import Path
 import yaml
 
 from giraff_console.link.exchange import Exchange
-from giraff_console.missions.yaml_file import YamlFile, name_problem
+from giraff_console.missions.yaml_file import YamlFile, name_problem, shown
 from giraff_console.protocol.codec import Command, format_number, parse_command, parse_number
-from giraff_console.protocol.errors import CommandError
+from giraff_console.protocol.errors import CommandError, GiraffError
 from giraff_console.robot.odometry import Pose
 
 FORMAT = 1
@@ -39,7 +39,7 @@ SAMPLE_TURN_RAD = math.radians(5)
 _HEADER = "# A route taught to giraff-console; routes/README.md describes the format.\n"
 
 
-class RouteError(Exception):
+class RouteError(GiraffError):
     """A route that cannot be taught, saved or read; the message says why."""
 
 
@@ -201,7 +201,10 @@ def load_route(path: Path) -> Route:
     )
     name = file.name(file.path.name.removesuffix(".yaml"), "route")
     if doc["format"] != FORMAT or isinstance(doc["format"], bool):
-        file.fail(f"format {doc['format']!r} is not one this console reads (format: {FORMAT})")
+        file.fail(
+            f"format {shown(doc['format'])} is not one this console reads (format: {FORMAT})",
+            "format",
+        )
     session = doc.get("session")
     duration = file.number(doc["duration"], "duration", minimum=0)
     settings = file.table(doc["settings"], "settings", MOTION_SETTINGS)
@@ -210,7 +213,10 @@ def load_route(path: Path) -> Route:
         for i, (offset, text) in enumerate(file.timed_rows(doc["commands"], "commands", 2))
     ]
     if commands and commands[-1].offset > duration:
-        file.fail(f"duration {duration} s ends before the last command, at {commands[-1].offset} s")
+        file.fail(
+            f"duration {duration} s ends before the last command, at {commands[-1].offset} s",
+            "duration",
+        )
     rows = file.timed_rows(doc.get("path") or [], "path", 4)
     marks = file.table(doc.get("marks") or {}, "marks", None)
     return Route(
@@ -223,7 +229,7 @@ def load_route(path: Path) -> Route:
         commands=commands,
         path=[PathSample(*_pose(file, row, f"path[{i}]")) for i, row in enumerate(rows)],
         marks=[
-            Mark(file.name(place, "place"), *_pose(file, row, f"marks.{place}"))
+            Mark(file.name(place, "place", f"marks.{place}"), *_pose(file, row, f"marks.{place}"))
             for place, row in marks.items()
         ],
         duration=duration,
@@ -247,7 +253,7 @@ def _pose_row(at: PathSample | Mark) -> list[float]:
 
 def _pose(file: YamlFile, row: object, where: str) -> tuple[float, float, float, float]:
     if not isinstance(row, list) or len(row) != 4:
-        file.fail(f"{where} should be [offset, x, y, heading], not {row!r}")
+        file.fail(f"{where} should be [offset, x, y, heading], not {shown(row)}", where)
     offset, x, y, heading = (file.number(value, f"{where}[{i}]") for i, value in enumerate(row))
     return offset, x, y, math.radians(heading)
 
@@ -259,14 +265,17 @@ def _wire_value(file: YamlFile, value: object, where: str) -> str:
             return format_number(parse_number(value))
         return format_number(file.number(value, where))
     except CommandError as error:
-        file.fail(f"{where}: {error}")
+        file.fail(f"{where}: {error}", where)
 
 
 def _motion_command(file: YamlFile, text: object, where: str) -> Command:
     try:
         command = parse_command(file.text(text, where))
     except CommandError as error:
-        file.fail(f"{where}: {text!r}: {error}")
+        file.fail(f"{where}: {shown(text)}: {error}", where)
     if command.kind != "set" or command.name not in TAUGHT_SETTINGS:
-        file.fail(f"{where}: {text!r} is not a motion setting (set p, v, a, r, mode, vg, vgr, cdp)")
+        file.fail(
+            f"{where}: {shown(text)} is not a motion setting (set p, v, a, r, mode, vg, vgr, cdp)",
+            where,
+        )
     return command

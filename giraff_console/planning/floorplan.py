@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import re
+import reprlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -21,13 +22,21 @@ import networkx as nx
 import numpy as np
 import yaml
 
+from giraff_console.yaml_source import YamlSourceError, parse_yaml
+
 Point = tuple[float, float]
 
 DOOR_WIDTH_M = 0.9
 # How far a door's centre may lie from a wall of each of its rooms' outlines: outlines
 # drawn on either face of a thin wall still share the door.
 DOOR_TOLERANCE_M = 0.1
+# No building is larger: the grid drawn from outlines (rasterise.py) must fit in memory.
+MAX_EXTENT_M = 1000.0
 
+# Values quoted in messages are cut short: a file may hold a megabyte on one key, or
+# lists nested hundreds deep, which a plain repr would print whole or not at all.
+_SHORT = reprlib.Repr()
+_SHORT.maxlevel, _SHORT.maxstring, _SHORT.maxother, _SHORT.maxlong = 3, 60, 60, 40
 _ID = re.compile(r"[A-Za-z0-9_-]{1,64}\Z")  # ids are typed in commands: "go room-101"
 _TOP = {"name": True, "rooms": True, "doors": True, "grid": False, "start": False}
 _ROOM = {"label": False, "at": True, "heading": False, "outline": False}
@@ -97,6 +106,19 @@ class FloorPlanError(Exception):
         super().__init__("\n".join(map(str, problems)))
 
 
+def shown(value: object) -> str:
+    """A value as a message quotes it: short, whatever its size or depth."""
+    return _SHORT.repr(value)
+
+
+def _finite(value: int | float) -> bool:
+    """True for a number a float can hold: `10**400` is an int YAML reads, too big."""
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
 def load_floorplan(path: str | Path) -> FloorPlan:
     """The floor plan in `path`; raises FloorPlanError listing its problems."""
     plan, problems = _read(Path(path))
@@ -126,7 +148,8 @@ def _node_lines(node: yaml.Node, where: Where, lines: dict, duplicates: list) ->
     if isinstance(node, yaml.MappingNode):
         seen = set()
         for key, value in node.value:
-            name = key.value if isinstance(key, yaml.ScalarNode) else repr(key)
+            # A complex key (`? [a, b]`) is named by its tag: its repr may be huge or deep.
+            name = key.value if isinstance(key, yaml.ScalarNode) else f"<{key.tag}>"
             if name in seen:
                 duplicates.append((where, name, key.start_mark.line + 1))
             seen.add(name)
@@ -156,7 +179,7 @@ class _Reader(ProblemLog):
     """Turns the loaded YAML into a FloorPlan, collecting problems rather than stopping."""
 
     def bad(self, where: Where, what: str, value: Any) -> None:
-        self.add(where, f"{_dotted(where)} should be {what}, not {value!r}")
+        self.add(where, f"{_dotted(where)} should be {what}, not {shown(value)}")
 
     def mapping(self, value: Any, where: Where, keys: dict[str, bool]) -> dict | None:
         if not isinstance(value, dict):
@@ -173,7 +196,7 @@ class _Reader(ProblemLog):
     def number(self, value: Any, where: Where, low: float = -math.inf, high=math.inf) -> Any:
         if isinstance(value, bool) or not isinstance(value, int | float):
             self.bad(where, "a number", value)
-        elif not math.isfinite(value):
+        elif not _finite(value):
             self.bad(where, "a finite number", value)
         elif not low <= value <= high:
             self.add(where, f"{_dotted(where)} is {value}, out of range [{low}, {high}]")
@@ -190,7 +213,11 @@ class _Reader(ProblemLog):
         return None
 
     def point(self, value: Any, where: Where) -> Any:
-        return self.numbers(value, where, 2, "a pair of numbers [x, y] in metres")
+        point = self.numbers(value, where, 2, "a pair of numbers [x, y] in metres")
+        if point is not None and max(map(abs, point)) > MAX_EXTENT_M:
+            self.add(where, f"{_dotted(where)} is more than {MAX_EXTENT_M:g} m from the origin")
+            return None
+        return point
 
     def text(self, value: Any, where: Where, is_id: bool = False) -> Any:
         if is_id and not (isinstance(value, str) and _ID.match(value)):
@@ -273,19 +300,24 @@ class _Reader(ProblemLog):
         return GridSpec(self.path.parent / image, resolution, origin, int(negate), occupied, free)
 
 
+def load_yaml(path: Path) -> tuple[yaml.Node | None, Any]:
+    """The YAML file at `path`, as its node tree (for lines) and its document; raises
+    FloorPlanError, at the line where one is known, for whatever the bytes are."""
+    try:
+        data = path.read_bytes()
+    except OSError as error:
+        raise FloorPlanError([Problem(path, None, f"cannot read it: {error}")]) from None
+    try:
+        return parse_yaml(data)
+    except YamlSourceError as error:
+        raise FloorPlanError([Problem(path, error.line, error.message)]) from None
+
+
 def _read(path: Path) -> tuple[FloorPlan | None, list[Problem]]:
     try:
-        source = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as error:
-        return None, [Problem(path, None, f"cannot read it: {error}")]
-    try:
-        node = yaml.compose(source, Loader=yaml.SafeLoader)
-        document = yaml.safe_load(source)
-    except yaml.YAMLError as error:
-        mark = getattr(error, "problem_mark", None)
-        what = ", ".join(filter(None, (getattr(error, k, None) for k in ("context", "problem"))))
-        message = f"not YAML: {what or ' '.join(str(error).split())}"
-        return None, [Problem(path, mark.line + 1 if mark else None, message)]
+        node, document = load_yaml(path)
+    except FloorPlanError as error:
+        return None, error.problems
     lines: dict[Where, int] = {}
     duplicates: list[tuple[Where, str, int]] = []
     if node is not None:
@@ -317,7 +349,7 @@ def _read(path: Path) -> tuple[FloorPlan | None, list[Problem]]:
     grid = reader.grid(top["grid"]) if top.get("grid") is not None else None
     start = top.get("start")
     if start is not None and (not isinstance(start, str) or start not in raw_rooms):
-        reader.add(("start",), f"start names an unknown room {start!r}")
+        reader.add(("start",), f"start names an unknown room {shown(start)}")
         start = None
     _check_ids(reader, doors, set(raw_rooms))
     for i, door in enumerate(doors):
@@ -405,12 +437,15 @@ def _check_grid(reader: _Reader, grid: GridSpec, rooms: dict[str, Room]) -> None
     occupancy = value if grid.negate else 1.0 - value
     rows, cols = occupancy.shape
     for room in rooms.values():
-        col = math.floor((room.at[0] - grid.origin[0]) / grid.resolution)
-        row = rows - 1 - math.floor((room.at[1] - grid.origin[1]) / grid.resolution)
+        # Cells as floats first: a far origin over a tiny resolution may not be finite.
+        x_cells = (room.at[0] - grid.origin[0]) / grid.resolution
+        y_cells = (room.at[1] - grid.origin[1]) / grid.resolution
         where = ("rooms", room.id, "at")
-        if not (0 <= row < rows and 0 <= col < cols):
+        if not (0 <= x_cells < cols and 0 <= y_cells < rows):
             reader.add(where, f"room {room.id!r} at {list(room.at)} is off the grid")
-        elif occupancy[row, col] > grid.occupied_thresh:
+            continue
+        col, row = math.floor(x_cells), rows - 1 - math.floor(y_cells)
+        if occupancy[row, col] > grid.occupied_thresh:
             reader.add(
                 where,
                 f"room {room.id!r} at {list(room.at)} is on an occupied cell "

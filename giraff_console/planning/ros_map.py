@@ -13,12 +13,10 @@ YAML and report mistakes the way `load_floorplan` does, as `FloorPlanError` prob
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any
 
 import cv2
-import yaml
 
 from giraff_console.planning.floorplan import (
     FloorPlanError,
@@ -26,7 +24,10 @@ from giraff_console.planning.floorplan import (
     Problem,
     Where,
     _dotted,
+    _finite,
     _node_lines,
+    load_yaml,
+    shown,
 )
 
 # The keys nav2's map_server refuses a map without; `mode` is optional there too.
@@ -37,20 +38,9 @@ def read_yaml(path: Path) -> tuple[dict[Any, Any], dict[Where, int]]:
     """The mapping in the YAML file at `path`, and the line of each key and list item in
     it; raises FloorPlanError if the file cannot be read, is not YAML, is not a mapping or
     writes a key twice (loaders silently keep the last)."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as error:
-        raise FloorPlanError([Problem(path, None, f"cannot read it: {error}")]) from None
-    try:
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
-        document = yaml.safe_load(text)
-    except yaml.YAMLError as error:
-        mark = getattr(error, "problem_mark", None)
-        what = ", ".join(filter(None, (getattr(error, k, None) for k in ("context", "problem"))))
-        message = f"not YAML: {what or ' '.join(str(error).split())}"
-        raise FloorPlanError([Problem(path, mark.line + 1 if mark else None, message)]) from None
+    node, document = load_yaml(path)
     if not isinstance(document, dict):
-        message = f"should be a YAML mapping of keys, not {document!r:.60}"
+        message = f"should be a YAML mapping of keys, not {shown(document)}"
         raise FloorPlanError([Problem(path, None, message)])
     lines: dict[Where, int] = {}
     duplicates: list[tuple[Where, str, int]] = []
@@ -66,7 +56,7 @@ def read_yaml(path: Path) -> tuple[dict[Any, Any], dict[Where, int]]:
 
 
 def _is_number(value: Any) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+    return isinstance(value, int | float) and not isinstance(value, bool) and _finite(value)
 
 
 def read_ros_map(path: str | Path) -> GridSpec:
@@ -84,25 +74,27 @@ def read_ros_map(path: str | Path) -> GridSpec:
             add(key, f"missing key {key} (ROS map_server needs it)")
     image = document.get("image")
     if "image" in document and not (isinstance(image, str) and image.strip()):
-        add("image", f"image should name the map's image file, not {image!r}")
+        add("image", f"image should name the map's image file, not {shown(image)}")
         image = None
     resolution = document.get("resolution")
     if "resolution" in document and not (_is_number(resolution) and resolution > 0):
-        add("resolution", f"resolution should be metres per pixel, above 0, not {resolution!r}")
+        add(
+            "resolution", f"resolution should be metres per pixel, above 0, not {shown(resolution)}"
+        )
     origin = document.get("origin")
     if "origin" in document and not (
         isinstance(origin, list) and len(origin) == 3 and all(map(_is_number, origin))
     ):
-        add("origin", f"origin should be three numbers [x, y, yaw], not {origin!r}")
+        add("origin", f"origin should be three numbers [x, y, yaw], not {shown(origin)}")
     negate = document.get("negate")
     # ROS reads negate as an int, or failing that as a bool: 0, 1, true and false.
     if "negate" in document and (negate not in (0, 1) or isinstance(negate, float)):
-        add("negate", f"negate should be 0 or 1, not {negate!r}")
+        add("negate", f"negate should be 0 or 1, not {shown(negate)}")
     thresholds = {}
     for key in ("occupied_thresh", "free_thresh"):
         value = document.get(key)
         if key in document and not (_is_number(value) and 0 <= value <= 1):
-            add(key, f"{key} should be a number from 0 to 1, not {value!r}")
+            add(key, f"{key} should be a number from 0 to 1, not {shown(value)}")
         else:
             thresholds[key] = value
     occupied, free = thresholds.get("occupied_thresh"), thresholds.get("free_thresh")
@@ -114,7 +106,7 @@ def read_ros_map(path: str | Path) -> GridSpec:
         add("mode", "mode raw is not supported: save the map in trinary or scale mode")
     elif mode not in ("trinary", "scale"):
         # Scale mode thresholds exactly as trinary does, so both read the same here.
-        add("mode", f"mode should be trinary, scale or raw, not {mode!r}")
+        add("mode", f"mode should be trinary, scale or raw, not {shown(mode)}")
     image_path = None
     if image is not None:
         image_path = path.parent / image  # ROS: relative to the map.yaml, or absolute

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import bisect
 import csv
+import math
 import threading
 from pathlib import Path
 
@@ -67,10 +68,13 @@ def frame_times(session: Path, log: LogRead) -> list[float]:
         try:
             with index.open(newline="") as file:
                 for row in csv.DictReader(file):
-                    times.append(float(row["captured_at"]) - origin)
-        except (OSError, KeyError, TypeError, ValueError):
-            # A frame index cut short (a crash mid-row leaves a row with missing fields):
-            # the frames before it are still placed right.
+                    time = float(row["captured_at"]) - origin
+                    if not math.isfinite(time):
+                        break
+                    times.append(time)
+        except (OSError, KeyError, TypeError, ValueError, csv.Error):
+            # A frame index cut short (a crash mid-row leaves a row with missing fields)
+            # or garbled (a NUL, a huge field): the frames before it are still placed right.
             pass
         return times
     return [entry.offset for entry in log.entries if entry.frame_marker]

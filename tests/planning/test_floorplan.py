@@ -64,7 +64,7 @@ def test_the_small_home_loads_with_defaults_filled_in():
 
 
 def test_the_example_care_home_has_no_problems():
-    assert check_floorplan(ROOT / "floorplans" / "care-home.yaml") == []
+    assert check_floorplan(ROOT / "giraff_console/floorplans/care-home.yaml") == []
 
 
 def test_a_problem_prints_as_path_line_message():
@@ -92,7 +92,7 @@ def test_a_missing_file_is_reported_not_raised(tmp_path):
 def test_text_that_is_not_yaml(tmp_path):
     (problem,) = problems_in(tmp_path, "name: [unclosed\nrooms: {}\n")
     assert problem == (
-        "2: not YAML: while parsing a flow sequence, expected ',' or ']', but got ':'"
+        "2: not YAML: while parsing a flow sequence, did not find expected ',' or ']'"
     )
 
 
