@@ -17,6 +17,7 @@ from itertools import pairwise
 
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.path_mission import LOOKOUT_M, Course, PathMission, Sense
+from giraff_console.missions.progress_watch import Patience
 from giraff_console.missions.route import Route
 from giraff_console.motion.shaping import TurnLimits
 from giraff_console.motion.speed_profile import MotionLimits
@@ -43,17 +44,19 @@ class FollowRoute(PathMission):
         turn_limits: TurnLimits | None = None,
         sense: Sense | None = None,
         notify: Callable[[str], None] = lambda text: None,
+        patience: Patience | None = None,
     ) -> None:
         if not route.path:
             raise PlanningError(f"route {route.name} has no path to follow (taught before "
                                 "paths were kept?); replay-route drives its commands")  # fmt: skip
         self.route = route
         self.name = f"follow {route.name}"
+        self.retry = f"follow-route {route.name}"
         self._points = _spaced([(sample.x, sample.y) for sample in route.path])
         self._goal_heading = route.path[-1].heading
         self._passed = 0  # path points behind the robot
         super().__init__(navigator, pose, tick=tick, limits=limits, turn_limits=turn_limits,
-                         sense=sense, notify=notify)  # fmt: skip
+                         sense=sense, notify=notify, patience=patience)  # fmt: skip
 
     def _course(self, pose: Pose) -> Course:
         here = (pose.x, pose.y)

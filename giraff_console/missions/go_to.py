@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.path_mission import Course, PathMission, Sense
+from giraff_console.missions.progress_watch import Patience
 from giraff_console.motion.path import wrap
 from giraff_console.motion.shaping import TurnLimits
 from giraff_console.motion.speed_profile import MotionLimits
@@ -83,11 +84,13 @@ class GoTo(PathMission):
         turn_limits: TurnLimits | None = None,
         sense: Sense | None = None,
         notify: Callable[[str], None] = lambda text: None,
+        patience: Patience | None = None,
     ) -> None:
         self.room = room
         self.name = f"go {room}"
+        self.retry = f"go {room}"
         super().__init__(navigator, pose, tick=tick, limits=limits, turn_limits=turn_limits,
-                         sense=sense, notify=notify)  # fmt: skip
+                         sense=sense, notify=notify, patience=patience)  # fmt: skip
 
     def _course(self, pose: Pose) -> Course:
         assert self.navigator is not None

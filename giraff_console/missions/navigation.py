@@ -14,9 +14,10 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
-from giraff_console.planning.floorplan import FloorPlan
+from giraff_console.planning.floorplan import FloorPlan, Point
 from giraff_console.planning.grid import Cell, OccupancyGrid
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.planning.route_planner import (
@@ -94,18 +95,34 @@ class Navigator:
         with self._lock:
             self.state = NavigationState(closed=self.state.closed, obstacles=self.state.obstacles)
 
-    def report_obstacles(self, points: list[tuple[float, float]]) -> list[tuple[Cell, bool]]:
+    def report_obstacles(self, points: list[Point], seen_from: Point | None = None,
+                         free: Sequence[Point] = ()) -> list[tuple[Cell, bool]]:  # fmt: skip
         """Obstacles sensed at `points` (map frame): the grid's cells round them are
-        blocked, legs are measured again as routes need them. Returns the cells that
-        changed, for the D* Lite planner of the leg being driven."""
+        blocked, legs are measured again as routes need them. With `seen_from`, where
+        the range finder stood: what was sensed before on the beams to `points`, and on
+        those to `free` (the ends of beams that met nothing), is gone, and its cells
+        are freed first. Returns the cells that changed, for the D* Lite planner of the
+        leg being driven."""
         legs = self.planner.legs
-        if legs is None or not points:
+        if legs is None or not (points or free):
             return []
+        radius = self.planner.robot_radius + CLEARANCE_M
         with self._lock:
-            changes = legs.block(points, self.planner.robot_radius + CLEARANCE_M)
+            before = len(legs.sensed)
+            freed = []
+            if seen_from is not None:
+                ends, hits = [*points, *free], [True] * len(points) + [False] * len(free)
+                freed = legs.see_through(seen_from, ends, hits, radius)
+            cleared = len(legs.sensed)  # the first only takes away, the second only adds
+            blocked = legs.block(points, radius)
+            # A cell freed and blocked again in the same sweep has not changed.
+            freed_cells, blocked_cells = {cell for cell, _ in freed}, {cell for cell, _ in blocked}
+            changes = [change for change in freed if change[0] not in blocked_cells]
+            changes += [change for change in blocked if change[0] not in freed_cells]
             if changes:
                 self.planner.graph.forget_legs()
-                self.state = replace(self.state, obstacles=self.state.obstacles + tuple(points))
+            if before != cleared or cleared != len(legs.sensed):
+                self.state = replace(self.state, obstacles=tuple(legs.sensed.values()))
             return changes
 
     def _replan(self, pose: Pose) -> NavigationState:

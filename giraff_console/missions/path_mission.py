@@ -7,22 +7,33 @@ the board tick by tick, steering back onto the path from the odometry
 they differ in where the path comes from.
 
 While driving, the range finder (§2.4, §6) reports what is ahead. Obstacles go into the
-grid, and the D* Lite planner of the leg the robot is on is told, so that it replans
-incrementally. If the path ahead is blocked, the robot comes to a jerk-limited stop and
-sets off on a new path from where it stands. A stall (motion commanded, the wheels not
-turning: §2.3.2) or no way left ends the mission with the reason; ESTOP, a lost link
-and the operator's keys end it in the control loop.
+grid, what its beams now see through comes out again (a box taken away), and the D* Lite
+planner of the leg the robot is on is told of both, so that it replans incrementally.
+If the path ahead is blocked, the robot comes to a jerk-limited stop and sets off on a
+new path from where it stands. A stall (motion commanded, the wheels not
+turning: §2.3.2), no way left, or no progress for long (progress_watch.py: something in
+the way that no new plan gets round) ends the mission with the reason and what to do;
+ESTOP, a lost link and the operator's keys end it in the control loop. The control loop
+stops the robot when a mission ends with a problem.
+
+What `progress` shows is the plan under way: while the robot stops to plan again it
+says so rather than showing the few centimetres of braking left, and when the robot
+gets no nearer it says for how long rather than an ETA.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from itertools import pairwise
+from typing import Protocol
+
+import numpy as np
 
 from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.navigation import Navigator
+from giraff_console.missions.progress_watch import Patience, ProgressWatch
 from giraff_console.motion.executor import Executor, Trace
 from giraff_console.motion.path import Drive
 from giraff_console.motion.shaping import TurnLimits, shape
@@ -34,13 +45,34 @@ from giraff_console.protocol.codec import Command
 from giraff_console.robot.odometry import Pose
 
 Point = tuple[float, float]
-# A range finder's readings: (distance, bearing) in the robot's frame, bearing positive left.
-Sense = Callable[[], list[tuple[float, float]]]
+
+
+class Scan(Protocol):
+    """One sweep of a range finder, as a LIDAR's scan message has it: each beam's
+    (distance, bearing) in the robot's frame, bearing positive left; a distance beyond
+    `range_max` (ROS REP 117's +inf) says the beam met nothing within range."""
+
+    @property
+    def range_max(self) -> float: ...
+
+    @property
+    def beams(self) -> Sequence[tuple[float, float]]: ...
+
+
+Sense = Callable[[], Scan]
+
 # How far along the path ahead sensed obstacles are looked for.
 LOOKOUT_M = 3.0
 # A doorway is passed slowly this far either side of its centre.
 DOOR_ZONE_M = 0.4
 PROGRESS_BAR = 16
+# After this long without progress, the progress line says so instead of an ETA.
+SHOW_STILL_S = 5.0
+# Leaving the margin round a sensed obstacle, the path may come this much closer to it:
+# the samples of a path along the obstacle's side wobble by a few millimetres.
+MARGIN_TOLERANCE_M = 0.01
+# Sensed obstacles this close to the robot are what a stuck mission names as the cause.
+CAUSE_NEAR_M = 1.5
 
 
 @dataclass(frozen=True)
@@ -62,6 +94,7 @@ class PathMission:
     """
 
     name: str
+    retry: str  # what the operator types to try again
 
     def __init__(
         self,
@@ -73,8 +106,10 @@ class PathMission:
         turn_limits: TurnLimits | None = None,
         sense: Sense | None = None,
         notify: Callable[[str], None] = lambda text: None,
+        patience: Patience | None = None,
     ) -> None:
-        """`notify` gets a line for the operator when the mission changes its plan."""
+        """`notify` gets a line for the operator when the mission changes its plan;
+        `patience` says how long it may go without getting nearer before it gives up."""
         self.navigator = navigator
         self.notify = notify
         self.limits = limits or MotionLimits()
@@ -89,12 +124,14 @@ class PathMission:
         self._now = 0.0
         self._paused = False
         self._restart = False  # set off again on a new plan once the robot is still
+        self._restart_why = ""
         # The traces of the plans driven before the present one (after replanning).
         self._traces: list[Trace] = []
         self._leg: Leg | None = None
         self._leg_index = -1
         self.executor = self._plan(pose())
         self.time_optimal = self.executor.time_optimal
+        self._progress_watch = ProgressWatch(patience or Patience(), 0.0, self.executor.remaining())
 
     def _course(self, pose: Pose) -> Course:
         """The way to go from `pose`; PlanningError if there is none."""
@@ -106,6 +143,7 @@ class PathMission:
         self._now = now
         if self._started is None:
             self._started = now
+            self._progress_watch.restart(now)
         if self._paused or state is None or self.finished or self.problem is not None:
             return []
         pose = self._pose()
@@ -119,9 +157,17 @@ class PathMission:
                 self.notify(f"{self.name}: {', '.join(sorted(closed & set(self._doors)))} "
                             "closed on the route; stopping to go round")  # fmt: skip
                 self.executor.brake(now)
-                self._restart = True
+                self._restart, self._restart_why = True, "a door closed on the route"
+        watch = self._progress_watch
+        if watch.stuck(now):
+            self.problem = self._stuck(pose, f"stuck for {watch.still_for(now):.0f} s near {{}}")
+            return []
         if self._restart and self.executor.finished:
             if state.moving:
+                return []
+            if watch.out_of_replans():
+                self.problem = self._stuck(pose, f"stuck near {{}} after {watch.replans} new "
+                                                 "ways in a row that got no nearer")  # fmt: skip
                 return []
             self._traces.append(self.executor.trace)
             try:
@@ -131,6 +177,7 @@ class PathMission:
                 return []
             self._restart = False
             self.replans += 1
+            watch.replanned(self.executor.remaining())
             through = f" through {', '.join(self._doors)}" if self._doors else ""
             self.notify(f"{self.name}: new way, {self.executor.remaining():.1f} m{through}")
         commands = self.executor.step(now, state, pose)
@@ -138,6 +185,9 @@ class PathMission:
             self.problem = self.executor.problem
         elif self.executor.finished and not self._restart:
             self._ended = now
+        elif not self._restart:
+            # While braking for a new plan, what is left of the old one is not progress.
+            watch.driven(now, self.executor.remaining())
         return commands
 
     def next_due(self) -> float | None:
@@ -151,7 +201,8 @@ class PathMission:
         if self._paused:
             self._paused = False
             self.executor.abandon()
-            self._restart = True
+            self._restart, self._restart_why = True, "resuming"
+            self._progress_watch.restart(now)
 
     @property
     def finished(self) -> bool:
@@ -160,16 +211,30 @@ class PathMission:
     @property
     def progress(self) -> str:
         """The room, a bar, the distance left and the time left, for the main view."""
-        left = self.executor.remaining()
-        total = max(self._total, left, 1e-9)
-        filled = round(PROGRESS_BAR * (1 - left / total))
-        bar = "█" * filled + "░" * (PROGRESS_BAR - filled)
         if self.finished:
             return f"{self.name}: arrived"
-        state = " (paused)" if self._paused else " (replanning)" if self._restart else ""
-        eta = self.executor.remaining_time(self._now)
+        if self._restart:
+            # The plan being given up says nothing true of the way left: the braking
+            # metres of the old one would read as nearly there.
+            return f"{self.name} {self._bar(self._total)} stopping to plan a new way " \
+                   f"({self._restart_why}), no ETA"  # fmt: skip
+        left = self.executor.remaining()
+        text = f"{self.name} {self._bar(left)} {left:.1f} m left"
+        if self._paused:
+            return f"{text} (paused)"
+        still = self._progress_watch.still_for(self._now)
+        if self.problem is None and still >= SHOW_STILL_S:
+            return f"{text}, no nearer for {still:.0f} s"
+        # The profile's time left, but never less than the distance at full speed: a
+        # robot behind its profile would otherwise show 0:00 with metres still to go.
+        eta = max(self.executor.remaining_time(self._now), left / self.limits.v_max)
         minutes, seconds = divmod(round(eta), 60)
-        return f"{self.name} {bar} {left:.1f} m left, ETA {minutes}:{seconds:02d}{state}"
+        return f"{text}, ETA {minutes}:{seconds:02d}"
+
+    def _bar(self, left: float) -> str:
+        total = max(self._total, left, 1e-9)
+        filled = round(PROGRESS_BAR * (1 - left / total))
+        return "█" * filled + "░" * (PROGRESS_BAR - filled)
 
     def merged_trace(self) -> Trace:
         """What was commanded over every plan driven, one trace."""
@@ -183,6 +248,19 @@ class PathMission:
         return trace
 
     # -- inside -------------------------------------------------------------------------
+
+    def _stuck(self, pose: Pose, how: str) -> str:
+        """Why the mission gives up (`how`, where `{}` is put where the robot is), and
+        what the operator can do about it."""
+        near = self._sensed_near(pose, CAUSE_NEAR_M)
+        cause = "something blocks the way" if near else "nothing seen, but no progress"
+        where = how.format(f"({pose.x:.1f}, {pose.y:.1f})")
+        return f"{where}: {cause}; clear the way and type {self.retry} again, or drive by hand"
+
+    def _sensed_near(self, pose: Pose, reach: float) -> bool:
+        """Whether the range finder has seen anything within `reach` of `pose`."""
+        sensed = self.navigator.state.obstacles if self.navigator is not None else ()
+        return any(math.dist((pose.x, pose.y), point) <= reach for point in sensed)
 
     def _plan(self, pose: Pose) -> Executor:
         course = self._course(pose)
@@ -204,16 +282,23 @@ class PathMission:
         return executor
 
     def _watch(self, now: float, pose: Pose) -> None:
-        """Put what the range finder sees into the grid (while stopping too, so that the
-        new plan knows all it can); if the grid now blocks the path ahead, stop and plan
-        again (D* Lite across this room, else the room graph)."""
-        readings = self._sense() if self._sense is not None else []
-        points = [
-            (pose.x + r * math.cos(pose.heading + b), pose.y + r * math.sin(pose.heading + b))
-            for r, b in readings
-        ]
-        assert self.navigator is not None
-        changes = self.navigator.report_obstacles(points)
+        """Put what the range finder sees into the grid, and take out what its beams now
+        see through (while stopping too, so that the new plan knows all it can); if the
+        grid now blocks the path ahead, stop and plan again (D* Lite across this room,
+        else the room graph)."""
+        assert self._sense is not None and self.navigator is not None
+        scan = self._sense()
+        hits: list[Point] = []
+        free: list[Point] = []
+        for distance, bearing in scan.beams:
+            if math.isnan(distance):
+                continue  # a failed measurement (REP 117) says nothing either way
+            seen = distance <= scan.range_max
+            reach = distance if seen else scan.range_max
+            angle = pose.heading + bearing
+            end = (pose.x + reach * math.cos(angle), pose.y + reach * math.sin(angle))
+            (hits if seen else free).append(end)
+        changes = self.navigator.report_obstacles(hits, (pose.x, pose.y), free)
         if changes:
             leg = self._current_leg(pose)
             if leg is not None:
@@ -224,7 +309,7 @@ class PathMission:
             self.notify(f"{self.name}: something in the way ahead of ({pose.x:.1f}, "
                         f"{pose.y:.1f}); stopping to plan again")  # fmt: skip
             self.executor.brake(now)
-            self._restart = True
+            self._restart, self._restart_why = True, "something in the way"
 
     def _blocks_path_ahead(self) -> bool:
         """Whether the grid, as it now is, blocks the path within LOOKOUT_M ahead: of
@@ -244,7 +329,35 @@ class PathMission:
         for i in range(samples):
             p = section.pose_at(start + (end - start) * i / (samples - 1))
             points.append((p.x, p.y))
-        return not all(legs.clear(a, b) for a, b in pairwise(points))
+        return not all(legs.clear(a, b) for a, b in pairwise(self._past_margin(points)))
+
+    def _past_margin(self, points: list[Point]) -> list[Point]:
+        """The path ahead from where it leaves the margin round what was sensed, when
+        the robot stands in that margin and the path takes it no closer.
+
+        A box put down beside the robot blocks the grid's cells under the robot itself
+        (they are grown by its radius and the clearance), so every new plan would look
+        blocked at once and be given up: the robot stopped and replanned for ever. A
+        path that heads away from the box, or past it no closer, is the way out; one
+        that heads closer is still blocked."""
+        assert self.navigator is not None
+        legs = self.navigator.planner.legs
+        sensed = self.navigator.state.obstacles
+        if legs is None or not sensed:
+            return points
+
+        seen = np.asarray(sensed)
+
+        def nearest(point: Point) -> float:
+            return float(np.hypot(seen[:, 0] - point[0], seen[:, 1] - point[1]).min())
+
+        # Measured from where the path starts, not sample to sample: a path may not
+        # creep in a little at a time.
+        floor = nearest(points[0]) - MARGIN_TOLERANCE_M
+        for i, point in enumerate(points):
+            if legs.clear(point, point) or nearest(point) < floor:
+                return points[i:]  # out of the margin, or closer in: the grid decides
+        return points[-1:]
 
     def _current_leg(self, pose: Pose) -> Leg | None:
         """The D* Lite planner of the leg the robot is on, kept from one sighting to the

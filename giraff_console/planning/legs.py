@@ -11,6 +11,12 @@ robot could skip without its disc touching an obstacle (the grid is inflated by 
 radius) is dropped, so that what is driven, and what a leg measures, is a polyline of
 few corners. Shortening runs on the same inflated grid, so it never cuts a corner the
 planner went round.
+
+The range finder adds to the grid what the plan does not show (§2.1, §6), and takes it
+away again: the thesis's grid squares are "coloured" by what is thought to be in them
+and updated as the robot moves (§2.6.4), so a box that has gone is not planned round
+for ever. A beam that passes through a square where something was seen clears it, as a
+laser's free space clears a ROS costmap; the plan's own walls are never cleared.
 """
 
 from __future__ import annotations
@@ -31,6 +37,9 @@ OPEN_MARGIN_M = 3.0
 # An end that falls on a blocked cell (a robot close to a wall) starts from the nearest
 # free cell within this distance.
 NEAREST_FREE_M = 0.6
+# A beam clears the cells it passed through up to this many cells short of what it hit:
+# a diagonal cell's width (sqrt 2), so that it never clears the square the hit is in.
+HIT_MARGIN_CELLS = 1.5
 
 
 class Leg:
@@ -116,30 +125,126 @@ class GridLegs:
         self.plan = plan
         self.grid = inflated
         self.blocked = inflated.blocked()
+        # The plan's own cells: what sensing may block more of, and never clear.
+        self._plan_blocked = self.blocked.copy()
+        # What sensing saw, one point per cell it fell in: the evidence each blocked
+        # disc stands on, so that a disc can be taken away when its cell is seen clear.
+        self.sensed: dict[Cell, Point] = {}
+        self._sensed_cells = np.zeros_like(self.blocked)
         # Ways found so far: the room graph measures a leg, then the route drives it.
         self._paths: dict[tuple[Point, Point, str | None], list[Point] | None] = {}
 
     def block(self, points: list[Point], radius: float) -> list[tuple[Cell, bool]]:
         """Obstacles sensed at `points`: the free cells within `radius` of each (the
         robot's, as the grid's inflation) become blocked. Returns the cells that changed,
-        as (cell, True) pairs for `Leg.update`; the ways found before are forgotten."""
-        grid, rows, cols = self.grid, *self.blocked.shape
-        reach = math.ceil(radius / grid.resolution)
+        as (cell, True) pairs for `Leg.update`; the ways found before are forgotten.
+
+        A point in a cell already sensed adds nothing: its disc is that cell's disc to
+        within a cell, and a box seen at every tick would otherwise cost its discs again
+        at every tick."""
         changes = []
         for x, y in points:
             try:
-                row, col = grid.cell_of(x, y)
+                cell = self.grid.cell_of(x, y)
             except ValueError:
                 continue  # off the map: nothing to plan round
-            for r in range(max(0, row - reach), min(rows, row + reach + 1)):
-                for c in range(max(0, col - reach), min(cols, col + reach + 1)):
-                    cx, cy = grid.centre_of(r, c)
-                    if not self.blocked[r, c] and math.hypot(cx - x, cy - y) <= radius:
-                        self.blocked[r, c] = True
-                        changes.append(((r, c), True))
+            if self._sensed_cells[cell]:
+                continue
+            self.sensed[cell] = (x, y)
+            self._sensed_cells[cell] = True
+            rows, cols, near = self._disc(cell, (x, y), radius)
+            view = self.blocked[rows, cols]
+            new = near & ~view
+            view |= near
+            top, left = rows.start, cols.start
+            changes += [((int(r) + top, int(c) + left), True) for r, c in np.argwhere(new)]
         if changes:
             self._paths.clear()
         return changes
+
+    def see_through(self, origin: Point, ends: list[Point], hits: list[bool],
+                    radius: float) -> list[tuple[Cell, bool]]:  # fmt: skip
+        """The range finder looked from `origin` along beams to `ends`: what sensing had
+        seen in the cells on the way is gone (beams that `hits` something stop short of
+        its cell). Every cell then more than `radius` from what is still sensed, and
+        not blocked by the plan, is free again. Returns the cells freed, as (cell,
+        False) pairs for `Leg.update`; the ways found before are forgotten."""
+        if not self.sensed or not ends:
+            return []
+        seen = self._cells_along(origin, np.asarray(ends, dtype=float), np.asarray(hits))
+        seen = seen[self._sensed_cells.ravel()[seen]]
+        if not seen.size:
+            return []  # nearly every sweep: nothing sensed before lies on a beam
+        gone = np.stack(np.divmod(np.unique(seen), self.blocked.shape[1]), axis=1)
+        for row, col in gone.tolist():
+            del self.sensed[(row, col)]
+            self._sensed_cells[row, col] = False
+        changes = self._free_round(gone, radius)
+        if changes:
+            self._paths.clear()
+        return changes
+
+    def _disc(self, cell: Cell, point: Point, radius: float) -> tuple[slice, slice, np.ndarray]:
+        """The window of cells round `cell` that a disc of `radius` at `point` can reach,
+        and which of them it covers (their centres within `radius` of `point`)."""
+        grid, (rows, cols) = self.grid, self.blocked.shape
+        reach = math.ceil(radius / grid.resolution)
+        row, col = cell
+        r = slice(max(0, row - reach), min(rows, row + reach + 1))
+        c = slice(max(0, col - reach), min(cols, col + reach + 1))
+        x, y = self._centres(r, c)
+        return r, c, np.hypot(x - point[0], y - point[1]) <= radius
+
+    def _centres(self, rows: slice, cols: slice) -> tuple[np.ndarray, np.ndarray]:
+        """The map x (a row) and y (a column) of the centres of a window's cells."""
+        grid, height = self.grid, self.blocked.shape[0]
+        x = grid.origin[0] + (np.arange(cols.start, cols.stop) + 0.5) * grid.resolution
+        y = grid.origin[1] + (height - np.arange(rows.start, rows.stop) - 0.5) * grid.resolution
+        return x[None, :], y[:, None]
+
+    def _cells_along(self, origin: Point, ends: np.ndarray, hits: np.ndarray) -> np.ndarray:
+        """The cells the beams cross within the grid, as indices into the flattened
+        grid, sampled every half cell (a sliver missed is cleared by the next sweep)."""
+        grid = self.grid
+        step = grid.resolution / 2
+        offset = ends - np.asarray(origin)
+        length = np.hypot(offset[:, 0], offset[:, 1])
+        reach = np.where(hits, length - HIT_MARGIN_CELLS * grid.resolution, length)
+        t = np.arange(0.0, max(0.0, float(reach.max())) + step / 2, step)
+        along = t[None, :] <= reach[:, None]  # (beams, samples)
+        unit = offset / np.maximum(length, 1e-12)[:, None]
+        x = (origin[0] - grid.origin[0]) + unit[:, :1] * t[None, :]
+        y = (origin[1] - grid.origin[1]) + unit[:, 1:] * t[None, :]
+        col = np.floor(x[along] / grid.resolution).astype(np.int64)
+        up = np.floor(y[along] / grid.resolution).astype(np.int64)
+        rows, cols = self.blocked.shape
+        inside = (col >= 0) & (col < cols) & (up >= 0) & (up < rows)
+        return (rows - 1 - up[inside]) * cols + col[inside]
+
+    def _free_round(self, gone: np.ndarray, radius: float) -> list[tuple[Cell, bool]]:
+        """Free the cells round the sensed cells `gone` that no sensed point left within
+        `radius` keeps blocked, and that the plan does not block."""
+        grid, (rows, cols) = self.grid, self.blocked.shape
+        reach = math.ceil(radius / grid.resolution)
+        (top, left), (bottom, right) = gone.min(axis=0), gone.max(axis=0)
+        window = (slice(max(0, top - reach), min(rows, bottom + reach + 1)),
+                  slice(max(0, left - reach), min(cols, right + reach + 1)))  # fmt: skip
+        candidates = self.blocked[window] & ~self._plan_blocked[window]
+        if not candidates.any():
+            return []
+        # What is still sensed within reach of the window keeps its discs.
+        top, left = max(0, window[0].start - reach), max(0, window[1].start - reach)
+        around = self._sensed_cells[top : window[0].stop + reach, left : window[1].stop + reach]
+        kept = np.argwhere(around) + np.array([top, left])
+        points = np.array([self.sensed[(r, c)] for r, c in kept.tolist()]).reshape(-1, 2)
+        x, y = self._centres(*window)
+        at = np.argwhere(candidates)
+        cx, cy = x[0, at[:, 1]], y[at[:, 0], 0]
+        near = np.hypot(cx[:, None] - points[None, :, 0], cy[:, None] - points[None, :, 1])
+        free = at[~(near <= radius).any(axis=1)]
+        free += (window[0].start, window[1].start)
+        self.blocked[free[:, 0], free[:, 1]] = False
+        return [((r, c), False) for r, c in free.tolist()]
 
     def leg(self, a: Point, b: Point, room_id: str | None) -> Leg:
         return Leg(self.grid, self.blocked, a, b, self.window(a, b, room_id))

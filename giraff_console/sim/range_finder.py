@@ -4,7 +4,9 @@ The thesis would add "an infrared laser range finder ... to minimize the risk of
 crashing into things" (§6): with one, obstacles "are typically not too hard to detect"
 (§2.4), and a LIDAR sweeps its beam across what is in front of it (§2.2.5). This one
 sweeps `rays` beams evenly over its field of view, centred on the heading, and reports
-the nearest hit of each within range.
+the nearest hit of each within range. A beam that meets nothing within range says so, as
+a laser scan does (ROS REP 117: +inf, "no objects detected within range"): that it saw
+free space is what lets the console forget a box that has been taken away.
 
 It senses only the `Surroundings` (boxes, closed doors), not the building's walls: the
 floor plan already has those, and what the console needs from the sensor is what the
@@ -20,11 +22,27 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
 from giraff_console.sim.drive import TruePose
 from giraff_console.sim.surroundings import Surroundings, cast_rays
+
+
+@dataclass(frozen=True)
+class Scan:
+    """One sweep, as a LIDAR's scan message has it: each beam's (distance m, bearing
+    rad, positive to the left), from right to left; `math.inf` where the beam met
+    nothing within `range_max`."""
+
+    range_max: float
+    beams: tuple[tuple[float, float], ...]
+
+    @property
+    def hits(self) -> list[tuple[float, float]]:
+        """The beams that met something."""
+        return [beam for beam in self.beams if math.isfinite(beam[0])]
 
 
 class SimRangeFinder:
@@ -49,29 +67,30 @@ class SimRangeFinder:
         self.bearings = np.linspace(-half, half, rays) if rays > 1 else np.zeros(1)
         self.bearings.setflags(write=False)
 
-    def readings(self) -> list[tuple[float, float]]:
-        """(distance m, bearing rad, positive to the left) of each beam that hits
-        something within range, from right to left."""
-        _, distance, bearing = self._scan()
-        return list(zip(distance.tolist(), bearing.tolist(), strict=True))
+    def readings(self) -> Scan:
+        """Every beam of one sweep, those that met nothing within range at inf."""
+        _, distance = self._scan()
+        beams = zip(distance.tolist(), self.bearings.tolist(), strict=True)
+        return Scan(self.range_m, tuple(beams))
 
     def scan_points(self) -> list[tuple[float, float]]:
-        """The same hits as (x, y) on the map, placed with the true pose: tests only."""
-        pose, distance, bearing = self._scan()
-        angle = pose.heading + bearing
-        x = pose.x + distance * np.cos(angle)
-        y = pose.y + distance * np.sin(angle)
+        """The hits as (x, y) on the map, placed with the true pose: tests only."""
+        pose, distance = self._scan()
+        hit = np.isfinite(distance)
+        angle = pose.heading + self.bearings[hit]
+        x = pose.x + distance[hit] * np.cos(angle)
+        y = pose.y + distance[hit] * np.sin(angle)
         return list(zip(x.tolist(), y.tolist(), strict=True))
 
-    def _scan(self) -> tuple[TruePose, np.ndarray, np.ndarray]:
-        """One sweep: the pose and the surroundings are read once, so that every beam
-        starts from the same place and sees the same things."""
+    def _scan(self) -> tuple[TruePose, np.ndarray]:
+        """One sweep, each beam's distance (inf beyond range): the pose and the
+        surroundings are read once, so that every beam starts from the same place and
+        sees the same things."""
         pose = self.pose()
         starts, ends = self.surroundings.segments()
         if not len(starts):
-            return pose, np.empty(0), np.empty(0)
+            return pose, np.full(len(self.bearings), np.inf)
         angle = pose.heading + self.bearings
         t, _ = cast_rays(pose.x, pose.y, np.cos(angle), np.sin(angle), starts, ends)
         distance = t.min(axis=1)
-        hit = distance <= self.range_m
-        return pose, distance[hit], self.bearings[hit]
+        return pose, np.where(distance <= self.range_m, distance, np.inf)

@@ -13,7 +13,7 @@ from giraff_console.planning.room_graph import NoRouteError, UnknownDoorError, U
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.robot.odometry import Pose
 
-EXAMPLE = Path(__file__).resolve().parents[2] / "floorplans" / "care-home.yaml"
+EXAMPLE = Path(__file__).resolve().parents[2] / "giraff_console/floorplans/care-home.yaml"
 
 
 @pytest.fixture(scope="module")
