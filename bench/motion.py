@@ -62,7 +62,7 @@ from giraff_console.robot.telemetry import Telemetry
 from giraff_console.robot.teleop import Teleop
 from giraff_console.sim.drive import TruePose
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "floorplans" / "care-home.yaml"
+EXAMPLE = Path(__file__).resolve().parents[1] / "giraff_console/floorplans/care-home.yaml"
 TICK_S = 0.05  # the control loop's 20 Hz
 # No go on the example takes half of this; a run still going then has gone wrong.
 TIMEOUT_S = 600.0

@@ -36,7 +36,7 @@ from giraff_console.planning.legs import GridLegs
 from giraff_console.planning.room_graph import RoomGraph
 from giraff_console.planning.route_planner import ROBOT_RADIUS_M, walls_of
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "floorplans" / "care-home.yaml"
+EXAMPLE = Path(__file__).resolve().parents[1] / "giraff_console/floorplans/care-home.yaml"
 
 STRAIGHT, DIAGONAL = 10, 14
 

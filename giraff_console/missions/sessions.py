@@ -9,6 +9,7 @@ video, both following the same playback position.
 from __future__ import annotations
 
 import contextlib
+import math
 import threading
 from collections.abc import Callable
 from dataclasses import replace
@@ -18,10 +19,9 @@ from giraff_console.camera.association import SampleHistory
 from giraff_console.camera.feed import CameraFeed
 from giraff_console.camera.source import CameraSource, Frame
 from giraff_console.recording.playback import Playback, frame_times, open_log
-from giraff_console.recording.recorded_video import RecordedVideo
+from giraff_console.recording.recorded_video import RecordedVideo, session_video
 from giraff_console.recording.session import (
     CONTROL_LOG,
-    VIDEO,
     RecordingSetup,
     SessionError,
     SessionRecorder,
@@ -65,7 +65,7 @@ class Sessions:
     def start_recording(self) -> Path | None:
         """Start a new session; None, with a message, if it cannot be recorded."""
         if self.control.playback is not None:
-            self.report("not recording: a playback is running (P stops it)")
+            self.report("not recording: a playback is running (`play stop` ends it)")
             return None
         self.stop_recording()
         try:
@@ -154,18 +154,19 @@ class Sessions:
     # -- playback -----------------------------------------------------------------------
 
     def latest(self) -> Path | None:
-        """The newest recorded session, if any."""
+        """The newest recorded session, if any: the one that began last. Not the last
+        by name, which would be a clone's `sample` (letters sort after digits)."""
         try:
             sessions = [p for p in self.recordings.iterdir() if (p / CONTROL_LOG).is_file()]
         except OSError:
             return None
-        return max(sessions, key=lambda p: p.name, default=None)
+        return max(sessions, key=lambda p: (began(p), p.name), default=None)
 
     def start_playback(self, session: Path | None = None) -> Playback | None:
         """Play `session` (a directory, or an original console's log file), else the
         newest one; None, with a message, if there is nothing to play."""
         if self.recorder is not None:
-            self.report("not playing: a recording is running (R stops it)")
+            self.report("not playing: a recording is running (`record stop` ends it)")
             return None
         if self.busy is not None:
             self.report(f"not playing: {self.busy}")
@@ -190,9 +191,9 @@ class Sessions:
             return None
         clock = self.control.clock
         playback = Playback(session.name, log, clock.now(), start=SessionStart.from_meta(meta))
-        video = session / VIDEO
+        video = session_video(session)
         self._playing = playback
-        if self.camera is not None and video.is_file():
+        if self.camera is not None and video is not None:
             source = RecordedVideo(video, times, lambda: playback.position(clock.now()), clock.now)
             shown = self.camera.switch(source)
             if self._live_camera is None:
@@ -224,3 +225,17 @@ class Sessions:
             self.camera.switch(live)
             # At the resolution it had, not the recording's.
             self.camera.set_resolution(*self._live_size)
+
+
+def began(session: Path) -> float:
+    """When `session` began, in Unix seconds: meta.json's `started_unix`, else when its
+    log was last written (an original console's log has no meta.json)."""
+    with contextlib.suppress(SessionError):
+        # read_meta refuses NaN, Infinity and numbers too large for a float.
+        started = read_meta(session).get("started_unix")
+        if isinstance(started, int | float) and not isinstance(started, bool):
+            return float(started)
+    try:
+        return (session / CONTROL_LOG).stat().st_mtime
+    except OSError:
+        return -math.inf

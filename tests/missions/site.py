@@ -15,7 +15,7 @@ from giraff_console.robot.odometry import Pose
 from giraff_console.robot.teleop import Teleop
 from giraff_console.sim_site import SimulatedSite
 
-EXAMPLE = Path(__file__).resolve().parents[2] / "floorplans" / "care-home.yaml"
+EXAMPLE = Path(__file__).resolve().parents[2] / "giraff_console/floorplans/care-home.yaml"
 PLAN = load_floorplan(EXAMPLE)
 TICK = 0.05
 LIMITS = MotionLimits()

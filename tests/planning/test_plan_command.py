@@ -15,7 +15,7 @@ from giraff_console.planning.legs import GridLegs
 from giraff_console.planning.route_planner import CLEARANCE_M, ROBOT_RADIUS_M, walls_of
 
 ROOT = Path(__file__).resolve().parents[2]
-EXAMPLE = ROOT / "floorplans" / "care-home.yaml"
+EXAMPLE = ROOT / "giraff_console/floorplans/care-home.yaml"
 
 
 def polyline_length(path: list[list[float]]) -> float:

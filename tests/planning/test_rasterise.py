@@ -12,7 +12,7 @@ from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.planning.grid import OccupancyGrid
 from giraff_console.planning.rasterise import grid_image, rasterise
 
-EXAMPLE = Path(__file__).resolve().parents[2] / "floorplans" / "care-home.yaml"
+EXAMPLE = Path(__file__).resolve().parents[2] / "giraff_console/floorplans/care-home.yaml"
 # About the Giraff's base (issue 6).
 ROBOT_RADIUS_M = 0.3
 

@@ -111,7 +111,7 @@ def test_the_room_a_point_is_in(tmp_path):
 
 
 def test_legs_are_shortened_to_few_corners_on_the_example():
-    example = Path(__file__).resolve().parents[2] / "floorplans" / "care-home.yaml"
+    example = Path(__file__).resolve().parents[2] / "giraff_console/floorplans/care-home.yaml"
     plan = load_floorplan(example)
     planner = RoutePlanner(plan, walls_of(plan))
     planned = planner.between_rooms("room-101", "room-113")
