@@ -12,15 +12,15 @@ from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
-from textual import on
-from textual.app import App, ComposeResult
+from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal, Vertical
-from textual.widgets import Footer, Input
+from textual.widgets import Footer
 
 from giraff_console.camera.feed import CameraFeed
 from giraff_console.camera.source import RESOLUTIONS as CAMERA_RESOLUTIONS
 from giraff_console.missions.navigation import NavigationState, Navigator
+from giraff_console.missions.progress_watch import Patience
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
 from giraff_console.motion.speed_profile import MotionLimits
@@ -34,6 +34,7 @@ from giraff_console.sim_site import SimulatedSite
 from giraff_console.tui.camera_view import CameraView
 from giraff_console.tui.command_line import CommandLine
 from giraff_console.tui.help_screen import HelpScreen
+from giraff_console.tui.key_guard import KeyGuard
 from giraff_console.tui.main_view import MainView
 from giraff_console.tui.map_canvas import MapScene, plan_scene
 from giraff_console.tui.map_view import MapView
@@ -65,14 +66,15 @@ CONSOLE_COMMANDS = [
     ("get NAME", "read a parameter, e.g. get bulk_data"),
     ("home", "any other bare controller command"),
     ("fast, canny", "switch a camera processor on or off"),
-    ("record, record stop", "record a session into recordings/ (also R)"),
-    ("play [DIR], play stop", "play the newest session, or DIR, back; stop it (also P)"),
+    ("record, record stop", "record a session into recordings/ (also r)"),
+    ("play [DIR], play stop", "play the newest session, or DIR, back; stop it (also p)"),
     ("pause, resume, seek S, rate X", "control a playback: seconds in, speed 0.25 to 16"),
     ("teach NAME, mark PLACE, done", "teach a route by driving it; name places on the way"),
     ("routes", "list the taught routes and the patrols"),
     ("replay-route NAME", "drive a taught route again, open-loop (keys or Space stop it)"),
     ("follow-route NAME", "drive a taught route's path closed-loop, like go (from its start)"),
     ("patrol NAME, patrol pause|resume|stop", "run routes/NAME.patrol.yaml; hold or end it"),
+    ("undock", "back out of the dock and turn round (also u, twice)"),
     ("go ROOM", "drive to ROOM: the route is planned, shown on the map and driven"),
     ("pause, resume", "hold the robot where it is on its way, and go on (also playbacks)"),
     ("close DOOR, open DOOR", "shut or open a door (in the simulator too); routes go round"),
@@ -82,16 +84,17 @@ CONSOLE_COMMANDS = [
 LAYOUTS = ("both", "map", "camera")
 
 
-class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
+class GiraffConsole(NavigationCommands, SessionCommands, KeyGuard):
     """The operator's screen; `control` runs the robot."""
 
     CSS_PATH = "app.tcss"
     TITLE = "giraff-console"
-    COMMANDS = App.COMMANDS | {RoomCommands}
+    COMMANDS = KeyGuard.COMMANDS | {RoomCommands}
     # Nothing takes the focus by itself: the keys belong to driving until Enter is pressed.
     AUTO_FOCUS = None
     BINDINGS = [
-        Binding("escape", "quit", "Quit", id="quit", tooltip="stop the robot and leave (also q)"),
+        Binding("escape", "quit", "Quit", id="quit",
+                tooltip="stop the robot and leave (also q); asks first while anything runs"),
         Binding("q", "quit", "Quit", show=False, id="quit-q"),
         Binding("up", "drive('FORWARD')", "Drive", key_display="↑↓←→", id="forward",
                 tooltip="hold to drive forward"),
@@ -121,7 +124,8 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
         Binding("a", "toggle_poll", "Poll", show=False, id="poll",
                 tooltip="toggle the automatic odometry poll"),
         Binding("b", "bulk", "Bulk", show=False, id="bulk", tooltip="request bulk_data"),
-        Binding("h", "home_head", "Home", show=False, id="home", tooltip="home the head"),
+        Binding("h", "home_head", "Home", show=False, id="home",
+                tooltip="home the head (then y to do it)"),
         Binding("p", "playback", "Play", show=False, id="play",
                 tooltip="play the newest session back, or return to live"),
         Binding("r", "record", "Rec", show=False, id="record",
@@ -138,9 +142,10 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
                 tooltip="play back at half the speed, down to 0.25x"),
         Binding("greater_than_sign", "rate(2)", "Faster", show=False, id="rate-up",
                 tooltip="play back at twice the speed, up to 16x"),
-        Binding("t", "tilt", "Tilt", show=False, id="tilt", tooltip="tilt the head up"),
+        Binding("t", "tilt", "Tilt", show=False, id="tilt",
+                tooltip="tilt the head up (then y to do it)"),
         Binding("u", "undock", "Undock", show=False, id="undock",
-                tooltip="back out of the dock and turn around"),
+                tooltip="back out of the dock and turn around (then y to do it)"),
         Binding("m", "layout", "Map", id="map", tooltip="camera and map, the map, the camera"),
         Binding("z", "zoom(1.5)", "Zoom in", show=False, id="zoom-in",
                 tooltip="zoom the map in (also the mouse wheel)"),
@@ -158,6 +163,11 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
                 tooltip="keep the robot in view on the map again"),
         Binding("question_mark", "help", "Help", id="help", tooltip="this screen"),
     ]  # fmt: skip
+    # Priority: the app takes each key as it arrives, in the order typed. Otherwise a key
+    # goes round through the screen and comes back late, behind the keys typed after it:
+    # under load Enter opened the command line after the next keys had run their
+    # bindings (issue 12). check_action hands the keys on while a screen is on top.
+    BINDINGS = [replace(b, priority=True) for b in BINDINGS if isinstance(b, Binding)]
 
     def __init__(
         self,
@@ -171,11 +181,13 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
         navigator: Navigator | None = None,
         site: SimulatedSite | None = None,
         motion: MotionLimits | None = None,
+        patience: Patience | None = None,
         stepped: float | None = None,
         undock_distance: float = 0.3,
         run_loop: bool = True,
         timestamp: Callable[[], str] = lambda: time.strftime("%H:%M:%S"),
         cursor_blink: bool = True,
+        crashed: Callable[[BaseException], None] = lambda error: None,
     ) -> None:
         """`run_loop` False leaves ticking the loop to the caller (tests on a virtual clock)."""
         super().__init__()
@@ -187,6 +199,7 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
         self.navigator = navigator
         self.site = site
         self.motion = motion or MotionLimits()
+        self.patience = patience
         self.stepped = stepped
         self._shown_state: NavigationState | None = None
         start = navigator.start_pose if navigator is not None else None
@@ -200,7 +213,15 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
         self.run_loop = run_loop
         self.timestamp = timestamp
         self.cursor_blink = cursor_blink
+        # Told first of an exception nothing handled (robot/last_stop.py).
+        self.crashed = crashed
         self._frames: list[float] = []
+        # What the last snapshot said of the robot: quitting asks first while it moves.
+        self._moving = False
+        # Made here, not in compose: which keys work depends on it from the start.
+        self.command_line = CommandLine(self._navigation_words(), id="command-line")
+        self.command_line.cursor_blink = cursor_blink
+        self.command_line.display = False
 
     def compose(self) -> ComposeResult:
         yield TopBar(self.simulator, id="top")
@@ -212,10 +233,7 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
                 yield MapView(truecolor, id="map")
                 yield MainView(id="main")
             yield Transcript(id="transcript")
-        command_line = CommandLine(self._navigation_words(), id="command-line")
-        command_line.cursor_blink = self.cursor_blink
-        command_line.display = False
-        yield command_line
+        yield self.command_line
         yield Footer()
 
     def on_mount(self) -> None:
@@ -223,7 +241,6 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
         self.main_view = self.query_one(MainView)
         self.status_log = self.query_one(StatusLog)
         self.transcript = self.query_one(Transcript)
-        self.command_line = self.query_one(CommandLine)
         self.camera_view = self.query_one(CameraView)
         self.map_view = self.query_one(MapView)
         navigator = self.navigator
@@ -255,6 +272,12 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
         if self.play_at_start is not None:
             self._play(self.play_at_start)
 
+    def _handle_exception(self, error: Exception) -> None:
+        # An exception in a handler or a worker: the robot is stopped before anything
+        # else, then Textual reports it and closes the console (design.md).
+        self.crashed(error)
+        super()._handle_exception(error)
+
     def on_unmount(self) -> None:
         self.control.stop()
         if self.sessions is not None:
@@ -277,6 +300,10 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
         self._frames = [t for t in self._frames if now - t < 1.0] + [now]
         self.top_bar.ui_fps = float(len(self._frames))
         self.top_bar.recording = self.sessions is not None and self.sessions.recording
+        telemetry = message.telemetry
+        self._moving = telemetry.intent is not None or (
+            telemetry.state is not None and telemetry.state.moving
+        )
         self.top_bar.show(message.telemetry)
         self.main_view.show(message.telemetry)
         navigation = self.navigator.state if self.navigator is not None else None
@@ -316,7 +343,7 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
         if self.command_line.has_focus:
             return
         if self.control.playback is not None:
-            self.note("playing back: the driving keys are off; P returns to live")
+            self.note("playing back: the driving keys are off; p returns to live")
             return
         self.control.press(Intent[intent])
 
@@ -347,28 +374,63 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
         self.note(f"{name} {'on' if on else 'off'}")
 
     def action_command_line(self) -> None:
-        self.command_line.display = True
-        self.command_line.focus()
+        self.open_command_line()
 
     def action_toggle_poll(self) -> None:
         self.control.autopoll = not self.control.autopoll
         self.note(f"automatic odometry poll {'on' if self.control.autopoll else 'off'}")
 
     def action_bulk(self) -> None:
-        self._board_job(lambda link: link.get("bulk_data"))
+        self._board_command(Command("get", "bulk_data"))
+
+    # h, t and u move the robot's head or the robot without being held: one stray key
+    # must not do it (issue 12), so each asks, and only y does it: the same key again
+    # would be a held key's own auto-repeat.
 
     def action_home_head(self) -> None:
-        self._board_job(lambda link: link.command("home"))
+        def home() -> None:
+            self._board_command(Command("command", "home"))
+
+        if self._live():
+            self.ask("home the head? y homes it, any other key does not", {"y"}, home)
 
     def action_tilt(self) -> None:
-        self._board_job(lambda link: link.set("tilt_angle_from_home", TILT_UP))
+        def tilt() -> None:
+            self._board_command(Command("set", "tilt_angle_from_home", TILT_UP))
+
+        if self._live():
+            self.ask("tilt the head up? y tilts it, any other key does not", {"y"}, tilt)
 
     def action_undock(self) -> None:
-        # The thesis's console sent a negative distance (B.2 Undock).
-        self._board_command(Command("set", "undock", -self.undock_distance))
+        if self._live() and self.routes is not None:
+            self.ask(f"undock: back out {self.undock_distance:g} m and turn round? "
+                     "y goes, any other key does not", {"y"}, self._undock)  # fmt: skip
+        elif self.routes is None:
+            self.note("undock is not available (no route book)")
+
+    def _undock(self) -> None:
+        """Back out and turn round, streamed by the console in bounded steps: never the
+        board's own `set undock`, which a dead console cannot stop (issue 12)."""
+        if self.routes is None:
+            self.note("undock is not available (no route book)")
+        elif self.routes.undock(self.undock_distance):
+            self.note(f"undocking: backing out {self.undock_distance:g} m; Space stops")
+
+    def _live(self) -> bool:
+        """Whether commands may go to the robot: not while a session plays back."""
+        if self.control.playback is not None:
+            self.note("not sent: playing back, nothing goes to the robot (p returns to live)")
+            return False
+        return True
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
-        """The map's keys are off, and out of the footer, when there is no map."""
+        """No key of the app's works while the command line is open (the keys are the
+        line's) or another screen (help, the command palette) is on top; the map's keys
+        are off, and out of the footer, when there is no map."""
+        if action == "halt":
+            return True  # Space stops the robot whatever is on the screen
+        if self.command_line.is_open or len(self.screen_stack) > 1:
+            return False
         if action in ("layout", "zoom", "pan", "follow"):
             return self._scene is not None
         return True
@@ -393,6 +455,31 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
         self.push_screen(HelpScreen(list(self.BINDINGS), CONSOLE_COMMANDS))
 
     async def action_quit(self) -> None:
+        """Esc, q: ask first while anything runs, or right after the command line
+        closed, where a second Esc meant for the line would otherwise quit."""
+        self._quit(ask=self.quit_is_hasty())
+
+    def _quit(self, ask: bool) -> None:
+        busy = self._busy()
+        if busy or ask:
+            why = f"{busy}: " if busy else ""
+            self.ask(f"quit? {why}y stops the robot and leaves, any other key stays", {"y"},
+                     self._leave)  # fmt: skip
+        else:
+            self._leave()
+
+    def _busy(self) -> str:
+        """What would be cut short by quitting now, or ''."""
+        mission = self.control.mission
+        if mission is not None:
+            return f"{mission.name} is running"
+        if self.sessions is not None and self.sessions.recording:
+            return "recording"
+        if self._moving:
+            return "the robot is moving"
+        return ""
+
+    def _leave(self) -> None:
         self.note("stopping the robot and leaving")
         # Stop first: the app takes a while to close its screens after exit().
         self.control.stop()
@@ -408,7 +495,7 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
 
     def _board_job(self, job: BoardJob) -> None:
         if self.control.playback is not None:
-            self.note("not sent: playing back, nothing goes to the robot (P returns to live)")
+            self.note("not sent: playing back, nothing goes to the robot (p returns to live)")
             return
 
         def done(result: object) -> None:
@@ -435,23 +522,18 @@ class GiraffConsole(NavigationCommands, SessionCommands, App[None]):
 
     # -- the command line ---------------------------------------------------------------
 
-    @on(Input.Submitted, "#command-line")
-    def command_submitted(self, event: Input.Submitted) -> None:
-        text = event.value.strip()
-        self.command_line.remember(text)
-        self.command_line.action_close()
-        if text:
-            self.run_command(text)
-
     def run_command(self, text: str) -> None:
         """A console command, or a controller command checked against the limits."""
         word, _, rest = text.partition(" ")
         if word == "help":
             self.action_help()
         elif word == "quit":
-            self.run_worker(self.action_quit())
+            self._quit(ask=False)  # typed in full: asks only while something runs
         elif word == "stop":
             self.action_halt()
+        elif word == "undock":
+            if self._live():
+                self._undock()  # typed in full and sent with Enter: that is the confirmation
         elif word == "speed":
             try:
                 wanted = float(parse_number(rest))

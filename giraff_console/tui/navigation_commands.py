@@ -13,6 +13,7 @@ from textual import work
 
 from giraff_console.missions.go_to import GoTo
 from giraff_console.missions.navigation import NavigationState, Navigator
+from giraff_console.missions.progress_watch import Patience
 from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.protocol import CommandError, parse_number
@@ -26,12 +27,13 @@ NAVIGATION_COMMANDS = ("go", "close", "open", "block", "unblock")
 
 class NavigationCommands:
     """Commands for the floor plan; needs the app's control loop, navigator, motion
-    limits, simulated site (if any), the robot's pose and `post_message`."""
+    limits and patience, simulated site (if any), the robot's pose and `post_message`."""
 
     # Set up by the app.
     control: ControlLoop
     navigator: Navigator | None
     motion: MotionLimits
+    patience: Patience | None
     site: SimulatedSite | None
     pose: Pose
 
@@ -55,7 +57,7 @@ class NavigationCommands:
             return
         if word == "go":
             if self.control.playback is not None:
-                self.note("go: playing back; P returns to live first")
+                self.note("go: playing back; p returns to live first")
                 return
             self.note(f"planning a route to {argument} ...")
         elif self.site is not None and argument in navigator.door_ids():
@@ -84,7 +86,7 @@ class NavigationCommands:
         control = self.control
         site = self.site
         mission = GoTo(navigator, room, lambda: control.odometry.pose, tick=control.period,
-                       limits=self.motion,
+                       limits=self.motion, patience=self.patience,
                        sense=site.range_finder.readings if site is not None else None,
                        notify=lambda text: self.post_message(StatusNote(text)))  # fmt: skip
         planned = navigator.state.planned

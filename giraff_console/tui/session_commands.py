@@ -82,7 +82,7 @@ class SessionCommands:
     def _playback(self) -> Playback | None:
         playback = self.control.playback
         if playback is None:
-            self.note("no playback running: P plays the newest session")
+            self.note("no playback running: p plays the newest session")
         return playback
 
     def _play(self, session: Path | None) -> None:

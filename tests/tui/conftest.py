@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import asyncio
 from pathlib import Path
 
 import pytest
@@ -24,7 +23,7 @@ from giraff_console.tui.app import GiraffConsole
 from giraff_console.tui.messages import CameraPictureUpdated
 
 TICK = 0.05
-EXAMPLE = Path(__file__).resolve().parents[2] / "floorplans" / "care-home.yaml"
+EXAMPLE = Path(__file__).resolve().parents[2] / "giraff_console/floorplans/care-home.yaml"
 
 
 class Rig:
@@ -38,6 +37,15 @@ class Rig:
         self.control = ControlLoop(
             lambda: self.link, teleop=Teleop(), deadman=Deadman(self.clock), clock=self.clock
         )
+        # Counted, so that a key can be waited for until it has reached the loop.
+        self.presses = 0
+        press = self.control.press
+
+        def counted_press(intent: Intent) -> None:
+            self.presses += 1
+            press(intent)
+
+        self.control.press = counted_press
         self.camera = camera_feed(None, self.link.port) if camera else None
         if self.camera is not None:
             # Frames are stamped on the virtual clock, like the log, so that they line up.
@@ -88,10 +96,25 @@ class Rig:
             self.control.tick(early=early)
             if not early:
                 next_tick += TICK
+            # The app takes in this tick's telemetry and notes at this tick's time, however
+            # loaded the machine: a fixed number of `asyncio.sleep(0)` is not enough when
+            # Textual's real-time timers queue messages of their own in between.
+            await pilot._wait_for_screen()
             self.clock.advance(max(0.0, min(next_tick, self.control.next_due(), end)
                                    - self.clock.now()))  # fmt: skip
-            await asyncio.sleep(0)
         await pilot.pause()
+
+    async def _press_now(self, pilot, key: str) -> None:
+        """Send `key` and wait until it has reached the control loop, before time moves on."""
+        presses = self.presses
+        self.app._driver.send_message(events.Key(key, None))
+        for _ in range(50):
+            # What `pilot.pause` waits for (every widget's queue handled once), without
+            # its wait for the CPU to go idle.
+            await pilot._wait_for_screen()
+            if self.presses > presses:
+                return
+        raise AssertionError(f"{key} never reached the control loop")
 
     async def hold(self, pilot, key: str, seconds: float) -> None:
         """Press `key`, then repeat it every 33 ms after the 0.5 s initial delay.
@@ -107,9 +130,7 @@ class Rig:
                 self.control.tick()
                 next_tick += TICK
             if self.clock.now() >= next_press:
-                self.app._driver.send_message(events.Key(key, None))
-                for _ in range(4):
-                    await asyncio.sleep(0)  # let the app take the key before time moves on
+                await self._press_now(pilot, key)
                 next_press += 0.033
             self.clock.advance(max(0.0, min(next_tick, next_press) - self.clock.now()))
         await pilot.pause()

@@ -189,7 +189,8 @@ async def test_a_two_round_patrol_of_two_routes_runs_to_the_end_with_progress(tm
             if rig.control.mission is None:
                 break
         # The patrol's own recording ends with it, closed on a thread of its own.
-        for _ in range(100):
+        # Up to 10 s of real time: the closing thread may wait its turn on a busy machine.
+        for _ in range(1000):
             if not rig.sessions.recording:
                 break
             await asyncio.sleep(0.01)
@@ -225,7 +226,8 @@ async def test_a_patrol_started_again_keeps_its_recording_and_snapshots(tmp_path
             await rig.run(pilot, 0.5)
             if rig.control.mission is None:
                 break
-        for _ in range(100):
+        # Up to 10 s of real time: the closing thread may wait its turn on a busy machine.
+        for _ in range(1000):
             if not rig.sessions.recording:
                 break
             await asyncio.sleep(0.01)
