@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import os
+import select
 import signal
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 
 import pytest
@@ -56,6 +58,10 @@ def sim() -> SimBench:
     return SimBench()
 
 
+# How long a child process may take to start or to stop, on a loaded 2-core machine.
+CHILD_TIMEOUT = 20.0
+
+
 def start_sim_process(*args: str) -> tuple[subprocess.Popen, str]:
     """`giraff-console sim --pty ARGS` in a subprocess; returns it and its device path."""
     process = subprocess.Popen(
@@ -64,21 +70,46 @@ def start_sim_process(*args: str) -> tuple[subprocess.Popen, str]:
         stderr=subprocess.PIPE,
         text=True,
     )
-    assert process.stdout is not None
-    path = process.stdout.readline().strip()
-    assert path.startswith("/dev/"), f"first line was {path!r}"
+    try:
+        path = _first_line(process, CHILD_TIMEOUT)
+        assert path.startswith("/dev/"), f"first line was {path!r}"
+    except BaseException:
+        kill_process(process)
+        raise
     return process, path
 
 
+def _first_line(process: subprocess.Popen, timeout: float) -> str:
+    """The child's first line of output; fails, rather than waits for ever, if none comes."""
+    assert process.stdout is not None
+    fd = process.stdout.fileno()
+    deadline = time.monotonic() + timeout
+    output = b""
+    while b"\n" not in output:
+        remaining = deadline - time.monotonic()
+        assert remaining > 0, f"no line from the simulator in {timeout:.0f} s: {output!r}"
+        if select.select([fd], [], [], remaining)[0]:
+            chunk = os.read(fd, 4096)
+            assert chunk, f"the simulator ended before its first line: {output!r}"
+            output += chunk
+    return output.decode().split("\n", 1)[0].strip()
+
+
 def stop_sim_process(process: subprocess.Popen, sig: int = signal.SIGTERM) -> int:
+    """Send `sig` and reap; a child that outlives it is killed, and the test fails."""
     if process.poll() is None:
         process.send_signal(sig)
     try:
-        return process.wait(timeout=5)
+        return process.wait(timeout=CHILD_TIMEOUT)
     except subprocess.TimeoutExpired:
-        process.kill()
-        process.wait()
+        kill_process(process)
         raise
+
+
+def kill_process(process: subprocess.Popen) -> None:
+    """SIGKILL and reap, so that no test leaves a child holding a pty."""
+    process.kill()
+    process.wait(timeout=CHILD_TIMEOUT)
 
 
 @pytest.fixture
@@ -89,6 +120,14 @@ def sim_pty() -> Iterator[str]:
         yield path
     finally:
         assert stop_sim_process(process) == 0
+
+
+@pytest.fixture(autouse=True)
+def operator_data(tmp_path_factory: pytest.TempPathFactory,
+                  monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+    """Sessions and routes that a test (or a console it starts) makes go to a folder of
+    the test's own, never to the tester's ~/.local/share (data_folders.py)."""
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path_factory.mktemp("data")))
 
 
 @pytest.fixture

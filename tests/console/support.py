@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import os
 import pty
+import select
+import signal
 import struct
 import subprocess
 import sys
@@ -13,7 +16,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from tests.conftest import start_sim_process, stop_sim_process
+from tests.conftest import CHILD_TIMEOUT, start_sim_process, stop_sim_process
 
 
 @dataclass(frozen=True)
@@ -82,7 +85,7 @@ def console_command(port: str, *options: str) -> list[str]:
 
 
 def run(args: list[str]) -> subprocess.CompletedProcess:
-    return subprocess.run(args, capture_output=True, text=True, timeout=10)
+    return subprocess.run(args, capture_output=True, text=True, timeout=CHILD_TIMEOUT)
 
 
 UP = b"\x1b[A"
@@ -102,12 +105,48 @@ def spawn_console(port: str, *options: str) -> tuple[int, int]:
 def drain(master: int, seconds: float) -> None:
     """Read the console's output for a while, so that it never blocks on writing."""
     end = time.monotonic() + seconds
-    while time.monotonic() < end:
+    while (remaining := end - time.monotonic()) > 0:
+        # A console that prints nothing must not hold the test in `read`.
+        if not select.select([master], [], [], remaining)[0]:
+            return
         try:
             os.read(master, 65536)
         except OSError:
             return
         time.sleep(0.01)
+
+
+def wait_for_exit(pid: int, timeout: float, master: int | None = None) -> int | None:
+    """The child's wait status, or None if it is still running after `timeout` seconds.
+
+    Reads the terminal meanwhile (if `master` is given), so that a console busy drawing
+    its last screen is not held up by the test.
+    """
+    end = time.monotonic() + timeout
+    while True:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            return status
+        if time.monotonic() >= end:
+            return None
+        if master is not None:
+            drain(master, 0.01)  # at once if the terminal is closed
+        time.sleep(0.01)
+
+
+def end_console(pid: int, master: int | None) -> None:
+    """Kill and reap the console if it still runs, and close its terminal: on every
+    path out of a test, so that no console is left holding the board's pty."""
+    try:
+        running = wait_for_exit(pid, 0) is None
+    except ChildProcessError:  # reaped already, by the test
+        running = False
+    if running:
+        os.kill(pid, signal.SIGKILL)
+        assert wait_for_exit(pid, CHILD_TIMEOUT) is not None, f"{pid} outlived SIGKILL"
+    if master is not None:
+        with contextlib.suppress(OSError):  # already closed: the test hung up
+            os.close(master)
 
 
 def hold_up(master: int, seconds: float) -> None:
@@ -127,9 +166,11 @@ class Tmux:
             "-f", "/dev/null", "new-session", "-d", "-x", "120", "-y", "40", " ".join(command)
         )
         self.tmux("set", "-sg", "escape-time", "10")
+        self.pid = int(self.tmux("display-message", "-p", "#{pane_pid}"))
 
     def tmux(self, *args: str) -> str:
-        result = subprocess.run(["tmux", "-L", self.socket, *args], capture_output=True, text=True)
+        result = subprocess.run(["tmux", "-L", self.socket, *args], capture_output=True,
+                                text=True, timeout=CHILD_TIMEOUT)  # fmt: skip
         return result.stdout
 
     def keys(self, *keys: str) -> None:
@@ -161,4 +202,15 @@ class Tmux:
         return last
 
     def kill(self) -> None:
+        """Kill tmux, as a dropped SSH connection does; the console gets SIGHUP. One that
+        outlives it for long is killed, so that it does not keep the board's pty."""
         self.tmux("kill-server")
+        end = time.monotonic() + CHILD_TIMEOUT
+        while time.monotonic() < end:
+            try:
+                os.kill(self.pid, 0)
+            except ProcessLookupError:
+                return
+            time.sleep(0.05)
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(self.pid, signal.SIGKILL)

@@ -6,6 +6,7 @@ fails with EFBIG, exactly as writes to a full disk fail with ENOSPC.
 
 from __future__ import annotations
 
+import contextlib
 import re
 import shlex
 import shutil
@@ -30,8 +31,11 @@ def status_text(screen: str) -> str:
 def test_a_full_disk_stops_the_recording_and_driving_goes_on(tmp_path):
     robot = SimulatedRobot(tmp_path)
     console = shlex.join(console_command(robot.path, "--recordings", str(tmp_path / "rec")))
-    tmux = Tmux(["sh", "-c", shlex.quote(f"ulimit -f {LIMIT_KB}; exec {console}")])
-    try:
+    # Each is ended on every way out, so that no console is left holding the board's pty.
+    with contextlib.ExitStack() as cleanup:
+        cleanup.callback(robot.close)
+        tmux = Tmux(["sh", "-c", shlex.quote(f"ulimit -f {LIMIT_KB}; exec {console}")])
+        cleanup.callback(tmux.kill)
         tmux.wait_for("connected to")
         tmux.keys("r")
         tmux.wait_for("REC")
@@ -49,8 +53,5 @@ def test_a_full_disk_stops_the_recording_and_driving_goes_on(tmp_path):
         samples = robot.samples()
         assert pose_at(samples, time.monotonic()).x - pose_at(samples, start).x > 0.5
         assert "LINK LOST" not in tmux.screen()
-    finally:
-        tmux.kill()
-        robot.close()
     (session,) = (tmp_path / "rec").iterdir()
     assert (session / "control.log").stat().st_size <= LIMIT_KB * 1024

@@ -19,19 +19,23 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import CHILD_TIMEOUT
 from tests.console.support import SimulatedRobot, pose_at, settled
 
-EXAMPLE = Path(__file__).resolve().parents[2] / "floorplans" / "care-home.yaml"
+EXAMPLE = Path(__file__).resolve().parents[2] / "giraff_console/floorplans/care-home.yaml"
 
 
 @pytest.mark.pty
 def test_killing_go_mid_route_leaves_the_robot_stopped_within_0_3_m(tmp_path):
     robot = SimulatedRobot(tmp_path, "--floorplan", str(EXAMPLE))
-    go = subprocess.Popen(
-        [sys.executable, "-m", "giraff_console", "go", "room-113", "--port", robot.path,
-         "--floorplan", str(EXAMPLE)],
-        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
+    # To a file: a pipe nobody reads could fill up and stall `go` mid-route.
+    errors = tmp_path / "go.stderr"
+    with errors.open("w") as stderr:
+        go = subprocess.Popen(
+            [sys.executable, "-m", "giraff_console", "go", "room-113", "--port", robot.path,
+             "--floorplan", str(EXAMPLE)],
+            stdout=subprocess.DEVNULL, stderr=stderr,
+        )  # fmt: skip
     try:
         # Wait until the robot is cruising along the corridor, past its first turn.
         deadline = time.monotonic() + 40
@@ -41,10 +45,10 @@ def test_killing_go_mid_route_leaves_the_robot_stopped_within_0_3_m(tmp_path):
                 break
             time.sleep(0.1)
         else:
-            pytest.fail(f"the robot never got going: {go.stderr.read() if go.poll() else ''}")
+            pytest.fail(f"the robot never got going: {errors.read_text()}")
         os.kill(go.pid, signal.SIGKILL)
         killed_at = time.monotonic()
-        go.wait(timeout=5)
+        go.wait(timeout=CHILD_TIMEOUT)
         robot.wait_until_still()
         samples = robot.samples()
         at, rest = pose_at(samples, killed_at), settled(samples, killed_at)
@@ -53,6 +57,6 @@ def test_killing_go_mid_route_leaves_the_robot_stopped_within_0_3_m(tmp_path):
         assert at.moving  # killed while driving
         assert run_on <= 0.3
     finally:
-        if go.poll() is None:
-            go.kill()
+        go.kill()  # a no-op once it has been reaped
+        go.wait(timeout=CHILD_TIMEOUT)
         robot.close()

@@ -2,7 +2,8 @@
 
 The console runs in a pseudo-terminal of its own, talking to the simulator in a third
 process. Closing the terminal's master side is what sshd does when the connection
-drops: the kernel sends SIGHUP to the console, which must stop the robot.
+drops: the kernel sends SIGHUP to the console, which must stop the robot, and be gone
+within 2 s, even on a loaded machine, so that it lets go of the port.
 """
 
 from __future__ import annotations
@@ -16,11 +17,17 @@ import pytest
 from tests.console.support import (
     SimulatedRobot,
     drain,
+    end_console,
     hold_up,
     pose_at,
     settled,
     spawn_console,
+    wait_for_exit,
 )
+
+# From the signal to the process being gone (issue 12); the console was started long
+# before, so no allowance for its start-up is needed.
+EXIT_WITHIN_S = 2.0
 
 
 @pytest.fixture
@@ -31,7 +38,7 @@ def robot(tmp_path):
 
 
 @pytest.mark.parametrize("how", ["close the terminal", "SIGTERM"])
-def test_a_console_that_is_ended_mid_move_stops_the_robot_within_0_3_m(robot, how):
+def test_a_console_that_is_ended_mid_move_stops_the_robot_and_goes(robot, how):
     pid, master = spawn_console(robot.path)
     try:
         drain(master, 3.0)  # start-up: imports, handshake, first screen
@@ -40,19 +47,20 @@ def test_a_console_that_is_ended_mid_move_stops_the_robot_within_0_3_m(robot, ho
         dropped_at = time.monotonic()
         if how == "SIGTERM":
             os.kill(pid, signal.SIGTERM)
-            drain(master, 1.0)
-            os.close(master)
+            status = wait_for_exit(pid, EXIT_WITHIN_S, master)
         else:
             os.close(master)  # the SSH connection drops: SIGHUP
-        _, status = os.waitpid(pid, 0)
-    except BaseException:
-        os.kill(pid, 9)
-        raise
+            master = None
+            status = wait_for_exit(pid, EXIT_WITHIN_S)
+        gone_after = time.monotonic() - dropped_at
+        assert status is not None, f"the console still ran {gone_after:.1f} s after {how}"
+    finally:
+        end_console(pid, master)
     robot.wait_until_still()
     samples = robot.samples()
     run_on = settled(samples, dropped_at).x - pose_at(samples, dropped_at).x
     assert os.WIFEXITED(status)
-    print(f"run-on after {how}: {run_on:.3f} m")
-    assert 0 < run_on <= 0.3  # design.md
-    # Less than the 0.29 m lookahead: the console commanded the stop, not just the target.
-    assert run_on < 0.2
+    print(f"run-on after {how}: {run_on:.3f} m; gone after {gone_after:.2f} s")
+    # design.md's 0.3 m with issue 12's margin for a loaded machine. That the console
+    # itself commands the stop, from its loop's thread, is tests/robot/test_emergency_stop.
+    assert 0 < run_on <= 0.27

@@ -21,10 +21,14 @@ pytestmark = pytest.mark.skipif(shutil.which("tmux") is None, reason="tmux is no
 @pytest.fixture
 def session(tmp_path):
     robot = SimulatedRobot(tmp_path)
-    tmux = Tmux(console_command(robot.path))
-    yield robot, tmux
-    tmux.kill()
-    robot.close()
+    try:
+        tmux = Tmux(console_command(robot.path))
+        try:
+            yield robot, tmux
+        finally:
+            tmux.kill()
+    finally:
+        robot.close()
 
 
 def test_hold_release_and_an_ssh_drop_in_tmux(session):

@@ -48,10 +48,13 @@ def test_a_port_full_of_garbage_raises_within_the_timeouts(pty_pair, with_newlin
                 data += b"\r\n"
             try:
                 os.write(master, data)
+            except BlockingIOError:
+                pass  # the pty is full: never block, so that the thread sees `stop`
             except OSError:
                 return
             time.sleep(0.002)
 
+    os.set_blocking(master, False)
     thread = threading.Thread(target=spew, daemon=True)
     thread.start()
     try:
@@ -61,7 +64,8 @@ def test_a_port_full_of_garbage_raises_within_the_timeouts(pty_pair, with_newlin
         assert time.monotonic() - start < 2 * TIMEOUT + 0.2
     finally:
         stop.set()
-        thread.join()
+        thread.join(timeout=5)
+        assert not thread.is_alive()
 
 
 @pytest.fixture

@@ -65,11 +65,13 @@ def test_concurrent_callers_each_get_their_own_answer(sim_pty):
             if value != pytest.approx(expected):
                 errors.append(f"{name} gave {value}")
 
-    threads = [threading.Thread(target=ask, args=args) for args in (("v", 0.3), ("a", 0.5))]
+    threads = [threading.Thread(target=ask, args=args, daemon=True)
+               for args in (("v", 0.3), ("a", 0.5))]  # fmt: skip
     for thread in threads:
         thread.start()
     for thread in threads:
-        thread.join()
+        thread.join(timeout=30)  # 200 exchanges, on a loaded machine
+        assert not thread.is_alive(), "a caller is still waiting for its answer"
     assert errors == []
     link.close()
 
@@ -88,11 +90,15 @@ def test_paced_simulator_answers_at_line_rate():
     process, path = start_sim_process("--pace")
     try:
         link = BoardLink.open(path)
-        start = time.monotonic()
+        exchanges = []
         for _ in range(20):
+            start = time.monotonic()
             link.bulk()
-        per_exchange = (time.monotonic() - start) / 20
-        assert 0.0139 <= per_exchange < 0.03
+            exchanges.append(time.monotonic() - start)
+        # Every exchange takes the line's time; the fastest shows that pacing adds no more,
+        # while on a loaded machine any one exchange may wait for the CPU.
+        assert min(exchanges) >= 0.0139
+        assert min(exchanges) < 0.03
     finally:
         stop_sim_process(process)
 
