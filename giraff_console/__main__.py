@@ -1,5 +1,5 @@
 """`python -m giraff_console`."""
 
-from giraff_console.cli import main
+from giraff_console.launch import main
 
 raise SystemExit(main())

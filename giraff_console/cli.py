@@ -26,8 +26,14 @@ from giraff_console.camera.processors import (
 )
 from giraff_console.camera.source import DEFAULT_RESOLUTION, SyntheticCamera, open_camera
 from giraff_console.clock import Clock, RealClock
+from giraff_console.data_folders import (
+    data_folder,
+    default_recordings,
+    default_routes,
+    example_floorplan,
+)
 from giraff_console.go_command import add_go_parser, run_go
-from giraff_console.link import DEFAULT_TIMEOUT_S, BoardLink, LinkError
+from giraff_console.link import BoardLink
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
@@ -40,15 +46,6 @@ from giraff_console.planning.floorplan import (
 from giraff_console.planning.plan_drawing import draw_plan
 from giraff_console.planning.room_graph import PlanningError, UnknownRoomError
 from giraff_console.planning.route_planner import ROBOT_RADIUS_M, RoutePlanner, walls_of
-from giraff_console.protocol import (
-    BoardError,
-    GiraffError,
-    ModeBit,
-    Number,
-    ProtocolError,
-    format_value,
-    parse_command,
-)
 from giraff_console.recording.mcap_export import export_session
 from giraff_console.recording.playback import open_log
 from giraff_console.recording.session import (
@@ -59,8 +56,10 @@ from giraff_console.recording.session import (
 )
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
+from giraff_console.robot.last_stop import SIGNALS, LastStop
 from giraff_console.robot.replay import replay_poses
 from giraff_console.robot.teleop import Teleop
+from giraff_console.send_command import add_send_parser, run_send
 from giraff_console.settings import Settings, SettingsError, config_path, load_settings
 from giraff_console.sim import BoardConfig, GiraffBoard, Imperfections, PtyServer
 from giraff_console.sim.camera import WorldCamera
@@ -70,15 +69,14 @@ from giraff_console.sim.surroundings import Surroundings
 from giraff_console.sim.world import World, demo_world
 from giraff_console.sim_site import SimulatedSite
 
-# Exit codes: a refused or garbled command, and a link that could not be used.
-EXIT_BOARD_ERROR = 1
+# Exit code: a mistake in the command line or the settings.
 EXIT_USAGE = 2
-EXIT_LINK_ERROR = 3
 
 IN_PROCESS_SIMULATOR = "giraff-sim://"
 # No route between two rooms that exist.
 EXIT_NO_ROUTE = 1
-EXAMPLE_FLOORPLAN = Path("floorplans/care-home.yaml")
+# Shipped in the package, so that the console, `plan` and `go` work from any folder.
+EXAMPLE_FLOORPLAN = example_floorplan()
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -121,17 +119,20 @@ def build_parser() -> argparse.ArgumentParser:
         "the simulator, else camera 0; a test pattern if it is missing)",
     )  # fmt: skip
     parser.add_argument(
-        "--recordings", metavar="DIR", type=Path, default=Path("recordings"),
-        help="where sessions are recorded and looked for (default: %(default)s)",
+        "--recordings", metavar="DIR", type=Path,
+        help="where sessions are recorded and looked for (default: the settings file's "
+        f"`recordings`, else {default_recordings()})",
     )  # fmt: skip
     parser.add_argument(
-        "--routes", metavar="DIR", type=Path, default=Path("routes"),
-        help="where taught routes and patrols are kept (default: %(default)s)",
+        "--routes", metavar="DIR", type=Path,
+        help="where taught routes and patrols are kept (default: the settings file's "
+        f"`routes`, else {default_routes()})",
     )  # fmt: skip
     parser.add_argument(
         "--floorplan", metavar="FILE", type=Path,
-        help=f"the building to plan and show routes on (default: {EXAMPLE_FLOORPLAN} if it is "
-        "there); the robot starts in its start room; floorplans/README.md has the format",
+        help=f"the building to plan and show routes on (default: the example care home, "
+        f"{EXAMPLE_FLOORPLAN}); the robot starts in its start room; floorplans/README.md has "
+        "the format",
     )  # fmt: skip
     parser.add_argument(
         "--config", metavar="FILE", type=Path,
@@ -187,7 +188,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="open the console and play a recorded session back",
         description="Open the console and play SESSION back: the transcript, the pose and "
         "the video as they were recorded, at the recorded speed. Nothing is sent to the "
-        "robot. k pauses, . steps, j and l seek, < and > change the speed, P returns to "
+        "robot. k pauses, . steps, j and l seek, < and > change the speed, p returns to "
         "live. SESSION is a recordings/ directory, or a log written by the original console.",
     )
     replay.add_argument("session", type=Path, metavar="SESSION")
@@ -213,8 +214,8 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument(
         # SUPPRESS: given here or before the command (`giraff-console --floorplan F plan`).
         "--floorplan", type=Path, default=argparse.SUPPRESS, metavar="FILE",
-        help=f"floor plan YAML (default: {EXAMPLE_FLOORPLAN}); floorplans/README.md has the "
-        "format",
+        help=f"floor plan YAML (default: the example care home, {EXAMPLE_FLOORPLAN}); "
+        "floorplans/README.md has the format",
     )  # fmt: skip
     plan.add_argument("--json", action="store_true", help="print the route as JSON")
     plan.add_argument(
@@ -266,37 +267,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_go_parser(commands, EXAMPLE_FLOORPLAN)
 
-    send = commands.add_parser(
-        "send",
-        help="send controller commands and print the decoded replies",
-        description="Send each COMMAND to the board and print its decoded reply. Without "
-        "--port the built-in simulator answers.",
-        epilog='example: giraff-console send "set v 0.3" "get v" "get bulk_data"',
-    )
-    send.add_argument(
-        "--port",
-        metavar="PORT|URL",
-        help=f"serial device or pyserial URL (default: {IN_PROCESS_SIMULATOR})",
-    )
-    send.add_argument(
-        "--timeout",
-        type=float,
-        default=DEFAULT_TIMEOUT_S,
-        metavar="S",
-        help="seconds to wait for each reply (default: %(default)s)",
-    )
-    send.add_argument(
-        "--power-line",
-        choices=("dtr", "rts", "both", "none"),
-        default="dtr",
-        help="modem line that powers the board: dtr, or rts for FTDI cables",
-    )
-    send.add_argument(
-        "commands",
-        nargs="+",
-        metavar="COMMAND",
-        help='a controller command, e.g. "get bulk_data" or "set v 0.3"',
-    )
+    add_send_parser(commands)
     return parser
 
 
@@ -311,6 +282,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """The command `args` names."""
+    if args.command not in (None, "replay", "go"):
+        # Nothing here drives by itself: signals end the command as usual. The program's
+        # entry point blocked them for the console's own watcher (launch.py).
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, SIGNALS)
     if args.command == "sim":
         return run_sim(args)
     if args.command == "send":
@@ -362,7 +337,7 @@ def run_console(args: argparse.Namespace) -> int:
         return EXIT_USAGE
     try:
         plan, plan_note = console_floorplan(args.floorplan)
-        navigator = Navigator(plan, walls_of(plan), settings.robot_radius) if plan else None
+        navigator = Navigator(plan, walls_of(plan), settings.robot_radius)
     except (FloorPlanError, OSError) as error:
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_USAGE
@@ -395,13 +370,13 @@ def run_console(args: argparse.Namespace) -> int:
         rate_hz=settings.control_rate,
         clock=clock,
     )
-    start = navigator.start_pose if navigator is not None else None
+    start = navigator.start_pose
     if start is not None:
         # The console has no way to find the robot on the plan by itself (§2.3): it
         # starts where the plan says, and so does the simulated robot.
         control.odometry.reset(start)
     site = None
-    if simulator is not None and plan is not None:
+    if simulator is not None:
         site = SimulatedSite(simulator.board, plan, start, settings.motion.sensing_range)
     camera = camera_feed(
         args.camera, simulator, args.calibration, args.fast_threshold, args.camera_fps,
@@ -415,7 +390,11 @@ def run_console(args: argparse.Namespace) -> int:
             "calibration": args.calibration,
         },
     )  # fmt: skip
-    sessions = Sessions(control, camera, args.recordings, setup, lambda text: None)
+    recordings = data_folder(args.recordings, settings.recordings, default_recordings())
+    sessions = Sessions(control, camera, recordings, setup, lambda text: None)
+    # Signals and crashes stop the robot from the loop's own thread, then the console
+    # leaves; installed below, before any thread starts (the loop's, the camera's).
+    last_stop = LastStop(control, leave=lambda why: app.exit(return_code=1))
     app = GiraffConsole(
         control,
         simulator=simulator is not None,
@@ -424,44 +403,39 @@ def run_console(args: argparse.Namespace) -> int:
         routes=RouteBook(
             control,
             sessions,
-            args.routes,
+            data_folder(args.routes, settings.routes, default_routes()),
             lambda text: None,
             navigator,
             settings.motion.limits(),
             site.range_finder.readings if site else None,
+            settings.motion.patience(),
         ),
         undock_distance=settings.teleop.undock_distance,
         play=args.session if args.command == "replay" else None,
         navigator=navigator,
         site=site,
         motion=settings.motion.limits(),
+        patience=settings.motion.patience(),
         stepped=stepped,
+        crashed=last_stop.crashed,
     )
     app.notes_at_start.append(plan_note)
 
-    def on_signal(signum: int, frame: object) -> None:
-        # Stop the robot first, whatever else happens (design.md).
-        control.stop()
-        if signum == signal.SIGHUP:
-            # The SSH connection is gone, and the terminal with it.
-            os._exit(0)
-        app.exit()
-
-    signal.signal(signal.SIGHUP, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
+    last_stop.install()
     try:
         app.run()
     finally:
         control.stop()
+        last_stop.uninstall()
+    if last_stop.signalled is not None:
+        return 128 + last_stop.signalled
     # Non-zero if the console itself failed; the robot was stopped all the same.
     return app.return_code or 0
 
 
-def console_floorplan(path: Path | None) -> tuple[FloorPlan | None, str]:
-    """The floor plan asked for, else the example if it is there; and a note saying
-    which. FloorPlanError for a plan asked for that cannot be used."""
-    if path is None and not EXAMPLE_FLOORPLAN.is_file():
-        return None, f"no floor plan ({EXAMPLE_FLOORPLAN} is not here): go is off; --floorplan FILE"
+def console_floorplan(path: Path | None) -> tuple[FloorPlan, str]:
+    """The floor plan asked for, else the example; and a note saying which.
+    FloorPlanError for a plan that cannot be used."""
     plan = load_floorplan(path or EXAMPLE_FLOORPLAN)
     where = f", starting in {plan.start}" if plan.start else ""
     return plan, f"floor plan: {plan.name} ({len(plan.rooms)} rooms){where}"
@@ -644,55 +618,3 @@ def run_sim(args: argparse.Namespace) -> int:
         if pose_log is not None:
             pose_log.close()
     return 0
-
-
-def run_send(args: argparse.Namespace) -> int:
-    try:
-        commands = [parse_command(text) for text in args.commands]
-        link = BoardLink.open(
-            args.port or IN_PROCESS_SIMULATOR, timeout=args.timeout, power_line=args.power_line
-        )
-    except LinkError as error:
-        print(f"giraff-console: {error}", file=sys.stderr)
-        return EXIT_LINK_ERROR
-    except GiraffError as error:
-        print(f"giraff-console: {error}", file=sys.stderr)
-        return EXIT_BOARD_ERROR
-    status = 0
-    try:
-        for command in commands:
-            print(f"> {command}")
-            try:
-                value = link.send(command).value
-            except (BoardError, ProtocolError) as error:
-                print(f"  {error}")
-                status = EXIT_BOARD_ERROR
-                continue
-            for line in describe(value):
-                print(f"  {line}")
-    except LinkError as error:
-        print(f"giraff-console: {error}", file=sys.stderr)
-        return EXIT_LINK_ERROR
-    finally:
-        link.close()
-    return status
-
-
-def describe(value: object) -> list[str]:
-    """Lines that show a decoded reply: one per field for lists."""
-    if value is None:
-        return ["OK"]
-    if isinstance(value, dict):
-        width = max(len(name) for name in value)
-        return [f"{name:<{width}}  {describe_field(name, field)}" for name, field in value.items()]
-    assert isinstance(value, int | float)
-    return [format_value(value)]
-
-
-def describe_field(name: str, value: Number) -> str:
-    """A field's value; the mode bitmask also gets the names of its bits."""
-    text = format_value(value)
-    if name == "mode" and isinstance(value, int) and value:
-        bits = [bit.name for bit in ModeBit if value & bit]
-        text += f" ({', '.join(str(b) for b in bits)})"
-    return text

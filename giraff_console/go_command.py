@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import signal
 import sys
 import threading
 from collections.abc import Callable
@@ -33,6 +32,7 @@ from giraff_console.planning.room_graph import PlanningError, UnknownRoomError
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
+from giraff_console.robot.last_stop import LastStop
 from giraff_console.robot.telemetry import LinkState
 from giraff_console.robot.teleop import Teleop
 from giraff_console.settings import Settings
@@ -56,7 +56,7 @@ def add_go_parser(commands: argparse._SubParsersAction, example: Path) -> None:
     go.add_argument("room", metavar="ROOM", help="room id, e.g. kitchen")
     go.add_argument(
         "--floorplan", type=Path, default=argparse.SUPPRESS, metavar="FILE",
-        help=f"floor plan YAML (default: {example})",
+        help=f"floor plan YAML (default: the example care home, {example})",
     )  # fmt: skip
     go.add_argument(
         "--port", metavar="PORT|URL", default=argparse.SUPPRESS,
@@ -91,6 +91,7 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
         plan = load_floorplan(args.floorplan or example)
         navigator = Navigator(plan, walls_of(plan), settings.robot_radius)
         limits = settings.motion.limits()
+        patience = settings.motion.patience()
         blocks = [_point(text) for text in args.block]
     except (FloorPlanError, OSError, ValueError) as error:
         return _fail(str(error), EXIT_USAGE)
@@ -141,9 +142,13 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
         sense = site.range_finder.readings if site is not None else None
         mission = GoTo(navigator, args.room, lambda: control.odometry.pose,
                        tick=control.period, limits=limits, sense=sense,
-                       notify=control.report)  # fmt: skip
+                       notify=control.report, patience=patience)  # fmt: skip
     except PlanningError as error:
         return _fail(str(error), EXIT_USAGE if isinstance(error, UnknownRoomError) else EXIT_FAILED)
+    # Before the loop's thread starts: SIGHUP (the SSH connection dropped), SIGTERM and
+    # SIGINT stop the robot from the loop's own thread and end the mission.
+    last_stop = LastStop(control)
+    last_stop.install()
     control.start(stepped=args.sim_speed if site is not None else None)
     try:
         if not connected.wait(CONNECT_TIMEOUT_S):
@@ -155,6 +160,7 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
             (mission.report(why), site.true_pose() if site is not None else None)))  # fmt: skip
     finally:
         control.stop()
+        last_stop.uninstall()
     report, pose_true = ended[0]
     why = report.why
     if args.json:
@@ -169,7 +175,7 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
 
 
 def _drive(control: ControlLoop, mission: GoTo, ended: Callable[[str], None]) -> None:
-    """Run the mission to its end, showing progress; SIGINT and SIGTERM stop it.
+    """Run the mission to its end, showing progress; a signal stops it (LastStop).
     `ended` gets the reason, on the loop's thread."""
     done = threading.Event()
 
@@ -177,19 +183,11 @@ def _drive(control: ControlLoop, mission: GoTo, ended: Callable[[str], None]) ->
         ended(why)
         done.set()
 
-    def interrupt(signum: int, frame: object) -> None:
-        control.stop_mission("stopped: interrupted")
-
-    previous = {sig: signal.signal(sig, interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
     control.run_mission(mission, finish)
     tty = sys.stderr.isatty()
-    try:
-        while not done.wait(0.5 if tty else 5.0):
-            line = mission.progress
-            print(f"\r{line}\033[K" if tty else line, end="" if tty else "\n", file=sys.stderr)
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+    while not done.wait(0.5 if tty else 5.0):
+        line = mission.progress
+        print(f"\r{line}\033[K" if tty else line, end="" if tty else "\n", file=sys.stderr)
     if tty:
         print(file=sys.stderr)
 

@@ -23,6 +23,7 @@ from giraff_console.missions.patrol import (
     list_patrols,
     load_patrol,
 )
+from giraff_console.missions.progress_watch import Patience
 from giraff_console.missions.route import (
     Route,
     RouteError,
@@ -34,6 +35,7 @@ from giraff_console.missions.route import (
 )
 from giraff_console.missions.route_replay import RouteReplay
 from giraff_console.missions.sessions import Sessions
+from giraff_console.missions.undock import Undock
 from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.recording.session import SessionRecorder
@@ -53,13 +55,16 @@ class RouteBook:
         navigator: Navigator | None = None,
         limits: MotionLimits | None = None,
         sense: Sense | None = None,
+        patience: Patience | None = None,
     ) -> None:
-        """With a `navigator` (the floor plan), patrols can go to rooms; `limits` and
-        `sense` (the range finder) are for routes followed closed-loop and rooms."""
+        """With a `navigator` (the floor plan), patrols can go to rooms; `limits`,
+        `sense` (the range finder) and `patience` are for routes followed closed-loop
+        and rooms."""
         self.control = control
         self.navigator = navigator
         self.limits = limits
         self.sense = sense
+        self.patience = patience
         self.sessions = sessions
         self.directory = directory
         self.report = report
@@ -167,17 +172,26 @@ class RouteBook:
         self.control.run_mission(mission)
         return True
 
+    def undock(self, distance: float) -> bool:
+        """Back out of the dock `distance` metres and turn round, in steps the console
+        streams (missions/undock.py), never with the board's own `set undock`."""
+        if not self._free():
+            return False
+        self.control.run_mission(Undock(distance, self.limits))
+        return True
+
     def _follow_mission(self, route: Route) -> FollowRoute:
         control = self.control
         return FollowRoute(route, self.navigator, lambda: control.odometry.pose,
                            tick=control.period, limits=self.limits, sense=self.sense,
-                           notify=self.report)  # fmt: skip
+                           notify=self.report, patience=self.patience)  # fmt: skip
 
     def _go_mission(self, room: str) -> GoTo:
         assert self.navigator is not None
         control = self.control
         return GoTo(self.navigator, room, lambda: control.odometry.pose, tick=control.period,
-                    limits=self.limits, sense=self.sense, notify=self.report)  # fmt: skip
+                    limits=self.limits, sense=self.sense, notify=self.report,
+                    patience=self.patience)  # fmt: skip
 
     def patrol(self, name: str) -> bool:
         """Run patrol `name` from `<name>.patrol.yaml`."""
@@ -229,7 +243,7 @@ class RouteBook:
             self.report(f"teaching {self.teacher.name}: `done` first")
             return False
         if self.control.playback is not None:
-            self.report("a playback is running: P returns to live first")
+            self.report("a playback is running: `play stop` returns to live first")
             return False
         return True
 

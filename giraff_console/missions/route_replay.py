@@ -4,8 +4,11 @@ The replay starts from the board settings teaching began with, then resends what
 teleop sent, at the times it was sent. Nothing is corrected: this is the dead-reckoning
 patrol §5.6 wished it had tried, so the robot goes roughly where it went before,
 drifting with the casters (§3.2.1.5) and blind to whatever moved into the way (§2.6.1's
-"obvious problem"). The recorded `set p` renewals carry teleop's lookahead, so a
-console that dies mid-replay still stops the robot within the runaway limit (design.md).
+"obvious problem"). The recorded `set p` renewals carry the lookahead of the teleop
+that taught them, which may have reached further than today's: each is cut to the
+console's reach (robot/safety.py), so that a console that dies mid-replay still stops
+the robot within the runaway limit (design.md). A renewal comes every tick or two, so
+a shorter one changes nothing of the route while the console lives.
 """
 
 from __future__ import annotations
@@ -13,6 +16,8 @@ from __future__ import annotations
 from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.route import MOTION_SETTINGS, Route
 from giraff_console.protocol.codec import Command, format_number, parse_number
+from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M
+from giraff_console.robot.safety import REACH_M
 
 
 class RouteReplay:
@@ -57,12 +62,30 @@ class RouteReplay:
         # whatever the rounding of t0 + offset - t0.
         while self._sent < len(taught) and taught[self._sent].offset <= now - self._t0 + 1e-6:
             command = taught[self._sent].command
-            if command.name != "p" and command.value is not None:
+            if command.name == "p" and command.value is not None:
+                command = self._within_reach(command)
+            elif command.value is not None:
                 self._board[command.name] = format_number(command.value)
             commands.append(command)
             self._sent += 1
             self._sent_at = now
         return commands
+
+    def _within_reach(self, target: Command) -> Command:
+        """`target` (a `set p`) cut to the console's reach: degrees when turning on the
+        spot (r <= 0, A.2.2); on a curve (r > 50) metres of the middle whose outer wheel
+        goes 1 + |vg| times as far (A.2.3)."""
+        style = float(self._board.get("r", "1000"))
+        if style <= 0:
+            reach = REACH_M * TURN_FACTOR_DEG_PER_M
+        elif style > 50:
+            reach = REACH_M / (1 + abs(float(self._board.get("vg", "0"))))
+        else:
+            reach = REACH_M
+        value = float(target.value)  # type: ignore[arg-type]
+        if abs(value) <= reach:
+            return target
+        return Command("set", "p", round(max(-reach, min(reach, value)), 4))
 
     def next_due(self) -> float | None:
         """When the next taught command is due; None before the start and once all are sent."""

@@ -8,14 +8,8 @@ forcing `vgr` to zero, which jerks (§3.2.1.4). So this mission drives a planned
 the way that console could: at every waypoint it stops, turns on the spot to face the
 next one, and drives straight there.
 
-The board keeps executing its last `set p` if the console dies (design.md), so no
-target lies more than 0.3 m ahead: while more than that is left, the target is renewed
-every tick, relative and unbuffered (mode 0), as the thesis renewed its lookahead
-targets while a key was held (§3.2.1.2). What is left is measured on the wheel
-odometers (imdl, imdr) since the move began, as `cdis` and `cang` restart with every
-relative move. Once the rest fits within 0.3 m the target is the waypoint itself, and
-the board's own ramp stops the robot there; if it stops short or long (a real board
-misses by millimetres, §5.5) the difference is driven again.
+Each move is streamed in steps no longer than the console's reach, so that a console
+that dies mid-move lets the robot run no further than that (missions/streamed_move.py).
 
 `go` (missions/go_to.py) replaces all this with clothoid turns on a jerk-limited
 profile; this mission exists so that the benchmark can show what that gains.
@@ -25,33 +19,24 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from itertools import pairwise
 
 from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.navigation import Navigator
+from giraff_console.missions.streamed_move import TURN_DONE_M, StreamedMove
 from giraff_console.motion.path import wrap
 from giraff_console.motion.speed_profile import MotionLimits
-from giraff_console.protocol.codec import Command, Number
-from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, TURN_RADIUS_M
+from giraff_console.protocol.codec import Command
+from giraff_console.protocol.kinematics import TURN_RADIUS_M
 from giraff_console.robot.odometry import Pose
-from giraff_console.robot.safety import RUNAWAY_M
 
 Point = tuple[float, float]
 
-# Movement styles (A.4.2): any 0 < r <= 50 drives straight; 0 rotates in place.
-STRAIGHT_STYLE, ROTATE_STYLE = 1, 0
 # Waypoints closer than this to the one before are the same waypoint.
 MIN_LEG_M = 0.01
 # Where the path turns by less than this the robot drives straight on: the thesis's
 # console stopped only to turn, and the planner's doorway points lie on straight lines.
 MIN_TURN_RAD = math.radians(1.0)
-# A move is done when the robot has stopped this close to its end (path metres, or
-# wheel metres turning: 0.25 degrees); further off, the difference is driven again.
-DRIVE_DONE_M = 0.002
-TURN_DONE_M = math.radians(0.25) * TURN_RADIUS_M
-# Targets go out to a tenth of a millimetre, truncated so that none passes the limit.
-DECIMALS = 4
 
 
 def corners(points: Sequence[Point]) -> list[Point]:
@@ -70,26 +55,6 @@ def corners(points: Sequence[Point]) -> list[Point]:
     if len(kept) > 1:
         turning.append(kept[-1])
     return turning
-
-
-@dataclass
-class _Move:
-    """One board move: a turn in place or a straight drive, from rest to rest."""
-
-    turning: bool
-    # How far to go: wheel metres clockwise when turning (A.2.2), metres ahead driving.
-    total: float
-    base: tuple[float, float]  # the wheel odometers when it began
-    started: bool = False  # its settings have gone out
-    final: bool = False  # the target is the move's end, not a renewed lookahead
-
-    def left(self, state: MotorState) -> float:
-        """What is still to go, from the wheel odometers."""
-        left = (state.imdl or 0.0) - self.base[0]
-        right = (state.imdr or 0.0) - self.base[1]
-        # Turning clockwise the left wheel goes forward and the right one back.
-        done = (left - right) / 2 if self.turning else (left + right) / 2
-        return self.total - done
 
 
 class WaypointDrive:
@@ -118,7 +83,7 @@ class WaypointDrive:
         self._pose = pose
         self._index = 0  # the waypoint being driven to
         self._facing = False  # turned towards it (at the end: to the goal heading)
-        self._move: _Move | None = None
+        self._move: StreamedMove | None = None
         self._resting_since: float | None = None  # arrived at a waypoint, not gone on yet
         self._paused = False
         self._finished = False
@@ -184,7 +149,7 @@ class WaypointDrive:
 
     # -- inside -------------------------------------------------------------------------
 
-    def _next_move(self, state: MotorState) -> _Move | None:
+    def _next_move(self, state: MotorState) -> StreamedMove | None:
         """From rest: turn to face the next waypoint, then drive to it; at the end, turn
         to the goal heading. None when there is nothing left to do."""
         pose = self._pose()
@@ -199,7 +164,7 @@ class WaypointDrive:
         if not self._facing:
             turn = wrap(aim - pose.heading)
             if abs(turn) * TURN_RADIUS_M > TURN_DONE_M:
-                return _Move(True, -turn * TURN_RADIUS_M, base)
+                return self._new_move(True, -turn * TURN_RADIUS_M, base)
             self._facing = True
         if target is None:
             return None
@@ -207,21 +172,17 @@ class WaypointDrive:
         # cannot take out a sideways miss; the next turn aims from where it ends.
         dx, dy = target[0] - pose.x, target[1] - pose.y
         ahead = dx * math.cos(pose.heading) + dy * math.sin(pose.heading)
-        return _Move(False, ahead, base)
+        return self._new_move(False, ahead, base)
 
-    def _continue(self, move: _Move, now: float, state: MotorState) -> list[Command]:
-        """This tick's target: 0.3 m ahead while more is left, else the move's end."""
-        left = move.left(state)
-        if abs(left) > RUNAWAY_M:
-            move.final = False
-            return self._target(move, math.copysign(RUNAWAY_M, left))
-        if not move.final:
-            move.final = True
-            return self._target(move, left)
-        if state.moving:
-            return []  # the board's own ramp stops it at the end (A.1)
-        if abs(left) > (TURN_DONE_M if move.turning else DRIVE_DONE_M):
-            return self._target(move, left)  # stopped short or long: the difference again
+    def _new_move(self, turning: bool, total: float, base: tuple[float, float]) -> StreamedMove:
+        speed = self.limits.rotation_speed if turning else self.limits.v_max
+        return StreamedMove(turning, total, base, speed, self.limits.a_max)
+
+    def _continue(self, move: StreamedMove, now: float, state: MotorState) -> list[Command]:
+        """This tick's commands for the move; once it is over, on to the next."""
+        commands = move.step(state)
+        if commands is not None:
+            return commands
         self._move = None
         if move.turning:
             self._facing = True
@@ -230,24 +191,3 @@ class WaypointDrive:
             self._facing = False
             self._resting_since = now
         return []
-
-    def _target(self, move: _Move, metres: float) -> list[Command]:
-        """`set p` for `metres` (wheel metres clockwise when turning), after the move's
-        settings if they have not gone out: `r` first, since a change of style resets
-        the board's counters (A.4.8)."""
-        commands = []
-        if not move.started:
-            move.started = True
-            limits = self.limits
-            settings: dict[str, Number] = {
-                "r": ROTATE_STYLE if move.turning else STRAIGHT_STYLE,
-                "mode": 0,
-                "v": limits.rotation_speed if move.turning else limits.v_max,
-                "a": limits.a_max,
-                "vg": 0,  # straight: no curve (A.2.3)
-            }
-            commands = [Command("set", name, value) for name, value in settings.items()]
-        # Turning, p is in degrees, positive to the right (A.2.2).
-        value = metres * TURN_FACTOR_DEG_PER_M if move.turning else metres
-        value = math.trunc(value * 10**DECIMALS) / 10**DECIMALS
-        return [*commands, Command("set", "p", value)]

@@ -4,8 +4,8 @@ The board plans its own moves: from the speed it has, it ramps at `a` to `v`, an
 stops at `p` metres (or degrees) from where it was told; in curved motion its gear
 ratio ramps from where it is towards `vg` at `vgr` per metre (A.2.3). It keeps doing
 the last move it was given if the console goes away, so every tick renews a short move
-(never more than 0.3 m ahead: design.md's runaway rule) chosen so that, for one tick,
-the board does what the plan wants:
+(never further ahead than the console's reach, robot/safety.py: design.md's runaway
+rule with a margin) chosen so that, for one tick, the board does what the plan wants:
 
 - `v` is the planned speed one tick from now and `a` the acceleration that reaches it in
   that tick, so the speed follows the jerk-limited profile tick by tick. `a` is never
@@ -44,13 +44,11 @@ from giraff_console.motion.speed_profile import (
 from giraff_console.protocol.codec import Command, Number, format_number
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, TURN_RADIUS_M
 from giraff_console.robot.odometry import Pose
-from giraff_console.robot.safety import rotation_wheel_speed
+from giraff_console.robot.safety import REACH_M, RUNAWAY_M, rotation_wheel_speed
 
-# design.md: a console that dies must let the robot go at most this far.
-RUNAWAY_M = 0.3
-# How far ahead each move reaches: under the runaway limit, with 2 cm to spare for the
-# poll and the commands that a tick takes on a real serial line.
-LOOKAHEAD_M = 0.28
+# How far ahead each move reaches: under the console's reach (REACH_M), with 1 cm to
+# spare for the poll and the commands that a tick takes on a real serial line.
+LOOKAHEAD_M = REACH_M - 0.01
 PATH_STYLE, ROTATE_STYLE = 1000, 0
 # Steering correction: it settles over about this distance (the L above).
 STEER_DISTANCE_M = 0.4
@@ -146,6 +144,7 @@ class Executor:
         # A stop asked for mid-drive: when it began, its speed curve, the path metres
         # there and how far it takes.
         self._brake: tuple[float, ruckig.Trajectory, float, float] | None = None
+        self._brake_ended = False  # the board's last move replaced by one to stop at once
 
     @property
     def finished(self) -> bool:
@@ -284,15 +283,24 @@ class Executor:
             v_cmd = max(v_cmd, self._creep(now, remaining))
         self._record(now, v_cmd)
         v_cmd = max(v_cmd, MIN_SPEED)
-        target = min(remaining, LOOKAHEAD_M)
-        if target < 1e-4:
-            return []  # stopping right there already
-        accel = self._accel(speed, v_cmd, target, ahead=remaining - speed * self.tick > DONE_M)
         # Steering: the path's curvature where the robot will be, plus the correction.
         ahead = s + max(speed, 0.0) * self.tick
         correction = -(lateral / STEER_DISTANCE_M**2 + 2 * heading_error / STEER_DISTANCE_M)
         correction = max(-STEER_MAX_CURVATURE, min(STEER_MAX_CURVATURE, correction))
         gear = max(-MAX_GEAR, min(MAX_GEAR, gear_of(drive.curvature_at(ahead) + correction)))
+        # In a curve the outer wheel goes 1 + |vg| times as far as the middle (A.2.3),
+        # with the ratio anywhere between the one there is and the one aimed at: the
+        # outer wheel keeps within the reach.
+        target = min(remaining, LOOKAHEAD_M / (1 + max(abs(gear), abs(state.cvg))))
+        if target < 1e-4:
+            if self._brake is None or not state.moving or self._brake_ended:
+                return []  # stopping right there already
+            # A brake just after setting off: the board is still on the move sent before
+            # it, up to LOOKAHEAD_M at a creep, and would finish it: end it, once (a move
+            # renewed every tick would never end).
+            self._brake_ended = True
+            target = 1e-4
+        accel = self._accel(speed, v_cmd, target, ahead=remaining - speed * self.tick > DONE_M)
         rate = abs(gear - state.cvg) / max(max(speed, v_cmd) * self.tick, 0.005)
         rate = max(GEAR_RATE_RANGE[0], min(GEAR_RATE_RANGE[1], rate))
         # The sign of vgr says which way the turn goes (A.2.3): the way of the ratio

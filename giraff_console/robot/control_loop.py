@@ -8,6 +8,12 @@ press wakes the loop at once, so the first motion command does not wait for a ti
 When the board stops answering the loop reports LINK LOST and reconnects with
 back-off; the first thing it sends to a reconnected board is a stop.
 
+Every way the console can end or fail reaches the loop as `emergency_stop` (design.md):
+from a signal, an exception on another thread or a quit. It only sets a flag and wakes
+the loop, so it is safe anywhere, and from then on nothing but the stop is sent: the
+tick that is under way sends no more renewals, and the next one stops the robot from a
+fresh poll, on the loop's own thread, before anything else.
+
 Instead of teleop the loop may run a mission (a route, a patrol), or play a recorded
 session back, in which case nothing but a stop goes to the robot (§3.2.1.1). Since
 everything that reaches the board passes through here, this module is longer than most.
@@ -25,7 +31,12 @@ from collections.abc import Callable
 
 from giraff_console.clock import Clock, VirtualClock
 from giraff_console.link import BoardLink, Exchange, LinkError, MotorState, Observer
-from giraff_console.protocol.errors import BoardRebootedError, CommandError, GiraffError
+from giraff_console.protocol.errors import (
+    BoardError,
+    BoardRebootedError,
+    CommandError,
+    GiraffError,
+)
 from giraff_console.recording.playback import Playback
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.deadman import Deadman, Intent
@@ -87,6 +98,10 @@ class ControlLoop:
         self._seek_to: float | None = None
         self._mission: Mission | None = None
         self._mission_ended: MissionEnded = lambda why: None
+        # Set by emergency_stop: why, and whether the loop is to close after the stop.
+        self._halt: tuple[str, bool] | None = None
+        self._halt_lock = threading.Lock()
+        self._closed = threading.Event()
 
     # -- from other threads -------------------------------------------------------------
 
@@ -102,13 +117,36 @@ class ControlLoop:
         self._thread = threading.Thread(target=run, name="control-loop", daemon=True)
         self._thread.start()
 
-    def stop(self) -> None:
-        """Stop the loop, stop the robot and close the port."""
+    def stop(self, why: str = "console closing", timeout: float = 1.5) -> bool:
+        """Stop the robot and close the port, from the loop's own thread if it runs;
+        then end the loop. True once the robot was commanded to stop and the port closed
+        within `timeout` seconds."""
+        thread = self._thread
+        if thread is not None and thread.is_alive() and thread is not threading.current_thread():
+            self.emergency_stop(why, close=True)
+            if self._closed.wait(timeout):
+                thread.join(timeout)
+                return True
+            log.error("the control loop is stuck: the robot is stopped from another thread")
         self._running = False
         self._wake.set()
-        if self._thread is not None and self._thread is not threading.current_thread():
-            self._thread.join(timeout=5)
+        # The loop is not running (or is stuck): stop the robot from here.
         self.shutdown()
+        return thread is None or not thread.is_alive()
+
+    def emergency_stop(self, why: str, close: bool = False) -> None:
+        """Stop the robot now, from any thread: nothing more but the stop goes to the
+        board, and whatever was driving is over. With `close` the loop then closes the
+        port and ends."""
+        with self._halt_lock:
+            held = self._halt
+            self._halt = (why, close or (held is not None and held[1]))
+        self._wake.set()
+
+    def wait_closed(self, timeout: float) -> bool:
+        """Wait until the loop has stopped the robot and closed the port after
+        `emergency_stop(close=True)`; False if it has not within `timeout` seconds."""
+        return self._closed.wait(timeout)
 
     def shutdown(self) -> None:
         """Stop the robot and close the port; safe to call more than once."""
@@ -259,6 +297,9 @@ class ControlLoop:
             self._crash()
 
     def _tick(self, early: bool) -> None:
+        if self._halt is not None:
+            self._stop_now()
+            return
         now = self.clock.now()
         self._recent.append(now)
         while self._recent[0] < now - 1.0:
@@ -294,8 +335,7 @@ class ControlLoop:
             if driving and state is not None:
                 if state.estop:
                     self.deadman.release()
-                for command in self.teleop.step(self.deadman.held(), state):
-                    self.link.send(command)
+                self._step_teleop(self.link, state)
             elif self._mission is not None:
                 self._step_mission(self.link, state)
         except LinkError as error:
@@ -310,8 +350,25 @@ class ControlLoop:
             self.teleop.forget_board()
             self.deadman.release()
         except GiraffError as error:
+            # A poll the board refuses, say: a mission must not go on blind, nor be
+            # tried again twenty times a second.
             self.report(str(error))
+            self._end_mission(f"stopped: {error}")
         self._publish()
+
+    def _step_teleop(self, link: BoardLink, state: MotorState) -> None:
+        """Send what the held key asks for; a board that refuses it ends the driving
+        rather than being asked again twenty times a second."""
+        for command in self.teleop.step(self.deadman.held(), state):
+            if self._halt is not None:
+                return  # stopping now: no more renewals
+            try:
+                link.send(command)
+            except BoardError as error:
+                self.deadman.release()
+                self.report(f"driving stopped: the board refused {command}: {error}")
+                self._stop_robot()
+                return
 
     def _step_mission(self, link: BoardLink, state: MotorState | None) -> None:
         """Send what the mission asks for now, each command within the limits."""
@@ -322,12 +379,19 @@ class ControlLoop:
             return
         speed = self._speed_bound(state)
         for command in mission.step(self.clock.now(), state):
+            if self._halt is not None:
+                return  # stopping now: no more renewals
             try:
                 check_command(command, self.teleop.limits, self.teleop.board_settings, speed)
             except CommandError as error:
                 self._end_mission(f"stopped: {command} refused: {error}")
                 return
-            link.send(command)
+            try:
+                link.send(command)
+            except BoardError as error:
+                # Asking again every tick would flood the board and the operator.
+                self._end_mission(f"stopped: the board refused {command}: {error}")
+                return
         if mission.problem is not None:
             self._end_mission(f"stopped: {mission.problem}")
         elif mission.finished:
@@ -366,10 +430,12 @@ class ControlLoop:
         if stop:
             self._stop_robot()
         self.report(f"{mission.name} {why}")
-        self._mission_ended(why)
+        # Dropped as it is called: a callback holds its mission, which must not outlive it.
+        ended, self._mission_ended = self._mission_ended, lambda why: None
+        ended(why)
 
     def _stop_robot(self) -> None:
-        if self.link is not None and not stop_robot(self.link):
+        if self.link is not None and not stop_robot(self.link, self.teleop.board_settings):
             self.report("could not command a stop: check the robot")
 
     def _start_playback(self, playback: Playback, ended: Callable[[], None]) -> None:
@@ -432,6 +498,40 @@ class ControlLoop:
                 "ESTOP raised by the board: driving stopped" if state.estop else "ESTOP cleared"
             )
 
+    def _stop_now(self) -> None:
+        """What `emergency_stop` asked for, before anything else: the robot is stopped
+        from a fresh poll; then everything that drove is over, and nothing typed before
+        the stop goes out after it."""
+        with self._halt_lock:
+            halt = self._halt
+        assert halt is not None
+        why, close = halt
+        self.deadman.release()
+        self.teleop.halt()
+        if self.link is None:
+            outcome = "no link to the board: it keeps its last target"
+        elif stop_robot(self.link, self.teleop.board_settings):
+            outcome = "robot commanded to stop"
+        else:
+            outcome = "could not command a stop: check the robot"
+        self._end_mission(f"stopped: {why}", stop=False)
+        self._end_playback(f"playback stopped: {why}")
+        self._fail_jobs()
+        self.report(f"{why}: {outcome}")
+        with self._halt_lock:
+            # A close asked for while this stop went out is not lost: done next tick.
+            if self._halt is halt or (close and self._halt is not None):
+                self._halt = None
+        if close:
+            self._running = False
+            link, self.link = self.link, None
+            if link is not None:
+                link.close()
+            self._closed.set()
+            return
+        self._state = None
+        self._publish()
+
     def _crash(self) -> None:
         """A bug in a tick: stop the robot, then start again from a fresh connection."""
         self._crashes += 1
@@ -445,7 +545,7 @@ class ControlLoop:
         self._drop_link()
 
     def _run_jobs(self, link: BoardLink, stops_only: bool = False) -> None:
-        while True:
+        while self._halt is None:  # stopping now: nothing typed goes out
             try:
                 job, done, stop = self._jobs.get_nowait()
             except queue.Empty:
@@ -464,9 +564,10 @@ class ControlLoop:
     def _watch(self, exchange: Exchange) -> None:
         """Keep teleop's picture of the board's settings true, whoever sends them; then
         tell the observers."""
-        if exchange.kind == "set" and exchange.error is None:
+        if exchange.kind == "set":
             _, name, text = exchange.command.split()
-            self.teleop.board_set(name, text)
+            # A set whose answer went wrong may or may not have been taken: unknown.
+            self.teleop.board_set(name, text if exchange.error is None else None)
         self._notify(exchange)
 
     def _reconnect(self) -> bool:

@@ -3,8 +3,10 @@
 The board moves to a target and stops there, so driving "as long as a key is held"
 means keeping a target ahead of the robot: k times the braking distance, renewed every
 control tick. The board keeps executing the last `set p` if the console dies, so k
-bounds the runaway: k = 1.8 leaves at most 1.8 * 0.16 m = 0.29 m at 0.4 m/s and
-0.5 m/s^2 (design.md's safety rule is 0.3 m). When the deadman lets go, the target
+bounds the runaway: k = 1.5 leaves at most 1.5 * 0.16 m = 0.24 m at 0.4 m/s and
+0.5 m/s^2, within the console's reach of 0.25 m (robot/safety.py: design.md's 0.3 m rule
+less a margin for a loaded machine). In a curve the outer wheel keeps to the speed, so
+the middle of the robot goes slower and its target is nearer. When the deadman lets go, the target
 becomes the braking distance plus 10 ms of travel, which stops without the reversal a
 shorter target would cause.
 
@@ -22,6 +24,8 @@ from giraff_console.protocol.codec import Command, Number, format_number
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, brake_distance
 from giraff_console.robot.deadman import Intent
 from giraff_console.robot.safety import (
+    REACH_M,
+    RUNAWAY_M,
     path_stop_distance,
     rotation_stop_angle,
     rotation_wheel_speed,
@@ -44,13 +48,15 @@ class DriveLimits:
     turn_rate: float = 45.0  # KBD_TURN_SPEED, degrees per second (B.7)
     max_gear: float = 0.5  # |vg| < 0.51 (§3.2.1.4)
     gear_rate: float = 1.0  # DEF_VGACCEL, per metre (B.2)
-    lookahead: float = 1.8  # k: the target is k braking distances ahead
-    runaway: float = 0.3  # metres a dead console may let the robot go (design.md)
+    lookahead: float = 1.5  # k: the target is k braking distances ahead
+    runaway: float = RUNAWAY_M  # metres a dead console may let the robot go (design.md)
+    reach: float = REACH_M  # metres ahead a target may lie, on the outer wheel (safety.py)
 
     @property
     def min_accel(self) -> float:
-        """The gentlest acceleration that still stops from max_speed within the runaway."""
-        return self.max_speed**2 / (2 * self.runaway)
+        """The gentlest acceleration that still stops from max_speed within the reach:
+        what a move may use when how fast the robot goes is not known (a typed one)."""
+        return self.max_speed**2 / (2 * self.reach)
 
     def __post_init__(self) -> None:
         if not 0 < self.speed <= self.max_speed:
@@ -60,17 +66,17 @@ class DriveLimits:
         if self.accel < self.min_accel:
             raise ValueError(
                 f"accel must be at least {self.min_accel:.3f} m/s^2 to stop from max_speed "
-                f"within {self.runaway} m"
+                f"within {self.reach} m"
             )
         if not 0 <= self.max_gear < 0.51:
             raise ValueError("max_gear must be below 0.51 (§3.2.1.4)")
         if self.lookahead <= 1:
             raise ValueError("lookahead must exceed 1, or the board would brake and reverse")
-        if self.lookahead * brake_distance(self.max_speed, self.accel) > self.runaway:
+        if self.lookahead * brake_distance(self.max_speed, self.accel) > self.reach:
             raise ValueError(
                 f"at max_speed {self.max_speed} m/s a dead console would let the robot run "
                 f"{self.lookahead * brake_distance(self.max_speed, self.accel):.2f} m, "
-                f"over the {self.runaway} m limit"
+                f"over the {self.reach} m limit"
             )
 
 
@@ -93,9 +99,13 @@ class Teleop:
         self.speed = min(max(speed, 0.05), self.limits.max_speed)
         return self.speed
 
-    def board_set(self, name: str, text: str) -> None:
-        """The board took `set NAME TEXT`, from teleop or from anyone else."""
-        self._board[name] = text
+    def board_set(self, name: str, text: str | None) -> None:
+        """The board took `set NAME TEXT`, from teleop or from anyone else; None: what
+        it holds for NAME is not known (the answer to the set went wrong)."""
+        if text is None:
+            self._board.pop(name, None)
+        else:
+            self._board[name] = text
 
     @property
     def board_r(self) -> float | None:
@@ -158,12 +168,15 @@ class Teleop:
             wheel_speed = limits.turn_rate / TURN_FACTOR_DEG_PER_M
             ahead = limits.lookahead * brake_distance(wheel_speed, limits.accel)
             return {"v": wheel_speed, "p": intent.turn * ahead * TURN_FACTOR_DEG_PER_M}
-        ahead = limits.lookahead * brake_distance(self.speed, limits.accel)
         gear = 0.0
         if intent.turn:
             # B.2 CalcMove: the ratio that turns at turn_rate while moving at speed.
             gear = min(limits.turn_rate / (self.speed * TURN_FACTOR_DEG_PER_M), limits.max_gear)
-        plan: dict[str, Number] = {"v": self.speed, "vgr": limits.gear_rate}
+        # In a curve the outer wheel goes 1 + |vg| times as fast and as far as the middle
+        # (A.2.3): it is the outer wheel that keeps to the speed and the reach.
+        speed = round(self.speed / (1 + gear), 4)
+        ahead = limits.lookahead * brake_distance(speed, limits.accel)
+        plan: dict[str, Number] = {"v": speed, "vgr": limits.gear_rate}
         if gear:
             plan.update(vg=intent.turn * gear, vgr=intent.turn * limits.gear_rate)
         # The ratio ramps back down from cdp: at the target while turning, at once if not.
@@ -179,7 +192,7 @@ class Teleop:
     def _renew(self, intent: Intent, state: MotorState) -> list[Command]:
         """Keep the target ahead, renewing it only when the robot is getting close.
 
-        With k = 1.8 the thesis's "renew when less than 2 braking distances are left"
+        With k = 1.5 the thesis's "renew when less than 2 braking distances are left"
         would renew every tick; instead the target is renewed once less than the braking
         distance plus two ticks of travel is left, which keeps the board from being sent
         the same `set p` twenty times a second.

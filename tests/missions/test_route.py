@@ -212,12 +212,21 @@ def test_a_replay_sets_the_board_up_then_sends_each_command_at_its_time():
     assert texts(replay.step(10.0, state(10.0, False))) == [*SETTINGS_TEXT, "set v 0.3"]
     assert replay.next_due() == 10.5
     assert replay.step(10.45, state(10.45, False)) == []
-    assert texts(replay.step(10.5, state(10.5, True))) == ["set p 0.288"]
-    assert texts(replay.step(11.7, state(11.7, True))) == ["set p 0.288"]
+    # Taught with a lookahead that reached further than the console's reach: cut to it.
+    assert texts(replay.step(10.5, state(10.5, True))) == ["set p 0.25"]
+    assert texts(replay.step(11.7, state(11.7, True))) == ["set p 0.25"]
     assert replay.next_due() == 12.5
     assert texts(replay.step(12.6, state(12.6, True))) == ["set cdp 0", "set p 0.1"]
     assert replay.next_due() is None
     assert replay.step(12.7, state(12.7, True)) == []
+
+
+def test_a_replayed_turn_is_cut_to_the_reach_in_degrees():
+    turn = route((0.0, "set r 0"), (0.1, "set p -80"), (0.2, "set p 20"))
+    replay = RouteReplay(turn)
+    assert texts(replay.step(1.0, state(1.0, False)))[-1] == "set r 0"
+    # 0.25 wheel metres of a turn in place, at 229.64 degrees a wheel metre (A.2.2).
+    assert texts(replay.step(1.3, state(1.3, True))) == ["set p -57.4106", "set p 20"]
 
 
 def test_a_replay_finishes_only_once_a_later_poll_sees_the_robot_at_rest():
@@ -244,7 +253,7 @@ def test_a_pause_shifts_the_rest_of_the_route_and_restores_the_settings():
     restored = texts(replay.step(5.3, state(5.3, False)))
     assert restored == [text.replace("v 0.4", "v 0.3") for text in SETTINGS_TEXT]
     assert replay.step(5.49, state(5.49, False)) == []
-    assert texts(replay.step(5.5, state(5.5, False))) == ["set p 0.288"]
+    assert texts(replay.step(5.5, state(5.5, False))) == ["set p 0.25"]
 
 
 def test_replay_progress_counts_whole_seconds_without_the_pause():

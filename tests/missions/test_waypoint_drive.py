@@ -10,6 +10,7 @@ from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.odometry import Pose
+from giraff_console.robot.safety import REACH_M
 from giraff_console.robot.teleop import Teleop
 from giraff_console.sim.drive import TruePose
 
@@ -76,15 +77,15 @@ def test_it_reaches_the_end_of_an_l_shaped_path_stopping_at_the_corner():
     assert math.dist((corner.x, corner.y), L_PATH[1]) <= 0.01
 
 
-def test_it_never_sends_a_target_beyond_0_3_m():
+def test_it_never_sends_a_target_beyond_the_reach():
     run = Run()
     run.start(run.mission())
     run.run(60.0)
     assert run.ended == ["done"]
-    assert max(run.reaches) <= 0.3
+    assert max(run.reaches) <= REACH_M
     # The legs and the turns of 90 degrees (0.39 wheel metres) are longer than that, so
     # the targets were renewed as the robot went.
-    assert run.reaches.count(0.3) > 20
+    assert run.reaches.count(REACH_M) > 20
 
 
 def test_waypoints_where_the_path_does_not_turn_are_driven_through():

@@ -22,13 +22,13 @@ TICK = 0.05
 
 
 class Ahead:
-    """A mission that drives on like held Up: a 0.28 m target renewed every 0.25 s."""
+    """A mission that drives on like held Up: a 0.24 m target renewed every 0.25 s."""
 
     name = "ahead"
     problem = None
 
     def __init__(self, command: Command | None = None, fail: bool = False) -> None:
-        self.command = command or Command("set", "p", 0.28)
+        self.command = command or Command("set", "p", 0.24)
         self.fail = fail
         self.paused = False
         self.steps = 0

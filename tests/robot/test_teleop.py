@@ -174,7 +174,7 @@ def test_a_lost_link_is_reported_then_reconnected_with_a_stop_first(console):
 
 
 def test_limits_refuse_speeds_that_break_the_runaway_rule():
-    with pytest.raises(ValueError, match=r"0\.3 m"):
+    with pytest.raises(ValueError, match=r"0\.25 m"):
         DriveLimits(max_speed=0.6, speed=0.6)
     with pytest.raises(ValueError):
         DriveLimits(max_gear=0.6)
