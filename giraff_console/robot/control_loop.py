@@ -357,16 +357,19 @@ class ControlLoop:
         self._publish()
 
     def _step_teleop(self, link: BoardLink, state: MotorState) -> None:
-        """Send what the held key asks for; a board that refuses it ends the driving
-        rather than being asked again twenty times a second."""
+        """Send what the held key asks for, each command within the limits (the one
+        guard every path to the board passes); a command refused, by the guard or by the
+        board, ends the driving rather than being asked again twenty times a second."""
+        speed = self._speed_bound(state)
         for command in self.teleop.step(self.deadman.held(), state):
             if self._halt is not None:
                 return  # stopping now: no more renewals
             try:
+                check_command(command, self.teleop.limits, self.teleop.board_settings, speed)
                 link.send(command)
-            except BoardError as error:
+            except (CommandError, BoardError) as error:
                 self.deadman.release()
-                self.report(f"driving stopped: the board refused {command}: {error}")
+                self.report(f"driving stopped: {command} refused: {error}")
                 self._stop_robot()
                 return
 
