@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import os
 import select
+import shutil
 import signal
 import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
@@ -120,6 +122,28 @@ def sim_pty() -> Iterator[str]:
         yield path
     finally:
         assert stop_sim_process(process) == 0
+
+
+@pytest.fixture(scope="session")
+def wheel(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The package as `pip install .` builds it, from the files a clean checkout has:
+    not the editable install, whose egg-info in the tree would hide a data file missing
+    from the package data. Built once for every test that needs it."""
+    root = Path(__file__).resolve().parent.parent
+    tmp = tmp_path_factory.mktemp("wheel")
+    source = tmp / "source"
+    for path in [root / "pyproject.toml", root / "README.md", *root.glob("giraff_console/**/*")]:
+        if path.is_file() and "__pycache__" not in path.parts:
+            target = source / path.relative_to(root)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy(path, target)
+    result = subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp), str(source)],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    (built,) = tmp.glob("giraff_console-*.whl")
+    return built
 
 
 @pytest.fixture(autouse=True)

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import subprocess
 import sys
 import zipfile
@@ -13,28 +12,12 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
 
 
 @pytest.fixture(scope="module")
-def installed(tmp_path_factory) -> Path:
-    """The package as `pip install .` lays it out: a wheel built from the files a clean
-    checkout has, unpacked. A wheel, not the editable install, so that a data file
-    missing from the package data fails here."""
-    tmp = tmp_path_factory.mktemp("install")
-    source = tmp / "source"
-    for path in [ROOT / "pyproject.toml", ROOT / "README.md", *ROOT.glob("giraff_console/**/*")]:
-        if path.is_file() and "__pycache__" not in path.parts:
-            target = source / path.relative_to(ROOT)
-            target.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy(path, target)
-    result = subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp), str(source)],
-        capture_output=True, text=True, timeout=300,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stderr
-    (wheel,) = tmp.glob("giraff_console-*.whl")
-    site = tmp / "site"
+def installed(wheel: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The package as `pip install .` lays it out: the wheel, unpacked."""
+    site = tmp_path_factory.mktemp("install") / "site"
     zipfile.ZipFile(wheel).extractall(site)
     return site
 

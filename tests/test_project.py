@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import ast
 import re
-import shutil
 import subprocess
 import sys
 import zipfile
@@ -46,22 +45,8 @@ def test_the_code_passes_ruff():
     assert result.returncode == 0, result.stdout + result.stderr
 
 
-def test_the_installed_package_carries_the_console_stylesheet(tmp_path):
-    # A plain install from a clean checkout is what the README's run command does; the
-    # egg-info an editable install leaves in the tree would hide a missing data file.
-    source = tmp_path / "source"
-    for name in ("pyproject.toml", "README.md", *map(str, ROOT.glob("giraff_console/**/*"))):
-        path = ROOT / name
-        if path.is_file() and "__pycache__" not in path.parts:
-            target = source / path.relative_to(ROOT)
-            target.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy(path, target)
-    result = subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(source)],
-        capture_output=True, text=True, timeout=300,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stderr
-    (wheel,) = tmp_path.glob("giraff_console-*.whl")
+def test_the_installed_package_carries_the_console_stylesheet(wheel):
+    # A plain install from a clean checkout is what the README's run command does.
     assert "giraff_console/tui/app.tcss" in zipfile.ZipFile(wheel).namelist()
 
 
