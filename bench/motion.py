@@ -25,7 +25,11 @@ room, the same seed for both methods. `--door-speed` changes how fast `go` may p
 doorway (0.25 m/s by default): the thesis's way knows no doors, and drives through them
 at full speed.
 
+`--twm` instead compares curves sent as separate `set`s (the thesis's board) and as one
+Giraff-X `set twm` per change: commands and bytes per tick, gear-ratio steps (bench/twm.py).
+
 Usage: python bench/motion.py [--rooms a,b,c] [--imperfect] [--seed S] [--door-speed V]
+       python bench/motion.py --twm [--rooms ROOM]
 """
 
 from __future__ import annotations
@@ -171,7 +175,15 @@ def main() -> None:
     parser.add_argument("--door-speed", type=float, default=MotionLimits().door_speed,
                         help="GoTo's speed through doorways, m/s (default %(default)s); "
                              "the thesis's way knows no doors")  # fmt: skip
+    parser.add_argument("--twm", action="store_true",
+                        help="compare separate sets with Giraff-X's twm (bench/twm.py), "
+                             "driving `go` to the first of --rooms (default lobby)")  # fmt: skip
     args = parser.parse_args()
+    if args.twm:
+        from twm import compare  # bench/twm.py, beside this script
+
+        compare(args.rooms.split(",")[0] if args.rooms else "lobby")
+        return
     plan = load_floorplan(EXAMPLE)
     rooms = sorted(room for room in plan.rooms if room != plan.start)
     if args.rooms:

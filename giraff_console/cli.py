@@ -46,6 +46,7 @@ from giraff_console.planning.floorplan import (
 from giraff_console.planning.plan_drawing import draw_plan
 from giraff_console.planning.room_graph import PlanningError, UnknownRoomError
 from giraff_console.planning.route_planner import ROBOT_RADIUS_M, RoutePlanner, walls_of
+from giraff_console.protocol.kinematics import WHEEL_BASE_M
 from giraff_console.recording.mcap_export import export_session
 from giraff_console.recording.playback import open_log
 from giraff_console.recording.session import (
@@ -64,6 +65,8 @@ from giraff_console.settings import Settings, SettingsError, config_path, load_s
 from giraff_console.sim import BoardConfig, GiraffBoard, Imperfections, PtyServer
 from giraff_console.sim.camera import WorldCamera
 from giraff_console.sim.drive import TruePose
+from giraff_console.sim.firmware import DEFAULT_FIRMWARE, FIRMWARES
+from giraff_console.sim.modem_shim import main as print_modem_shim
 from giraff_console.sim.pose_log import PoseLog
 from giraff_console.sim.surroundings import Surroundings
 from giraff_console.sim.world import World, demo_world
@@ -95,6 +98,11 @@ def build_parser() -> argparse.ArgumentParser:
         "file; without one, the built-in simulator)",
     )  # fmt: skip
     parser.add_argument("--sim", action="store_true", help="use the built-in simulator")
+    parser.add_argument(
+        "--firmware", choices=tuple(FIRMWARES), metavar="NAME",
+        help="the built-in simulator's firmware: thesis, later or giraff-x (default: "
+        f"{DEFAULT_FIRMWARE}); only with the simulator",
+    )  # fmt: skip
     parser.add_argument(
         "--sim-speed", type=float, default=1.0, metavar="K",
         help="run the built-in simulator's clock K times faster than real time "
@@ -172,9 +180,31 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sim.add_argument("--auto-home", action="store_true", help="home the head at power-up")
     sim.add_argument(
+        # SUPPRESS: given here or before the command (`giraff-console --firmware later sim`).
+        "--firmware", choices=tuple(FIRMWARES), default=argparse.SUPPRESS, metavar="NAME",
+        help="the board's firmware: thesis (the thesis's 2013 board), later (incremental "
+        "imdl/imdr, enc0/enc1, the h stalk, charger_data, mode 2) or giraff-x (later plus "
+        f"set twm); docs/simulator.md lists the differences (default: {DEFAULT_FIRMWARE})",
+    )  # fmt: skip
+    sim.add_argument(
+        "--battery", type=float, default=1.0, metavar="LEVEL",
+        help="the battery's charge at power-on, 0 to 1, shown by charger_data on later "
+        "firmware (default: %(default)s)",
+    )  # fmt: skip
+    sim.add_argument(
+        "--wheel-base", type=float, default=WHEEL_BASE_M, metavar="M",
+        help="the robot's real distance between the wheels, which the firmware does not "
+        "know: it drives by 0.499 m (default: %(default)s; one driver uses 0.467)",
+    )  # fmt: skip
+    sim.add_argument(
         "--floorplan", type=Path, default=argparse.SUPPRESS, metavar="FILE",
-        help="put the robot at this floor plan's start room, facing its heading (default: "
-        "at the origin, facing +x)",
+        help="put the robot at this floor plan's start room, facing its heading, on its "
+        "dock (default: at the origin, facing +x, with no dock)",
+    )  # fmt: skip
+    sim.add_argument(
+        "--modem-shim", action="store_true",
+        help="print the path of a library that gives the pty modem lines (DTR, RTS) for C "
+        "and C++ drivers, to LD_PRELOAD (built with the C compiler on first use), and exit",
     )  # fmt: skip
     sim.add_argument(
         "--pose-log",
@@ -344,16 +374,20 @@ def run_console(args: argparse.Namespace) -> int:
     if args.sim_speed <= 0:
         print("giraff-console: --sim-speed must be positive", file=sys.stderr)
         return EXIT_USAGE
+    if args.firmware is not None and port is not None:
+        print("giraff-console: --firmware chooses the simulator's firmware; use it with --sim",
+              file=sys.stderr)  # fmt: skip
+        return EXIT_USAGE
     clock: Clock = RealClock()
     simulator = None
     stepped = None
     if port is None:
+        # A clock of the simulator's own, which the control loop moves on, for --sim-speed.
+        simulator = serial.serial_for_url(
+            simulator_url(args.firmware, virtual_clock=args.sim_speed != 1)
+        )
         if args.sim_speed != 1:
-            # A clock of the simulator's own, which the control loop moves on.
-            simulator = serial.serial_for_url(IN_PROCESS_SIMULATOR + "?clock=virtual")
             clock, stepped = simulator.clock, args.sim_speed
-        else:
-            simulator = serial.serial_for_url(IN_PROCESS_SIMULATOR)
     if args.command == "replay":
         try:
             log_path, log = open_log(args.session)
@@ -369,6 +403,8 @@ def run_console(args: argparse.Namespace) -> int:
         deadman=Deadman(clock, settings.teleop.grace, settings.teleop.repeat_timeout),
         rate_hz=settings.control_rate,
         clock=clock,
+        wheel_base=settings.board.wheel_base,
+        odometers=settings.board.odometers,
     )
     start = navigator.start_pose
     if start is not None:
@@ -383,7 +419,7 @@ def run_console(args: argparse.Namespace) -> int:
         site.world if site else None, site.surroundings if site else None,
     )  # fmt: skip
     setup = RecordingSetup(
-        port=port or IN_PROCESS_SIMULATOR,
+        port=port or simulator_url(args.firmware),
         camera={
             "source": camera.source.name, "size": list(camera.size),
             "fps_cap": args.camera_fps, "fast_threshold": args.fast_threshold,
@@ -409,8 +445,11 @@ def run_console(args: argparse.Namespace) -> int:
             settings.motion.limits(),
             site.range_finder.readings if site else None,
             settings.motion.patience(),
+            settings.battery.levels(),
+            settings.teleop.undock_distance,
         ),
         undock_distance=settings.teleop.undock_distance,
+        battery_low=settings.battery.low,
         play=args.session if args.command == "replay" else None,
         navigator=navigator,
         site=site,
@@ -431,6 +470,14 @@ def run_console(args: argparse.Namespace) -> int:
         return 128 + last_stop.signalled
     # Non-zero if the console itself failed; the robot was stopped all the same.
     return app.return_code or 0
+
+
+def simulator_url(firmware: str | None, *, virtual_clock: bool = False) -> str:
+    """The in-process simulator's pyserial URL, with the firmware asked for (if any)."""
+    options = ["clock=virtual"] if virtual_clock else []
+    if firmware is not None:
+        options.append(f"firmware={firmware}")
+    return IN_PROCESS_SIMULATOR + ("?" + "&".join(options) if options else "")
 
 
 def console_floorplan(path: Path | None) -> tuple[FloorPlan, str]:
@@ -583,13 +630,22 @@ def board_connector(port: str | None, settings: Settings, simulator: serial.Seri
 
 
 def run_sim(args: argparse.Namespace) -> int:
+    if args.modem_shim:
+        return print_modem_shim()
     imperfections = Imperfections.realistic(args.seed) if args.imperfect else Imperfections()
+    if not 0 <= args.battery <= 1 or not 0.1 <= args.wheel_base <= 2:
+        print("giraff-console: --battery must be from 0 to 1 and --wheel-base from 0.1 to 2 m",
+              file=sys.stderr)  # fmt: skip
+        return EXIT_USAGE
     config = BoardConfig(
         calibration_line=args.ca,
         hex_upper=args.hex_upper,
         set_reply=args.set_reply,
         auto_home=args.auto_home,
         imperfections=imperfections,
+        firmware=FIRMWARES[args.firmware or DEFAULT_FIRMWARE],
+        battery=args.battery,
+        wheel_base=args.wheel_base,
     )
     board = GiraffBoard(RealClock(), config)
     if args.floorplan is not None:
@@ -600,7 +656,9 @@ def run_sim(args: argparse.Namespace) -> int:
             return EXIT_USAGE
         if plan.start is not None:
             room = plan.rooms[plan.start]
-            board.place(TruePose(room.at[0], room.at[1], math.radians(room.heading or 0.0)))
+            # The start room is where the robot docks (its point and heading).
+            board.dock = TruePose(room.at[0], room.at[1], math.radians(room.heading or 0.0))
+            board.place(board.dock)
     server = PtyServer(board, paced=args.pace)
     signal.signal(signal.SIGTERM, lambda *_: server.stop())
     signal.signal(signal.SIGINT, lambda *_: server.stop())

@@ -1,5 +1,7 @@
 """`giraff-console go ROOM`: take the robot to a room without the console's screen.
 
+`go dock` drives onto the dock, square on (missions/docking.py).
+
 The same mission the console's `go` runs (missions/go_to.py), on the same control loop:
 from the shell, a script or a test. Progress (a bar, the distance left and an ETA) goes
 to standard error; `--json` prints how it went on standard output. The exit code says
@@ -25,6 +27,7 @@ import serial
 
 from giraff_console.clock import RealClock
 from giraff_console.link import BoardLink
+from giraff_console.missions.docking import DOCK, GoToPose, dock_arrival
 from giraff_console.missions.go_to import GoTo
 from giraff_console.missions.navigation import Navigator
 from giraff_console.planning.floorplan import FloorPlanError, load_floorplan
@@ -36,6 +39,7 @@ from giraff_console.robot.last_stop import LastStop
 from giraff_console.robot.telemetry import LinkState
 from giraff_console.robot.teleop import Teleop
 from giraff_console.settings import Settings
+from giraff_console.sim.firmware import FIRMWARES
 from giraff_console.sim_site import SimulatedSite
 
 EXIT_ARRIVED, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
@@ -53,7 +57,11 @@ def add_go_parser(commands: argparse._SubParsersAction, example: Path) -> None:
         "sees. Progress goes to standard error. Exits 0 when the robot arrived, 1 when it "
         "did not (the reason is printed), 2 for an unknown room or a bad floor plan.",
     )
-    go.add_argument("room", metavar="ROOM", help="room id, e.g. kitchen")
+    go.add_argument(
+        "room", metavar="ROOM",
+        help=f"room id, e.g. kitchen; {DOCK} drives onto the dock (the start room's point, "
+        "facing its heading) the last metres straight",
+    )  # fmt: skip
     go.add_argument(
         "--floorplan", type=Path, default=argparse.SUPPRESS, metavar="FILE",
         help=f"floor plan YAML (default: the example care home, {example})",
@@ -79,6 +87,11 @@ def add_go_parser(commands: argparse._SubParsersAction, example: Path) -> None:
     )  # fmt: skip
     go.add_argument("--seed", type=int, default=1, metavar="N", help="seed for --imperfect")
     go.add_argument(
+        # SUPPRESS: given here or before the command (`giraff-console --firmware later go`).
+        "--firmware", choices=tuple(FIRMWARES), default=argparse.SUPPRESS, metavar="NAME",
+        help="the simulator's firmware: thesis, later or giraff-x (default: thesis)",
+    )  # fmt: skip
+    go.add_argument(
         "--block", action="append", default=[], metavar="X,Y",
         help="put a 0.5 m box in the simulated building at X,Y metres (repeatable)",
     )  # fmt: skip
@@ -95,7 +108,7 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
         blocks = [_point(text) for text in args.block]
     except (FloorPlanError, OSError, ValueError) as error:
         return _fail(str(error), EXIT_USAGE)
-    if args.room not in plan.rooms:
+    if args.room not in plan.rooms and args.room != DOCK:
         return _fail(f"no room called {args.room!r} (rooms: {', '.join(sorted(plan.rooms))})",
                      EXIT_USAGE)  # fmt: skip
     if args.sim_speed <= 0:
@@ -104,6 +117,8 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
     site = None
     if port is None:
         options = "clock=virtual" + (f"&imperfect=1&seed={args.seed}" if args.imperfect else "")
+        if getattr(args, "firmware", None):  # `giraff-console --firmware NAME go ...`
+            options += f"&firmware={args.firmware}"
         simulator = serial.serial_for_url(f"giraff-sim://?{options}")
         clock = simulator.clock
         site = SimulatedSite(simulator.board, plan, start, settings.motion.sensing_range)
@@ -128,6 +143,8 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
         deadman=Deadman(clock, settings.teleop.grace, settings.teleop.repeat_timeout),
         rate_hz=settings.control_rate,
         clock=clock,
+        wheel_base=settings.board.wheel_base,
+        odometers=settings.board.odometers,
     )
     if start is not None:
         control.odometry.reset(start)
@@ -140,9 +157,15 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
         # Planned before the loop starts, so that the simulator's clock has not moved
         # on by however long planning took.
         sense = site.range_finder.readings if site is not None else None
-        mission = GoTo(navigator, args.room, lambda: control.odometry.pose,
-                       tick=control.period, limits=limits, sense=sense,
-                       notify=control.report, patience=patience)  # fmt: skip
+        pose = lambda: control.odometry.pose  # noqa: E731
+        mission: GoTo | GoToPose
+        if args.room == DOCK:
+            mission = GoToPose(navigator, DOCK, dock_arrival(navigator), pose,
+                               tick=control.period, limits=limits, sense=sense,
+                               notify=control.report, patience=patience)  # fmt: skip
+        else:
+            mission = GoTo(navigator, args.room, pose, tick=control.period, limits=limits,
+                           sense=sense, notify=control.report, patience=patience)  # fmt: skip
     except PlanningError as error:
         return _fail(str(error), EXIT_USAGE if isinstance(error, UnknownRoomError) else EXIT_FAILED)
     # Before the loop's thread starts: SIGHUP (the SSH connection dropped), SIGTERM and
@@ -167,14 +190,15 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
         print(json.dumps(report.as_json(pose_true)))
     else:
         data = report.as_json(pose_true)
+        goal = "the dock" if args.room == DOCK else "the room's point"
         print(f"{mission.name}: {why}; {data['error_m'] * 100:.1f} cm and "
-              f"{data['heading_error_deg']:.1f}° from the room's point, in "
+              f"{data['heading_error_deg']:.1f}° from {goal}, in "
               f"{data['duration_s']:.1f} s (jerk-limited optimum "
               f"{data['time_optimal_s']:.1f} s), {len(data['stops'])} stops")  # fmt: skip
     return EXIT_ARRIVED if report.arrived else EXIT_FAILED
 
 
-def _drive(control: ControlLoop, mission: GoTo, ended: Callable[[str], None]) -> None:
+def _drive(control: ControlLoop, mission: GoTo | GoToPose, ended: Callable[[str], None]) -> None:
     """Run the mission to its end, showing progress; a signal stops it (LastStop).
     `ended` gets the reason, on the loop's thread."""
     done = threading.Event()

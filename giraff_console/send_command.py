@@ -14,6 +14,10 @@ them: if one is refused, `send` says why and exits 1 without sending any of them
 board error stops the rest too, since after it the board's settings are no longer known
 for sure. Once `send` exits, the robot can run at most the console's runaway limit.
 
+After connecting, `send` says on standard error which board answered: the probe's one
+line (link/board_probe.py), the same as the console's status log. Standard output has
+only the commands and their replies.
+
 `--unsafe` lifts the checks, bar the line length, for bench work on a robot on blocks,
 with a loud warning on standard error.
 
@@ -28,7 +32,7 @@ import struct
 import sys
 from collections.abc import Mapping, Sequence
 
-from giraff_console.link import DEFAULT_TIMEOUT_S, BoardLink, LinkError
+from giraff_console.link import DEFAULT_TIMEOUT_S, BoardLink, LinkError, probe
 from giraff_console.protocol import (
     BoardError,
     Command,
@@ -43,6 +47,7 @@ from giraff_console.protocol import (
 )
 from giraff_console.robot.command_guard import check_command, check_line
 from giraff_console.robot.teleop import DriveLimits
+from giraff_console.robot.wheel_odometers import choose_reading
 from giraff_console.settings import SettingsError, load_settings
 
 EXIT_SENT, EXIT_REFUSED, EXIT_USAGE, EXIT_LINK_ERROR = 0, 1, 2, 3
@@ -112,7 +117,8 @@ def run_send(args: argparse.Namespace) -> int:
         commands = [parse_command(text) for text in args.commands]
         for command in commands:
             check_line(command)
-        limits = load_settings(getattr(args, "config", None)).teleop.limits()
+        settings = load_settings(getattr(args, "config", None))
+        limits = settings.teleop.limits()
     except SettingsError as error:
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_USAGE
@@ -132,12 +138,27 @@ def run_send(args: argparse.Namespace) -> int:
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_REFUSED
     try:
+        say_which_board(link, settings.board.odometers)
         return send_commands(link, commands, limits, unsafe=args.unsafe)
     except LinkError as error:
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_LINK_ERROR
     finally:
         link.close()
+
+
+def say_which_board(link: BoardLink, odometers: str) -> None:
+    """The probe's line on standard error, with the wheel reading the `[board]
+    odometers` setting gives on this board. LinkError passes through."""
+    try:
+        features = probe(link)
+    except LinkError:
+        raise
+    except GiraffError as error:
+        print(f"giraff-console: could not tell which board this is: {error}", file=sys.stderr)
+        return
+    reading, _ = choose_reading(odometers, features)
+    print(f"giraff-console: {features.describe(reading)}", file=sys.stderr)
 
 
 def send_commands(link: BoardLink, commands: Sequence[Command], limits: DriveLimits, *,
@@ -154,13 +175,15 @@ def send_commands(link: BoardLink, commands: Sequence[Command], limits: DriveLim
     for index, command in enumerate(commands):
         print(f"> {command}")
         try:
-            value = link.send(command).value
+            exchange = link.send(command)
         except (BoardError, ProtocolError) as error:
             print(f"  {error}")
             if index + 1 < len(commands):
                 print("giraff-console: nothing after it was sent", file=sys.stderr)
             return EXIT_REFUSED
-        for line in describe(value):
+        # A reply in an encoding of its own (the charger's) is shown as it came.
+        raw = exchange.value is None and exchange.lines
+        for line in exchange.lines if raw else describe(exchange.value):
             print(f"  {line}")
     return EXIT_SENT
 
@@ -175,8 +198,7 @@ def check_all(commands: Sequence[Command], limits: DriveLimits,
             check_command(command, limits, board)
         except CommandError as error:
             raise RefusedCommand(f"{command}: {error}") from None
-        if command.kind == "set":
-            board[command.name] = command.text.split()[2]
+        board.update(command.settings)
 
 
 def read_settings(link: BoardLink) -> dict[str, str]:

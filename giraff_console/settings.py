@@ -34,6 +34,24 @@ The [teleop] and [motion] tables:
     sensing_range = 1.5        # metres the simulated range finder sees
     stuck_s = 30               # seconds without getting 0.2 m nearer: go gives up, stops
     max_replans = 5            # new ways in a row without getting nearer: the same
+
+The [board] and [battery] tables, for real boards (docs/simulator.md lists the firmware):
+
+    [board]
+    wheel_base = 0.499         # metres between the drive wheels: the thesis's figure;
+                               # one driver uses 0.467. The heading is integrated with it.
+    odometers = "auto"         # how the wheels' travel is read: "totals" (imdl/imdr since
+                               # power-up, the thesis's board), "increments" (since the
+                               # previous read, later boards), "encoders" (enc0/enc1), or
+                               # "auto": increments when the board answers to what later
+                               # firmware adds, totals otherwise. Encoders on a board
+                               # without them: reported, and auto's choice is read.
+                               # Whatever it says is checked against cdis in the first
+                               # metre driven, and a reading that disagrees is replaced.
+
+    [battery]                  # later boards, which report their charger
+    low = 25                   # percent: below it a patrol goes to the dock to charge
+    charged = 90               # percent: at or above it, it carries on
 """
 
 from __future__ import annotations
@@ -44,18 +62,27 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from giraff_console.link import DEFAULT_TIMEOUT_S
+from giraff_console.missions.docking import ChargeLevels
 from giraff_console.missions.progress_watch import Patience
 from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.planning.route_planner import ROBOT_RADIUS_M
 from giraff_console.protocol.errors import GiraffError
+from giraff_console.protocol.kinematics import WHEEL_BASE_M
 from giraff_console.robot.control_loop import DEFAULT_RATE_HZ
 from giraff_console.robot.deadman import DEFAULT_GRACE_S, DEFAULT_REPEAT_TIMEOUT_S
 from giraff_console.robot.teleop import DriveLimits
+from giraff_console.robot.wheel_odometers import AUTO, CHOICES
 
 # Larger than any setting's sensible value, small enough that no check overflows.
 MAX_NUMBER = 1e6
 # Settings that name a folder; data_folders.py says where they are without them.
 FOLDER_KEYS = ("recordings", "routes")
+# Settings whose value is text.
+TEXT_KEYS = ("port", "power_line", "odometers", *FOLDER_KEYS)
+# Tables within the file, each its own dataclass below.
+TABLES = ("teleop", "motion", "board", "battery")
+# Wheel bases beyond any Giraff's (about half a metre): a typo, or centimetres.
+WHEEL_BASE_RANGE_M = (0.2, 1.0)
 
 
 # No dock needs a longer way out than this.
@@ -107,6 +134,45 @@ class MotionSettings:
 
 
 @dataclass(frozen=True)
+class BoardSettings:
+    """The robot's geometry and how its wheels' travel is read (wire-facts, "Later firmware")."""
+
+    wheel_base: float = WHEEL_BASE_M
+    odometers: str = AUTO
+
+    def check(self) -> None:
+        """ValueError for a wheel base or a reading that cannot be right."""
+        low, high = WHEEL_BASE_RANGE_M
+        if not low <= self.wheel_base <= high:
+            raise ValueError(
+                f"board.wheel_base is {self.wheel_base:g} m: it must be between {low:g} and "
+                f"{high:g} m (a Giraff's wheels are about 0.5 m apart)"
+            )
+        if self.odometers not in CHOICES:
+            raise ValueError(
+                f"board.odometers is {self.odometers!r}: it must be one of {', '.join(CHOICES)}"
+            )
+
+
+@dataclass(frozen=True)
+class BatterySettings:
+    """When a patrol goes to charge, and when it carries on (percent of a full battery)."""
+
+    low: float = ChargeLevels.low
+    charged: float = ChargeLevels.charged
+
+    def levels(self) -> ChargeLevels:
+        """ValueError for levels that do not make sense."""
+        try:
+            return ChargeLevels(self.low, self.charged)
+        except ValueError:
+            raise ValueError(
+                f"battery.low ({self.low:g}) must be below battery.charged "
+                f"({self.charged:g}), both percentages from 0 to 100"
+            ) from None
+
+
+@dataclass(frozen=True)
 class Settings:
     port: str | None = None
     power_line: str = "dtr"
@@ -117,6 +183,8 @@ class Settings:
     routes: str | None = None
     teleop: TeleopSettings = field(default_factory=TeleopSettings)
     motion: MotionSettings = field(default_factory=MotionSettings)
+    board: BoardSettings = field(default_factory=BoardSettings)
+    battery: BatterySettings = field(default_factory=BatterySettings)
     source: str = "built-in defaults"
 
 
@@ -135,16 +203,17 @@ def load_settings(path: Path | None = None) -> Settings:
     except (OSError, ValueError) as error:
         # ValueError: TOMLDecodeError, UnicodeDecodeError, and an int of 5,000 digits.
         raise SettingsError(f"{path}: {str(error)[:200]}") from None
-    teleop_data = data.pop("teleop", {})
-    motion_data = data.pop("motion", {})
-    for table, value in (("teleop", teleop_data), ("motion", motion_data)):
+    tables = {table: data.pop(table, {}) for table in TABLES}
+    for table, value in tables.items():
         if not isinstance(value, dict):
             raise SettingsError(f"{path}: [{table}] must be a table")
     try:
-        teleop = TeleopSettings(**_checked(path, "teleop.", TeleopSettings, teleop_data))
-        motion = MotionSettings(**_checked(path, "motion.", MotionSettings, motion_data))
+        teleop = TeleopSettings(**_checked(path, "teleop.", TeleopSettings, tables["teleop"]))
+        motion = MotionSettings(**_checked(path, "motion.", MotionSettings, tables["motion"]))
+        board = BoardSettings(**_checked(path, "board.", BoardSettings, tables["board"]))
+        battery = BatterySettings(**_checked(path, "battery.", BatterySettings, tables["battery"]))
         settings = Settings(**_checked(path, "", Settings, data), teleop=teleop, motion=motion,
-                            source=str(path))  # fmt: skip
+                            board=board, battery=battery, source=str(path))  # fmt: skip
         if settings.power_line not in ("dtr", "rts", "both", "none"):
             raise ValueError("power_line must be dtr, rts, both or none")
         if settings.timeout <= 0 or settings.control_rate <= 0 or settings.robot_radius <= 0:
@@ -165,6 +234,8 @@ def load_settings(path: Path | None = None) -> Settings:
         if motion.sensing_range <= 0:
             raise ValueError("motion.sensing_range must be positive")
         motion.patience()
+        board.check()
+        battery.levels()
     except ValueError as error:
         raise SettingsError(f"{path}: {error}") from None
     except ArithmeticError:
@@ -174,11 +245,11 @@ def load_settings(path: Path | None = None) -> Settings:
 
 
 def _checked(path: Path, prefix: str, kind: type, data: dict) -> dict:
-    allowed = {f.name: f for f in fields(kind) if f.name not in ("teleop", "motion", "source")}
+    allowed = {f.name: f for f in fields(kind) if f.name not in (*TABLES, "source")}
     for key, value in data.items():
         if key not in allowed:
             raise SettingsError(f"{path}: unknown key {prefix}{key}")
-        expected = str if key in ("port", "power_line", *FOLDER_KEYS) else (int, float)
+        expected = str if key in TEXT_KEYS else (int, float)
         if not isinstance(value, expected) or isinstance(value, bool):
             raise SettingsError(f"{path}: {prefix}{key} has the wrong type")
         # TOML writes nan and inf, which pass every `<=` check without being limits; and

@@ -38,7 +38,10 @@ class SimulatedSite:
         self.board = board
         self.plan = plan
         if start is not None:
-            board.place(TruePose(start.x, start.y, start.heading))
+            # The robot starts on its dock: the start room's point and heading, where it
+            # charges on later firmware (issue 13).
+            board.dock = TruePose(start.x, start.y, start.heading)
+            board.place(board.dock)
         self.surroundings = Surroundings()
         for door in plan.doors:
             if not door.open:

@@ -35,6 +35,17 @@ def test_a_file_overrides_what_it_names(tmp_path):
     assert settings.source == str(path)
 
 
+def test_the_board_and_battery_tables(tmp_path):
+    path = write(tmp_path, '[board]\nwheel_base = 0.467\nodometers = "increments"\n'
+                           "[battery]\nlow = 30\ncharged = 95\n")  # fmt: skip
+    settings = load_settings(path)
+    assert (settings.board.wheel_base, settings.board.odometers) == (0.467, "increments")
+    assert (settings.battery.low, settings.battery.charged) == (30, 95)
+    defaults = Settings()
+    assert (defaults.board.wheel_base, defaults.board.odometers) == (0.499, "auto")
+    assert (defaults.battery.low, defaults.battery.charged) == (25, 90)
+
+
 @pytest.mark.parametrize(
     ("text", "message"),
     [
@@ -53,6 +64,19 @@ def test_a_file_overrides_what_it_names(tmp_path):
         ("[motion]\nv_max = 0.6", "may not exceed"),
         ("[motion]\nj_max = 0", "j_max"),
         ("[motion]\nwarp = 9", "unknown key motion.warp"),
+        ("board = 3", "[board] must be a table"),
+        ("[board]\nwheel_base = 49.9", "board.wheel_base is 49.9 m: it must be between"),
+        ("[board]\nwheel_base = 0", "board.wheel_base is 0 m"),
+        ('[board]\nwheel_base = "wide"', "board.wheel_base has the wrong type"),
+        (
+            '[board]\nodometers = "total"',
+            "board.odometers is 'total': it must be one of auto, totals, increments, encoders",
+        ),
+        ("[board]\nodometers = 1", "board.odometers has the wrong type"),
+        ("[board]\nwheels = 2", "unknown key board.wheels"),
+        ("[battery]\nlow = 95", "battery.low (95) must be below battery.charged (90)"),
+        ("[battery]\ncharged = 120", "both percentages from 0 to 100"),
+        ("[battery]\nlow = -1", "both percentages"),
     ],
 )
 def test_bad_files_are_refused_with_the_path_and_the_key(tmp_path, text, message):

@@ -1,6 +1,7 @@
 """A Giraff motor board over any pyserial port: handshake, request/response, timeouts."""
 
 from giraff_console.link.board_link import DEFAULT_TIMEOUT_S, HANDSHAKE_TIMEOUT_S, BoardLink
+from giraff_console.link.board_probe import BoardFeatures, probe
 from giraff_console.link.errors import LinkDisconnected, LinkError, LinkTimeout
 from giraff_console.link.exchange import Exchange, Observer
 from giraff_console.link.motor_state import MotorState
@@ -8,6 +9,7 @@ from giraff_console.link.motor_state import MotorState
 __all__ = [
     "DEFAULT_TIMEOUT_S",
     "HANDSHAKE_TIMEOUT_S",
+    "BoardFeatures",
     "BoardLink",
     "Exchange",
     "LinkDisconnected",
@@ -15,4 +17,5 @@ __all__ = [
     "LinkTimeout",
     "MotorState",
     "Observer",
+    "probe",
 ]

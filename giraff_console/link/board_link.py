@@ -22,6 +22,7 @@ from giraff_console.clock import Clock, RealClock
 from giraff_console.link.errors import LinkDisconnected, LinkError, LinkTimeout
 from giraff_console.link.exchange import Exchange, ExchangeKind, Observer
 from giraff_console.link.motor_state import MotorState
+from giraff_console.protocol.charger import ChargerReading, parse_charger
 from giraff_console.protocol.codec import Command, Number
 from giraff_console.protocol.errors import (
     BoardRebootedError,
@@ -132,6 +133,15 @@ class BoardLink:
             raise ProtocolError(f"bulk_data reply is not a list: {exchange.lines!r}")
         return MotorState.from_bulk(exchange.value, exchange.answered_at)
 
+    def charger(self, *, automatic: bool = False) -> ChargerReading:
+        """`get charger_data` on a later board: the status and one parameter, which
+        changes from read to read (wire-facts "Later firmware"). A thesis board answers
+        `Unknown name` (UnknownNameError)."""
+        exchange = self.send(Command("get", "charger_data"), automatic=automatic)
+        if len(exchange.lines) != 1:
+            raise ProtocolError(f"no charger line in the reply: {exchange.lines!r}")
+        return parse_charger(exchange.lines[0])
+
     def send(self, command: Command, *, automatic: bool = False) -> Exchange:
         """Send one command and wait for its reply; raises the typed errors."""
         with self._lock:
@@ -202,7 +212,8 @@ class BoardLink:
             lines = self._read_until_prompt(sent_at + self.timeout)
             reply = parse_reply(lines)
         except UnknownNameError as error:
-            if error.name != text.split()[-1]:
+            # The name asked for: the second word of a set or get (a twm has more).
+            if error.name != text.split()[:2][-1]:
                 # An answer to some other command: the line is out of step.
                 self._needs_resync = True
                 error = ProtocolError(f"reply out of step: {error.line!r} to {text!r}")

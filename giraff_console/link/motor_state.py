@@ -24,8 +24,14 @@ class MotorState:
       manufacturer's formula in curved motion (§3.2.1.4), minus degrees/s in rotation.
     - `speed`: the overall speed in straight or curved motion, gvr * (1 - cvg); None
       when that cannot be known: at vg = 1 the board reports an infinite gvr (§3.2.1.4).
-    - `imdl`, `imdr`: metres turned by the left and right wheels since power-up. Boards
-      and logs without them give None, as does the tilt.
+    - `imdl`, `imdr`: metres turned by the left and right wheels: since power-up on the
+      thesis's board, since the previous read on later ones (robot/wheel_odometers.py).
+      The control loop hands teleop and the missions totals whatever the board, the
+      odometry's sums where the board's are not (robot/odometry_feed.py). Boards and
+      logs without them give None, as does the tilt.
+    - `enc0`, `enc1`: the left and right wheel encoders' 16-bit counts, which are not
+      in bulk_data: the control loop reads them after the poll when it needs them
+      (later boards only); None otherwise.
     """
 
     cang: float
@@ -38,6 +44,8 @@ class MotorState:
     imdr: float | None
     mode: int
     received_at: float
+    enc0: int | None = None
+    enc1: int | None = None
 
     @property
     def estop(self) -> bool:

@@ -107,20 +107,27 @@ class GoTo(PathMission):
         """How it went, once the loop has ended the mission for `why`."""
         assert self.navigator is not None
         goal = self.navigator.plan.rooms[self.room]
-        start = self._started if self._started is not None else self._now
-        end = self._ended if self._ended is not None else self._now
-        trace = self.merged_trace()
-        return GoReport(
-            room=self.room,
-            arrived=self.finished and why == "done",
-            why=why,
-            pose_estimate=self._pose(),
-            goal=goal.at,
-            goal_heading=None if goal.heading is None else math.radians(goal.heading),
-            duration_s=end - start,
-            time_optimal_s=self.time_optimal,
-            stops=[t - start for t in trace.stops],
-            max_jerk=trace.max_jerk(),
-            gear_jumps=trace.gear_jumps,
-            replans=self.replans,
-        )
+        heading = None if goal.heading is None else math.radians(goal.heading)
+        return go_report(self, self.room, goal.at, heading, why)
+
+
+def go_report(mission: PathMission, goal_name: str, goal: tuple[float, float],
+              goal_heading: float | None, why: str) -> GoReport:  # fmt: skip
+    """How a path mission to `goal` went, once the loop has ended it for `why`."""
+    start = mission.started_at if mission.started_at is not None else mission.now
+    end = mission.ended_at if mission.ended_at is not None else mission.now
+    trace = mission.merged_trace()
+    return GoReport(
+        room=goal_name,
+        arrived=mission.finished and why == "done",
+        why=why,
+        pose_estimate=mission.pose_now(),
+        goal=goal,
+        goal_heading=goal_heading,
+        duration_s=end - start,
+        time_optimal_s=mission.time_optimal,
+        stops=[t - start for t in trace.stops],
+        max_jerk=trace.max_jerk(),
+        gear_jumps=trace.gear_jumps,
+        replans=mission.replans,
+    )

@@ -23,6 +23,7 @@ from giraff_console.planning.room_graph import PlanningError
 from giraff_console.planning.route_planner import (
     CLEARANCE_M,
     ROBOT_RADIUS_M,
+    Arrival,
     PlannedPath,
     RoutePlanner,
 )
@@ -49,6 +50,8 @@ class Navigator:
         self.planner = RoutePlanner(plan, walls, robot_radius)
         self._lock = threading.Lock()
         self.state = NavigationState(closed=frozenset(self.planner.graph.closed))
+        # Where the goal is when it is not a room's point (the dock), for replanning.
+        self._arrival: Arrival | None = None
 
     @property
     def walls(self) -> OccupancyGrid | None:
@@ -74,7 +77,18 @@ class Navigator:
         a message for the operator if there is none."""
         with self._lock:
             planned = self.planner.from_point((pose.x, pose.y), room_id)
+            self._arrival = None
             self.state = NavigationState(room_id, planned, self.state.closed,
+                                         obstacles=self.state.obstacles)  # fmt: skip
+            return planned
+
+    def arrive(self, goal: str, arrival: Arrival, pose: Pose) -> PlannedPath:
+        """Plan from `pose` to `arrival` (shown as `goal`, such as "dock") and make it the
+        route shown; PlanningError with a message for the operator if there is none."""
+        with self._lock:
+            planned = self.planner.to_arrival((pose.x, pose.y), arrival)
+            self._arrival = arrival
+            self.state = NavigationState(goal, planned, self.state.closed,
                                          obstacles=self.state.obstacles)  # fmt: skip
             return planned
 
@@ -93,6 +107,7 @@ class Navigator:
     def forget(self) -> None:
         """No goal any more (arrived, or the operator stopped it)."""
         with self._lock:
+            self._arrival = None
             self.state = NavigationState(closed=self.state.closed, obstacles=self.state.obstacles)
 
     def report_obstacles(self, points: list[Point], seen_from: Point | None = None,
@@ -130,7 +145,10 @@ class Navigator:
         goal, planned, problem = self.state.goal, None, None
         if goal is not None:
             try:
-                planned = self.planner.from_point((pose.x, pose.y), goal)
+                start = (pose.x, pose.y)
+                arrival = self._arrival
+                planned = (self.planner.from_point(start, goal) if arrival is None
+                           else self.planner.to_arrival(start, arrival))  # fmt: skip
             except PlanningError as error:
                 problem = str(error)
         self.state = NavigationState(goal, planned, closed, problem, self.state.obstacles)

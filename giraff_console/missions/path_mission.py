@@ -209,6 +209,25 @@ class PathMission:
         return self._ended is not None
 
     @property
+    def started_at(self) -> float | None:
+        """When it was first stepped."""
+        return self._started
+
+    @property
+    def ended_at(self) -> float | None:
+        """When it arrived, if it has."""
+        return self._ended
+
+    @property
+    def now(self) -> float:
+        """The time of its last step."""
+        return self._now
+
+    def pose_now(self) -> Pose:
+        """Where the robot is, as the mission steers by it."""
+        return self._pose()
+
+    @property
     def progress(self) -> str:
         """The room, a bar, the distance left and the time left, for the main view."""
         if self.finished:

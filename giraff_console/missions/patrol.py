@@ -9,6 +9,9 @@ drives on. Replays are open-loop, so the error of every round adds up: a patrol 
 end where it began, where the operator can see how far it drifted.
 
 A patrol file is `routes/<name>.patrol.yaml`; routes/README.md describes it.
+
+On a board with a charger, a patrol that finds its battery low once it has finished a
+stop goes to the dock, charges, and carries on (missions/docking.py).
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from giraff_console.link.motor_state import MotorState
+from giraff_console.missions.docking import ChargingDetour, Recharge
 from giraff_console.missions.path_mission import PathMission
 from giraff_console.missions.route import Route
 from giraff_console.missions.route_replay import RouteReplay
@@ -26,6 +30,7 @@ from giraff_console.planning.room_graph import PlanningError
 from giraff_console.protocol.codec import Command
 from giraff_console.protocol.errors import GiraffError
 from giraff_console.robot.mission import Mission
+from giraff_console.robot.odometry import Pose
 
 PATROL_SUFFIX = ".patrol.yaml"
 # A patrol is planned as a list of every leg of every round, so rounds are bounded; this
@@ -130,6 +135,9 @@ class PatrolRun:
     to a room of the floor plan, with the missions `follow` and `go` make. `on_stop` is
     called on the control loop's thread, as the robot comes to rest at the end of a
     leg; the console takes its snapshot there, so it must not block.
+
+    With `recharge`, a stop finished on a low battery is followed by a detour to the
+    dock (`pose` says where the robot left off, `notify` tells the operator).
     """
 
     def __init__(
@@ -140,6 +148,9 @@ class PatrolRun:
         *,
         go: GoToRoom | None = None,
         follow: FollowTaught | None = None,
+        recharge: Recharge | None = None,
+        pose: Callable[[], Pose] | None = None,
+        notify: Callable[[str], None] = lambda text: None,
     ) -> None:
         needed = {stop.route for stop in patrol.stops if stop.route is not None}
         missing = sorted(needed - routes.keys())
@@ -156,11 +167,14 @@ class PatrolRun:
         self._routes = routes
         self._on_stop = on_stop
         self._go, self._follow = go, follow
+        self._recharge, self._pose, self._notify = recharge, pose, notify
         # (round, stop index) for every stop of every round, in the order they are made.
         self._legs = [(n, i) for n in range(1, patrol.rounds + 1) for i in range(len(patrol.stops))]
         self._leg = 0
         self._problem: str | None = None
-        self._mission = self._start_leg(patrol.stops[0])
+        # A patrol set off on a low battery charges first.
+        self._detour = self._charging_detour()
+        self._mission = _Idle() if self._detour else self._start_leg(patrol.stops[0])
         self._dwell_end: float | None = None
         self._paused_at: float | None = None
         self._now: float | None = None
@@ -190,7 +204,15 @@ class PatrolRun:
             self._leg, self._dwell_end = self._leg + 1, None
             if self.finished:
                 return []
-            self._mission = self._start_leg(self._stop())
+            self._detour = self._charging_detour()
+            if self._detour is None:
+                self._mission = self._start_leg(self._stop())
+        if self._detour is not None:
+            commands = self._detour.step(now, state)
+            if self._detour.finished:
+                self._detour = None
+                self._mission = self._start_leg(self._stop())
+            return commands
         commands = self._mission.step(now, state)
         if self._mission.finished:
             round_number, index = self._legs[self._leg]
@@ -198,23 +220,39 @@ class PatrolRun:
             self._dwell_end = now + self._stop().dwell
         return commands
 
+    def _charging_detour(self) -> ChargingDetour | None:
+        """To the dock, if the battery is low; back to here after, if the next stop is a
+        taught route, which starts where the stop before it ended."""
+        recharge = self._recharge
+        battery = recharge.low() if recharge is not None else None
+        if recharge is None or battery is None:
+            return None
+        left_off = self._pose() if self._pose is not None and self._stop().route else None
+        return ChargingDetour(recharge, battery, left_off, self._notify, f"patrol {self.name}")
+
     def next_due(self) -> float | None:
         """The end of the dwell, or when the route being driven next sends something."""
         if self._paused_at is not None or self.finished:
             return None
+        if self._detour is not None:
+            return self._detour.next_due()
         return self._dwell_end if self._dwell_end is not None else self._mission.next_due()
 
     def pause(self, now: float) -> None:
         if self._paused_at is None:
             self._paused_at = now
-            if self._dwell_end is None:
+            if self._detour is not None:
+                self._detour.pause(now)
+            elif self._dwell_end is None:
                 self._mission.pause(now)
 
     def resume(self, now: float) -> None:
         """Carry on: the route from where it paused, or the rest of the dwell."""
         if self._paused_at is None:
             return
-        if self._dwell_end is not None:
+        if self._detour is not None:
+            self._detour.resume(now)
+        elif self._dwell_end is not None:
             self._dwell_end += now - self._paused_at
         else:
             self._mission.resume(now)
@@ -229,6 +267,8 @@ class PatrolRun:
     def problem(self) -> str | None:
         if self._problem is not None:
             return self._problem
+        if self._detour is not None:
+            return self._detour.problem
         return None if self.finished else self._mission.problem
 
     @property
@@ -253,6 +293,10 @@ class PatrolRun:
         if self.finished:
             return f"patrol {self.name}: done, {self.patrol.rounds} rounds"
         round_number, index = self._legs[self._leg]
+        if self._detour is not None:
+            before = f"before stop {index + 1} ({self._stop().place})"
+            return (f"patrol {self.name}: round {round_number}/{self.patrol.rounds}, {before}: "
+                    f"{self._detour.progress}")  # fmt: skip
         return (
             f"patrol {self.name}: round {round_number}/{self.patrol.rounds}, "
             f"stop {index + 1}/{len(self.patrol.stops)} ({self._stop().place}), "

@@ -27,6 +27,7 @@ from giraff_console.missions.yaml_file import YamlFile, name_problem, shown
 from giraff_console.protocol.codec import Command, format_number, parse_command, parse_number
 from giraff_console.protocol.errors import CommandError, GiraffError
 from giraff_console.robot.odometry import Pose
+from giraff_console.robot.twm import separate_moves
 
 FORMAT = 1
 # The settings a move is made of, in the order a replay sends them; `set p` starts it.
@@ -128,8 +129,11 @@ class RouteTeacher:
             command = parse_command(exchange.command)
         except CommandError:
             return
-        if offset >= 0 and command.name in TAUGHT_SETTINGS:
-            self._commands.append(TimedCommand(offset, command))
+        # A Giraff-X's one-command curve is kept as the sets it stands for, so that the
+        # route replays on any board (the loop folds them again on a Giraff-X).
+        for part in separate_moves(command):
+            if offset >= 0 and part.name in TAUGHT_SETTINGS:
+                self._commands.append(TimedCommand(offset, part))
 
     def observe_pose(self, now: float, pose: Pose) -> None:
         """Sample the path once the robot has moved or turned enough since the last sample."""

@@ -11,6 +11,14 @@ import threading
 from collections.abc import Callable
 from pathlib import Path
 
+from giraff_console.missions.docking import (
+    DOCK,
+    ChargeLevels,
+    GoToPose,
+    Recharge,
+    back_to,
+    dock_arrival,
+)
 from giraff_console.missions.follow_route import FollowRoute
 from giraff_console.missions.go_to import GoTo
 from giraff_console.missions.navigation import Navigator
@@ -38,8 +46,11 @@ from giraff_console.missions.sessions import Sessions
 from giraff_console.missions.undock import Undock
 from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.planning.room_graph import PlanningError
+from giraff_console.planning.route_planner import Arrival
 from giraff_console.recording.session import SessionRecorder
+from giraff_console.robot.battery import Battery
 from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.robot.mission import Mission
 from giraff_console.robot.telemetry import LinkState, Telemetry
 
 
@@ -56,15 +67,21 @@ class RouteBook:
         limits: MotionLimits | None = None,
         sense: Sense | None = None,
         patience: Patience | None = None,
+        charge: ChargeLevels | None = None,
+        undock_distance: float = 0.3,
     ) -> None:
-        """With a `navigator` (the floor plan), patrols can go to rooms; `limits`,
-        `sense` (the range finder) and `patience` are for routes followed closed-loop
-        and rooms."""
+        """With a `navigator` (the floor plan), patrols can go to rooms and the dock;
+        `limits`, `sense` (the range finder) and `patience` are for routes followed
+        closed-loop and rooms; `charge` says when a patrol goes to charge, and
+        `undock_distance` how far it backs out after."""
         self.control = control
         self.navigator = navigator
         self.limits = limits
         self.sense = sense
         self.patience = patience
+        self.charge = charge or ChargeLevels()
+        self.undock_distance = undock_distance
+        self._battery: Battery | None = None
         self.sessions = sessions
         self.directory = directory
         self.report = report
@@ -186,12 +203,35 @@ class RouteBook:
                            tick=control.period, limits=self.limits, sense=self.sense,
                            notify=self.report, patience=self.patience)  # fmt: skip
 
-    def _go_mission(self, room: str) -> GoTo:
+    def _go_mission(self, room: str) -> Mission:
+        """To a room of the plan, or (`dock`) onto the dock; PlanningError if no way."""
         assert self.navigator is not None
         control = self.control
+        if room == DOCK:
+            return self._arrive(DOCK, dock_arrival(self.navigator))
         return GoTo(self.navigator, room, lambda: control.odometry.pose, tick=control.period,
                     limits=self.limits, sense=self.sense, notify=self.report,
                     patience=self.patience)  # fmt: skip
+
+    def _arrive(self, goal: str, arrival: Arrival) -> GoToPose:
+        assert self.navigator is not None
+        control = self.control
+        return GoToPose(self.navigator, goal, arrival, lambda: control.odometry.pose,
+                        tick=control.period, limits=self.limits, sense=self.sense,
+                        notify=self.report, patience=self.patience)  # fmt: skip
+
+    def _recharge(self) -> Recharge | None:
+        """What a patrol needs to charge on the way; None without a floor plan with a
+        start room, where the dock is."""
+        if self.navigator is None or self.navigator.start_pose is None:
+            return None
+        return Recharge(
+            battery=lambda: self._battery,
+            levels=self.charge,
+            dock=lambda: self._go_mission(DOCK),
+            undock=lambda: Undock(self.undock_distance, self.limits),
+            back_to=lambda pose: self._arrive("where it left off", back_to(pose)),
+        )
 
     def patrol(self, name: str) -> bool:
         """Run patrol `name` from `<name>.patrol.yaml`."""
@@ -212,8 +252,10 @@ class RouteBook:
             routes[stop.route] = route
         go = self._go_mission if self.navigator is not None else None
         try:
+            control = self.control
             run = PatrolRun(patrol, routes, self._stop_reached if patrol.snapshots else _ignore,
-                            go=go, follow=self._follow_mission)  # fmt: skip
+                            go=go, follow=self._follow_mission, recharge=self._recharge(),
+                            pose=lambda: control.odometry.pose, notify=self.report)  # fmt: skip
         except PatrolError as error:
             self.report(str(error))
             return False
@@ -284,6 +326,7 @@ class RouteBook:
 
     def _telemetry(self, telemetry: Telemetry) -> None:
         self._link = telemetry.link
+        self._battery = telemetry.battery
         teacher = self.teacher
         if teacher is not None:
             teacher.observe_pose(self.control.clock.now(), telemetry.pose)

@@ -12,7 +12,6 @@ import contextlib
 import math
 import threading
 from collections.abc import Callable
-from dataclasses import replace
 from pathlib import Path
 
 from giraff_console.camera.association import SampleHistory
@@ -29,6 +28,7 @@ from giraff_console.recording.session import (
     read_meta,
 )
 from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.robot.replay import session_start
 from giraff_console.robot.telemetry import Telemetry
 
 # Problems with a log are listed up to this many; the rest are counted.
@@ -84,14 +84,7 @@ class Sessions:
         def begin() -> None:
             # Between two ticks: no poll can come between noting where the odometry
             # stands and recording the next one.
-            odometry = self.control.odometry
-            pose, reference = odometry.pose, odometry.reference
-            start = SessionStart(pose.x, pose.y, pose.heading)
-            if reference is not None and reference.imdl is not None:
-                start = replace(start, imdl=reference.imdl, imdr=reference.imdr,
-                                cvg=reference.cvg,
-                                offset=reference.received_at - recorder.started_at)  # fmt: skip
-            recorder.begin(start)
+            recorder.begin(session_start(self.control.odometry, recorder.started_at))
             with self._lock:
                 if self.recorder is recorder:
                     self.control.observers.append(recorder.exchange)

@@ -35,6 +35,24 @@ APPROACH_M = (0.9, 0.7, 0.5)
 
 
 @dataclass(frozen=True)
+class Arrival:
+    """Where a route ends when not at its room's point: at `point`, facing `heading`
+    (radians), the last `straight` metres driven straight along that heading. A dock
+    is driven onto square on (missions/docking.py); a patrol goes back to where it left
+    off to charge."""
+
+    point: Point
+    heading: float
+    straight: float = 0.0
+
+    @property
+    def approach(self) -> Point:
+        """Where the straight run in starts."""
+        return (self.point[0] - self.straight * math.cos(self.heading),
+                self.point[1] - self.straight * math.sin(self.heading))  # fmt: skip
+
+
+@dataclass(frozen=True)
 class PlannedPath:
     """A route between rooms and the way across each room on it."""
 
@@ -131,28 +149,47 @@ class RoutePlanner:
         room = self.room_at(start)
         return self._ways(lambda: self.graph.route_from(start, room, to_room), to_room)
 
-    def _ways(self, find_route, to_room: str) -> PlannedPath:
+    def to_arrival(self, start: Point, arrival: Arrival) -> PlannedPath:
+        """The route from `start` to `arrival`'s point, in whatever room that is, ending
+        with its straight run in; NoRouteError if that run is not clear."""
+        room, to_room = self.room_at(start), self.room_at(arrival.point)
+        find_route = lambda: self.graph.route_from(start, room, to_room)  # noqa: E731
+        return self._ways(find_route, to_room, arrival)
+
+    def _ways(self, find_route, to_room: str, arrival: Arrival | None = None) -> PlannedPath:
         """The route's legs on the grid. A leg the grid cannot cross has already been
         taken out of the room graph when it was measured, so the route found is one
         whose legs all exist; the loop is only a guard against a grid that changed."""
         for _ in range(len(self.plan.rooms) + len(self.plan.doors) + 1):
             route: Route = find_route()
-            found = self._legs(route)
+            found = self._legs(route, arrival)
             if found is not None:
                 heading = self.plan.rooms[to_room].heading
                 goal_heading = None if heading is None else math.radians(heading)
+                if arrival is not None:
+                    goal_heading = arrival.heading
                 legs, doorways = found
                 return PlannedPath(route, legs, goal_heading, doorways)
             self.graph.forget_legs()
         raise NoRouteError(f"no way to {to_room!r} on the grid")
 
-    def _legs(self, route: Route) -> tuple[tuple[tuple[Point, ...], ...], frozenset[Point]] | None:
+    def _legs(
+        self, route: Route, arrival: Arrival | None = None
+    ) -> tuple[tuple[tuple[Point, ...], ...], frozenset[Point]] | None:
         """The route's legs on the grid, and the door centres crossed square on; None if
-        a leg has no way across its room."""
-        if len(route.path) == 1:
-            return ((route.path[0],),), frozenset()
+        a leg has no way across its room. With `arrival`, the last leg ends there
+        instead of at the room's point."""
+        last_room = route.leg_rooms[-1] if route.leg_rooms else self.room_at(route.path[0])
+        ending = self._ending(arrival, last_room)
         if self.legs is None:
-            return tuple((a, b) for a, b in pairwise(route.path)), frozenset()
+            # Without a grid the legs are straight; the arrival replaces the room's point.
+            before = route.path[:-1] if len(route.path) > 1 else route.path
+            points = route.path if arrival is None else [*before, *ending]
+            if len(points) == 1:
+                return ((points[0],),), frozenset()
+            return tuple((a, b) for a, b in pairwise(points)), frozenset()
+        if len(route.path) == 1 and arrival is None:
+            return ((route.path[0],),), frozenset()
         # Each door crossed becomes a straight stretch through it, from an approach
         # point in the room before to one in the room after; the grid's ways join them.
         # Each waypoint carries the room of the leg that arrives at it (None: straight).
@@ -167,7 +204,11 @@ class RoutePlanner:
             else:
                 waypoints += [(ends[0], before), (point, None), (ends[1], None)]
                 doorways.add(point)
-        waypoints.append((route.path[-1], route.leg_rooms[-1]))
+        if arrival is None:
+            waypoints.append((route.path[-1], last_room))
+        else:
+            # Across the room to the approach, then straight in (or across to the point).
+            waypoints += list(zip(ending, (last_room, None), strict=False))
         legs = []
         for (a, _), (b, room) in pairwise(waypoints):
             points = [a, b] if room is None else self.legs.path(a, b, room)
@@ -175,6 +216,21 @@ class RoutePlanner:
                 return None
             legs.append(tuple(points))
         return tuple(legs), frozenset(doorways)
+
+    def _ending(self, arrival: Arrival | None, room: str) -> list[Point]:
+        """The points a route ends with: the approach and the arrival point, or just the
+        arrival point when there is no straight run in; NoRouteError when that run is not
+        clear."""
+        if arrival is None:
+            return []
+        if arrival.straight <= 0:
+            return [arrival.point]
+        if self.legs is not None and not self.legs.clear(arrival.approach, arrival.point):
+            raise NoRouteError(
+                f"the last {arrival.straight:g} m to ({arrival.point[0]:.2f}, "
+                f"{arrival.point[1]:.2f}) in {room} are not clear to drive straight in"
+            )
+        return [arrival.approach, arrival.point]
 
     def _approach(self, at: Point, before: str, after: str) -> tuple[Point, Point] | None:
         """Where to start and end a straight crossing of the door at `at`, square to its

@@ -34,6 +34,16 @@ MAX_MAGNITUDE = 1e9
 
 CommandKind = Literal["set", "get", "command"]
 
+# Giraff-X's `set twm vg cdp vgr v p 0` sets a whole curved move in one command; it was
+# added because the same parameters sent as several `set`s made the motors jerk and
+# pause (wire-facts, "Later firmware"). What the closing 0 means is not documented:
+# drivers always send 0 there.
+TWM = "twm"
+TWM_SETTINGS = ("vg", "cdp", "vgr", "v", "p")
+# How many values a `set` of each name takes; every other `set` takes one.
+SET_VALUES = {TWM: len(TWM_SETTINGS) + 1}
+SetValue = Number | tuple[Number, ...]
+
 
 def format_number(value: Number) -> str:
     """A number as short plain decimal text: no exponent, no NaN or infinity.
@@ -78,25 +88,67 @@ def check_name(name: str) -> str:
     return name
 
 
+def values_taken(name: str) -> int:
+    """How many values `set NAME` takes: six for a twm, one for anything else."""
+    return SET_VALUES.get(name, 1)
+
+
+def names_set(name: str) -> tuple[str, ...]:
+    """The settings `set NAME` changes: the five a twm carries, else NAME itself."""
+    return TWM_SETTINGS if name == TWM else (name,)
+
+
+def settings_of(name: str, text: str) -> dict[str, str]:
+    """What the board holds after it took `set NAME TEXT`, each setting as on the wire:
+    a twm sets the five settings it carries (its closing 0 is none of them)."""
+    words = text.split()
+    if len(words) != values_taken(name):
+        raise CommandError(f"set {name} takes {values_taken(name)} values, not {text!r}")
+    return dict(zip(names_set(name), words, strict=False))
+
+
 @dataclass(frozen=True)
 class Command:
-    """One command for the board: `set NAME VALUE`, `get NAME` or a bare `NAME`."""
+    """One command for the board: `set NAME VALUE`, `get NAME` or a bare `NAME`.
+
+    A `set` takes one value, except a twm, which takes a tuple of six (TWM_SETTINGS and
+    the closing 0).
+    """
 
     kind: CommandKind
     name: str
-    value: Number | None = None
+    value: SetValue | None = None
 
     def __post_init__(self) -> None:
         check_name(self.name)
         if (self.kind == "set") != (self.value is not None):
             raise CommandError("`set` needs a value and only `set` takes one")
+        wanted = values_taken(self.name)
+        several = isinstance(self.value, tuple)
+        if self.kind == "set" and (several != (wanted > 1) or len(self.values) != wanted):
+            raise CommandError(f"set {self.name} takes {'a tuple of ' if wanted > 1 else ''}"
+                               f"{wanted} value{'s' if wanted > 1 else ''}")  # fmt: skip
+
+    @property
+    def values(self) -> tuple[Number, ...]:
+        """The values of a `set`, one or more; none for anything else."""
+        if self.value is None:
+            return ()
+        return self.value if isinstance(self.value, tuple) else (self.value,)
+
+    @property
+    def settings(self) -> dict[str, str]:
+        """What the board holds once it took this `set`, each setting as on the wire
+        (settings_of); nothing for a `get` or a bare command."""
+        if self.kind != "set":
+            return {}
+        return settings_of(self.name, self.text.split(None, 2)[2])
 
     @property
     def text(self) -> str:
         """The command as typed, without the terminator."""
         if self.kind == "set":
-            assert self.value is not None
-            return f"set {self.name} {format_number(self.value)}"
+            return f"set {self.name} " + " ".join(format_number(v) for v in self.values)
         if self.kind == "get":
             return f"get {self.name}"
         return self.name
@@ -110,7 +162,7 @@ class Command:
         return self.text
 
 
-def encode_set(name: str, value: Number) -> bytes:
+def encode_set(name: str, value: SetValue) -> bytes:
     """`set NAME VALUE\\r`."""
     return Command("set", name, value).wire
 
@@ -126,7 +178,8 @@ def encode_command(name: str) -> bytes:
 
 
 def parse_command(text: str) -> Command:
-    """A command typed by a person (`set v 0.3`, `get bulk_data`, `home`).
+    """A command typed by a person (`set v 0.3`, `get bulk_data`, `home`, and on
+    Giraff-X `set twm 0.2 0.1 1 0.3 0.2 0`).
 
     Anything that is not exactly one well-formed command is refused, so that typed input
     containing CR or LF can never send a second command. Names are read without regard
@@ -140,9 +193,15 @@ def parse_command(text: str) -> Command:
         raise CommandError("empty command")
     op = words[0]
     if op == "set":
-        if len(words) != 3:
+        if len(words) < 3:
             raise CommandError("usage: set NAME VALUE")
-        return Command("set", words[1], parse_number(words[2]))
+        name, values = check_name(words[1]), words[2:]
+        if len(values) != values_taken(name):
+            if name == TWM:
+                raise CommandError(f"usage: set twm {' '.join(TWM_SETTINGS)} 0")
+            raise CommandError("usage: set NAME VALUE")
+        numbers = tuple(parse_number(word) for word in values)
+        return Command("set", name, numbers if len(numbers) > 1 else numbers[0])
     if op == "get":
         if len(words) != 2:
             raise CommandError("usage: get NAME")

@@ -2,7 +2,9 @@
 
 A reply is zero or more lines: a single value, a `name:value,...` list (real boards end
 it with a comma), or an error line. A `set` may be answered with the new value, with
-nothing, or with `New Value: ...` on one firmware (wire-facts "Replies").
+nothing, or with `New Value: ...` on one firmware (wire-facts "Replies"). Later boards
+answer `get charger_data` in an encoding of their own (protocol/charger.py): such a line
+is checked here and passed through raw, with no value; `BoardLink.charger` reads it.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ import re
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+from giraff_console.protocol.charger import is_charger_line, parse_charger
 from giraff_console.protocol.codec import Number, decode_value
 from giraff_console.protocol.errors import (
     ArgumentError,
@@ -98,6 +101,11 @@ def parse_reply(lines: Iterable[str]) -> Reply:
         return Reply(kept, None)
     if len(kept) > 1:
         raise ProtocolError(f"expected one reply line, got {len(kept)}: {kept[0][:40]!r}...")
+    if is_charger_line(kept[0]):
+        # `S:S#4,B:F#...` is no list of values; a garbled one is a ProtocolError here,
+        # so the exchange that carried it records the error.
+        parse_charger(kept[0])
+        return Reply(kept, None)
     return Reply(kept, decode_line(kept[0]))
 
 

@@ -27,6 +27,7 @@ from giraff_console.camera.association import Sample
 from giraff_console.camera.recorder import RecordedFrame, VideoRecorder
 from giraff_console.camera.source import Frame
 from giraff_console.link.exchange import Exchange
+from giraff_console.protocol.kinematics import WHEEL_BASE_M
 from giraff_console.recording.control_log import entry_for, format_entry
 from giraff_console.recording.log_writer import LogWriter
 
@@ -39,6 +40,12 @@ META = "meta.json"
 SNAPSHOTS = "snapshots"
 # The rate the video file declares; frames are placed by their recorded times anyway.
 VIDEO_FPS = 10.0
+# How the wheels' travel may have been read (robot/wheel_odometers.py), and what
+# sessions recorded before later boards were known read.
+ODOMETER_READINGS = ("totals", "increments", "encoders")
+OLD_SESSIONS_READING = "totals"
+# A wheel base meta.json may give: a Giraff's is about half a metre.
+WHEEL_BASE_RANGE_M = (0.1, 2.0)
 
 
 @dataclass(frozen=True)
@@ -107,6 +114,10 @@ def _finite_int(text: str) -> int:
     return int(text)
 
 
+def _is_number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
 def _no_constant(text: str) -> float:
     raise ValueError(f"{text} is not a number meta.json may hold")
 
@@ -114,9 +125,13 @@ def _no_constant(text: str) -> float:
 @dataclass(frozen=True)
 class SessionStart:
     """Where the odometry stood as recording began: its pose, and the wheel readings
-    (`imdl`, `imdr`, `cvg`, taken `offset` seconds into the session, so at or before 0)
-    that its next step is taken from. With both, playback integrates the first recorded
-    poll exactly as the live console did, even if recording began mid-drive."""
+    (`imdl`, `imdr`, `cvg`, the encoders' `enc0`, `enc1`, taken `offset` seconds into the
+    session, so at or before 0) that its next step is taken from. With both, playback
+    integrates the first recorded poll exactly as the live console did, even if recording
+    began mid-drive. `odometers` and `wheel_base` say how the wheels were read (totals,
+    increments or encoders) and turned into a heading, so that playback reads the
+    recorded bulk_data as the console did; sessions recorded before they were noted
+    read totals, with the thesis's wheel base."""
 
     x: float = 0.0
     y: float = 0.0
@@ -125,6 +140,10 @@ class SessionStart:
     imdr: float | None = None
     cvg: float = 0.0
     offset: float = 0.0
+    odometers: str = OLD_SESSIONS_READING
+    wheel_base: float = WHEEL_BASE_M
+    enc0: int | None = None
+    enc1: int | None = None
 
     @classmethod
     def from_meta(cls, meta: dict[str, Any]) -> SessionStart:
@@ -132,11 +151,20 @@ class SessionStart:
         start = meta.get("start")
         if not isinstance(start, dict):
             return cls()
-        names = {"x", "y", "heading", "imdl", "imdr", "cvg", "offset"}
-        values = {k: v for k, v in start.items() if k in names}
-        if not all(isinstance(v, int | float) and math.isfinite(v) for v in values.values()):
+        names = {"x", "y", "heading", "imdl", "imdr", "cvg", "offset", "wheel_base"}
+        values: dict[str, Any] = {k: v for k, v in start.items() if k in names}
+        if not all(_is_number(v) for v in values.values()):
             return cls()
-        return cls(**values)
+        low, high = WHEEL_BASE_RANGE_M
+        if not low <= values.get("wheel_base", WHEEL_BASE_M) <= high:
+            return cls()
+        odometers = start.get("odometers", OLD_SESSIONS_READING)
+        if odometers not in ODOMETER_READINGS:
+            return cls()
+        counts = [start.get(name) for name in ("enc0", "enc1")]
+        if all(isinstance(c, int) and not isinstance(c, bool) for c in counts):
+            values["enc0"], values["enc1"] = counts
+        return cls(**values, odometers=odometers)
 
 
 @dataclass(frozen=True)

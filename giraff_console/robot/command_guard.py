@@ -14,6 +14,10 @@ that goes on the wire (the value as `format_number` writes it, the name in lower
   bounds, and it may not put the robot further ahead than the console's reach
   (`DriveLimits.reach`, robot/safety.py), on the outer wheel in a curve; in rotation
   (r = 0) `p` is in degrees (A.2.2).
+- A Giraff-X `set twm vg cdp vgr v p 0` (wire-facts, "Later firmware") is checked as the
+  move it is: each value within the bounds of its own setting, the closing value 0, and
+  then the move as a `set p` with the board's settings overlaid by the twm's own; it is
+  a curved move, so the board must hold r > 50 (A.4.2).
 - No line is longer than MAX_LINE_CHARS.
 
 The board brakes at the acceleration `a` of its last move, so `a` bounds a runaway too:
@@ -33,7 +37,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from giraff_console.protocol.codec import DECIMALS, Command
+from giraff_console.protocol.codec import DECIMALS, TWM, TWM_SETTINGS, Command
 from giraff_console.protocol.errors import CommandError
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, TURN_RADIUS_M
 from giraff_console.robot.teleop import DriveLimits
@@ -43,7 +47,12 @@ from giraff_console.robot.teleop import DriveLimits
 # `buf` is what GiraffMotor reads replies into), and wire-facts is silent; the simulator
 # assumes 256 (sim/line.py). 64 is a conservative bound that every real command fits
 # in: the longest name, tilt_angle_from_home, with the longest value format_number
-# writes (20 characters) makes 45.
+# writes (20 characters) makes 45. A twm has six values: within their bounds and
+# written with all nine decimals it could make 73 characters (`set twm -0.509999999
+# -0.249999999 -1.999999999 0.399999999 -0.159999999 0`), and such a one is refused.
+# The console's own fit: teleop's at most 58 (its speed has four decimals, its vgr is
+# +-1), the executor's, at four decimals, at most 49 (tests/robot/test_twm.py); and
+# robot/twm.py sends separate sets rather than a longer twm.
 MAX_LINE_CHARS = 64
 
 # The only bare command the board knows (A.4.10): the head's homing sequence.
@@ -53,10 +62,10 @@ BARE_COMMANDS = frozenset({"home"})
 # later firmware). Each has a `get` that reads it back (A.4).
 SETTINGS = frozenset({
     "v", "a", "r", "p", "mode", "undock", "tilt_angle_from_home", "vg", "vgr", "cdp", "h",
-    "enc0", "enc1",
+    "enc0", "enc1", TWM,
 })  # fmt: skip
 # What the board can read: its settings, and its state (A.4.5-A.4.21; wire-facts: the
-# charger).
+# charger; Giraff-X answers `get twm` with a list).
 READINGS = SETTINGS | {
     "cang", "cdis", "gvr", "cvg", "tilt_homing_state", "but0", "but1", "dial",
     "button_data", "bulk_data", "charger_data",
@@ -119,7 +128,8 @@ class Bound:
 def setting_bounds(limits: DriveLimits, speed: float | None = None) -> dict[str, Bound]:
     """Every setting the guard lets through, with its bounds and the reason for them.
 
-    `p` is not here: how far a move may reach depends on the style (see check_command).
+    `p` and twm are not here: how far a move may reach depends on the style, and a twm
+    is a move (see check_command).
     `speed`, when known, bounds how fast the robot may be going as a move starts.
     """
     gentlest = limits.min_accel if speed is None else braking_accel(speed, limits.runaway)
@@ -182,6 +192,9 @@ def check_command(command: Command, limits: DriveLimits, board: Mapping[str, str
         return
     if name in REFUSED_SETTINGS:
         raise CommandError(f"set {name} is refused: {REFUSED_SETTINGS[name]}")
+    if name == TWM:
+        _check_twm(command, limits, board, speed)
+        return
     # The value as it goes on the wire, which is what the board will act on.
     value = float(command.text.split()[2])
     if name == "p":
@@ -202,6 +215,34 @@ def _check_setting(name: str, value: float, limits: DriveLimits, speed: float | 
         raise CommandError(f"the board has no setting called {name!r} (settings: {known})")
     if not bound.admits(value):
         raise CommandError(f"{name} must be {bound}: {bound.why}")
+
+
+def _check_twm(command: Command, limits: DriveLimits, board: Mapping[str, str],
+               speed: float | None) -> None:  # fmt: skip
+    """A twm sets vg, cdp, vgr and v and moves by p (wire-facts): each value within its
+    own setting's bounds, then the move as `set p` would be, with the board's settings
+    overlaid by the twm's. It carries no style: the board must already hold a curve."""
+    # The values as they go on the wire, which is what the board will act on.
+    *carried, end = (float(word) for word in command.text.split()[2:])
+    if end != 0:
+        raise CommandError(
+            f"a twm ends in 0 (`set twm {' '.join(TWM_SETTINGS)} 0`, wire-facts); what "
+            "another value would do is not documented"
+        )
+    for name, value in zip(TWM_SETTINGS[:-1], carried[:-1], strict=True):
+        _check_setting(name, value, limits, speed)
+    if "r" not in board:
+        raise CommandError("the board's r is unknown; set it first")
+    try:
+        style = float(board["r"])
+    except ValueError:
+        raise CommandError(f"the board's r is not a number: {board['r']!r}") from None
+    if not style > MAX_STRAIGHT_STYLE:
+        raise CommandError(
+            f"a twm is a curved move: the board must hold r above {MAX_STRAIGHT_STYLE:g} "
+            f"(A.4.2), not {board['r']}"
+        )
+    _check_move(carried[-1], limits, {**board, **command.settings}, speed)
 
 
 def _check_move(target: float, limits: DriveLimits, board: Mapping[str, str],

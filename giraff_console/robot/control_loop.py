@@ -6,7 +6,11 @@ the board, such as a typed command, is queued to it and runs between ticks. A ke
 press wakes the loop at once, so the first motion command does not wait for a tick.
 
 When the board stops answering the loop reports LINK LOST and reconnects with
-back-off; the first thing it sends to a reconnected board is a stop.
+back-off; the first thing it sends to a reconnected board is a stop. Then it probes
+which board it is (link/board_probe.py): the thesis's or a later firmware, whose wheel
+readings the odometry must take differently (odometry_feed.py), whose battery and
+height stalk it reads every half second (board_gauges.py), and, on Giraff-X, which takes
+a curve as one `twm` (twm.py).
 
 Every way the console can end or fail reaches the loop as `emergency_stop` (design.md):
 from a signal, an exception on another thread or a quit. It only sets a flag and wakes
@@ -30,22 +34,38 @@ import threading
 from collections.abc import Callable
 
 from giraff_console.clock import Clock, VirtualClock
-from giraff_console.link import BoardLink, Exchange, LinkError, MotorState, Observer
+from giraff_console.link import (
+    BoardFeatures,
+    BoardLink,
+    Exchange,
+    LinkError,
+    MotorState,
+    Observer,
+    probe,
+)
+from giraff_console.protocol.codec import Command
 from giraff_console.protocol.errors import (
     BoardError,
     BoardRebootedError,
     CommandError,
     GiraffError,
+    ProtocolError,
 )
+from giraff_console.protocol.kinematics import WHEEL_BASE_M
 from giraff_console.recording.playback import Playback
+from giraff_console.robot.battery import Battery
+from giraff_console.robot.board_gauges import BoardGauges
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.mission import Mission
 from giraff_console.robot.odometry import Odometry
+from giraff_console.robot.odometry_feed import OdometryFeed
 from giraff_console.robot.replay import Replayer
 from giraff_console.robot.safety import rotation_wheel_speed, stop_robot
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.robot.teleop import Teleop
+from giraff_console.robot.twm import combine_moves
+from giraff_console.robot.wheel_odometers import AUTO, Reading
 
 log = logging.getLogger(__name__)
 
@@ -64,7 +84,10 @@ class ControlLoop:
     def __init__(self, connect: Connect, *, teleop: Teleop, deadman: Deadman,
                  rate_hz: float = DEFAULT_RATE_HZ, clock: Clock,
                  publish: Callable[[Telemetry], None] = lambda t: None,
-                 report: Callable[[str], None] = lambda m: None) -> None:  # fmt: skip
+                 report: Callable[[str], None] = lambda m: None,
+                 wheel_base: float = WHEEL_BASE_M, odometers: str = AUTO) -> None:  # fmt: skip
+        """`wheel_base` and `odometers` are the `[board]` settings: the robot's wheel base
+        and how its wheels' travel is read (auto, totals, increments, encoders)."""
         self.connect = connect
         self.teleop = teleop
         self.deadman = deadman
@@ -72,7 +95,11 @@ class ControlLoop:
         self.clock = clock
         self.publish = publish
         self.report = report
-        self.odometry = Odometry()
+        initial = Reading.TOTALS if odometers == AUTO else Reading(odometers)
+        self.odometry = Odometry(wheel_base=wheel_base, reading=initial)
+        # `report` may be replaced after construction: they look it up when they speak.
+        self.feed = OdometryFeed(self.odometry, odometers, lambda text: self.report(text))
+        self.gauges = BoardGauges(lambda text: self.report(text))
         self.autopoll = True
         # Every exchange on whatever link is open, and every recorded one played back:
         # the transcript, a recording, a route being taught. Safe to change at any time.
@@ -235,6 +262,17 @@ class ControlLoop:
     def mission(self) -> Mission | None:
         return self._mission
 
+    @property
+    def board(self) -> BoardFeatures | None:
+        """What the probe found on the board connected; None while there is none."""
+        return self.feed.features
+
+    @property
+    def battery(self) -> Battery | None:
+        """The battery as a later board last reported it; None until then, or on a
+        board without a charger."""
+        return self.gauges.battery
+
     def between_ticks(self, change: Callable[[], None]) -> None:
         """Run `change` on the loop's thread before its next tick: changes of what the
         loop does, and anything that must not fall between a poll and its use."""
@@ -328,9 +366,9 @@ class ControlLoop:
             # ago: polling again would only delay the first command.
             state = self._state
             fresh = state is not None and self.clock.now() - state.received_at < self.period
-            if (self.autopoll or driving or self._mission) and not (early and fresh):
-                state = self._state = self.link.bulk(automatic=True)
-                self.odometry.update(state)
+            polling = bool(self.autopoll or driving or self._mission)
+            if polling and not (early and fresh):
+                state = self._state = self._poll(self.link)
                 self._note_estop(state)
             if driving and state is not None:
                 if state.estop:
@@ -338,6 +376,8 @@ class ControlLoop:
                 self._step_teleop(self.link, state)
             elif self._mission is not None:
                 self._step_mission(self.link, state)
+            if polling:
+                self.gauges.poll(self.link, self.clock.now())
         except LinkError as error:
             self.report(f"LINK LOST: {error}")
             self._end_mission("stopped: the link to the board was lost", stop=False)
@@ -346,7 +386,7 @@ class ControlLoop:
             # Its odometers restarted from zero: keep the pose, take new references.
             self.report(f"{error}; its settings are back at power-up")
             self._end_mission("stopped: the board restarted", stop=False)
-            self.odometry.reset(self.odometry.pose)
+            self.feed.rebooted()
             self.teleop.forget_board()
             self.deadman.release()
         except GiraffError as error:
@@ -356,12 +396,34 @@ class ControlLoop:
             self._end_mission(f"stopped: {error}")
         self._publish()
 
+    def _poll(self, link: BoardLink) -> MotorState:
+        """The tick's poll, with the encoders when they are read, into the odometry; the
+        state as teleop and the missions read it, `imdl`/`imdr` as totals whatever the
+        board. A first-motion check that replaced the reading moved the pose: a mission
+        driving by the old pose is stopped."""
+        state = link.bulk(automatic=True)
+        if self.feed.needs_encoders:
+            state = self.feed.with_encoders(link, state)
+        self.feed.sample(state)
+        jumped, self.feed.pose_jumped = self.feed.pose_jumped, None
+        if jumped is not None:
+            self._end_mission("stopped: its pose was wrong (the odometry read the wheels "
+                              "the wrong way); start it again")  # fmt: skip
+        return self.feed.as_totals(state)
+
+    def _moves(self, commands: list[Command]) -> list[Command]:
+        """A batch of moves as it goes to this board: on Giraff-X a curve is one twm."""
+        features = self.feed.features
+        if features is not None and features.twm:
+            return combine_moves(commands, self.teleop.board_settings)
+        return commands
+
     def _step_teleop(self, link: BoardLink, state: MotorState) -> None:
         """Send what the held key asks for, each command within the limits (the one
         guard every path to the board passes); a command refused, by the guard or by the
         board, ends the driving rather than being asked again twenty times a second."""
         speed = self._speed_bound(state)
-        for command in self.teleop.step(self.deadman.held(), state):
+        for command in self._moves(list(self.teleop.step(self.deadman.held(), state))):
             if self._halt is not None:
                 return  # stopping now: no more renewals
             try:
@@ -381,7 +443,7 @@ class ControlLoop:
             self._end_mission("stopped by ESTOP", stop=False)
             return
         speed = self._speed_bound(state)
-        for command in mission.step(self.clock.now(), state):
+        for command in self._moves(list(mission.step(self.clock.now(), state))):
             if self._halt is not None:
                 return  # stopping now: no more renewals
             try:
@@ -565,12 +627,26 @@ class ControlLoop:
             done(result)
 
     def _watch(self, exchange: Exchange) -> None:
-        """Keep teleop's picture of the board's settings true, whoever sends them; then
-        tell the observers."""
+        """Keep teleop's picture of the board's settings true, whoever sends them, and
+        the odometry's check told of every move and fed every read of bulk_data (on
+        later boards a read resets imdl/imdr); then tell the observers."""
         if exchange.kind == "set":
-            _, name, text = exchange.command.split()
+            # A twm carries several values: `set twm vg cdp vgr v p 0`.
+            _, name, text = exchange.command.split(None, 2)
             # A set whose answer went wrong may or may not have been taken: unknown.
             self.teleop.board_set(name, text if exchange.error is None else None)
+            if name in ("p", "twm") and exchange.error is None:
+                self.feed.move_sent(exchange.answered_at, self.teleop.board_settings)
+        elif (exchange.kind == "get" and not exchange.automatic and exchange.error is None
+              and exchange.command.split() == ["get", "bulk_data"]
+              and isinstance(exchange.value, dict)):  # fmt: skip
+            # The loop's own polls are fed by the tick, with the encoders when read.
+            try:
+                state = MotorState.from_bulk(exchange.value, exchange.answered_at)
+            except ProtocolError:
+                pass
+            else:
+                self.feed.sample(state, automatic=False)
         self._notify(exchange)
 
     def _reconnect(self) -> bool:
@@ -579,15 +655,20 @@ class ControlLoop:
             return False
         try:
             link = self.connect()
-            link.add_observer(self._watch)
-            # Before anything else, the robot is told to stop (design.md); then settings
-            # within the limits replace whatever the board holds.
-            if not stop_robot(link):
+            try:
+                link.add_observer(self._watch)
+                # Before anything else, the robot is told to stop (design.md); then
+                # settings within the limits replace whatever the board holds; then the
+                # board is asked what it is, which reads nothing that moves it.
+                if not stop_robot(link):
+                    raise LinkError("the board did not take the stop command")
+                self.teleop.forget_board()
+                for command in self.teleop.safe_settings():
+                    link.send(command)
+                features = probe(link)
+            except GiraffError:
                 link.close()
-                raise LinkError("the board did not take the stop command")
-            self.teleop.forget_board()
-            for command in self.teleop.safe_settings():
-                link.send(command)
+                raise
         except GiraffError as error:
             delay = BACKOFF_S[min(self._failures, len(BACKOFF_S) - 1)]
             self._failures += 1
@@ -595,10 +676,14 @@ class ControlLoop:
             if self._failures == 1 or self._failures % 10 == 0:
                 self.report(f"cannot reach the board ({error}); retrying every {delay:g} s")
             return False
+        # A board that greeted was powered up just now: its counters started again.
+        self.feed.connected(features, powered_up=link.version is not None)
+        self.gauges.connected(features)
+        board = features.describe(self.odometry.reading)
         if self._failures:
-            self.report("link restored; robot commanded to stop")
+            self.report(f"link restored; robot commanded to stop; {board}")
         else:
-            self.report(f"connected to {link.port.port}, board {link.version or 'version unknown'}")
+            self.report(f"connected to {link.port.port}, {board}")
         self._failures = 0
         self.link = link
         self._state = None
@@ -606,6 +691,8 @@ class ControlLoop:
 
     def _drop_link(self) -> None:
         link, self.link = self.link, None
+        self.feed.disconnected()
+        self.gauges.disconnected()
         self.deadman.release()
         self.teleop.forget_board()
         self._state = None
@@ -637,6 +724,9 @@ class ControlLoop:
             late_ms=self._late * 1e3,
             playback=replayer.status(self.clock.now()) if replayer else None,
             mission=mission.progress if mission else None,
+            battery=self.gauges.battery,
+            stalk=self.gauges.stalk,
+            board=self.feed.features,
         )
         for observer in list(self.telemetry_observers):
             try:

@@ -1,16 +1,21 @@
 """Dead reckoning from successive motor states (§2.3.1, §3.2.1.5).
 
-The distance comes from the wheel odometers `imdl` and `imdr`, which never restart. The
-move counters `cdis` and `cang` restart with every relative move, and teleop preempts
-several times a second, so differencing them would lose the distance covered between
-the last poll and each preemption.
+The distance comes from the wheels, read one of three ways (wheel_odometers.py): the
+thesis's `imdl`/`imdr` totals, later boards' increments, or the encoders. Never from the
+move counters `cdis` and `cang`: they restart with every relative move, and teleop
+preempts several times a second, so differencing them would lose the distance covered
+between the last poll and each preemption.
 
-The heading changes by the curvature of the board's own gear ratio, vg / 0.2495 1/m
-(A.2.3), while the robot moves along a curve, and by the wheels' difference while it
-rotates in place. The position is integrated at the midpoint heading of each step,
-which is exact to second order where the thesis's estimate was first order; along a
-clothoid the mean of the two gear ratio samples is exact, since the ratio ramps
-linearly with distance.
+The heading changes by the wheels' difference over the wheel base, whatever the robot
+does: (right - left) / wheel_base is the exact change of a differential drive's heading
+for any path between two samples, a curve, a rotation on the spot or both in one step.
+The board's own gear ratio (`cvg`) would give the curvature only on the thesis's board
+and only in gear-ratio mode: later boards' mode bit 2 makes `vg` an angular velocity
+(wire-facts), and a robot whose wheels are not 0.499 m apart (one driver uses 0.467 m)
+curves by its real wheel base, not by the 0.2495 m the board's formula assumes. So the
+wheel base is a setting (`[board] wheel_base`). The position is integrated at the
+midpoint heading of each step, which is exact to second order where the thesis's
+estimate was first order.
 
 The casters' effect (§3.2.1.5) is invisible here, as it is to the board.
 """
@@ -22,11 +27,8 @@ from dataclasses import dataclass
 
 from giraff_console.link.motor_state import MotorState
 from giraff_console.protocol.errors import ProtocolError
-from giraff_console.protocol.kinematics import WHEEL_BASE_M, curvature
-
-# Faster than a Giraff wheel ever turns, and a margin for the first sample's timing.
-MAX_WHEEL_SPEED = 2.0
-JUMP_MARGIN_M = 0.05
+from giraff_console.protocol.kinematics import WHEEL_BASE_M
+from giraff_console.robot.wheel_odometers import Reading, WheelOdometers, odometers_for
 
 
 @dataclass(frozen=True)
@@ -46,9 +48,24 @@ class Pose:
 class Odometry:
     """Integrates the robot's pose from one motor state to the next."""
 
-    def __init__(self, pose: Pose | None = None) -> None:
+    def __init__(self, pose: Pose | None = None, *, wheel_base: float = WHEEL_BASE_M,
+                 reading: Reading | str = Reading.TOTALS) -> None:  # fmt: skip
+        if not wheel_base > 0:
+            raise ValueError("the wheel base must be positive")
         self.pose = pose or Pose()
+        self.wheel_base = wheel_base
+        self.odometers: WheelOdometers = odometers_for(reading)
+        # Metres the robot's centre has travelled, either way, since it was made: what
+        # the first-motion check compares with cdis.
+        self.distance = 0.0
+        # Metres each wheel has turned since it was made, as the board's totals would
+        # count them, whichever way they are read (OdometryFeed.as_totals).
+        self.wheels = (0.0, 0.0)
         self._last: MotorState | None = None
+
+    @property
+    def reading(self) -> Reading:
+        return self.odometers.reading
 
     def reset(self, pose: Pose | None = None, reference: MotorState | None = None) -> None:
         """Start again from `pose`; the next step is taken from `reference`, or, without
@@ -56,37 +73,51 @@ class Odometry:
         self.pose = pose or Pose()
         self._last = reference
 
+    def use(self, reading: Reading | str) -> None:
+        """Read the wheels another way from now on; the pose stays, and the next state is
+        the new reference (one reading's reference means nothing to another)."""
+        self.odometers = odometers_for(reading)
+        self._last = None
+
+    def take_over(self, other: Odometry) -> None:
+        """Carry on as `other` does: its reading, its pose, its reference."""
+        self.odometers = other.odometers
+        self.wheel_base = other.wheel_base
+        self.pose = other.pose
+        self._last = other.reference
+
     @property
     def reference(self) -> MotorState | None:
         """The state the next step will be taken from."""
         return self._last
 
+    def wants(self, state: MotorState, automatic: bool) -> bool:
+        """Whether `state` is to be integrated: the console's own polls always are (when
+        they carry this reading's values); any other read of bulk_data only when it
+        resets what this reading counts."""
+        return self.odometers.usable(state) and (automatic or self.odometers.consumed_by_reads)
+
     def update(self, state: MotorState) -> Pose:
         """Advance the pose by what the wheels did since the previous state."""
-        if state.imdl is None or state.imdr is None:
-            raise ProtocolError("this board does not report wheel distances (imdl, imdr)")
+        if not self.odometers.usable(state):
+            raise ProtocolError(f"this board does not report {self.odometers.needs}")
         last, self._last = self._last, state
-        if last is None or last.imdl is None or last.imdr is None:
+        if last is None or not self.odometers.usable(last):
             return self.pose
-        left = state.imdl - last.imdl
-        right = state.imdr - last.imdr
-        elapsed = max(0.0, state.received_at - last.received_at)
-        if max(abs(left), abs(right)) > MAX_WHEEL_SPEED * elapsed + JUMP_MARGIN_M:
+        travel = self.odometers.travel(last, state)
+        if travel is None:
             # Further than any wheel can go: the board restarted its odometers, as after
             # a power cycle. Keep the pose; this sample is the new reference.
             return self.pose
+        left, right = travel
+        self.wheels = (self.wheels[0] + left, self.wheels[1] + right)
         distance = (left + right) / 2
-        mean_gear = (state.cvg + last.cvg) / 2
-        if mean_gear != 0.0 and left * right > 0:
-            # Curved motion: positive gear ratios turn right, clockwise.
-            turn = -curvature(mean_gear) * distance
-        else:
-            # Straight (no difference) or rotating in place (wheels in opposite senses).
-            turn = (right - left) / WHEEL_BASE_M
+        turn = (right - left) / self.wheel_base
         mid = self.pose.heading + turn / 2
         self.pose = Pose(
             self.pose.x + distance * math.cos(mid),
             self.pose.y + distance * math.sin(mid),
             self.pose.heading + turn,
         )
+        self.distance += abs(distance)
         return self.pose

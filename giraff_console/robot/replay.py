@@ -3,13 +3,17 @@
 The recorded replies go to the same observers as live exchanges (the transcript) and
 the recorded `bulk_data` replies to an odometry of their own, so that the pose on screen
 is the pose that was seen when recording (§3.2.1.1). The live odometry is left alone,
-and carries on when playback ends.
+and carries on when playback ends. The recorded reads are taken as the live console
+took them (`RecordedReads`): with the wheel reading and the wheel base the session
+started with, every read of bulk_data for a board whose reads reset imdl/imdr, and the
+encoders' counts that followed the poll when they were the reading.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from giraff_console.link.exchange import Exchange
 from giraff_console.link.motor_state import MotorState
@@ -18,6 +22,7 @@ from giraff_console.recording.control_log import LogEntry, LogRead
 from giraff_console.recording.playback import Playback, as_exchange
 from giraff_console.recording.session import PoseSample, SessionStart
 from giraff_console.robot.odometry import Odometry, Pose
+from giraff_console.robot.wheel_odometers import Reading
 
 # A minute of automatic polls at 20 Hz.
 CHECKPOINT_ENTRIES = 1200
@@ -45,12 +50,12 @@ class Replayer:
     def __init__(self, playback: Playback) -> None:
         self.playback = playback
         self.odometry = starting_odometry(playback.start)
+        self.reads = RecordedReads(self.odometry.reading)
         self.state: MotorState | None = None
         self._done = 0  # entries interpreted so far
-        # Entries interpreted -> (pose, odometry reference, state) at that point.
-        self._checkpoints: dict[int, tuple[Pose, MotorState | None, MotorState | None]] = {
-            0: (self.odometry.pose, self.odometry.reference, None)
-        }
+        # Entries interpreted -> (pose, odometry reference, state, a poll waiting for its
+        # encoders) at that point.
+        self._checkpoints: dict[int, _Checkpoint] = {0: self._checkpoint()}
 
     def advance(self, now: float, notify: Callable[[Exchange], None]) -> None:
         """Hand out what has fallen due, and take the odometry along."""
@@ -63,7 +68,7 @@ class Replayer:
         """Move to `offset`, the pose with it."""
         target = self.playback.seek(now, offset)
         start = max(index for index in self._checkpoints if index <= target)
-        pose, reference, self.state = self._checkpoints[start]
+        pose, reference, self.state, self.reads.pending = self._checkpoints[start]
         self.odometry.reset(pose, reference)
         self._done = start
         for entry in self.playback.entries[start:target]:
@@ -78,9 +83,12 @@ class Replayer:
     def pose(self) -> Pose:
         return self.odometry.pose
 
+    def _checkpoint(self) -> _Checkpoint:
+        return self.odometry.pose, self.odometry.reference, self.state, self.reads.pending
+
     def _interpret(self, entry: LogEntry) -> None:
         self._done += 1
-        state = recorded_state(entry)
+        state = self.reads.take(entry)
         if state is not None:
             try:
                 self.odometry.update(state)
@@ -88,17 +96,58 @@ class Replayer:
             except ProtocolError:
                 pass  # a board without wheel distances: the pose cannot follow
         if self._done % CHECKPOINT_ENTRIES == 0:
-            self._checkpoints[self._done] = (self.odometry.pose, self.odometry.reference,
-                                             self.state)  # fmt: skip
+            self._checkpoints[self._done] = self._checkpoint()
 
 
-def recorded_state(entry: LogEntry) -> MotorState | None:
-    """The motor state an automatic `bulk_data` poll recorded; None for anything else.
+_Checkpoint = tuple[Pose, MotorState | None, MotorState | None, MotorState | None]
+
+
+class RecordedReads:
+    """The samples a session's log gives the odometry, as the live console took them
+    with `reading` (robot/odometry_feed.py)."""
+
+    def __init__(self, reading: Reading) -> None:
+        self.reading = reading
+        # With the encoders: the poll, and the counts read since, until both are in.
+        self.pending: MotorState | None = None
+
+    def take(self, entry: LogEntry) -> MotorState | None:
+        """The sample `entry` completes, if any."""
+        if self.reading is Reading.ENCODERS:
+            return self._encoders(entry)
+        if self.reading is Reading.INCREMENTS and entry.param == "bulk_data":
+            # A read resets the increments: every one, typed or polled, counted live.
+            return recorded_state(entry, polled_only=False)
+        return recorded_state(entry)
+
+    def _encoders(self, entry: LogEntry) -> MotorState | None:
+        if entry.frame_marker:
+            self.pending = recorded_state(entry)
+            return None
+        pending = self.pending
+        if pending is None or not entry.automatic or entry.param not in ("enc0", "enc1"):
+            return None
+        value = as_exchange(entry, entry.offset).value
+        if not isinstance(value, int | float) or not math.isfinite(value):
+            self.pending = None  # a count that cannot be read: this poll goes without
+            return None
+        if entry.param == "enc0":
+            self.pending = replace(pending, enc0=round(value))
+            return None
+        self.pending = None
+        return replace(pending, enc1=round(value)) if pending.enc0 is not None else None
+
+
+def recorded_state(entry: LogEntry, polled_only: bool = True) -> MotorState | None:
+    """The motor state an automatic `bulk_data` poll recorded (without `polled_only`, any
+    `get bulk_data`); None for anything else.
 
     It is stamped with the recorded time, not the playback's, so that speed and seeks
     do not change what the odometry's plausibility check sees.
     """
-    if not entry.frame_marker:
+    if entry.param != "bulk_data" or entry.flag not in ("G", " "):
+        return None
+    if polled_only and not entry.frame_marker:
         # Only the automatic poll feeds the odometry, live as in the original's playback
         # (B.2 PlaybackData); a `get bulk_data` typed by hand is shown, not integrated.
         return None
@@ -113,26 +162,41 @@ def recorded_state(entry: LogEntry) -> MotorState | None:
 
 
 def starting_odometry(start: SessionStart) -> Odometry:
-    """An odometry where the live one stood as recording began."""
-    odometry = Odometry()
-    reference = None
-    if start.imdl is not None and start.imdr is not None:
-        reference = MotorState(cang=0.0, cdis=0.0, gvr=0.0, speed=0.0, cvg=start.cvg, tilt=None,
-                               imdl=start.imdl, imdr=start.imdr, mode=0,
-                               received_at=start.offset)  # fmt: skip
-    odometry.reset(Pose(start.x, start.y, start.heading), reference)
+    """An odometry where the live one stood as recording began, reading the wheels as it
+    did."""
+    odometry = Odometry(wheel_base=start.wheel_base, reading=start.odometers)
+    reference = MotorState(cang=0.0, cdis=0.0, gvr=0.0, speed=0.0, cvg=start.cvg, tilt=None,
+                           imdl=start.imdl, imdr=start.imdr, mode=0, received_at=start.offset,
+                           enc0=start.enc0, enc1=start.enc1)  # fmt: skip
+    usable = odometry.odometers.usable(reference)
+    odometry.reset(Pose(start.x, start.y, start.heading), reference if usable else None)
     return odometry
 
 
+def session_start(odometry: Odometry, origin: float) -> SessionStart:
+    """Where `odometry` stands, for a session whose clock starts at `origin`: what
+    `starting_odometry` needs to carry on from there."""
+    pose, reference = odometry.pose, odometry.reference
+    start = SessionStart(pose.x, pose.y, pose.heading, odometers=odometry.reading.value,
+                         wheel_base=odometry.wheel_base)  # fmt: skip
+    if reference is not None and odometry.odometers.usable(reference):
+        start = replace(start, imdl=reference.imdl, imdr=reference.imdr, cvg=reference.cvg,
+                        enc0=reference.enc0, enc1=reference.enc1,
+                        offset=reference.received_at - origin)  # fmt: skip
+    return start
+
+
 def replay_poses(log: LogRead, start: SessionStart | None = None) -> Iterator[PoseSample]:
-    """The pose at every automatic `bulk_data` poll, as the console saw it."""
+    """The pose at every sample the live odometry took (`RecordedReads`), as the console
+    saw it."""
     odometry = starting_odometry(start or SessionStart())
+    reads = RecordedReads(odometry.reading)
     for entry in log.entries:
-        state = recorded_state(entry)
+        state = reads.take(entry)
         if state is None:
             continue
         try:
             pose = odometry.update(state)
         except ProtocolError:
             return
-        yield PoseSample(entry.offset, pose.x, pose.y, pose.heading)
+        yield PoseSample(state.received_at, pose.x, pose.y, pose.heading)

@@ -5,7 +5,9 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
+from giraff_console.link.board_probe import BoardFeatures
 from giraff_console.link.motor_state import MotorState
+from giraff_console.robot.battery import Battery
 from giraff_console.robot.deadman import Intent
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.replay import PlaybackStatus
@@ -18,7 +20,12 @@ class LinkState(enum.Enum):
 
 @dataclass(frozen=True)
 class Telemetry:
-    """What the console shows, as of one control tick."""
+    """What the console shows, as of one control tick.
+
+    `board` is what the probe found on the board connected (None while the link is
+    lost); `battery` and `stalk` (the height setting `h`, 0..1000) are the latest
+    readings of a later board, None until read or on a board without them.
+    """
 
     link: LinkState
     state: MotorState | None
@@ -31,3 +38,6 @@ class Telemetry:
     late_ms: float
     playback: PlaybackStatus | None = None
     mission: str | None = None
+    battery: Battery | None = None
+    stalk: int | None = None
+    board: BoardFeatures | None = None

@@ -20,7 +20,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from giraff_console.link.motor_state import MotorState
-from giraff_console.protocol.codec import Command, Number, format_number
+from giraff_console.protocol.codec import Command, Number, format_number, names_set, settings_of
+from giraff_console.protocol.errors import CommandError
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, brake_distance
 from giraff_console.robot.deadman import Intent
 from giraff_console.robot.safety import (
@@ -101,11 +102,20 @@ class Teleop:
 
     def board_set(self, name: str, text: str | None) -> None:
         """The board took `set NAME TEXT`, from teleop or from anyone else; None: what
-        it holds for NAME is not known (the answer to the set went wrong)."""
-        if text is None:
-            self._board.pop(name, None)
+        it holds for NAME is not known (the answer to the set went wrong). A Giraff-X
+        `set twm` (TEXT `vg cdp vgr v p 0`) sets the five settings it carries."""
+        settings = None
+        if text is not None:
+            try:
+                settings = settings_of(name, text)
+            except CommandError:
+                settings = None  # not a set the board takes as written: unknown
+        if settings is None:
+            # A twm whose answer went wrong leaves all it carries unknown.
+            for unknown in names_set(name):
+                self._board.pop(unknown, None)
         else:
-            self._board[name] = text
+            self._board.update(settings)
 
     @property
     def board_r(self) -> float | None:

@@ -2,14 +2,18 @@
 
 This follows the thesis's GiraffMotorSim (B.2) move for move: the same queue, the same
 preemption rules, the same counters and sign quirks. It also integrates the robot's
-true planar pose from the wheel speeds, which the wire never shows.
+true planar pose from the wheel speeds, which the wire never shows. Later firmware adds
+`mode 2` and braking on a `set p` with zero speed (sim/firmware.py).
+
+The board drives its wheels by its own geometry (0.499 m between the wheels, §3.2.1.3):
+its counters, TURN_FACTOR and gear ratios all use it. The true pose turns by the
+robot's real wheel base, which the firmware does not know and a driver may set apart.
 """
 
 from __future__ import annotations
 
-import enum
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 from giraff_console.protocol.kinematics import (
     TURN_FACTOR_DEG_PER_M,
@@ -19,9 +23,18 @@ from giraff_console.protocol.kinematics import (
     wheel_speeds,
 )
 from giraff_console.protocol.mode import ModeBit
-from giraff_console.sim.gear import NO_GEAR, GearEnvelope, plan_gear
+from giraff_console.sim.firmware import ANGULAR_MODE_BIT, DEFAULT_FIRMWARE, FIRMWARES, Firmware
+from giraff_console.sim.gear import NO_GEAR, plan_gear
 from giraff_console.sim.imperfections import ImperfectionModel, Mishap
-from giraff_console.sim.profile import VelocityProfile, plan_move
+from giraff_console.sim.move import (
+    MoveParams,
+    MoveRefused,
+    RunningMove,
+    Style,
+    TruePose,
+    mode2_gear,
+)
+from giraff_console.sim.profile import plan_move
 
 # The board holds up to four moves, the running one included (B.1 GIRAFF_BUFFERS).
 QUEUE_SLOTS = 4
@@ -29,65 +42,22 @@ QUEUE_SLOTS = 4
 _STEP_M = 0.005
 
 
-class Style(enum.Enum):
-    """Movement style chosen with `set r` (A.4.2)."""
-
-    ROTATE = "rotate"
-    PATH = "path"
-    # With r < 0 the thesis saw rotations reported as wheel distances (B.2 StartRotate).
-    ROTATE_AS_DISTANCE = "rotate-as-distance"
-
-    @classmethod
-    def of(cls, r: float) -> Style:
-        if r == 0:
-            return cls.ROTATE
-        return cls.PATH if r > 0 else cls.ROTATE_AS_DISTANCE
-
-
-@dataclass
-class MoveParams:
-    """The parameters of one move; the defaults are the thesis simulator's (B.2)."""
-
-    v: float = 0.6
-    a: float = 0.6
-    r: float = 0.0
-    p: float = 0.0
-    vg: float = 1.0
-    vgr: float = 0.4
-    cdp: float = 0.0
-    mode: int = 0
-
-
-@dataclass(frozen=True)
-class TruePose:
-    """Where the robot really is: metres, and radians counter-clockwise from +x."""
-
-    x: float = 0.0
-    y: float = 0.0
-    heading: float = 0.0
-
-
-@dataclass
-class _Move:
-    params: MoveParams
-    style: Style
-    started: float
-    profile: VelocityProfile
-    gear: GearEnvelope
-    origin: float
-    position: float = 0.0
-    gear_ratio: float = 0.0
-
-
-class MoveRefused(ValueError):
-    """A move the board cannot plan, such as one with zero speed."""
-
-
 class Drive:
     """Wheel motion of the simulated board, advanced on an injected clock."""
 
-    def __init__(self, imperfections: ImperfectionModel, now: float) -> None:
+    def __init__(
+        self,
+        imperfections: ImperfectionModel,
+        now: float,
+        firmware: Firmware = FIRMWARES[DEFAULT_FIRMWARE],
+        wheel_base: float = WHEEL_BASE_M,
+    ) -> None:
         self.imperfections = imperfections
+        self.firmware = firmware
+        self.wheel_base = wheel_base
+        # The mode bits a move keeps: ABSOLUTE, and on later firmware the angular bit.
+        # The thesis's board stores bit 2 with `set mode` and ignores it (B.2 masks 0xf).
+        self._move_mode_bits = ModeBit.ABSOLUTE | (ANGULAR_MODE_BIT if firmware.angular_mode else 0)
         self.next = MoveParams()
         self.estop = False
         self.stalled = False
@@ -97,9 +67,11 @@ class Drive:
         self.velocity = 0.0
         self.left_odometer = 0.0
         self.right_odometer = 0.0
+        # Metres of wheel travel, both wheels' distances averaged, whatever the direction.
+        self.wheel_travel = 0.0
         self.pose = TruePose()
         self._pending: list[MoveParams] = []
-        self._move: _Move | None = None
+        self._move: RunningMove | None = None
         self._counter_style = Style.PATH
         self._counter_absolute = False
         self._motion_time = 0.0
@@ -118,12 +90,17 @@ class Drive:
     def queue_move(self, now: float) -> bool:
         """`set p`: start, preempt or buffer a move. False when the queue is full."""
         self.advance(now)
+        if self.firmware.zero_speed_brakes and (self.next.v == 0 or self.next.a == 0):
+            # Later firmware: a stop, never refused, whatever the queue holds.
+            self.next = replace(self.next, mode=self.next.mode & self._move_mode_bits)
+            self.brake()
+            return True
         if self.slots_used >= QUEUE_SLOTS:
             return False
         self._check_plannable()
         buffered = self.next.mode & ModeBit.BUFFERED
         # "Buffer next move": the bit applies to one move only (B.2 QueueMotion).
-        stored = replace(self.next, mode=self.next.mode & ModeBit.ABSOLUTE)
+        stored = replace(self.next, mode=self.next.mode & self._move_mode_bits)
         self.next = replace(stored)
         if self.estop:
             return True
@@ -157,6 +134,23 @@ class Drive:
         if self.next.v == 0 or self.next.a == 0:
             raise MoveRefused("speed and acceleration must be non-zero")
 
+    def brake(self) -> None:
+        """Brake to a stop at the running move's own deceleration and forget the queue.
+
+        Later firmware does this for a `set p` with v = 0 or a = 0. What a real board
+        does is not documented, but both real drivers stop the robot that way (wire-
+        facts "Stopping"). Never at once: no robot stops in no distance, and a board
+        that did would flatter the console's safety tests.
+        """
+        self._pending.clear()
+        current = self._move
+        if current is None:
+            return
+        if self.velocity == 0:
+            self._end(current)
+            return
+        self._brake_then(current, None)
+
     def set_estop(self, active: bool, now: float) -> None:
         """Raise or clear ESTOP; raising it stops the wheels and drops every move."""
         self.advance(now)
@@ -178,9 +172,10 @@ class Drive:
         return self._move.style if self._move else self._counter_style
 
     def mode_bits(self) -> int:
-        """The readable `mode`: MOVING, ESTOP and the running move's ABSOLUTE bit."""
+        """The readable `mode`: MOVING, ESTOP and the running move's ABSOLUTE bit (and on
+        later firmware its angular bit: a real later board at rest reads 2, wire-facts)."""
         params = self._move.params if self._move else self.next
-        bits = params.mode & ModeBit.ABSOLUTE
+        bits = params.mode & self._move_mode_bits
         if self._move is not None:
             bits |= ModeBit.MOVING
         if self.estop:
@@ -200,6 +195,15 @@ class Drive:
         if self.style is Style.ROTATE:
             return -speed * TURN_FACTOR_DEG_PER_M
         return gvr_from_speed(speed, self.cvg)
+
+    def wheel_speed(self) -> float:
+        """The two wheels' speeds averaged, whatever their direction (m/s)."""
+        if self.stalled:
+            return 0.0
+        if self.style is not Style.PATH:
+            return abs(self.velocity)
+        left, right = wheel_speeds(self.velocity, self.cvg)
+        return (abs(left) + abs(right)) / 2
 
     # -- time ---------------------------------------------------------------------------
 
@@ -260,7 +264,7 @@ class Drive:
                 self._finish()
         self._motion_time = max(self._motion_time, target)
 
-    def _integrate(self, move: _Move, until: float) -> None:
+    def _integrate(self, move: RunningMove, until: float) -> None:
         """Advance the move, its counters, the odometers and the true pose to `until`.
 
         Straight lines and rotations in place integrate exactly in one step; curves and
@@ -270,14 +274,21 @@ class Drive:
         t_end = until - move.started
         self.imperfections.moved(t_end - t)
         steps = 1
-        if move.style is Style.PATH and (move.gear is not NO_GEAR or self.imperfections.misaligned):
+        turning = move.gear is not NO_GEAR or move.angular_gear is not None
+        if move.style is Style.PATH and (turning or self.imperfections.misaligned):
             travelled = move.profile.arc_length_at(t_end) - move.profile.arc_length_at(t)
             steps = max(1, math.ceil(travelled / _STEP_M))
         for i in range(1, steps + 1):
             t_i = t + (t_end - t) * i / steps
             position, velocity = move.profile.state_at(t_i)
             ds = position - move.position
-            if move.style is Style.PATH:
+            if move.angular_gear is not None:
+                # Mode 2 turns at the same rate forwards and backwards.
+                gear = move.gear_ratio if ds == 0 else math.copysign(1, ds) * move.angular_gear
+                mean_gear = gear
+                left, right = wheel_speeds(ds, gear)
+                move.gear_ratio = gear
+            elif move.style is Style.PATH:
                 gear = move.gear.at(move.profile.arc_length_at(t_i))
                 mean_gear = (gear + move.gear_ratio) / 2
                 left, right = wheel_speeds(ds, mean_gear)
@@ -285,13 +296,15 @@ class Drive:
             else:
                 # Positive rotation is clockwise: the left wheel goes forward.
                 left, right = ds, -ds
-            turn = (right - left) / WHEEL_BASE_M
+            # The wheels turned as the board's geometry said; the robot turns by its own.
+            turn = (right - left) / self.wheel_base
             centre = (left + right) / 2
             if move.style is Style.PATH:
                 turn += self.imperfections.caster_turn(centre)
             self._move_pose(centre, turn)
             self.left_odometer += left
             self.right_odometer += right
+            self.wheel_travel += (abs(left) + abs(right)) / 2
             move.position = position
             self.velocity = velocity
         self._motion_time = until
@@ -306,7 +319,7 @@ class Drive:
             pose.heading + turn,
         )
 
-    def _update_counters(self, move: _Move) -> None:
+    def _update_counters(self, move: RunningMove) -> None:
         if move.style is Style.ROTATE:
             self.cang = move.origin + move.position * TURN_FACTOR_DEG_PER_M
         else:
@@ -320,7 +333,9 @@ class Drive:
             self._start(self._pending.pop(0))
 
     def _start(self, params: MoveParams) -> None:
-        style = Style.of(params.r)
+        angular = bool(params.mode & ANGULAR_MODE_BIT)
+        # In mode 2, r is not read: the move is a path, curved by vg (wire-facts "mode 2").
+        style = Style.PATH if angular else Style.of(params.r)
         current = self._move
         if current is not None and current.style is not style and self.velocity != 0:
             self._brake_then(current, params)
@@ -346,7 +361,8 @@ class Drive:
             relative += math.copysign(self.imperfections.distance_error(), relative)
         profile = plan_move(relative, start_velocity, abs(params.v), abs(params.a))
         gear = NO_GEAR
-        if style is Style.PATH:
+        angular_gear = mode2_gear(params) if angular else None
+        if style is Style.PATH and angular_gear is None:
             gear = plan_gear(
                 direction=profile.direction,
                 start_vg=start_gear,
@@ -357,9 +373,10 @@ class Drive:
                 curved=params.r > 50 and params.cdp != 0 and params.vg != 0,
                 reversal_at=profile.reversal_arc_length,
             )
-        move = _Move(
-            params, style, self._motion_time, profile, gear, origin, gear_ratio=gear.at(0.0)
-        )
+        move = RunningMove(
+            params, style, self._motion_time, profile, gear, origin, gear_ratio=gear.at(0.0),
+            angular_gear=angular_gear,
+        )  # fmt: skip
         self._move = move
         self._stall = self.imperfections.stall(profile.duration)
         estop = self.imperfections.estop(profile.duration)
@@ -368,12 +385,12 @@ class Drive:
         self._estop_at = None if estop is None else self._motion_time + estop.after
         self._update_counters(move)
 
-    def _brake_then(self, current: _Move, params: MoveParams) -> None:
+    def _brake_then(self, current: RunningMove, params: MoveParams | None) -> None:
         """A move in another style while the wheels turn: brake at `a` first.
 
         The thesis's simulator started the new style from standstill at once (B.2
         StartRotate), which no robot can do; a robot that stops in no distance would also
-        flatter the console's safety tests.
+        flatter the console's safety tests. With no `params`, just brake to a stop.
         """
         accel = abs(current.params.a)
         stop = brake_distance(self.velocity, accel)
@@ -381,23 +398,32 @@ class Drive:
             stop, self.velocity, max(abs(self.velocity), abs(current.params.v)), accel
         )
         gear = NO_GEAR
-        if current.style is Style.PATH:
+        if current.style is Style.PATH and current.angular_gear is None:
             gear = plan_gear(
                 direction=profile.direction, start_vg=self.cvg, vg=0.0, vgr=current.params.vgr,
                 cdp=0.0, length=profile.length, curved=False, reversal_at=None,
             )  # fmt: skip
         origin = self.cang if current.style is Style.ROTATE else self.cdis
-        self._move = _Move(current.params, current.style, self._motion_time, profile, gear, origin,
-                           gear_ratio=gear.at(0.0))  # fmt: skip
+        gear_ratio = self.cvg if current.angular_gear is not None else gear.at(0.0)
+        self._move = RunningMove(
+            current.params, current.style, self._motion_time, profile, gear, origin,
+            gear_ratio=gear_ratio, angular_gear=current.angular_gear,
+        )  # fmt: skip
         self._stall = None
         self._estop_at = None
-        self._pending.insert(0, params)
+        if params is not None:
+            self._pending.insert(0, params)
 
     def _finish(self) -> None:
         """The running move has reached its target: stop exactly there, start the next."""
         move = self._move
         assert move is not None
         move.position = move.profile.final_position
+        self._end(move)
+        self._start_next()
+
+    def _end(self, move: RunningMove) -> None:
+        """End `move` where it is, with the wheels at rest."""
         move.gear_ratio = 0.0
         self.velocity = 0.0
         self._update_counters(move)
@@ -407,7 +433,6 @@ class Drive:
         self._stall = None
         self._estop_at = None
         self.stalled = False
-        self._start_next()
 
     def _halt(self) -> None:
         """Stop dead and forget every move, as ESTOP does."""

@@ -1,6 +1,7 @@
 """The simulated board as a pyserial port: `serial.serial_for_url("giraff-sim://...")`.
 
-Options go in the query string, for example `giraff-sim://?pace=1&imperfect=1&seed=3`:
+Options go in the query string, for example `giraff-sim://?pace=1&imperfect=1&seed=3` or
+`giraff-sim://?firmware=later&battery=0.3`:
 
 | option          | values                   | meaning                                          |
 |-----------------|--------------------------|--------------------------------------------------|
@@ -14,6 +15,9 @@ Options go in the query string, for example `giraff-sim://?pace=1&imperfect=1&se
 | set_reply       | value, none, labelled    | how a `set` is answered                           |
 | trailing_comma  | 0, 1                     | end lists with a comma, as real boards do         |
 | auto_home       | 0, 1                     | start homing the head at power-up                 |
+| firmware        | thesis, later, giraff-x  | what the board runs (sim/firmware.py)             |
+| battery         | 0 to 1                   | the battery's charge at power-on (default 1)      |
+| wheel_base      | metres, e.g. 0.467       | the robot's real wheel base (default 0.499)       |
 
 The port exposes `board` (a `GiraffBoard`) and `clock` for tests. Closing the port
 leaves the board running, as a real board carries on when its driver goes away;
@@ -22,12 +26,15 @@ opening it again reaches the same board, which greets again.
 
 from __future__ import annotations
 
+import math
 import urllib.parse
 
 from serial import PortNotOpenError, SerialBase, SerialException
 
 from giraff_console.clock import Clock, RealClock, VirtualClock
+from giraff_console.protocol.kinematics import WHEEL_BASE_M
 from giraff_console.sim.board import BoardConfig, GiraffBoard
+from giraff_console.sim.firmware import DEFAULT_FIRMWARE, firmware_named
 from giraff_console.sim.imperfections import Imperfections
 from giraff_console.sim.line import BoardLine
 
@@ -74,7 +81,8 @@ class Serial(SerialBase):
             options = {k: v[-1] for k, v in urllib.parse.parse_qs(parts.query, True).items()}
             unknown = set(options) - {
                 "clock", "pace", "imperfect", "seed", "power", "ca", "noise",
-                "hex", "set_reply", "trailing_comma", "auto_home",
+                "hex", "set_reply", "trailing_comma", "auto_home", "firmware", "battery",
+                "wheel_base",
             }  # fmt: skip
             if unknown:
                 raise ValueError(f"unknown option {sorted(unknown)[0]!r}")
@@ -96,6 +104,9 @@ class Serial(SerialBase):
                 list_trailing_comma=_flag(options, "trailing_comma", default=True),
                 auto_home=_flag(options, "auto_home"),
                 imperfections=imperfections,
+                firmware=firmware_named(options.get("firmware", DEFAULT_FIRMWARE)),
+                battery=_number(options, "battery", 1.0, 0.0, 1.0),
+                wheel_base=_number(options, "wheel_base", WHEEL_BASE_M, 0.1, 2.0),
             )
             return config, _flag(options, "pace")
         except ValueError as error:
@@ -206,3 +217,15 @@ def _choice(options: dict[str, str], name: str, choices: dict):
     if value not in choices:
         raise ValueError(f"{name} must be one of {', '.join(choices)}")
     return choices[value]
+
+
+def _number(options: dict[str, str], name: str, default: float, low: float, high: float) -> float:
+    if name not in options:
+        return default
+    try:
+        value = float(options[name])
+    except ValueError:
+        value = math.nan
+    if not low <= value <= high:
+        raise ValueError(f"{name} must be a number from {low:g} to {high:g}")
+    return value

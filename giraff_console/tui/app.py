@@ -30,6 +30,7 @@ from giraff_console.robot.control_loop import BoardJob, ControlLoop
 from giraff_console.robot.deadman import Intent
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.safety import stop_robot
+from giraff_console.robot.telemetry import Telemetry
 from giraff_console.sim_site import SimulatedSite
 from giraff_console.tui.camera_view import CameraView
 from giraff_console.tui.command_line import CommandLine
@@ -48,6 +49,7 @@ from giraff_console.tui.messages import (
 from giraff_console.tui.navigation_commands import NAVIGATION_COMMANDS, NavigationCommands
 from giraff_console.tui.room_palette import RoomCommands
 from giraff_console.tui.session_commands import ROUTE_COMMANDS, SESSION_COMMANDS, SessionCommands
+from giraff_console.tui.stalk_commands import STALK_COMMANDS, StalkCommands
 from giraff_console.tui.status_log import StatusLog
 from giraff_console.tui.top_bar import TopBar
 from giraff_console.tui.transcript import Transcript
@@ -65,6 +67,7 @@ CONSOLE_COMMANDS = [
     ("set NAME VALUE", "send a controller command, e.g. set v 0.3 (checked against the limits)"),
     ("get NAME", "read a parameter, e.g. get bulk_data"),
     ("home", "any other bare controller command"),
+    ("stalk up|down|N", "raise or lower the head's stalk a step, or set it 0-1000 (g, v)"),
     ("fast, canny", "switch a camera processor on or off"),
     ("record, record stop", "record a session into recordings/ (also r)"),
     ("play [DIR], play stop", "play the newest session, or DIR, back; stop it (also p)"),
@@ -84,7 +87,7 @@ CONSOLE_COMMANDS = [
 LAYOUTS = ("both", "map", "camera")
 
 
-class GiraffConsole(NavigationCommands, SessionCommands, KeyGuard):
+class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard):
     """The operator's screen; `control` runs the robot."""
 
     CSS_PATH = "app.tcss"
@@ -146,6 +149,10 @@ class GiraffConsole(NavigationCommands, SessionCommands, KeyGuard):
                 tooltip="tilt the head up (then y to do it)"),
         Binding("u", "undock", "Undock", show=False, id="undock",
                 tooltip="back out of the dock and turn around (then y to do it)"),
+        Binding("g", "stalk(1)", "Stalk up", show=False, id="stalk-up",
+                tooltip="raise the head one step on its stalk (later boards)"),
+        Binding("v", "stalk(-1)", "Stalk down", show=False, id="stalk-down",
+                tooltip="lower the head one step on its stalk (later boards)"),
         Binding("m", "layout", "Map", id="map", tooltip="camera and map, the map, the camera"),
         Binding("z", "zoom(1.5)", "Zoom in", show=False, id="zoom-in",
                 tooltip="zoom the map in (also the mouse wheel)"),
@@ -184,12 +191,14 @@ class GiraffConsole(NavigationCommands, SessionCommands, KeyGuard):
         patience: Patience | None = None,
         stepped: float | None = None,
         undock_distance: float = 0.3,
+        battery_low: float = 25.0,
         run_loop: bool = True,
         timestamp: Callable[[], str] = lambda: time.strftime("%H:%M:%S"),
         cursor_blink: bool = True,
         crashed: Callable[[BaseException], None] = lambda error: None,
     ) -> None:
-        """`run_loop` False leaves ticking the loop to the caller (tests on a virtual clock)."""
+        """`run_loop` False leaves ticking the loop to the caller (tests on a virtual clock);
+        `battery_low` is the percent below which the top line shows the battery LOW."""
         super().__init__()
         self.control = control
         self.camera = camera
@@ -210,6 +219,9 @@ class GiraffConsole(NavigationCommands, SessionCommands, KeyGuard):
         self._layout = 0
         self.simulator = simulator
         self.undock_distance = undock_distance
+        self.battery_low = battery_low
+        # The latest snapshot: the stalk keys step from the height it reports.
+        self.telemetry: Telemetry | None = None
         self.run_loop = run_loop
         self.timestamp = timestamp
         self.cursor_blink = cursor_blink
@@ -224,7 +236,7 @@ class GiraffConsole(NavigationCommands, SessionCommands, KeyGuard):
         self.command_line.display = False
 
     def compose(self) -> ComposeResult:
-        yield TopBar(self.simulator, id="top")
+        yield TopBar(self.simulator, battery_low=self.battery_low, id="top")
         with Horizontal(id="body"):
             yield StatusLog(id="status")
             with Vertical(id="centre"):
@@ -300,7 +312,7 @@ class GiraffConsole(NavigationCommands, SessionCommands, KeyGuard):
         self._frames = [t for t in self._frames if now - t < 1.0] + [now]
         self.top_bar.ui_fps = float(len(self._frames))
         self.top_bar.recording = self.sessions is not None and self.sessions.recording
-        telemetry = message.telemetry
+        telemetry = self.telemetry = message.telemetry
         self._moving = telemetry.intent is not None or (
             telemetry.state is not None and telemetry.state.moving
         )
@@ -550,6 +562,8 @@ class GiraffConsole(NavigationCommands, SessionCommands, KeyGuard):
             self._route_command(word, rest.strip())
         elif word in NAVIGATION_COMMANDS:
             self._navigation_command(word, rest.strip())
+        elif word in STALK_COMMANDS:
+            self._stalk_command(rest.strip())
         else:
             try:
                 command = parse_command(text)

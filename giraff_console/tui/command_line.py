@@ -14,8 +14,12 @@ BOARD_WORDS = [
     "get vgr", "get cdp", "get mode", "get cang", "get cdis", "get gvr", "get cvg",
     "get tilt_homing_state", "get tilt_angle_from_home", "get but0", "get but1", "get dial",
     "get button_data", "get bulk_data", "home",
+    # Later boards (wire-facts "Later firmware").
+    "set h ", "get h", "get charger_data",
 ]  # fmt: skip
-CONSOLE_WORDS = ["help", "stop", "speed ", "quit", "go ", "record", "teach ", "undock"]
+CONSOLE_WORDS = [
+    "help", "stop", "speed ", "quit", "go ", "record", "teach ", "undock", "stalk ",
+]  # fmt: skip
 
 
 class CommandLine(Input):

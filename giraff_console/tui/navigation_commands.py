@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from textual import work
 
+from giraff_console.missions.docking import DOCK, GoToPose, dock_arrival
 from giraff_console.missions.go_to import GoTo
 from giraff_console.missions.navigation import NavigationState, Navigator
 from giraff_console.missions.progress_watch import Patience
@@ -51,7 +52,7 @@ class NavigationCommands:
             return
         if not argument:
             if word == "go":
-                self.note(f"usage: go ROOM; rooms: {', '.join(navigator.room_ids())}")
+                self.note(f"usage: go ROOM or go {DOCK}; rooms: {', '.join(navigator.room_ids())}")
             else:
                 self.note(f"usage: {word} DOOR; doors: {', '.join(navigator.door_ids())}")
             return
@@ -82,13 +83,21 @@ class NavigationCommands:
         self.post_message(NavigationChanged(navigator.state))
 
     def _go(self, navigator: Navigator, room: str) -> None:
-        """Plan (PlanningError if there is no way) and let the control loop drive."""
+        """Plan (PlanningError if there is no way) and let the control loop drive; `go
+        dock` drives onto the dock square on."""
         control = self.control
         site = self.site
-        mission = GoTo(navigator, room, lambda: control.odometry.pose, tick=control.period,
-                       limits=self.motion, patience=self.patience,
-                       sense=site.range_finder.readings if site is not None else None,
-                       notify=lambda text: self.post_message(StatusNote(text)))  # fmt: skip
+        pose = lambda: control.odometry.pose  # noqa: E731
+        sense = site.range_finder.readings if site is not None else None
+        notify = lambda text: self.post_message(StatusNote(text))  # noqa: E731
+        mission: GoTo | GoToPose
+        if room == DOCK:
+            mission = GoToPose(navigator, DOCK, dock_arrival(navigator), pose,
+                               tick=control.period, limits=self.motion, patience=self.patience,
+                               sense=sense, notify=notify)  # fmt: skip
+        else:
+            mission = GoTo(navigator, room, pose, tick=control.period, limits=self.motion,
+                           patience=self.patience, sense=sense, notify=notify)  # fmt: skip
         planned = navigator.state.planned
         if planned is not None:
             route = planned.route

@@ -1,4 +1,6 @@
-"""The top line: camera | pose | performance, with the badges that must not be missed."""
+"""The top line: camera | pose | battery, stalk | performance, with the badges that must
+not be missed. The battery and the stalk appear only on boards that report them (later
+firmware, wire-facts); on the thesis's board the line is as it always was."""
 
 from __future__ import annotations
 
@@ -8,7 +10,19 @@ from rich.text import Text
 from textual.widgets import Static
 
 from giraff_console.link import MotorState
+from giraff_console.protocol.charger import ChargeStatus
+from giraff_console.robot.battery import Battery
+from giraff_console.robot.stalk import head_height
 from giraff_console.robot.telemetry import LinkState, Telemetry
+
+# What the charger's status adds after the percent; not docked says nothing.
+_CHARGE_MARKS = {
+    ChargeStatus.FAST_CHARGING: "⚡",
+    ChargeStatus.TRICKLE_CHARGING: "⚡",
+    ChargeStatus.ERROR: "CHARGER ERROR",
+    ChargeStatus.INIT: "charger starting",
+    ChargeStatus.NOT_DOCKED: "",
+}
 
 
 class TopBar(Static):
@@ -18,9 +32,11 @@ class TopBar(Static):
     TopBar { height: 1; background: $panel; }
     """
 
-    def __init__(self, simulator: bool, **kwargs) -> None:
+    def __init__(self, simulator: bool, *, battery_low: float = 25.0, **kwargs) -> None:
+        """`battery_low`: below this percent, and not charging, the battery shows LOW."""
         super().__init__(**kwargs)
         self.simulator = simulator
+        self.battery_low = battery_low
         self.ui_fps = 0.0
         self.camera = "cam -"
         self.recording = False
@@ -40,6 +56,12 @@ class TopBar(Static):
             text.append(" ")
         text.append(f"{self.camera} │ ", style="dim")
         text.append(f"X={pose.x:.2f} Y={pose.y:.2f} H={pose.heading_deg:.1f}", style="bold")
+        if telemetry.battery is not None:
+            text.append(" │ ", style="dim")
+            text.append(*battery_text(telemetry.battery, self.battery_low))
+        if telemetry.stalk is not None:
+            text.append(" │ ", style="dim")
+            text.append(stalk_text(telemetry.stalk))
         text.append(f" │ loop {telemetry.loop_hz:.0f} Hz · UI {self.ui_fps:.0f} fps", style="dim")
         self.update(text)
 
@@ -62,6 +84,28 @@ class TopBar(Static):
             where = f"{clock_time(playback.position)}/{clock_time(math.ceil(playback.duration))}"
             badges.append((f"PLAYBACK {where} {state}", "bold black on green"))
         return badges
+
+
+def battery_text(battery: Battery, low: float) -> tuple[str, str]:
+    """`BAT 73% ⚡ 25.1 V` and its style: red when low and not charging, or on an error.
+
+    The percent is `--` until the charger has reported W, the voltage left out until B.
+    """
+    percent = "--" if battery.percent is None else f"{battery.percent:.0f}"
+    is_low = battery.percent is not None and battery.percent < low and not battery.charging
+    words = [f"BAT {percent}%"]
+    mark = "LOW" if is_low else _CHARGE_MARKS[battery.status]
+    if mark:
+        words.append(mark)
+    if battery.voltage is not None:
+        words.append(f"{battery.voltage:.1f} V")
+    alarm = is_low or battery.status is ChargeStatus.ERROR
+    return " ".join(words), "bold white on red" if alarm else "bold"
+
+
+def stalk_text(stalk: int) -> str:
+    """The stalk's setting and the head height it gives: `stalk 520 1.29 m`."""
+    return f"stalk {stalk} {head_height(stalk):.2f} m"
 
 
 def clock_time(seconds: float) -> str:

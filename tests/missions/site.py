@@ -24,8 +24,10 @@ LIMITS = MotionLimits()
 class Site:
     """A simulated board in the care home, its control loop, and a `go` run on them."""
 
-    def __init__(self, navigator: Navigator, imperfect: int | None = None) -> None:
-        options = "clock=virtual" + (f"&imperfect=1&seed={imperfect}" if imperfect else "")
+    def __init__(self, navigator: Navigator, imperfect: int | None = None,
+                 board: str = "") -> None:  # fmt: skip
+        """`board`: more options for the simulator's URL, e.g. `&firmware=later`."""
+        options = "clock=virtual" + (f"&imperfect=1&seed={imperfect}" if imperfect else "") + board
         self.link = BoardLink.open(f"giraff-sim://?{options}")
         self.clock = self.link.port.clock
         self.board = self.link.port.board

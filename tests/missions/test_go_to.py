@@ -53,6 +53,21 @@ def test_go_reaches_every_room_precisely_smoothly_and_nearly_as_fast_as_the_opti
     assert report["duration_s"] <= 1.15 * report["time_optimal_s"]
 
 
+@pytest.mark.parametrize("firmware", ["later", "giraff-x"])
+@pytest.mark.parametrize("room", ["kitchen", "room-113", "activity-room"])
+def test_go_reaches_rooms_as_precisely_on_later_firmware(room, firmware, shared_navigator):
+    # Increments instead of totals, and on a Giraff-X curves sent as one twm each.
+    site = Site(shared_navigator, board=f"&firmware={firmware}")
+    mission = site.go(room)
+    site.run(400)
+    assert site.ended == ["done"]
+    pose = site.true_pose()
+    report = mission.report("done").as_json(pose)
+    assert report["error_m"] <= 0.03
+    assert heading_error_deg(pose, room) <= 2.0
+    assert report["gear_jumps"] == 0
+
+
 def test_the_runaway_is_bounded_at_every_tick_of_a_go(shared_navigator):
     """Were the console to die after any tick, the board would stop within 0.3 m: the
     board's motion is copied at each tick and run on alone for ten seconds."""

@@ -66,6 +66,15 @@ def test_the_teacher_keeps_only_motion_settings_the_board_took():
     assert route.duration == 5.0
 
 
+def test_a_giraff_x_curve_is_taught_as_the_sets_it_stands_for():
+    t = teacher()
+    t.observe_exchange(sent("set twm 0.3 0.2 1 0.3 0.2 0", 100.5))
+    route = t.finish(101.0, Pose())
+    assert [c.command.text for c in route.commands] == [
+        "set vg 0.3", "set cdp 0.2", "set vgr 1", "set v 0.3", "set p 0.2",
+    ]  # fmt: skip
+
+
 def test_the_path_is_sampled_densely_but_not_at_every_pose():
     t = teacher()
     poses = [Pose(i * 0.01, 0.0, 0.0) for i in range(1, 201)]

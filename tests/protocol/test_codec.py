@@ -22,6 +22,7 @@ from giraff_console.protocol import (
     format_number,
     parse_command,
 )
+from giraff_console.protocol.codec import TWM_SETTINGS, names_set, settings_of
 
 # The checked vectors of wire-facts.md.
 WIRE_FACT_VECTORS = [
@@ -138,3 +139,72 @@ def test_parse_command_refuses_anything_but_one_command(text):
 def test_command_names_cannot_smuggle_bytes(name):
     with pytest.raises(CommandError):
         Command("get", name)
+
+
+# -- Giraff-X's twm: a whole curved move in one `set` (wire-facts, "Later firmware") ----
+
+
+def test_a_twm_is_one_set_with_six_values():
+    command = parse_command("set twm 0.3 0.2 1 0.25 0.2 0")
+    assert command == Command("set", "twm", (0.3, 0.2, 1, 0.25, 0.2, 0))
+    assert command.values == (0.3, 0.2, 1, 0.25, 0.2, 0)
+    assert command.wire == b"set twm 0.3 0.2 1 0.25 0.2 0\r"
+    assert encode_set("twm", (-0.5, 0.1, -2, 0.4, 1e-05, 0)) == (
+        b"set twm -0.5 0.1 -2 0.4 0.00001 0\r"
+    )
+
+
+def test_each_value_of_a_twm_goes_out_as_format_number_writes_it():
+    values = (-0.1234567891234, 1e-05, 2.0, 0.30000000000000004, -0.0, 0)
+    text = Command("set", "twm", values).text
+    assert text.split()[2:] == [format_number(value) for value in values]
+
+
+def test_a_twm_typed_in_any_case_is_the_board_s_spelling():
+    assert parse_command("SET TWM 0.1 0 1 0.2 0.1 0").text == "set twm 0.1 0 1 0.2 0.1 0"
+
+
+def test_a_twm_sets_the_five_settings_it_carries():
+    command = parse_command("set twm -0.3 0.2 -1 0.25 0.15 0")
+    assert command.settings == {"vg": "-0.3", "cdp": "0.2", "vgr": "-1", "v": "0.25",
+                                "p": "0.15"}  # fmt: skip
+    assert settings_of("twm", "0.1 0 1 0.2 0.1 0")["p"] == "0.1"
+    assert parse_command("set v 0.3").settings == {"v": "0.3"}
+    assert parse_command("get v").settings == {}
+    assert names_set("twm") == TWM_SETTINGS
+    assert names_set("v") == ("v",)
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["set twm", "set twm 0.1", "set twm 0.1 0 1 0.2 0.1", "set twm 0.1 0 1 0.2 0.1 0 0",
+     "set twm 0.1 0 1 0.2 x 0", "set twm 0.1 0 1 0.2 nan 0", "set v 0.3 0.4",
+     "set p 0.1 0.1 0.1 0.1 0.1 0", "set twm 0.1 0 1 0.2 0.1 0\rset p 9"],
+)  # fmt: skip
+def test_only_twm_takes_several_values_and_exactly_six(text):
+    with pytest.raises(CommandError):
+        parse_command(text)
+
+
+@pytest.mark.parametrize(
+    ("name", "value"),
+    [("twm", 0.1), ("twm", (0.1, 0, 1, 0.2, 0.1)), ("v", (0.1,)), ("p", (0.1, 0.2))],
+)
+def test_a_command_with_the_wrong_number_of_values_cannot_be_built(name, value):
+    with pytest.raises(CommandError):
+        Command("set", name, value)
+
+
+def test_settings_of_refuses_text_with_the_wrong_number_of_values():
+    with pytest.raises(CommandError):
+        settings_of("twm", "0.1 0.2")
+    with pytest.raises(CommandError):
+        settings_of("v", "0.1 0.2")
+
+
+@given(st.tuples(*[st.floats(-1e6, 1e6) | st.integers(-(10**6), 10**6)] * 6))
+def test_a_twm_reads_back_as_it_was_written(values):
+    command = Command("set", "twm", values)
+    again = parse_command(command.text)
+    assert again.text == command.text
+    assert list(again.settings.values()) == command.text.split()[2:7]

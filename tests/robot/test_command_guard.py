@@ -21,6 +21,8 @@ from giraff_console.robot.command_guard import (
     setting_bounds,
 )
 from giraff_console.robot.teleop import DriveLimits, Teleop
+from giraff_console.sim.board import BoardConfig
+from giraff_console.sim.firmware import FIRMWARES
 from tests.conftest import SimBench
 
 LIMITS = DriveLimits()
@@ -120,11 +122,12 @@ def test_a_rotation_may_turn_as_far_as_the_reach_in_wheel_travel():
 
 
 def test_the_bounds_cover_every_setting_the_board_takes():
-    assert {*setting_bounds(LIMITS), "p", *REFUSED_SETTINGS} == SETTINGS
+    # p and twm are moves, checked as such.
+    assert {*setting_bounds(LIMITS), "p", "twm", *REFUSED_SETTINGS} == SETTINGS
     assert all(bound.why for bound in setting_bounds(LIMITS).values())
 
 
-@pytest.mark.parametrize("name", ["nonsense", "xyz", "twm"])
+@pytest.mark.parametrize("name", ["nonsense", "xyz", "twmm"])
 def test_unknown_names_are_refused(name):
     assert "no setting called" in refusal(f"set {name} 0")
     assert "no reading called" in refusal(f"get {name}")
@@ -158,7 +161,7 @@ def test_the_console_s_own_settings_pass():
     board: dict[str, str] = {}
     for command in teleop.safe_settings():
         check_command(command, LIMITS, board)
-        board[command.name] = command.text.split()[2]
+        board.update(command.settings)
     check_command(Command("set", "p", LIMITS.reach), LIMITS, board)
 
 
@@ -172,6 +175,17 @@ _ANY_VALUE = st.one_of(
     st.floats(-1000, 1000, allow_nan=False), st.integers(-(10**10), 10**10),
     st.sampled_from([0, 1, -1, 0.25, -0.25, 0.4, 0.32, 0.5, 0.51, 57, -57.4, 1000]),
 )  # fmt: skip
+# Giraff-X's whole curved move (wire-facts): vg cdp vgr v p, then 0 or not; values with
+# four decimals, as the console writes them, so that they fit the line.
+_TWM = st.builds(
+    lambda *values: "set twm " + " ".join(f"{value:.4f}" for value in values),
+    st.floats(-0.55, 0.55),
+    st.floats(-0.27, 0.27),
+    st.floats(-2.2, 2.2),
+    st.floats(0, 0.42),
+    st.floats(-0.3, 0.3),
+    st.sampled_from([0, 0, 0, 1]),
+)
 _LINE = st.one_of(
     _set("r", st.sampled_from([0, 1, 50, 51, 1000, -1, 1001])),
     _set("mode", st.sampled_from([0, 0, 1, 4])),
@@ -184,6 +198,7 @@ _LINE = st.one_of(
     _set("p", st.floats(-70, 70)),
     st.builds(lambda name, value: f"set {name} {value}",
               st.sampled_from(sorted(SETTINGS | {"P", "V", "Mode", "twm", "xyz"})), _ANY_VALUE),
+    _TWM,
 )  # fmt: skip
 # Mostly after settings that let a move go, in any order; sometimes from the board's own.
 _SETUP = st.one_of(
@@ -194,8 +209,13 @@ _SETUP = st.one_of(
         _set("vg", st.floats(-0.5, 0.5)),
     ).flatmap(st.permutations),
 )  # fmt: skip
-_LINES = st.builds(lambda setup, lines: [*setup, *lines], _SETUP,
-                   st.lists(_LINE, min_size=1, max_size=9))  # fmt: skip
+_LINES = st.one_of(
+    st.builds(lambda setup, lines: [*setup, *lines], _SETUP,
+              st.lists(_LINE, min_size=1, max_size=9)),
+    # Or on a curve with all a twm needs, with twms among the lines (Giraff-X).
+    st.builds(lambda accel, lines: ["set r 1000", "set mode 0", f"set a {accel}", *lines],
+              st.floats(0.32, 0.5), st.lists(_TWM | _LINE, min_size=1, max_size=9)),
+)  # fmt: skip
 
 
 def _accepted(text: str, board: dict[str, str]) -> Command | None:
@@ -204,8 +224,7 @@ def _accepted(text: str, board: dict[str, str]) -> Command | None:
         check_command(command, LIMITS, board)
     except CommandError:
         return None
-    if command.kind == "set":
-        board[command.name] = command.text.split()[2]
+    board.update(command.settings)
     return command
 
 
@@ -215,7 +234,7 @@ def test_no_accepted_line_puts_a_target_beyond_the_reach(lines):
     board: dict[str, str] = {}
     for text in lines:
         command = _accepted(text, board)
-        if command is None or command.name != "p":
+        if command is None or command.name not in ("p", "twm"):
             continue
         target, style = float(board["p"]), float(board["r"])
         # On the outer wheel in a curve (A.2.3), in wheel metres turning on the spot.
@@ -232,8 +251,9 @@ def test_no_accepted_line_puts_a_target_beyond_the_reach(lines):
 def test_after_the_last_accepted_line_the_robot_stays_within_the_reach(lines, gaps):
     """On the simulator, measured with its true pose: whatever was accepted, and however
     the robot was moving when the last command went out, it then stops within the
-    console's reach (wheel travel, when it turns on the spot)."""
-    sim = SimBench()
+    console's reach (wheel travel, when it turns on the spot). The board is Giraff-X, so
+    that a twm accepted is driven too (on the others it is an unknown name)."""
+    sim = SimBench(BoardConfig(firmware=FIRMWARES["giraff-x"]))
     board = {name: format_number(sim.value(f"get {name}")) for name in ("r", "v", "a", "vg")}
     sent: list[tuple[Command, float]] = []  # and the time until the next one
     for text, gap in zip(lines, gaps, strict=False):
@@ -242,11 +262,11 @@ def test_after_the_last_accepted_line_the_robot_stays_within_the_reach(lines, ga
             sent.append((command, gap))
             # Moves at under 1 cm/s take too long to watch; the reach does not
             # depend on the speed.
-            assume(command.name != "p" or float(board["v"]) >= 0.01)
+            assume(command.name not in ("p", "twm") or float(board["v"]) >= 0.01)
         elif sent:
             sent[-1] = (sent[-1][0], sent[-1][1] + gap)
     for index, (command, gap) in enumerate(sent):
-        sim.cmd(command.text)  # the simulator knows no encoders or height stalk
+        assert "rror" not in sim.cmd(command.text)
         if index < len(sent) - 1:
             sim.advance(gap)
     # Then the console dies: the robot is watched from where it is now.
@@ -264,3 +284,83 @@ def test_after_the_last_accepted_line_the_robot_stays_within_the_reach(lines, ga
         pytest.fail("the robot never stopped")
     assert farthest <= LIMITS.reach + 1e-3
     assert turned * TURN_RADIUS_M <= LIMITS.reach + 1e-3
+
+
+# -- Giraff-X's twm: checked as the move it is (issue 13) --------------------------------
+
+CURVE = BOARD | {"vgr": "1", "cdp": "0"}
+
+
+def test_a_twm_within_the_bounds_on_a_curve_passes():
+    assert refusal("set twm 0.3 0.2 1 0.25 0.15 0", CURVE) is None
+    assert refusal("set twm -0.5 -0.25 -2 0.4 0.16 0", CURVE) is None
+
+
+@pytest.mark.parametrize(
+    ("text", "why"),
+    [("set twm 0.51 0.2 1 0.25 0.1 0", "vg must be"), ("set twm 0.3 0.26 1 0.25 0.1 0",
+     "cdp must be"), ("set twm 0.3 0.2 2.1 0.25 0.1 0", "vgr must be"),
+     ("set twm 0.3 0.2 1 0.41 0.1 0", "v must be"), ("set twm 0.3 0.2 1 0 0.1 0", "v must be"),
+     ("set twm 0.3 0.2 1 0.000000000001 0.1 0", "v must be")],
+)  # fmt: skip
+def test_each_value_of_a_twm_is_within_its_own_setting_s_bounds(text, why):
+    assert why in refusal(text, CURVE)
+
+
+@pytest.mark.parametrize("end", ["1", "-1", "0.5", "0.000001"])
+def test_a_twm_ends_in_zero(end):
+    assert "ends in 0" in refusal(f"set twm 0.3 0.2 1 0.25 0.1 {end}", CURVE)
+
+
+@pytest.mark.parametrize("style", ["0", "1", "50", "-1"])
+def test_a_twm_is_refused_unless_the_board_holds_a_curve(style):
+    assert "curved move" in refusal("set twm 0.3 0.2 1 0.25 0.1 0", CURVE | {"r": style})
+    assert refusal("set twm 0.3 0.2 1 0.25 0.1 0", CURVE | {"r": "50.5"}) is None
+
+
+@pytest.mark.parametrize("unknown", ["r", "a", "mode"])
+def test_a_twm_needs_what_it_does_not_carry_to_be_known(unknown):
+    board = {name: text for name, text in CURVE.items() if name != unknown}
+    assert f"the board's {unknown} is unknown" in refusal("set twm 0.3 0.2 1 0.25 0.1 0", board)
+
+
+def test_a_twm_needs_only_what_it_does_not_carry():
+    # vg and v are the twm's own: the board's are not needed, nor checked.
+    board = {"r": "1000", "mode": "0", "a": "0.5"}
+    assert refusal("set twm 0.3 0.2 1 0.25 0.1 0", board) is None
+    assert refusal("set twm 0.3 0.2 1 0.25 0.1 0", board | {"v": "7", "vg": "0.9"}) is None
+    assert "a must be" in refusal("set twm 0.3 0.2 1 0.25 0.1 0", board | {"a": "0.1"})
+    assert "mode must be" in refusal("set twm 0.3 0.2 1 0.25 0.1 0", board | {"mode": "1"})
+
+
+def test_a_twm_s_reach_is_on_the_outer_wheel_of_its_own_gear_ratio():
+    # 0.2 m ahead with vg 0.5: the outer wheel goes 0.3 m, beyond the 0.25 m reach, though
+    # the board's own vg (0) would let a `set p 0.2` go.
+    assert refusal("set p 0.2", CURVE) is None
+    assert "on the outer wheel" in refusal("set twm 0.5 0.2 1 0.25 0.2 0", CURVE)
+    assert "on the outer wheel" in refusal("set twm -0.5 0.2 -1 0.25 -0.2 0", CURVE)
+    assert refusal("set twm 0.5 0.16 1 0.25 0.16 0", CURVE) is None
+    # And the other way: a straighter twm may reach further than the board's vg allows.
+    bent = CURVE | {"vg": "0.5"}
+    assert "p beyond" in refusal("set p 0.24", bent)
+    assert refusal("set twm 0 0 1 0.25 0.24 0", bent) is None
+
+
+def test_a_twm_s_acceleration_must_stop_the_robot_from_the_speed_it_may_have():
+    gentle = CURVE | {"a": "0.021"}
+    twm = parse_command("set twm 0.3 0.1 1 0.1 0.1 0")
+    check_command(twm, LIMITS, gentle, speed=0.1)
+    with pytest.raises(CommandError, match="a must be"):
+        check_command(twm, LIMITS, gentle, speed=0.3)
+
+
+def test_a_twm_longer_than_the_board_s_line_is_refused():
+    longest = "set twm -0.509999999 -0.249999999 -1.999999999 0.399999999 -0.159999999 0"
+    assert len(longest) == 73
+    assert "longer than the board's line" in refusal(longest, CURVE)
+    assert refusal("set twm -0.5 -0.25 -1.9999 0.3999 -0.16 0", CURVE) is None
+
+
+def test_a_twm_with_the_wrong_number_of_values_is_refused_as_typed():
+    assert "usage: set twm vg cdp vgr v p 0" in refusal("set twm 0.3 0.2 1 0.25 0.1", CURVE)
+    assert "usage" in refusal("set twm 0", CURVE)

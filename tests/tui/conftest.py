@@ -30,8 +30,9 @@ class Rig:
     """The app, its control loop and the simulated board behind it."""
 
     def __init__(self, camera: bool = False, recordings: Path | None = None,
-                 floorplan: Path | None = None) -> None:  # fmt: skip
-        self.link = BoardLink.open("giraff-sim://?clock=virtual")
+                 floorplan: Path | None = None, board: str = "") -> None:  # fmt: skip
+        """`board`: more options for the simulator's URL, e.g. `&firmware=later`."""
+        self.link = BoardLink.open(f"giraff-sim://?clock=virtual{board}")
         self.clock = self.link.port.clock
         self.board = self.link.port.board
         self.control = ControlLoop(

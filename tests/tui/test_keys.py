@@ -16,7 +16,7 @@ from tests.tui.conftest import TICK, Rig
 
 SIZE = (100, 30)
 # Every printable key the app binds, and what the issue saw leak out of the line.
-BOUND = "abcefhjklmpqrtuxz12345+=-<>.[]?"
+BOUND = "abcefghjklmpqrtuvxz12345+=-<>.[]?"
 BURST = f"patrol resume resumefast {BOUND}"
 
 

@@ -24,6 +24,22 @@ async def test_holding_up_moves_the_robot_and_the_pose_on_screen(rig):
         assert rig.control.odometry.pose.x == pytest.approx(rig.board.true_pose.x, abs=1e-3)
 
 
+@pytest.mark.parametrize("firmware", ["later", "giraff-x"])
+async def test_holding_the_keys_drives_and_the_pose_follows_on_later_firmware(firmware):
+    rig = Rig(board=f"&firmware={firmware}")
+    async with rig.app.run_test(size=SIZE) as pilot:
+        await rig.run(pilot, 0.1)
+        await rig.hold(pilot, "up", 2.0)
+        await rig.hold(pilot, "pageup", 2.0)
+        await rig.hold(pilot, "left", 1.0)
+        await rig.run(pilot, 1.5)
+        rig.control.tick()  # a poll now, at the time the true pose is read
+        true, pose = rig.board.true_pose, rig.control.odometry.pose
+        assert math.hypot(true.x, true.y) > 0.8
+        assert math.hypot(pose.x - true.x, pose.y - true.y) < 1e-3
+        assert abs(math.remainder(pose.heading - true.heading, math.tau)) < math.radians(0.1)
+
+
 async def test_the_robot_stops_when_the_repeats_stop(rig):
     async with rig.app.run_test(size=SIZE) as pilot:
         sent = []

@@ -2,7 +2,14 @@
 
 from __future__ import annotations
 
+from textual.app import App
+
 from giraff_console.link import LinkDisconnected
+from giraff_console.protocol.charger import ChargeStatus
+from giraff_console.robot.battery import Battery
+from giraff_console.robot.odometry import Pose
+from giraff_console.robot.telemetry import LinkState, Telemetry
+from giraff_console.tui.top_bar import TopBar
 from tests.tui.conftest import Rig, record_demo_session
 
 
@@ -95,3 +102,24 @@ def test_the_map_shows_the_robot_on_its_way_to_the_day_room(snap_compare, care_h
         await pilot.press("m")  # the map alone
 
     assert snap_compare(rig.app, terminal_size=(120, 40), run_before=go)
+
+
+def test_top_line_with_a_battery_and_the_stalk(snap_compare):
+    """Only the top line, as a later board fills it: the rest of the screen is others'."""
+
+    def telemetry(battery: Battery) -> Telemetry:
+        return Telemetry(LinkState.CONNECTED, None, Pose(1.5, -0.25, 0.5), None, 0.3, None,
+                         True, 20.0, 0.0, battery=battery, stalk=520)  # fmt: skip
+
+    class TopLines(App[None]):
+        def compose(self):
+            yield TopBar(simulator=True, id="charging")
+            yield TopBar(simulator=False, id="low")
+
+        def on_mount(self) -> None:
+            charging = Battery(ChargeStatus.FAST_CHARGING, 73.0, 25.1, 2.0, 30.0)
+            self.query_one("#charging", TopBar).show(telemetry(charging))
+            low = Battery(ChargeStatus.NOT_DOCKED, 18.0, 22.6, -1.0, 31.0)
+            self.query_one("#low", TopBar).show(telemetry(low))
+
+    assert snap_compare(TopLines(), terminal_size=(100, 3))

@@ -1,0 +1,161 @@
+"""How a later board moves: mode 2, Giraff-X's twm, braking on a zero speed, and a robot
+whose real wheel base is not the firmware's."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, WHEEL_BASE_M
+from giraff_console.sim import BoardConfig
+from giraff_console.sim.firmware import FIRMWARES
+from tests.conftest import SimBench
+
+V, A = 0.4, 0.5
+
+
+def board(name: str, **config) -> SimBench:
+    return SimBench(BoardConfig(firmware=FIRMWARES[name], **config))
+
+
+def heading_rate(sim: SimBench, seconds: float = 1.0) -> float:
+    """Degrees per second the robot really turns, measured over `seconds`."""
+    before = sim.board.true_pose.heading
+    sim.advance(seconds)
+    return math.degrees(sim.board.true_pose.heading - before) / seconds
+
+
+@pytest.mark.parametrize("p", [3, -3])
+def test_mode_2_turns_at_vg_degrees_per_second_either_way(p):
+    sim = board("later")
+    sim.run("set mode 2", "set r 0", f"set a {A}", f"set v {V}", "set vg 30", f"set p {p}")
+    sim.advance(1.0)  # past the ramp (0.8 s)
+    assert heading_rate(sim) == pytest.approx(-30.0, abs=1e-6)  # positive vg: clockwise
+    bulk = sim.bulk()
+    assert bulk["mode"] == 2 | 128
+    assert bulk["cdis"] == pytest.approx(math.copysign(0.16 + V * 1.2, p), abs=1e-6)
+    sim.run_until_stopped()
+    assert sim.bulk()["cdis"] == p  # r was not read: a path of |p| metres, not degrees
+
+
+def test_the_thesis_board_ignores_mode_2():
+    sim = board("thesis")
+    sim.run("set mode 2", "set r 0", f"set a {A}", f"set v {V}", "set vg 30", "set p 3")
+    assert sim.bulk()["mode"] == 128  # bit 2 stored by set mode, never read back
+    sim.run_until_stopped()
+    # r = 0: an ordinary turn in place of three degrees, clockwise.
+    assert math.degrees(sim.board.true_pose.heading) == pytest.approx(-3.0, abs=1e-9)
+
+
+def test_mode_2_renewed_every_tick_keeps_turning_smoothly():
+    sim = board("later")
+    sim.run("set mode 2", f"set a {A}", f"set v {V}", "set vg -20")
+    for _ in range(40):  # a driver renewing p = 1 at 20 Hz (wire-facts "mode 2")
+        sim.run("set p 1")
+        sim.advance(0.05)
+    assert heading_rate(sim, 0.05) == pytest.approx(20.0, abs=1e-6)
+
+
+def curve(sim: SimBench, twm: bool) -> None:
+    sim.run("set r 100", f"set a {A}", "set mode 0")
+    if twm:
+        assert sim.cmd("set twm 0.3 1.5 0.4 0.35 2.5 0") == ""  # just the prompt
+    else:
+        sim.run("set vg 0.3", "set cdp 1.5", "set vgr 0.4", "set v 0.35", "set p 2.5")
+
+
+def test_twm_is_the_same_move_as_separate_sets():
+    one, several = board("giraff-x"), board("giraff-x")
+    curve(one, twm=True)
+    curve(several, twm=False)
+    assert (
+        one.value("get twm")
+        == several.value("get twm")
+        == pytest.approx({"vg": 0.3, "cdp": 1.5, "vgr": 0.4, "v": 0.35, "p": 2.5})
+    )
+    one.advance(3.0)
+    several.advance(3.0)
+    assert one.board.true_pose == several.board.true_pose
+    assert one.bulk() == several.bulk()
+    one.run_until_stopped()
+    several.run_until_stopped()
+    assert one.board.true_pose == several.board.true_pose
+    assert one.board.true_pose.heading < -0.1  # it did curve, to the right
+
+
+@pytest.mark.parametrize(
+    ("values", "error"),
+    [
+        ("0.3 1.5 0.4 0.35 2.5", "Error: Argument wasn't optional"),
+        ("0.3 1.5 0.4 0.35 2.5 1", "Error: Unknown argument"),
+        ("0.3 1.5 0.4 0.35 2.5 0 0", "Error: Unknown argument"),
+        ("0.3 1.5 x 0.35 2.5 0", "Error: Unknown argument"),
+        ("0.3 1.5 0.4 0.35 1e3 0", "Error: Unknown argument"),
+    ],
+)
+def test_a_malformed_twm_is_refused_and_changes_nothing(values, error):
+    sim = board("giraff-x")
+    before = sim.cmd("get twm")
+    assert sim.cmd(f"set twm {values}") == error
+    assert sim.cmd("get twm") == before
+    assert not sim.bulk()["mode"] & 128
+
+
+def start_straight(sim: SimBench) -> None:
+    sim.run("set r 1", f"set a {A}", f"set v {V}", "set p 10")
+    sim.advance(2.0)  # cruising at 0.4 m/s
+
+
+@pytest.mark.parametrize("name", ["later", "giraff-x"])
+@pytest.mark.parametrize("stop", [("set a 0", "set v 0", "set p 0"), ("set v 0", "set p 0"),
+                                  ("set a 0", "set p 1")])  # fmt: skip
+def test_later_boards_brake_on_a_zero_speed_at_the_moves_deceleration(name, stop):
+    sim = board(name)
+    start_straight(sim)
+    x = sim.board.true_pose.x
+    sim.run(*stop)
+    sim.advance(V / A / 2)
+    assert sim.bulk()["gvr"] == pytest.approx(V / 2, abs=1e-6)  # still braking, not stopped
+    assert sim.run_until_stopped(step=0.01) == pytest.approx(V / A / 2, abs=0.011)
+    assert sim.board.true_pose.x - x == pytest.approx(V * V / (2 * A), abs=1e-6)
+
+
+def test_a_brake_drops_the_queued_moves_and_stops_a_rotation_too():
+    sim = board("later")
+    sim.run("set r 0", f"set a {A}", f"set v {V}", "set p 360", "set mode 4", "set p 90")
+    sim.advance(2.0)  # turning at 0.4 wheel metres a second
+    turned = -sim.bulk()["cang"]
+    sim.run("set v 0", "set p 0")
+    sim.run_until_stopped()
+    braked = V * V / (2 * A) * TURN_FACTOR_DEG_PER_M
+    assert -sim.bulk()["cang"] == pytest.approx(turned + braked, abs=1e-4)
+    sim.advance(10.0)
+    assert -sim.bulk()["cang"] == pytest.approx(turned + braked, abs=1e-4)  # no 90 after it
+
+
+def test_a_zero_speed_brake_at_rest_is_accepted_and_does_nothing():
+    sim = board("later")
+    assert sim.cmd("set a 0") == "F*00000000"
+    assert sim.cmd("set p 0") == "F*00000000"
+    assert sim.board.true_pose.x == 0.0
+
+
+def test_the_thesis_board_refuses_a_zero_speed_and_carries_on():
+    sim = board("thesis")
+    start_straight(sim)
+    assert sim.cmd("set a 0") == "F*00000000"
+    assert sim.cmd("set p 0") == "Error: Argument out of range"
+    sim.run_until_stopped()
+    assert sim.board.true_pose.x == pytest.approx(10.0)
+
+
+@pytest.mark.parametrize("name", ["thesis", "later"])
+def test_the_true_pose_turns_by_the_real_wheel_base(name):
+    sim = board(name, wheel_base=0.467)
+    sim.run("set r 0", f"set a {A}", f"set v {V}", "set p 90")
+    sim.run_until_stopped()
+    # The board counts by its own geometry, the robot turns by its own.
+    assert sim.bulk()["cang"] == -90.0
+    expected = -math.radians(90) * WHEEL_BASE_M / 0.467
+    assert sim.board.true_pose.heading == pytest.approx(expected, abs=1e-9)
