@@ -183,11 +183,11 @@ class RoutePlanner:
         ending = self._ending(arrival, last_room)
         if self.legs is None:
             # Without a grid the legs are straight; the arrival replaces the room's point.
-            before = route.path[:-1] if len(route.path) > 1 else route.path
-            points = route.path if arrival is None else [*before, *ending]
-            if len(points) == 1:
-                return ((points[0],),), frozenset()
-            return tuple((a, b) for a, b in pairwise(points)), frozenset()
+            leading = route.path[:-1] if len(route.path) > 1 else route.path
+            corners = route.path if arrival is None else [*leading, *ending]
+            if len(corners) == 1:
+                return ((corners[0],),), frozenset()
+            return tuple((a, b) for a, b in pairwise(corners)), frozenset()
         if len(route.path) == 1 and arrival is None:
             return ((route.path[0],),), frozenset()
         # Each door crossed becomes a straight stretch through it, from an approach

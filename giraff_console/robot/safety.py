@@ -7,7 +7,7 @@ import math
 from collections.abc import Mapping
 
 from giraff_console.link import BoardLink, MotorState
-from giraff_console.protocol.codec import Command, format_number
+from giraff_console.protocol.codec import Command
 from giraff_console.protocol.errors import GiraffError
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, brake_distance
 
@@ -79,9 +79,8 @@ def stop_commands(state: MotorState, r: float, accel: float = STOP_ACCEL,
     # exchange is a few milliseconds more of driving on before the stop (`held`, as on
     # the wire). The mode always goes: in another mode `p` means another thing (A.4.8).
     held = held or {}
-    return [c for c in setup if c.name == "mode" or held.get(c.name) != format_number(c.value)] + [
-        stop
-    ]
+    needed = [c for c in setup if c.name == "mode" or held.get(c.name) != c.settings[c.name]]
+    return [*needed, stop]
 
 
 def stop_robot(link: BoardLink, held: Mapping[str, str] | None = None) -> bool:
@@ -97,7 +96,7 @@ def stop_robot(link: BoardLink, held: Mapping[str, str] | None = None) -> bool:
         if state.moving:
             known = (held or {}).get("r")
             path = known is not None and float(known) > 0
-            style = float(known) if path else link.get("r")
+            style = float(known) if path and known is not None else link.get("r")
             assert isinstance(style, int | float)
             for command in stop_commands(state, float(style), held=held):
                 link.send(command)

@@ -169,7 +169,7 @@ class GiraffBoard:
         return self._hex_case(encode_int(value))
 
     def _settable(self) -> tuple[str, ...]:
-        names = (*_MOVE_PARAMETERS, "mode", "undock", "tilt_angle_from_home")
+        names: tuple[str, ...] = (*_MOVE_PARAMETERS, "mode", "undock", "tilt_angle_from_home")
         if self.firmware.encoders:
             names += _ENCODERS
         if self.firmware.stalk:
