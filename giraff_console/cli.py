@@ -71,11 +71,14 @@ from giraff_console.sim.pose_log import PoseLog
 from giraff_console.sim.surroundings import Surroundings
 from giraff_console.sim.world import World, demo_world
 from giraff_console.sim_site import SimulatedSite
+from giraff_console.simulator_options import (
+    add_firmware_option,
+    simulator_url,
+)
 
 # Exit code: a mistake in the command line or the settings.
 EXIT_USAGE = 2
 
-IN_PROCESS_SIMULATOR = "giraff-sim://"
 # No route between two rooms that exist.
 EXIT_NO_ROUTE = 1
 # Shipped in the package, so that the console, `plan` and `go` work from any folder.
@@ -98,11 +101,7 @@ def build_parser() -> argparse.ArgumentParser:
         "file; without one, the built-in simulator)",
     )  # fmt: skip
     parser.add_argument("--sim", action="store_true", help="use the built-in simulator")
-    parser.add_argument(
-        "--firmware", choices=tuple(FIRMWARES), metavar="NAME",
-        help="the built-in simulator's firmware: thesis, later or giraff-x (default: "
-        f"{DEFAULT_FIRMWARE}); only with the simulator",
-    )  # fmt: skip
+    add_firmware_option(parser)
     parser.add_argument(
         "--sim-speed", type=float, default=1.0, metavar="K",
         help="run the built-in simulator's clock K times faster than real time "
@@ -179,13 +178,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="how a set is answered (default: value, as in the thesis)",
     )
     sim.add_argument("--auto-home", action="store_true", help="home the head at power-up")
-    sim.add_argument(
-        # SUPPRESS: given here or before the command (`giraff-console --firmware later sim`).
-        "--firmware", choices=tuple(FIRMWARES), default=argparse.SUPPRESS, metavar="NAME",
-        help="the board's firmware: thesis (the thesis's 2013 board), later (incremental "
-        "imdl/imdr, enc0/enc1, the h stalk, charger_data, mode 2) or giraff-x (later plus "
-        f"set twm); docs/simulator.md lists the differences (default: {DEFAULT_FIRMWARE})",
-    )  # fmt: skip
+    add_firmware_option(sim, after_command=True)
     sim.add_argument(
         "--battery", type=float, default=1.0, metavar="LEVEL",
         help="the battery's charge at power-on, 0 to 1, shown by charger_data on later "
@@ -470,14 +463,6 @@ def run_console(args: argparse.Namespace) -> int:
         return 128 + last_stop.signalled
     # Non-zero if the console itself failed; the robot was stopped all the same.
     return app.return_code or 0
-
-
-def simulator_url(firmware: str | None, *, virtual_clock: bool = False) -> str:
-    """The in-process simulator's pyserial URL, with the firmware asked for (if any)."""
-    options = ["clock=virtual"] if virtual_clock else []
-    if firmware is not None:
-        options.append(f"firmware={firmware}")
-    return IN_PROCESS_SIMULATOR + ("?" + "&".join(options) if options else "")
 
 
 def console_floorplan(path: Path | None) -> tuple[FloorPlan, str]:

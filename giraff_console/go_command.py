@@ -39,8 +39,8 @@ from giraff_console.robot.last_stop import LastStop
 from giraff_console.robot.telemetry import LinkState
 from giraff_console.robot.teleop import Teleop
 from giraff_console.settings import Settings
-from giraff_console.sim.firmware import FIRMWARES
 from giraff_console.sim_site import SimulatedSite
+from giraff_console.simulator_options import add_firmware_option, simulator_url
 
 EXIT_ARRIVED, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 # Seconds of real time to wait for the board's first answer.
@@ -86,11 +86,7 @@ def add_go_parser(commands: argparse._SubParsersAction, example: Path) -> None:
         help="simulate a real robot's errors: distances, caster drift, stalls, ESTOP",
     )  # fmt: skip
     go.add_argument("--seed", type=int, default=1, metavar="N", help="seed for --imperfect")
-    go.add_argument(
-        # SUPPRESS: given here or before the command (`giraff-console --firmware later go`).
-        "--firmware", choices=tuple(FIRMWARES), default=argparse.SUPPRESS, metavar="NAME",
-        help="the simulator's firmware: thesis, later or giraff-x (default: thesis)",
-    )  # fmt: skip
+    add_firmware_option(go, after_command=True)
     go.add_argument(
         "--block", action="append", default=[], metavar="X,Y",
         help="put a 0.5 m box in the simulated building at X,Y metres (repeatable)",
@@ -116,10 +112,9 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
     start = navigator.start_pose
     site = None
     if port is None:
-        options = "clock=virtual" + (f"&imperfect=1&seed={args.seed}" if args.imperfect else "")
-        if getattr(args, "firmware", None):  # `giraff-console --firmware NAME go ...`
-            options += f"&firmware={args.firmware}"
-        simulator = serial.serial_for_url(f"giraff-sim://?{options}")
+        seed = args.seed if args.imperfect else None
+        url = simulator_url(args.firmware, virtual_clock=True, imperfect_seed=seed)
+        simulator = serial.serial_for_url(url)
         clock = simulator.clock
         site = SimulatedSite(simulator.board, plan, start, settings.motion.sensing_range)
         for x, y in blocks:

@@ -49,9 +49,9 @@ from giraff_console.robot.command_guard import check_command, check_line
 from giraff_console.robot.teleop import DriveLimits
 from giraff_console.robot.wheel_odometers import choose_reading
 from giraff_console.settings import SettingsError, load_settings
+from giraff_console.simulator_options import IN_PROCESS_SIMULATOR
 
 EXIT_SENT, EXIT_REFUSED, EXIT_USAGE, EXIT_LINK_ERROR = 0, 1, 2, 3
-IN_PROCESS_SIMULATOR = "giraff-sim://"
 # What a move uses and the board can read back (A.4: every `set` has its `get`).
 READ_FIRST = ("r", "v", "a", "vg")
 UNSAFE_WARNING = (

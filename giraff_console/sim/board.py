@@ -17,7 +17,7 @@ from typing import Literal
 from giraff_console.clock import Clock
 from giraff_console.protocol.charger import PARAMETERS as CHARGER_PARAMETERS
 from giraff_console.protocol.charger import format_charger
-from giraff_console.protocol.codec import FLOAT32_MAX, encode_float, encode_int
+from giraff_console.protocol.codec import FLOAT32_MAX, TWM_SETTINGS, encode_float, encode_int
 from giraff_console.protocol.framing import CALIBRATION_LINE, LINE_END, PROMPT
 from giraff_console.protocol.kinematics import WHEEL_BASE_M
 from giraff_console.protocol.mode import WRITABLE_MODE_MASK
@@ -34,8 +34,6 @@ SetReply = Literal["value", "none", "labelled"]
 # The board reads plain decimals only; exponent notation is refused (see codec.format_number).
 _PLAIN_DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)\Z", re.ASCII)
 _MOVE_PARAMETERS = ("v", "a", "r", "p", "vg", "vgr", "cdp")
-# Giraff-X's one-command curved move: `set twm vg cdp vgr v p 0` (wire-facts).
-_TWM_PARAMETERS = ("vg", "cdp", "vgr", "v", "p")
 _ENCODERS = ("enc0", "enc1")  # left, right
 # The robot charges within this distance and heading of the dock's pose (assumption:
 # the contacts are a few centimetres wide).
@@ -229,16 +227,16 @@ class GiraffBoard:
         move exactly as `set p` would, with the board's r, a and mode. Answered with the
         prompt alone (assumption: no source shows its answer). What the closing 0 means is
         not documented; drivers always send 0, and anything else is refused."""
-        if len(texts) < len(_TWM_PARAMETERS) + 1:
+        if len(texts) < len(TWM_SETTINGS) + 1:
             return "Error: Argument wasn't optional"
-        if len(texts) > len(_TWM_PARAMETERS) + 1 or not all(map(_PLAIN_DECIMAL.match, texts)):
+        if len(texts) > len(TWM_SETTINGS) + 1 or not all(map(_PLAIN_DECIMAL.match, texts)):
             return "Error: Unknown argument"
         values = [float(text) for text in texts]
         if any(abs(value) > FLOAT32_MAX for value in values):
             return "Error: Argument out of range"
         if values[-1] != 0:
             return "Error: Unknown argument"
-        for name, value in zip(_TWM_PARAMETERS, values[:-1], strict=True):
+        for name, value in zip(TWM_SETTINGS, values[:-1], strict=True):
             setattr(self.drive.next, name, value)
         return self._queue("p", values[-2], now)
 
@@ -294,7 +292,7 @@ class GiraffBoard:
             return format_charger(battery.status, parameter, battery.reading(parameter))
         if firmware.twm and name == "twm":
             staged = self.drive.next
-            return self._list(**{key: self._float(getattr(staged, key)) for key in _TWM_PARAMETERS})
+            return self._list(**{key: self._float(getattr(staged, key)) for key in TWM_SETTINGS})
         return None
 
     def _wheel_totals(self) -> tuple[float, float]:

@@ -7,6 +7,7 @@ import math
 import pytest
 
 from giraff_console.missions.docking import (
+    CHARGE_MAX_S,
     CHARGE_START_S,
     DOCK_RUN_M,
     ChargeLevels,
@@ -239,3 +240,26 @@ def test_a_patrol_that_runs_low_docks_charges_and_finishes_on_a_fast_clock(share
     assert math.dist((docked_true.x, docked_true.y), dock.point) <= 0.03
     assert charged is not None and charged >= 0.30
     assert said.index("docked at") < said.index("carrying on")
+
+
+def test_go_dock_on_the_dock_already_stays_there(shared_navigator):
+    site = Site(shared_navigator)  # put down on its dock, the start room's point
+    sent: list[str] = []
+    site.link.add_observer(lambda exchange: sent.append(exchange.command))
+    site.start(GoToPose(shared_navigator, "dock", dock_arrival(shared_navigator), site.pose,
+                        tick=TICK, limits=LIMITS))  # fmt: skip
+    site.run(5)
+    assert site.ended == ["done"]
+    assert not [command for command in sent if command.startswith("set p")]
+
+
+def test_a_charger_that_never_gets_there_is_a_problem_not_a_wait_all_night():
+    detour, battery, _, _ = _detour([10.0], None)
+    for _ in range(3):
+        detour.step(0.0, None)
+    battery["now"] = Battery(ChargeStatus.TRICKLE_CHARGING, 60.0)
+    detour.step(CHARGE_MAX_S - 1, None)
+    assert detour.problem is None
+    detour.step(CHARGE_MAX_S + 1, None)
+    assert detour.problem is not None and "check the charger" in detour.problem
+    assert "60 %" in detour.problem

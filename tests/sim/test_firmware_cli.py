@@ -9,9 +9,10 @@ import time
 import pytest
 import serial
 
-from giraff_console.cli import build_parser, simulator_url
+from giraff_console.cli import build_parser
 from giraff_console.data_folders import example_floorplan
 from giraff_console.protocol.charger import ChargeStatus, parse_charger
+from giraff_console.simulator_options import simulator_url
 from tests.conftest import start_sim_process, stop_sim_process
 
 
