@@ -3,7 +3,7 @@
 Giraff-X added `set twm vg cdp vgr v p 0` because a curve sent as several `set`s made
 the motors jerk and pause (wire-facts, "Later firmware"). On a board that has it (the
 probe says so), the control loop folds each batch of a curved move into one twm
-(robot/twm.py, ControlLoop._moves). This drives
+(robot/twm.py, OdometryFeed.moves). This drives
 the same curves on the thesis's board (separate sets) and on Giraff-X (twm), each on a
 fresh in-process simulator on a virtual clock with a fresh control loop at 20 Hz:
 
@@ -133,7 +133,7 @@ def run(firmware: str, drive: Callable[[ControlLoop, BoardLink, Watch], str]) ->
     watch = Watch(board)
     link.add_observer(watch.exchange)
     # Connects: a stop, settings within the limits, and the probe, which tells the loop
-    # whether the board takes twm (then it folds each batch: ControlLoop._moves).
+    # whether the board takes twm (then it folds each batch: OdometryFeed.moves).
     control.tick()
     watch.commands.clear()
     watch.tick = first = 1

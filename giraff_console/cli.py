@@ -46,7 +46,7 @@ from giraff_console.planning.floorplan import (
 from giraff_console.planning.plan_drawing import draw_plan
 from giraff_console.planning.room_graph import PlanningError, UnknownRoomError
 from giraff_console.planning.route_planner import ROBOT_RADIUS_M, RoutePlanner, walls_of
-from giraff_console.protocol.kinematics import WHEEL_BASE_M
+from giraff_console.protocol.kinematics import WHEEL_BASE_M, WHEEL_BASE_RANGE_M
 from giraff_console.recording.mcap_export import export_session
 from giraff_console.recording.playback import open_log
 from giraff_console.recording.session import (
@@ -398,6 +398,7 @@ def run_console(args: argparse.Namespace) -> int:
         clock=clock,
         wheel_base=settings.board.wheel_base,
         odometers=settings.board.odometers,
+        twm=settings.board.twm,
     )
     start = navigator.start_pose
     if start is not None:
@@ -607,7 +608,8 @@ def board_connector(port: str | None, settings: Settings, simulator: serial.Seri
     def connect() -> BoardLink:
         if not simulator.is_open:
             simulator.open()
-        link = BoardLink(simulator, timeout=settings.timeout)
+        # On the simulator's clock: a virtual one, under --sim-speed, is the loop's too.
+        link = BoardLink(simulator, timeout=settings.timeout, clock=simulator.clock)
         link.handshake(power_line="none")
         return link
 
@@ -618,8 +620,10 @@ def run_sim(args: argparse.Namespace) -> int:
     if args.modem_shim:
         return print_modem_shim()
     imperfections = Imperfections.realistic(args.seed) if args.imperfect else Imperfections()
-    if not 0 <= args.battery <= 1 or not 0.1 <= args.wheel_base <= 2:
-        print("giraff-console: --battery must be from 0 to 1 and --wheel-base from 0.1 to 2 m",
+    low, high = WHEEL_BASE_RANGE_M
+    if not 0 <= args.battery <= 1 or not low <= args.wheel_base <= high:
+        print(f"giraff-console: --battery must be from 0 to 1 and --wheel-base from {low:g} to "
+              f"{high:g} m",
               file=sys.stderr)  # fmt: skip
         return EXIT_USAGE
     config = BoardConfig(

@@ -123,7 +123,7 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
         def connect() -> BoardLink:
             if not simulator.is_open:
                 simulator.open()
-            link = BoardLink(simulator, timeout=settings.timeout)
+            link = BoardLink(simulator, timeout=settings.timeout, clock=simulator.clock)
             link.handshake(power_line="none")
             return link
     else:
@@ -140,6 +140,7 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
         clock=clock,
         wheel_base=settings.board.wheel_base,
         odometers=settings.board.odometers,
+        twm=settings.board.twm,
     )
     if start is not None:
         control.odometry.reset(start)

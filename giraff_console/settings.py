@@ -38,16 +38,25 @@ The [teleop] and [motion] tables:
 The [board] and [battery] tables, for real boards (docs/simulator.md lists the firmware):
 
     [board]
-    wheel_base = 0.499         # metres between the drive wheels: the thesis's figure;
-                               # one driver uses 0.467. The heading is integrated with it.
+    wheel_base = 0.499         # metres between the drive wheels, 0.2 to 1: the thesis's
+                               # figure; one driver uses 0.467. The heading is integrated
+                               # with it.
     odometers = "auto"         # how the wheels' travel is read: "totals" (imdl/imdr since
                                # power-up, the thesis's board), "increments" (since the
                                # previous read, later boards), "encoders" (enc0/enc1), or
-                               # "auto": increments when the board answers to what later
-                               # firmware adds, totals otherwise. Encoders on a board
-                               # without them: reported, and auto's choice is read.
-                               # Whatever it says is checked against cdis in the first
-                               # metre driven, and a reading that disagrees is replaced.
+                               # "auto": increments when the board answers to enc0,
+                               # charger_data or twm, totals otherwise (a height stalk
+                               # alone says nothing). Encoders on a board without them:
+                               # reported, and auto's choice is read. Whatever it says is
+                               # checked against cdis in the first metre driven: a reading
+                               # that disagrees is replaced by one that agrees, and a
+                               # mission under way is stopped; if none agrees, the
+                               # pose is not trusted: missions are stopped and refused
+                               # until a later check (a metre driven by hand) passes.
+    twm = "auto"               # curves as one `set twm` (Giraff-X): "auto" when the board
+                               # answers `get twm` (an assumption: wire-facts has only
+                               # `set twm`, and only our simulator is known to answer the
+                               # get), "on" whatever it answers, "off" never.
 
     [battery]                  # later boards, which report their charger
     low = 25                   # percent: below it a patrol goes to the dock to charge
@@ -67,9 +76,10 @@ from giraff_console.missions.progress_watch import Patience
 from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.planning.route_planner import ROBOT_RADIUS_M
 from giraff_console.protocol.errors import GiraffError
-from giraff_console.protocol.kinematics import WHEEL_BASE_M
+from giraff_console.protocol.kinematics import WHEEL_BASE_M, WHEEL_BASE_RANGE_M
 from giraff_console.robot.control_loop import DEFAULT_RATE_HZ
 from giraff_console.robot.deadman import DEFAULT_GRACE_S, DEFAULT_REPEAT_TIMEOUT_S
+from giraff_console.robot.odometry_feed import TWM_CHOICES
 from giraff_console.robot.teleop import DriveLimits
 from giraff_console.robot.wheel_odometers import AUTO, CHOICES
 
@@ -78,11 +88,9 @@ MAX_NUMBER = 1e6
 # Settings that name a folder; data_folders.py says where they are without them.
 FOLDER_KEYS = ("recordings", "routes")
 # Settings whose value is text.
-TEXT_KEYS = ("port", "power_line", "odometers", *FOLDER_KEYS)
+TEXT_KEYS = ("port", "power_line", "odometers", "twm", *FOLDER_KEYS)
 # Tables within the file, each its own dataclass below.
 TABLES = ("teleop", "motion", "board", "battery")
-# Wheel bases beyond any Giraff's (about half a metre): a typo, or centimetres.
-WHEEL_BASE_RANGE_M = (0.2, 1.0)
 
 
 # No dock needs a longer way out than this.
@@ -135,13 +143,15 @@ class MotionSettings:
 
 @dataclass(frozen=True)
 class BoardSettings:
-    """The robot's geometry and how its wheels' travel is read (wire-facts, "Later firmware")."""
+    """The robot's geometry, how its wheels' travel is read and whether curves go out as
+    one twm (wire-facts, "Later firmware")."""
 
     wheel_base: float = WHEEL_BASE_M
     odometers: str = AUTO
+    twm: str = AUTO
 
     def check(self) -> None:
-        """ValueError for a wheel base or a reading that cannot be right."""
+        """ValueError for a wheel base, a reading or a twm choice that cannot be right."""
         low, high = WHEEL_BASE_RANGE_M
         if not low <= self.wheel_base <= high:
             raise ValueError(
@@ -151,6 +161,10 @@ class BoardSettings:
         if self.odometers not in CHOICES:
             raise ValueError(
                 f"board.odometers is {self.odometers!r}: it must be one of {', '.join(CHOICES)}"
+            )
+        if self.twm not in TWM_CHOICES:
+            raise ValueError(
+                f"board.twm is {self.twm!r}: it must be one of {', '.join(TWM_CHOICES)}"
             )
 
 

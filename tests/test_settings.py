@@ -37,12 +37,14 @@ def test_a_file_overrides_what_it_names(tmp_path):
 
 def test_the_board_and_battery_tables(tmp_path):
     path = write(tmp_path, '[board]\nwheel_base = 0.467\nodometers = "increments"\n'
-                           "[battery]\nlow = 30\ncharged = 95\n")  # fmt: skip
+                           'twm = "on"\n[battery]\nlow = 30\ncharged = 95\n')  # fmt: skip
     settings = load_settings(path)
-    assert (settings.board.wheel_base, settings.board.odometers) == (0.467, "increments")
+    board = settings.board
+    assert (board.wheel_base, board.odometers, board.twm) == (0.467, "increments", "on")
     assert (settings.battery.low, settings.battery.charged) == (30, 95)
     defaults = Settings()
     assert (defaults.board.wheel_base, defaults.board.odometers) == (0.499, "auto")
+    assert defaults.board.twm == "auto"
     assert (defaults.battery.low, defaults.battery.charged) == (25, 90)
 
 
@@ -67,6 +69,9 @@ def test_the_board_and_battery_tables(tmp_path):
         ("board = 3", "[board] must be a table"),
         ("[board]\nwheel_base = 49.9", "board.wheel_base is 49.9 m: it must be between"),
         ("[board]\nwheel_base = 0", "board.wheel_base is 0 m"),
+        ("[board]\nwheel_base = 0.15", "it must be between 0.2 and 1 m"),
+        ('[board]\ntwm = "yes"', "board.twm is 'yes': it must be one of auto, on, off"),
+        ("[board]\ntwm = true", "board.twm has the wrong type"),
         ('[board]\nwheel_base = "wide"', "board.wheel_base has the wrong type"),
         (
             '[board]\nodometers = "total"',

@@ -12,6 +12,10 @@ import math
 
 # Distance between the drive wheels, from Giraff Technologies (§3.2.1.3).
 WHEEL_BASE_M = 0.499
+# The wheel bases the console accepts (`[board] wheel_base`, a session's meta.json): a
+# Giraff's wheels are about half a metre apart (0.499 m in the thesis, 0.467 m in one
+# driver, wire-facts); outside this range the figure is a typo, or centimetres.
+WHEEL_BASE_RANGE_M = (0.2, 1.0)
 # Radius of the circle the wheels follow when rotating in place.
 TURN_RADIUS_M = WHEEL_BASE_M / 2
 # Degrees of rotation per metre of wheel travel: the thesis's TURN_FACTOR.

@@ -27,7 +27,7 @@ from giraff_console.camera.association import Sample
 from giraff_console.camera.recorder import RecordedFrame, VideoRecorder
 from giraff_console.camera.source import Frame
 from giraff_console.link.exchange import Exchange
-from giraff_console.protocol.kinematics import WHEEL_BASE_M
+from giraff_console.protocol.kinematics import WHEEL_BASE_M, WHEEL_BASE_RANGE_M
 from giraff_console.recording.control_log import entry_for, format_entry
 from giraff_console.recording.log_writer import LogWriter
 
@@ -44,8 +44,6 @@ VIDEO_FPS = 10.0
 # sessions recorded before later boards were known read.
 ODOMETER_READINGS = ("totals", "increments", "encoders")
 OLD_SESSIONS_READING = "totals"
-# A wheel base meta.json may give: a Giraff's is about half a metre.
-WHEEL_BASE_RANGE_M = (0.1, 2.0)
 
 
 @dataclass(frozen=True)

@@ -43,13 +43,11 @@ from giraff_console.link import (
     Observer,
     probe,
 )
-from giraff_console.protocol.codec import Command
 from giraff_console.protocol.errors import (
     BoardError,
     BoardRebootedError,
     CommandError,
     GiraffError,
-    ProtocolError,
 )
 from giraff_console.protocol.kinematics import WHEEL_BASE_M
 from giraff_console.recording.playback import Playback
@@ -64,7 +62,6 @@ from giraff_console.robot.replay import Replayer
 from giraff_console.robot.safety import rotation_wheel_speed, stop_robot
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.robot.teleop import Teleop
-from giraff_console.robot.twm import combine_moves
 from giraff_console.robot.wheel_odometers import AUTO, Reading
 
 log = logging.getLogger(__name__)
@@ -85,9 +82,11 @@ class ControlLoop:
                  rate_hz: float = DEFAULT_RATE_HZ, clock: Clock,
                  publish: Callable[[Telemetry], None] = lambda t: None,
                  report: Callable[[str], None] = lambda m: None,
-                 wheel_base: float = WHEEL_BASE_M, odometers: str = AUTO) -> None:  # fmt: skip
-        """`wheel_base` and `odometers` are the `[board]` settings: the robot's wheel base
-        and how its wheels' travel is read (auto, totals, increments, encoders)."""
+                 wheel_base: float = WHEEL_BASE_M, odometers: str = AUTO,
+                 twm: str = AUTO) -> None:  # fmt: skip
+        """`wheel_base`, `odometers` and `twm` are the `[board]` settings: the robot's
+        wheel base, how its wheels' travel is read (auto, totals, increments, encoders)
+        and whether curves go out as one twm (auto, on, off)."""
         self.connect = connect
         self.teleop = teleop
         self.deadman = deadman
@@ -98,7 +97,7 @@ class ControlLoop:
         initial = Reading.TOTALS if odometers == AUTO else Reading(odometers)
         self.odometry = Odometry(wheel_base=wheel_base, reading=initial)
         # `report` may be replaced after construction: they look it up when they speak.
-        self.feed = OdometryFeed(self.odometry, odometers, lambda text: self.report(text))
+        self.feed = OdometryFeed(self.odometry, odometers, lambda text: self.report(text), twm)
         self.gauges = BoardGauges(lambda text: self.report(text))
         self.autopoll = True
         # Every exchange on whatever link is open, and every recorded one played back:
@@ -368,15 +367,19 @@ class ControlLoop:
             fresh = state is not None and self.clock.now() - state.received_at < self.period
             polling = bool(self.autopoll or driving or self._mission)
             if polling and not (early and fresh):
-                state = self._state = self._poll(self.link)
+                state = self._state = self.feed.poll(self.link)
                 self._note_estop(state)
+                # A pose that jumped, or cannot be trusted: a mission must not steer by it.
+                why = self.feed.mission_stop()
+                if why is not None:
+                    self._end_mission(why)
             if driving and state is not None:
                 if state.estop:
                     self.deadman.release()
                 self._step_teleop(self.link, state)
             elif self._mission is not None:
                 self._step_mission(self.link, state)
-            if polling:
+            if polling and self._halt is None:  # stopping now: nothing more goes out
                 self.gauges.poll(self.link, self.clock.now())
         except LinkError as error:
             self.report(f"LINK LOST: {error}")
@@ -396,34 +399,13 @@ class ControlLoop:
             self._end_mission(f"stopped: {error}")
         self._publish()
 
-    def _poll(self, link: BoardLink) -> MotorState:
-        """The tick's poll, with the encoders when they are read, into the odometry; the
-        state as teleop and the missions read it, `imdl`/`imdr` as totals whatever the
-        board. A first-motion check that replaced the reading moved the pose: a mission
-        driving by the old pose is stopped."""
-        state = link.bulk(automatic=True)
-        if self.feed.needs_encoders:
-            state = self.feed.with_encoders(link, state)
-        self.feed.sample(state)
-        jumped, self.feed.pose_jumped = self.feed.pose_jumped, None
-        if jumped is not None:
-            self._end_mission("stopped: its pose was wrong (the odometry read the wheels "
-                              "the wrong way); start it again")  # fmt: skip
-        return self.feed.as_totals(state)
-
-    def _moves(self, commands: list[Command]) -> list[Command]:
-        """A batch of moves as it goes to this board: on Giraff-X a curve is one twm."""
-        features = self.feed.features
-        if features is not None and features.twm:
-            return combine_moves(commands, self.teleop.board_settings)
-        return commands
-
     def _step_teleop(self, link: BoardLink, state: MotorState) -> None:
         """Send what the held key asks for, each command within the limits (the one
         guard every path to the board passes); a command refused, by the guard or by the
         board, ends the driving rather than being asked again twenty times a second."""
         speed = self._speed_bound(state)
-        for command in self._moves(list(self.teleop.step(self.deadman.held(), state))):
+        commands = list(self.teleop.step(self.deadman.held(), state))
+        for command in self.feed.moves(commands, self.teleop.board_settings):
             if self._halt is not None:
                 return  # stopping now: no more renewals
             try:
@@ -443,7 +425,8 @@ class ControlLoop:
             self._end_mission("stopped by ESTOP", stop=False)
             return
         speed = self._speed_bound(state)
-        for command in self._moves(list(mission.step(self.clock.now(), state))):
+        commands = list(mission.step(self.clock.now(), state))
+        for command in self.feed.moves(commands, self.teleop.board_settings):
             if self._halt is not None:
                 return  # stopping now: no more renewals
             try:
@@ -478,11 +461,21 @@ class ControlLoop:
         return abs(speed) + self.teleop.limits.accel * self.period
 
     def _start_mission(self, mission: Mission, ended: MissionEnded) -> None:
-        if self._replayer is not None or self.link is None:
-            why = "a playback is running" if self._replayer else "no link to the board"
+        if self._replayer is not None:
+            why: str | None = "a playback is running"
+        elif self.link is None:
+            why = "no link to the board"
+        else:
+            # Any mission, not only those that steer by the pose: none is worth a robot
+            # driving blind among people, and the way out is a metre driven by hand.
+            why = self.feed.untrusted
+        if why is not None:
             self.report(f"{mission.name} not started: {why}")
             ended("not started")
             return
+        # A pose that jumped before this mission is the pose it starts from: a flag left
+        # from then would end it at its first poll.
+        self.feed.pose_jumped = None
         self._end_mission("replaced")
         self.deadman.release()
         self._mission, self._mission_ended = mission, ended
@@ -628,25 +621,15 @@ class ControlLoop:
 
     def _watch(self, exchange: Exchange) -> None:
         """Keep teleop's picture of the board's settings true, whoever sends them, and
-        the odometry's check told of every move and fed every read of bulk_data (on
-        later boards a read resets imdl/imdr); then tell the observers."""
+        the odometry told of every move and fed every read of bulk_data (on later boards
+        a read resets imdl/imdr); then tell the observers."""
         if exchange.kind == "set":
             # A twm carries several values: `set twm vg cdp vgr v p 0`.
             _, name, text = exchange.command.split(None, 2)
             # A set whose answer went wrong may or may not have been taken: unknown.
             self.teleop.board_set(name, text if exchange.error is None else None)
-            if name in ("p", "twm") and exchange.error is None:
-                self.feed.move_sent(exchange.answered_at, self.teleop.board_settings)
-        elif (exchange.kind == "get" and not exchange.automatic and exchange.error is None
-              and exchange.command.split() == ["get", "bulk_data"]
-              and isinstance(exchange.value, dict)):  # fmt: skip
-            # The loop's own polls are fed by the tick, with the encoders when read.
-            try:
-                state = MotorState.from_bulk(exchange.value, exchange.answered_at)
-            except ProtocolError:
-                pass
-            else:
-                self.feed.sample(state, automatic=False)
+        # After teleop's picture: the feed asks it what the move just sent was.
+        self.feed.watch(exchange, self.teleop.board_settings)
         self._notify(exchange)
 
     def _reconnect(self) -> bool:
@@ -679,7 +662,7 @@ class ControlLoop:
         # A board that greeted was powered up just now: its counters started again.
         self.feed.connected(features, powered_up=link.version is not None)
         self.gauges.connected(features)
-        board = features.describe(self.odometry.reading)
+        board = self.feed.describe()
         if self._failures:
             self.report(f"link restored; robot commanded to stop; {board}")
         else:

@@ -11,16 +11,19 @@ the other interpretations are integrated alongside, from the same samples and po
 most ticks. So between two polls it measures `cdis_now - cdis_prev` when no move went
 out between them, and `cdis_now` when one did: then only from the move's start, a few
 milliseconds after the first poll, so it is scaled up by the time between the polls
-over the time since the move (the speed barely changes in that much). Only pairs of
-polls in straight or curved motion count, under a relative move: in rotation `cdis`
-stays 0 or counts wheel metres (r < 0, B.2), and absolute moves count from elsewhere.
+over the time since the move (the speed barely changes in that much). Those times are
+the board's: when each command reached it (see `sample`), not when its reply came back.
+Only pairs of polls in straight or curved motion count, under a relative move: in
+rotation `cdis` stays 0 or counts wheel metres (r < 0, B.2), and absolute moves count
+from elsewhere.
 
 Once `cdis` has measured DECIDE_AFTER_M, the claimed reading is trusted if it agrees
 within TOLERANCE; otherwise the encoders, when the board has them and they agree, or
 else the other interpretation of `imdl`/`imdr` that agrees, replace it, with the pose
 integrated the right way from the start of the check. If nothing agrees the claimed
-reading stays, and the message says so. Pure: the control loop feeds it samples and
-tells it when a move went out.
+reading stays, untrusted, and the message says so: what follows from that (missions
+stopped and refused, the check run again) is odometry_feed.py's. Pure: the feed hands
+it samples and tells it when a move went out.
 """
 
 from __future__ import annotations
@@ -44,8 +47,9 @@ class CheckOutcome:
 
     `trusted` when the claimed reading agreed with cdis. Otherwise `reading` is what to
     read from now on; when it differs from the claimed one, `odometry` is the odometry to
-    carry on from (its pose integrated that way all along). `message` says what was
-    found, for the status log.
+    carry on from (its pose integrated that way all along); when it does not, nothing
+    agreed and the pose cannot be trusted. `message` says what was found, for the status
+    log.
     """
 
     claimed: Reading
@@ -57,6 +61,11 @@ class CheckOutcome:
     @property
     def switched(self) -> bool:
         return self.reading is not self.claimed
+
+    @property
+    def agreed(self) -> bool:
+        """Whether the reading now in use agrees with cdis: the claimed one or another."""
+        return self.trusted or self.switched
 
 
 class OdometerCheck:
@@ -86,7 +95,8 @@ class OdometerCheck:
         self._travel = dict.fromkeys(self._readings, 0.0)
         # Each reading's distance at the previous sample.
         self._distances = dict.fromkeys(self._readings, 0.0)
-        self._prev: MotorState | None = None
+        # The previous sample, and when the board took it (see `sample`).
+        self._prev: tuple[MotorState, float] | None = None
         # The move in force counts (path, relative); a move sent since the last sample.
         self._counting = False
         self._sent: tuple[float, bool] | None = None
@@ -98,8 +108,9 @@ class OdometerCheck:
         return self._readings
 
     def move_sent(self, at: float, counts: bool) -> None:
-        """A relative move (`set p`, `set twm`) went out at `at`; `counts` when it is a
-        straight or curved one, in relative mode, whose `cdis` this check can use."""
+        """A relative move (`set p`, `set twm`) was sent at `at` (the exchange's
+        `sent_at`, as for `sample`); `counts` when it is a straight or curved one, in
+        relative mode, whose `cdis` this check can use."""
         self._sent = (at, counts)
 
     def restart(self, pose: Pose) -> None:
@@ -107,15 +118,32 @@ class OdometerCheck:
         if self.outcome is None:
             self._begin(pose)
 
-    def sample(self, state: MotorState) -> CheckOutcome | None:
+    def encoders_set(self) -> None:
+        """Someone set `enc0` or `enc1` (a typed `set enc0 0`): the next counts start a
+        new reference instead of counting the jump as travel."""
+        odometry = self._odometries.get(Reading.ENCODERS)
+        if odometry is not None:
+            odometry.use(Reading.ENCODERS)
+
+    def sample(self, state: MotorState, at: float | None = None) -> CheckOutcome | None:
         """Take one read of bulk_data (any, not only the console's polls; with the
-        encoders' counts when they are read); the outcome when this sample decides."""
+        encoders' counts when they are read); the outcome when this sample decides.
+
+        `at` is when the poll was sent (the exchange's `sent_at`; by default when its
+        answer came): the board takes bulk_data's values, and starts a move, as the
+        command's line end reaches it, a byte time after it was sent for a poll and a
+        move alike (both lines are about 10 to 14 bytes), so the two sent times are as
+        far apart as those instants. The answers are not: at 115200 baud bulk_data's
+        takes about 14 ms on the wire and a set's echo about 2 ms, which would shorten
+        the time since the move by 12 ms of a 50 ms tick and make cdis read 25-40 % low.
+        """
         if self.outcome is not None:
             return None
         for odometry in self._odometries.values():
             if odometry.odometers.usable(state):
                 odometry.update(state)
-        prev, self._prev = self._prev, state
+        taken = (state, state.received_at if at is None else at)
+        prev, self._prev = self._prev, taken
         sent, self._sent = self._sent, None
         counted_before = self._counting
         if sent is not None:
@@ -123,13 +151,16 @@ class OdometerCheck:
         if prev is None:
             self._note_distances()
             return None
-        measure = self._cdis_measure(prev, state, sent, counted_before)
+        measure = self._cdis_measure(prev, taken, sent, counted_before)
         if measure is not None:
             self._cdis += abs(measure)
             for reading, odometry in self._odometries.items():
                 self._travel[reading] += odometry.distance - self._distances[reading]
         self._note_distances()
-        if self._cdis >= DECIDE_AFTER_M:
+        # A reading this sample lacked (encoder counts that could not be read, or not
+        # read with a typed `get bulk_data`) lags until its next sample: not judged now.
+        complete = all(odometry.odometers.usable(state) for odometry in self._odometries.values())
+        if self._cdis >= DECIDE_AFTER_M and complete:
             self.outcome = self._decide()
             return self.outcome
         return None
@@ -138,18 +169,21 @@ class OdometerCheck:
         for reading, odometry in self._odometries.items():
             self._distances[reading] = odometry.distance
 
-    def _cdis_measure(self, prev: MotorState, state: MotorState, sent: tuple[float, bool] | None,
+    def _cdis_measure(self, prev_taken: tuple[MotorState, float],
+                      taken: tuple[MotorState, float], sent: tuple[float, bool] | None,
                       counted_before: bool) -> float | None:  # fmt: skip
-        """What cdis says the centre travelled between `prev` and `state`; None when it
-        cannot say (rotation, absolute moves, a move too late in the interval)."""
+        """What cdis says the centre travelled between two samples, each with when the
+        board took it; None when it cannot say (rotation, absolute moves, a move too
+        late in the interval)."""
+        (prev, prev_at), (state, at) = prev_taken, taken
         if not self._counting or state.absolute or prev.absolute:
             return None
         if sent is None:
             return state.cdis - prev.cdis
         if not counted_before:
             return None  # from a rotation or a stop into a path: part of it unmeasured
-        elapsed = state.received_at - prev.received_at
-        since_move = state.received_at - sent[0]
+        elapsed = at - prev_at
+        since_move = at - sent[0]
         if elapsed <= 0 or since_move < elapsed / 2:
             return None
         return state.cdis * min(elapsed / since_move, 2.0)
@@ -184,8 +218,8 @@ class OdometerCheck:
                                 f"odometry: {problem}; now reading {_what(choice)}")  # fmt: skip
         return CheckOutcome(claimed, claimed, None,
                             f"odometry: no wheel reading agrees with cdis ({_what(claimed)}: "
-                            f"{said}); carrying on with {claimed}, the pose may be wrong: "
-                            "check [board] odometers and wheel_base")  # fmt: skip
+                            f"{said}); still reading {claimed}, but the pose cannot be "
+                            "trusted")  # fmt: skip
 
 
 def _what(reading: Reading) -> str:

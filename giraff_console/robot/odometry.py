@@ -62,6 +62,9 @@ class Odometry:
         # count them, whichever way they are read (OdometryFeed.as_totals).
         self.wheels = (0.0, 0.0)
         self._last: MotorState | None = None
+        # When the last state was fed, whatever became of the reference since: a reading
+        # whose reads consume what it counts needs it to judge the first sample after.
+        self._fed_at: float | None = None
 
     @property
     def reading(self) -> Reading:
@@ -69,9 +72,11 @@ class Odometry:
 
     def reset(self, pose: Pose | None = None, reference: MotorState | None = None) -> None:
         """Start again from `pose`; the next step is taken from `reference`, or, without
-        one, the next state is taken as the new reference."""
+        one, the next state is the new reference (see `update` for increments)."""
         self.pose = pose or Pose()
         self._last = reference
+        if reference is not None:
+            self._fed_at = reference.received_at
 
     def use(self, reading: Reading | str) -> None:
         """Read the wheels another way from now on; the pose stays, and the next state is
@@ -85,6 +90,7 @@ class Odometry:
         self.wheel_base = other.wheel_base
         self.pose = other.pose
         self._last = other.reference
+        self._fed_at = other._fed_at
 
     @property
     def reference(self) -> MotorState | None:
@@ -102,12 +108,20 @@ class Odometry:
         if not self.odometers.usable(state):
             raise ProtocolError(f"this board does not report {self.odometers.needs}")
         last, self._last = self._last, state
-        if last is None or not self.odometers.usable(last):
-            return self.pose
-        travel = self.odometers.travel(last, state)
+        fed_at, self._fed_at = self._fed_at, state.received_at
+        if last is not None and self.odometers.usable(last):
+            travel = self.odometers.travel(last, state)
+        elif fed_at is not None and state.received_at >= fed_at:
+            # No reference (a new reading, a reset): totals and counts only become one,
+            # but increments are what the wheels did since the previous read, which is
+            # gone: they count, if the wheels could go that far since the last state fed.
+            # (A state older than that is a playback seeking back: a reference only.)
+            travel = self.odometers.travel_alone(state, state.received_at - fed_at)
+        else:
+            return self.pose  # the first state: a reference
         if travel is None:
             # Further than any wheel can go: the board restarted its odometers, as after
-            # a power cycle. Keep the pose; this sample is the new reference.
+            # a power cycle, or garbage. Keep the pose; this sample is the new reference.
             return self.pose
         left, right = travel
         self.wheels = (self.wheels[0] + left, self.wheels[1] + right)

@@ -70,11 +70,21 @@ class WheelOdometers(ABC):
         """The wheels' travel from `last` to `state`; None when it is further than any
         wheel can go in the time between them: counters that restarted (a power cycle)
         or garbage. Both states must be `usable`."""
-        left, right = self._travel(last, state)
-        elapsed = max(0.0, state.received_at - last.received_at)
-        if max(abs(left), abs(right)) > MAX_WHEEL_SPEED * elapsed + JUMP_MARGIN_M:
-            return None
-        return left, right
+        return _plausible(self._travel(last, state), state.received_at - last.received_at)
+
+    def travel_alone(self, state: MotorState, elapsed: float) -> Travel | None:
+        """The wheels' travel that `state` alone tells, for a reading whose reads consume
+        what it counts (increments): since the previous read of bulk_data, `elapsed`
+        seconds before. None for the other readings, whose sample alone is only a
+        reference, and for travel further than the wheels can go in that time."""
+        return None
+
+
+def _plausible(travel: Travel, elapsed: float) -> Travel | None:
+    left, right = travel
+    if max(abs(left), abs(right)) > MAX_WHEEL_SPEED * max(0.0, elapsed) + JUMP_MARGIN_M:
+        return None
+    return left, right
 
 
 class TotalOdometers(WheelOdometers):
@@ -105,6 +115,9 @@ class IncrementalOdometers(WheelOdometers):
     def _travel(self, last: MotorState, state: MotorState) -> Travel:
         assert state.imdl is not None and state.imdr is not None
         return state.imdl, state.imdr
+
+    def travel_alone(self, state: MotorState, elapsed: float) -> Travel | None:
+        return _plausible(self._travel(state, state), elapsed)
 
 
 class Encoders(WheelOdometers):

@@ -32,7 +32,7 @@ import urllib.parse
 from serial import PortNotOpenError, SerialBase, SerialException
 
 from giraff_console.clock import Clock, RealClock, VirtualClock
-from giraff_console.protocol.kinematics import WHEEL_BASE_M
+from giraff_console.protocol.kinematics import WHEEL_BASE_M, WHEEL_BASE_RANGE_M
 from giraff_console.sim.board import BoardConfig, GiraffBoard
 from giraff_console.sim.firmware import DEFAULT_FIRMWARE, firmware_named
 from giraff_console.sim.imperfections import Imperfections
@@ -106,7 +106,7 @@ class Serial(SerialBase):
                 imperfections=imperfections,
                 firmware=firmware_named(options.get("firmware", DEFAULT_FIRMWARE)),
                 battery=_number(options, "battery", 1.0, 0.0, 1.0),
-                wheel_base=_number(options, "wheel_base", WHEEL_BASE_M, 0.1, 2.0),
+                wheel_base=_number(options, "wheel_base", WHEEL_BASE_M, *WHEEL_BASE_RANGE_M),
             )
             return config, _flag(options, "pace")
         except ValueError as error:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 
 from giraff_console.cli import main
@@ -86,6 +88,31 @@ def test_the_thesis_board_is_described_as_such():
     assert features.describe() == (
         "board 1.1.112p, 2013-06-01: the thesis's firmware; imdl/imdr read as totals"
     )
+
+
+def test_a_height_stalk_alone_does_not_make_a_later_board():
+    # Some units of any firmware have one (wire-facts): their imdl/imdr stay totals.
+    features = BoardFeatures("1.1.112p, 2013-06-01", False, True, False, False)
+    assert not features.later_firmware
+    assert features.describe() == (
+        "board 1.1.112p, 2013-06-01: the thesis's firmware, with a height stalk; imdl/imdr "
+        "read as totals"
+    )
+
+
+@pytest.mark.parametrize("feature", ["encoders", "charger", "twm"])
+def test_encoders_a_charger_or_twm_make_a_later_board(feature):
+    features = replace(BoardFeatures(None, False, False, False, False), **{feature: True})
+    assert features.later_firmware
+    assert features.describe().endswith("imdl/imdr read as increments")
+
+
+def test_twm_chosen_otherwise_than_the_probe_found_is_said():
+    giraff_x = BoardFeatures(None, True, True, True, True)
+    assert giraff_x.describe(twm=True) == giraff_x.describe()
+    assert giraff_x.describe(twm=False).endswith("; twm not used, as the settings say")
+    later = replace(giraff_x, twm=False)
+    assert later.describe(twm=True).endswith("; curves as one twm, as the settings say")
 
 
 def test_send_says_which_board_answered_on_standard_error_only(capsys):

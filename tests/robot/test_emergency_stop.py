@@ -10,10 +10,12 @@ import pytest
 from giraff_console.link import Exchange
 from giraff_console.missions.undock import Undock
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M
+from giraff_console.robot.board_gauges import READ_EVERY_S
 from giraff_console.robot.deadman import Intent
 from giraff_console.robot.last_stop import LastStop
 from giraff_console.robot.safety import REACH_M
 from tests.robot.test_missions import Ahead, Loop
+from tests.robot.test_odometry_firmware import TICK, Console, Straight
 
 
 def sent_after(loop: Loop, action) -> list[str]:
@@ -73,6 +75,32 @@ def test_no_renewal_goes_out_once_the_stop_was_asked_for_mid_tick():
     assert "set p 0.24" not in sent
     assert loop.control.mission is None
     assert travel_from(loop, 3.0) < REACH_M
+
+
+def test_no_gauge_is_read_once_the_stop_was_asked_for_mid_tick():
+    console = Console("later")  # a board with a charger and a stalk, read every 0.5 s
+    seen: list[tuple[float, str]] = []
+    console.link.add_observer(lambda e: seen.append((console.clock.now(), e.command)))
+    asked: list[int] = []  # where in `seen` the stop was asked for
+
+    class SignalledWhenTheGaugesAreDue(Straight):
+        def step(self, now, state):
+            reads = [at for at, command in seen if command == "get charger_data"]
+            if not asked and reads and now >= reads[-1] + READ_EVERY_S:
+                console.loop.emergency_stop("SIGTERM received")
+                asked.append(len(seen))
+            return super().step(now, state)
+
+    console.run(TICK)
+    console.loop.run_mission(SignalledWhenTheGaugesAreDue())
+    give_up = console.clock.now() + 2.0
+    while not asked:
+        assert console.clock.now() < give_up
+        console.run(TICK)
+    after = [command for _, command in seen[asked[0] :]]
+    assert "get charger_data" not in after and "get h" not in after
+    console.run(TICK)  # the next tick stops the robot
+    assert console.loop.mission is None
 
 
 def test_closing_after_the_stop_releases_the_port():

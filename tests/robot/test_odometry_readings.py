@@ -129,15 +129,49 @@ def test_rotating_on_the_spot_turns_without_moving():
     assert (odometry.pose.x, odometry.pose.y) == (0.0, 0.0)
 
 
-def test_another_reading_keeps_the_pose_and_starts_from_the_next_sample():
+def test_another_reading_keeps_the_pose_and_counts_the_first_increments():
     odometry = Odometry(reading="totals")
     odometry.update(state(0.0, 2.0, 2.0))
     odometry.update(state(0.05, 2.02, 2.02))
     odometry.use("increments")
-    odometry.update(state(0.10, 0.02, 0.02))  # the new reference
+    # What the wheels did since the read at 0.05, which that read reset: real travel.
+    odometry.update(state(0.10, 0.02, 0.02))
     odometry.update(state(0.15, 0.02, 0.02))
     assert odometry.reading is Reading.INCREMENTS
+    assert odometry.pose.x == pytest.approx(0.06)
+
+
+def test_after_a_change_to_totals_the_first_sample_is_only_a_reference():
+    odometry = Odometry(reading="increments")
+    odometry.update(state(0.0, 0.0, 0.0))
+    odometry.update(state(0.05, 0.02, 0.02))
+    odometry.use("totals")
+    odometry.update(state(0.10, 3.0, 3.0))  # metres since power-up: no step on its own
+    odometry.update(state(0.15, 3.02, 3.02))
     assert odometry.pose.x == pytest.approx(0.04)
+
+
+def test_the_first_increments_after_a_reset_count_if_the_wheels_could_go_that_far():
+    odometry = Odometry(reading="increments")
+    odometry.update(state(0.0, 0.0, 0.0))
+    odometry.reset(Pose(1.0, 0.0, 0.0))  # a board that restarted: the pose stays
+    odometry.update(state(0.05, 0.02, 0.02))
+    assert odometry.pose.x == pytest.approx(1.02)
+    odometry.use("increments")
+    odometry.update(state(0.10, 0.9, 0.9))  # 0.9 m in 50 ms: garbage, not travel
+    assert odometry.pose.x == pytest.approx(1.02)
+    odometry.update(state(0.15, 0.02, 0.02))  # but it is the reference
+    assert odometry.pose.x == pytest.approx(1.04)
+
+
+def test_the_very_first_increments_and_an_older_sample_are_only_a_reference():
+    odometry = Odometry(reading="increments")
+    odometry.update(state(5.0, 0.02, 0.02))  # since some read nobody knows the time of
+    assert odometry.pose.x == 0.0
+    odometry.update(state(5.05, 0.02, 0.02))
+    odometry.reset(Pose())  # a playback seeking back to its start...
+    odometry.update(state(1.0, 0.02, 0.02))  # ...without a reference there
+    assert odometry.pose.x == 0.0
 
 
 def test_a_wheel_base_that_is_not_positive_is_refused():

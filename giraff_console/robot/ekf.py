@@ -1,0 +1,514 @@
+"""An extended Kalman filter for the robot's planar pose (§2.3.2): odometry predicts,
+markers on the walls correct.
+
+Pure: no I/O, no clock, no threads. The caller feeds it the wheels' travel between two
+polls (`predict`) and each marker sighting with the marker's pose from the floor plan
+(`correct`), and reads `pose`, `covariance`, `sigma_m` and `sigma_heading`.
+
+State and motion model
+    The state is (x, y, heading) in the map frame, metres and radians counter-clockwise
+    from +x, as robot.odometry.Pose. A step integrates the wheels exactly as Odometry
+    does (midpoint heading, turn = (right - left) / wheel base), so with no sighting the
+    filter's pose is the odometry's pose.
+
+Process noise: why these numbers
+    - Each wheel's travel is off by a random walk: variance `wheel_noise**2` per metre
+      that wheel turned (not a standard deviation proportional to the step: that would
+      make the noise shrink as the poll rate rises, 20 small steps adding less than one
+      big one). The default, 0.01 m after 1 m of a wheel's travel, is about what the
+      `--imperfect` simulator's few millimetres per move (§5.5) and a real floor's slip
+      add up to, and makes 10 m straight ahead cost about 5 degrees of heading.
+    - The casters (§3.2.1.5): after turning in place, the swivel casters are out of line
+      and "may cause the Giraff to turn up to about 45 degrees extra before they've
+      finally reoriented themselves", which happens over the first decimetres of the
+      next move, unseen by the wheels. The filter keeps this as a pending heading
+      variance: a rotation in place charges it in proportion to the angle turned (a full
+      charge from a quarter turn on, as the simulator does), and moving releases it into
+      the heading as the casters settle, the fraction 1 - exp(-d / caster_settle) of what
+      is left after d metres (the simulator's law, caster_settle 0.3 m). Releasing it as
+      the robot moves, not at the turn, matters: a robot that turns to look at a marker
+      learns its heading then, and the casters still turn it afterwards.
+      Its size, caster_sigma = 26 degrees: the extra turn is somewhere between none and
+      about 45 degrees, and the filter cannot know its sign on every robot, so it is
+      modelled as zero-mean with the mean square of an extra turn spread evenly over
+      0..45 degrees: 45 / sqrt(3) = 26 degrees. The worst case is then 1.7 sigma, well
+      inside the gate.
+    - A little heading noise per metre (`heading_noise`) is the "stabilizing noise" of
+      §2.3.2, covering the linearisation and the wheel base's error.
+
+Measurement model
+    An Observation is one marker as the camera saw it: the horizontal distance from the
+    camera to the marker's centre, its bearing (positive left, in the robot's frame),
+    and, when the detector gives it, the direction of the marker's normal in the robot's
+    frame (`facing`). The camera sits on the robot's centre line, `camera_forward` metres
+    ahead of the point between the wheels (0 in the simulator, whose camera is at the
+    robot's pose). The facing constrains the heading directly; without it a single
+    sighting constrains only the position relative to the marker.
+    With a facing, distance, bearing and facing map one to one onto a pose, so the
+    update is made in pose space (the sighting's implied pose, its noise carried
+    through that inverse's Jacobian): the same update as the EKF's while the estimate
+    is close, and still right when it is a metre and tens of degrees off, where a
+    linearisation about the estimate would not be. Without a facing, an iterated EKF
+    update on distance and bearing.
+    Noise: distance 2 cm + 2 % of it (solvePnP's depth from a 16 cm square), bearing
+    1 degree (a pixel is 0.1 degree at 800 pixels over 90 degrees; the corners' jitter,
+    the time between the frame and the poll and the head's mount make the rest), facing
+    6 degrees (a planar marker's orientation is the weakest part of its pose), plus the
+    marker's own placement error on the wall (1 cm, 1 degree: put up with a tape measure).
+
+The gate
+    A sighting whose innovation's squared Mahalanobis distance exceeds the chi-square
+    quantile for its degrees of freedom (2 without facing, 3 with) at `gate_confidence`
+    (0.99 by default: one good sighting in a hundred is dropped, which costs nothing as
+    the next frame sees it again) is rejected and leaves the filter untouched. A marker
+    moved 1 m along its wall but not in the plan is 1 m off in the innovation; with the
+    filter confident to a few centimetres that is far beyond the gate. While the filter
+    is uncertain the gate is wide, as it should be: then the sighting is the best there
+    is.
+
+No starting guess
+    A filter made without a pose is not placed: `predict` and `correct` do nothing until
+    `place_from` puts it where the first sighting (with its facing) says it is, with the
+    covariance that sighting's noise gives. Marker ids are unique in a plan, so one
+    sighting is enough.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from giraff_console.robot.odometry import Pose
+
+# Chi-square quantiles by confidence and degrees of freedom (scipy.stats.chi2.ppf; scipy
+# is not a dependency, and these are the only ones the gate needs).
+CHI_SQUARE = {
+    0.95: {1: 3.841, 2: 5.991, 3: 7.815},
+    0.99: {1: 6.635, 2: 9.210, 3: 11.345},
+    0.999: {1: 10.828, 2: 13.816, 3: 16.266},
+}
+
+# A pending caster variance below this is nothing: a micro-radian's standard deviation.
+_SETTLED_RAD2 = 1e-12
+
+
+@dataclass(frozen=True)
+class Observation:
+    """One marker as the camera saw it: what the filter needs of a sighting. Distance and
+    bearing are from the camera, `camera_forward` ahead of the wheel axle's middle;
+    camera/markers.py's MarkerSighting already gives them from the axle's middle, so
+    with it camera_forward is 0 and the fields carry over as they are."""
+
+    marker_id: int
+    distance_m: float  # horizontal, from the camera to the marker's centre
+    bearing_rad: float  # to the marker's centre, positive left, in the robot's frame
+    facing_rad: float | None  # the marker's normal in the robot's frame, if estimated
+    time: float = 0.0  # when the frame was taken, on the caller's clock
+
+
+@dataclass(frozen=True)
+class FilterNoise:
+    """The filter's noise model; the module's docstring says why these numbers."""
+
+    wheel_noise: float = 0.01  # metres per sqrt(metre) of each wheel's travel
+    heading_noise: float = math.radians(0.5)  # radians per sqrt(metre) of the centre's travel
+    caster_sigma: float = math.radians(26.0)  # the casters' extra turn after a turn in place
+    caster_settle: float = 0.3  # metres of travel for the casters to settle by 1 - 1/e
+    distance: float = 0.02  # metres
+    distance_fraction: float = 0.02  # of the distance
+    bearing: float = math.radians(1.0)
+    facing: float = math.radians(6.0)
+    marker_position: float = 0.01  # metres: where the marker really is on the wall
+    marker_facing: float = math.radians(1.0)
+
+
+def wrap(angle: float) -> float:
+    """`angle` in (-pi, pi]."""
+    wrapped = math.remainder(angle, math.tau)
+    return math.pi if wrapped == -math.pi else wrapped
+
+
+def marker_pose(marker: Any) -> Pose:
+    """A marker's pose in the map as the filter takes it: its centre on the wall, and its
+    normal's direction in radians. Takes a Pose as it is, or a floor plan's marker
+    (`at` in metres, `facing` in degrees, planning/floorplan.py)."""
+    if isinstance(marker, Pose):
+        return marker
+    x, y = marker.at
+    return Pose(float(x), float(y), math.radians(marker.facing))
+
+
+def usable(sighting: Observation) -> Observation | None:
+    """The sighting as the filter can use it: None without a positive distance and a
+    bearing, and without its facing when that is unknown (the detector reports NaN
+    for what it could not estimate, camera/markers.py)."""
+    if not sighting.distance_m > 0 or not math.isfinite(sighting.bearing_rad):
+        return None
+    if sighting.facing_rad is not None and not math.isfinite(sighting.facing_rad):
+        return replace(sighting, facing_rad=None)
+    return sighting
+
+
+class PoseFilter:
+    """The pose (x, y, heading) and its covariance, from odometry and marker sightings."""
+
+    def __init__(
+        self,
+        pose: Pose | None = None,
+        covariance: np.ndarray | None = None,
+        *,
+        noise: FilterNoise | None = None,
+        camera_forward: float = 0.0,
+        gate_confidence: float = 0.99,
+        iterations: int = 3,
+    ) -> None:
+        if gate_confidence not in CHI_SQUARE:
+            raise ValueError(f"gate confidence must be one of {sorted(CHI_SQUARE)}")
+        if iterations < 1:
+            raise ValueError("at least one iteration")
+        self.noise = noise or FilterNoise()
+        self.camera_forward = camera_forward
+        self.gate_confidence = gate_confidence
+        # Sightings without a facing take an iterated EKF update: relinearising the
+        # distance and bearing about the updated state costs microseconds and keeps a
+        # correction made with decimetres of uncertainty from overshooting.
+        self.iterations = iterations
+        self._x = np.zeros(3)
+        self._p = np.full((3, 3), np.nan)
+        self.placed = False
+        # The casters' pending heading variance (see the module docstring).
+        self._caster_var = 0.0
+        # The last sighting's squared Mahalanobis distance, how many sightings in a row
+        # the gate has rejected (a robot that keeps rejecting every marker it sees is
+        # more likely lost than surrounded by misread ones: the caller's to judge, and
+        # place_from starts again), and the time of the last one used.
+        self.last_mahalanobis: float | None = None
+        self.rejected_in_a_row = 0
+        self.corrected_at: float | None = None
+        if pose is not None:
+            self.reset(pose, covariance)
+
+    # The estimate.
+
+    @property
+    def pose(self) -> Pose:
+        """The estimate; the origin facing +x while not placed."""
+        return Pose(float(self._x[0]), float(self._x[1]), float(self._x[2]))
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """The 3x3 covariance of (x, y, heading), a copy; infinite while not placed."""
+        if not self.placed:
+            return np.diag([np.inf, np.inf, np.inf])
+        return self._p.copy()
+
+    @property
+    def sigma_m(self) -> float:
+        """The position's standard deviation along its worst direction: the square root of
+        the position covariance's larger eigenvalue (the 1-sigma ellipse's semi-major
+        axis), so that "within sigma_m" holds whichever way the error lies."""
+        if not self.placed:
+            return math.inf
+        return float(math.sqrt(max(0.0, np.linalg.eigvalsh(self._p[:2, :2])[-1])))
+
+    @property
+    def sigma_heading(self) -> float:
+        """The heading's standard deviation, radians (the casters' pending turn is not in
+        it until the robot moves)."""
+        if not self.placed:
+            return math.inf
+        return float(math.sqrt(max(0.0, self._p[2, 2])))
+
+    @property
+    def caster_pending(self) -> float:
+        """The standard deviation (radians) of the heading change the casters have still
+        to make, since the last turn in place."""
+        return math.sqrt(self._caster_var)
+
+    def ellipse(self, k: float = 1.0) -> tuple[float, float, float]:
+        """The position's k-sigma ellipse: semi-major and semi-minor axes in metres, and
+        the major axis's direction in radians from +x, for drawing."""
+        if not self.placed:
+            return math.inf, math.inf, 0.0
+        values, vectors = np.linalg.eigh(self._p[:2, :2])
+        major, minor = (k * math.sqrt(max(0.0, v)) for v in values[::-1])
+        return major, minor, math.atan2(vectors[1, 1], vectors[0, 1])
+
+    def reset(self, pose: Pose, covariance: np.ndarray | None = None) -> None:
+        """Start again from `pose`, known to `covariance` (exactly, without one), with
+        the casters in line."""
+        self._x = np.array([pose.x, pose.y, pose.heading], dtype=float)
+        p = np.zeros((3, 3)) if covariance is None else np.array(covariance, dtype=float)
+        if p.shape != (3, 3):
+            raise ValueError("the covariance must be 3x3")
+        self._p = (p + p.T) / 2
+        self._caster_var = 0.0
+        self.placed = True
+        self.rejected_in_a_row = 0
+
+    # Odometry.
+
+    def predict(
+        self, left_m: float, right_m: float, wheel_base: float, turned_in_place: bool = False
+    ) -> Pose:
+        """Move the estimate by what the wheels did since the last step (as Odometry.update
+        integrates it), and grow the covariance by the wheels' noise, the stabilising
+        noise and whatever the casters release. `turned_in_place` says the step was a
+        rotation on the spot (a rotate move), which leaves the casters out of line."""
+        if not wheel_base > 0:
+            raise ValueError("the wheel base must be positive")
+        noise = self.noise
+        distance = (left_m + right_m) / 2
+        turn = (right_m - left_m) / wheel_base
+        # The casters turn the robot whether or not it knows where it is.
+        released = self._casters(distance, turn, turned_in_place)
+        if not self.placed:
+            return self.pose
+        x, y, heading = self._x
+        mid = heading + turn / 2
+        cos_mid, sin_mid = math.cos(mid), math.sin(mid)
+        self._x = np.array([x + distance * cos_mid, y + distance * sin_mid, heading + turn])
+
+        # Jacobians of the step with respect to the state and to the wheels' travels.
+        f = np.array(
+            [[1.0, 0.0, -distance * sin_mid], [0.0, 1.0, distance * cos_mid], [0.0, 0.0, 1.0]]
+        )
+        two_bases = 2 * wheel_base
+        w = np.array(
+            [
+                [cos_mid / 2 + distance * sin_mid / two_bases,
+                 cos_mid / 2 - distance * sin_mid / two_bases],
+                [sin_mid / 2 - distance * cos_mid / two_bases,
+                 sin_mid / 2 + distance * cos_mid / two_bases],
+                [-1.0 / wheel_base, 1.0 / wheel_base],
+            ]
+        )  # fmt: skip
+        wheels = np.diag([noise.wheel_noise**2 * abs(left_m), noise.wheel_noise**2 * abs(right_m)])
+        p = f @ self._p @ f.T + w @ wheels @ w.T
+        p[2, 2] += noise.heading_noise**2 * abs(distance) + released
+        self._p = (p + p.T) / 2
+        return self.pose
+
+    def _casters(self, distance: float, turn: float, turned_in_place: bool) -> float:
+        """The heading variance the casters release over this step: moving releases part
+        of what a turn in place left pending; a turn in place charges it (after the
+        release, so that a rotation does not settle its own casters)."""
+        noise = self.noise
+        released = 0.0
+        if self._caster_var > 0.0 and distance != 0.0:
+            released = self._caster_var * -math.expm1(-abs(distance) / noise.caster_settle)
+            self._caster_var -= released
+            if self._caster_var < _SETTLED_RAD2:
+                released += self._caster_var
+                self._caster_var = 0.0
+        if turned_in_place and turn != 0.0:
+            # Standard deviations add (the same casters, the same way), up to the worst.
+            charge = noise.caster_sigma * min(1.0, abs(turn) / (math.pi / 2))
+            pending = min(noise.caster_sigma, math.sqrt(self._caster_var) + charge)
+            self._caster_var = pending**2
+        return released
+
+    # Sightings.
+
+    def _measurement_noise(self, distance: float, facing: bool) -> np.ndarray:
+        n = self.noise
+        distance = max(distance, 1e-3)
+        r = [
+            (n.distance + n.distance_fraction * distance) ** 2 + n.marker_position**2,
+            n.bearing**2 + (n.marker_position / distance) ** 2,
+        ]
+        if facing:
+            r.append(n.facing**2 + n.marker_facing**2)
+        return np.diag(r)
+
+    def expected(self, marker: Any, pose: Pose | None = None) -> Observation:
+        """What a camera on the robot at `pose` (the estimate by default) would see of
+        `marker`: the measurement model, for the caller's own checks and for tests."""
+        at = marker_pose(marker)
+        x = self._x if pose is None else np.array([pose.x, pose.y, pose.heading])
+        h, _ = self._model(x, at, facing=True)
+        return Observation(-1, float(h[0]), float(h[1]), float(h[2]))
+
+    def _model(
+        self, state: np.ndarray, marker: Pose, facing: bool
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The predicted measurement at `state` and its Jacobian."""
+        x, y, heading = state
+        cos_h, sin_h = math.cos(heading), math.sin(heading)
+        forward = self.camera_forward
+        dx = marker.x - (x + forward * cos_h)
+        dy = marker.y - (y + forward * sin_h)
+        q = max(dx * dx + dy * dy, 1e-12)
+        r = math.sqrt(q)
+        h = [r, wrap(math.atan2(dy, dx) - heading)]
+        jac = [
+            [-dx / r, -dy / r, forward * (dx * sin_h - dy * cos_h) / r],
+            [dy / q, -dx / q, -forward * (dy * sin_h + dx * cos_h) / q - 1.0],
+        ]
+        if facing:
+            h.append(wrap(marker.heading - heading))
+            jac.append([0.0, 0.0, -1.0])
+        return np.array(h), np.array(jac)
+
+    @staticmethod
+    def _innovation(z: np.ndarray, h: np.ndarray) -> np.ndarray:
+        v = z - h
+        v[1:] = [wrap(angle) for angle in v[1:]]
+        return v
+
+    def gate(self, dof: int) -> float:
+        """The squared Mahalanobis distance beyond which a sighting is rejected."""
+        return CHI_SQUARE[self.gate_confidence][dof]
+
+    def mahalanobis(self, sighting: Observation, marker: Any) -> float:
+        """The sighting's squared Mahalanobis distance from what the estimate expects, as
+        the gate computes it (3 degrees of freedom with a facing, 2 without)."""
+        sighting = usable(sighting)
+        if not self.placed or sighting is None:
+            return math.inf
+        at = marker_pose(marker)
+        if sighting.facing_rad is not None:
+            v, s, _ = self._pose_innovation(sighting, at)
+        else:
+            v, s, _ = self._range_bearing_innovation(sighting, at, self._x)
+        return float(v @ np.linalg.solve(s, v))
+
+    def correct(self, sighting: Observation, marker: Any) -> bool:
+        """Correct the estimate by one sighting of `marker` (its pose in the map, or a
+        floor plan's marker). False, and the filter untouched, when the gate rejects it
+        or the filter is not placed yet (see place_from)."""
+        sighting = usable(sighting)
+        if not self.placed or sighting is None:
+            return False
+        at = marker_pose(marker)
+        if sighting.facing_rad is not None:
+            return self._correct_pose(sighting, at)
+        return self._correct_range_bearing(sighting, at)
+
+    def _accept(self, v: np.ndarray, s: np.ndarray) -> bool:
+        d2 = float(v @ np.linalg.solve(s, v))
+        self.last_mahalanobis = d2
+        if d2 <= self.gate(len(v)):
+            return True
+        self.rejected_in_a_row += 1
+        return False
+
+    def _update(self, state: np.ndarray, p: np.ndarray, sighting: Observation) -> None:
+        self._x = state
+        self._p = (p + p.T) / 2
+        self.rejected_in_a_row = 0
+        self.corrected_at = sighting.time
+
+    def _pose_innovation(
+        self, sighting: Observation, at: Pose
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The pose the sighting implies less the estimate, its covariance, and the
+        sighting's own covariance in pose space."""
+        measured, noise = self._implied_pose(sighting, at)
+        v = measured - self._x
+        v[2] = wrap(v[2])
+        return v, self._p + noise, noise
+
+    def _correct_pose(self, sighting: Observation, at: Pose) -> bool:
+        """A sighting with its facing gives the whole pose (place_from's inverse), so the
+        update is made in pose space, where the measurement is the state itself (H = I)
+        with the noise mapped through the inverse's Jacobian at the measured values. In
+        the linear regime this is the EKF's update exactly (pose and measurement map one
+        to one, so both carry the same information); unlike it, it does not linearise
+        about the estimate, which after a long blind stretch with the casters' heading
+        error can be a metre and tens of degrees off, where the linearised gate would
+        reject every good sighting and the robot would stay lost."""
+        v, s, noise = self._pose_innovation(sighting, at)
+        if not self._accept(v, s):
+            return False
+        p = self._p
+        gain = p @ np.linalg.inv(s)
+        keep = np.eye(3) - gain
+        # Joseph form: stays symmetric and positive definite whatever the rounding.
+        self._update(self._x + gain @ v, keep @ p @ keep.T + gain @ noise @ gain.T, sighting)
+        return True
+
+    def _range_bearing_innovation(
+        self, sighting: Observation, at: Pose, state: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Measured less expected distance and bearing at `state`, the innovation's
+        covariance, and the Jacobian."""
+        z = np.array([sighting.distance_m, sighting.bearing_rad])
+        h, jac = self._model(state, at, facing=False)
+        noise = self._measurement_noise(sighting.distance_m, facing=False)
+        return self._innovation(z, h), jac @ self._p @ jac.T + noise, jac
+
+    def _correct_range_bearing(self, sighting: Observation, at: Pose) -> bool:
+        """Distance and bearing only: an iterated EKF update (Gauss-Newton), relinearising
+        the measurement about the latest state x_i, each time from the prior x_0:
+        x_i+1 = x_0 + K_i (z - h(x_i) - H_i (x_0 - x_i))."""
+        prior, p = self._x, self._p
+        v, s, jac = self._range_bearing_innovation(sighting, at, prior)
+        if not self._accept(v, s):
+            return False
+        state = prior
+        for i in range(self.iterations):
+            if i > 0:
+                v, s, jac = self._range_bearing_innovation(sighting, at, state)
+            gain = p @ jac.T @ np.linalg.inv(s)
+            state = prior + gain @ (v - jac @ (prior - state))
+        noise = self._measurement_noise(sighting.distance_m, facing=False)
+        keep = np.eye(3) - gain @ jac
+        self._update(state, keep @ p @ keep.T + gain @ noise @ gain.T, sighting)
+        return True
+
+    def _implied_pose(self, sighting: Observation, at: Pose) -> tuple[np.ndarray, np.ndarray]:
+        """The robot's pose as one sighting with its facing says, and its covariance."""
+        assert sighting.facing_rad is not None
+        r, bearing, facing = sighting.distance_m, sighting.bearing_rad, sighting.facing_rad
+        forward = self.camera_forward
+        heading = wrap(at.heading - facing)
+        towards = heading + bearing  # from the camera to the marker, in the map
+        cos_t, sin_t = math.cos(towards), math.sin(towards)
+        cos_h, sin_h = math.cos(heading), math.sin(heading)
+        pose = np.array(
+            [at.x - r * cos_t - forward * cos_h, at.y - r * sin_t - forward * sin_h, heading]
+        )
+        # d(x, y, heading) / d(distance, bearing, facing).
+        jac = np.array(
+            [
+                [-cos_t, r * sin_t, -r * sin_t - forward * sin_h],
+                [-sin_t, -r * cos_t, r * cos_t + forward * cos_h],
+                [0.0, 0.0, -1.0],
+            ]
+        )
+        return pose, jac @ self._measurement_noise(r, facing=True) @ jac.T
+
+    def place_from(self, sighting: Observation, marker: Any) -> Pose:
+        """Put the robot where one sighting of `marker` says it is, whatever was known
+        before: the inverse of the marker's pose as seen, with the covariance the
+        sighting's noise gives it. Needs the sighting's facing: without it the heading,
+        and so where around the marker the robot stands, is unknown."""
+        checked = usable(sighting)
+        if checked is None:
+            raise ValueError("placing the robot needs a positive distance and a bearing")
+        if checked.facing_rad is None:
+            raise ValueError("placing the robot needs the marker's facing")
+        sighting = checked
+        pose, covariance = self._implied_pose(sighting, marker_pose(marker))
+        # The sighting says nothing of the casters: a robot that turned to find a
+        # marker still has their turn to come.
+        pending = self._caster_var
+        self.reset(Pose(*pose), covariance)
+        self._caster_var = pending
+        self.corrected_at = sighting.time
+        return self.pose
+
+    def observe(self, sighting: Observation, marker: Any) -> bool:
+        """Place the robot from the sighting if the filter is not placed yet (and the
+        sighting has a facing), else correct by it. True if it was used."""
+        if not self.placed:
+            checked = usable(sighting)
+            if checked is None or checked.facing_rad is None:
+                return False
+            self.place_from(checked, marker)
+            return True
+        return self.correct(sighting, marker)
