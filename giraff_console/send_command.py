@@ -49,7 +49,11 @@ from giraff_console.robot.command_guard import check_command, check_line
 from giraff_console.robot.teleop import DriveLimits
 from giraff_console.robot.wheel_odometers import choose_reading
 from giraff_console.settings import SettingsError, load_settings
-from giraff_console.simulator_options import IN_PROCESS_SIMULATOR
+from giraff_console.simulator_options import (
+    IN_PROCESS_SIMULATOR,
+    add_firmware_option,
+    simulator_url,
+)
 
 EXIT_SENT, EXIT_REFUSED, EXIT_USAGE, EXIT_LINK_ERROR = 0, 1, 2, 3
 # What a move uses and the board can read back (A.4: every `set` has its `get`).
@@ -82,8 +86,10 @@ def add_send_parser(commands: argparse._SubParsersAction) -> None:
     send.add_argument(
         "--port",
         metavar="PORT|URL",
-        help=f"serial device or pyserial URL (default: {IN_PROCESS_SIMULATOR})",
+        help=f"serial device or pyserial URL (default: {IN_PROCESS_SIMULATOR}, the built-in "
+        "simulator, with --firmware's board)",
     )
+    add_firmware_option(send, after_command=True)
     send.add_argument(
         "--timeout",
         type=float,
@@ -129,7 +135,9 @@ def run_send(args: argparse.Namespace) -> int:
         print(UNSAFE_WARNING, file=sys.stderr)
     try:
         link = BoardLink.open(
-            args.port or IN_PROCESS_SIMULATOR, timeout=args.timeout, power_line=args.power_line
+            args.port or simulator_url(getattr(args, "firmware", None)),
+            timeout=args.timeout,
+            power_line=args.power_line,
         )
     except LinkError as error:
         print(f"giraff-console: {error}", file=sys.stderr)

@@ -85,6 +85,8 @@ class GoToPose(PathMission):
         )
         super().__init__(navigator, pose, tick=tick, limits=limits, turn_limits=turn_limits,
                          sense=sense, notify=notify, patience=patience)  # fmt: skip
+        if self._there_already:
+            self.time_optimal = 0.0
 
     def step(self, now: float, state: MotorState | None) -> list[Command]:
         if self._there_already:
