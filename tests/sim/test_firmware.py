@@ -208,7 +208,7 @@ def test_url_options_choose_the_firmware_battery_and_wheel_base():
         ("&firmware=2015", "firmware must be one of thesis, later, giraff-x"),
         ("&battery=1.5", "battery must be a number from 0 to 1"),
         ("&battery=full", "battery must be a number from 0 to 1"),
-        ("&wheel_base=0", "wheel_base must be a number from 0.1 to 2"),
+        ("&wheel_base=0", "wheel_base must be a number from 0.2 to 1"),
         ("&wheel_base=nan", "wheel_base must be a number"),
     ],
 )
