@@ -17,10 +17,13 @@ import serial
 from giraff_console import __version__
 from giraff_console.camera.feed import DEFAULT_FPS, CameraFeed
 from giraff_console.camera.halfblock import HalfBlockRenderer
+from giraff_console.camera.markers import MarkerDetector
 from giraff_console.camera.processors import (
     FAST_THRESHOLD,
+    CameraIntrinsics,
     CannyEdges,
     FastCorners,
+    FrameProcessor,
     Pipeline,
     Undistortion,
 )
@@ -40,9 +43,16 @@ from giraff_console.missions.sessions import Sessions
 from giraff_console.planning.floorplan import (
     FloorPlan,
     FloorPlanError,
+    Landmarks,
     check_floorplan,
     load_floorplan,
 )
+from giraff_console.planning.landmark_placement import (
+    DEFAULT_EVERY_M,
+    place_markers,
+    write_landmarks,
+)
+from giraff_console.planning.marker_pages import write_pages
 from giraff_console.planning.plan_drawing import draw_plan
 from giraff_console.planning.room_graph import PlanningError, UnknownRoomError
 from giraff_console.planning.route_planner import ROBOT_RADIUS_M, RoutePlanner, walls_of
@@ -287,6 +297,24 @@ def build_parser() -> argparse.ArgumentParser:
         "--name", metavar="TEXT", help="the floor plan's name (default: building and level)",
     )  # fmt: skip
     imports.add_argument("--force", action="store_true", help="overwrite OUT and its image")
+    landmarks = floorplan_commands.add_parser(
+        "landmarks", help="place markers on a floor plan's walls, or print them",
+        description="Place fiducial markers (AprilTag 36h11) on FILE's walls, for the robot "
+        "to find itself by: beside every doorway on both sides and along walls at least M "
+        "metres long, and write them into FILE (floorplans/README.md, \"Landmarks\"). "
+        "Markers already there stay. With --print, write one page per marker to DIR "
+        "instead, to print at actual size and put up. Exits 2 for a bad floor plan.",
+    )  # fmt: skip
+    landmarks.add_argument("file", type=Path, metavar="FILE")
+    landmarks_action = landmarks.add_mutually_exclusive_group()
+    landmarks_action.add_argument(
+        "--every", type=float, default=DEFAULT_EVERY_M, metavar="M",
+        help="metres between markers along a long wall (default: %(default)s)",
+    )  # fmt: skip
+    landmarks_action.add_argument(
+        "--print", type=Path, metavar="DIR", dest="print_to",
+        help="write a PNG page for each marker in FILE, and all of them in DIR/markers.pdf",
+    )  # fmt: skip
 
     add_go_parser(commands, EXAMPLE_FLOORPLAN)
 
@@ -328,6 +356,8 @@ def run(args: argparse.Namespace) -> int:
         return run_floorplan_show(args)
     if args.command == "floorplan" and args.floorplan_command == "import":
         return run_floorplan_import(args)
+    if args.command == "floorplan" and args.floorplan_command == "landmarks":
+        return run_floorplan_landmarks(args)
     if args.command == "floorplan":
         return run_floorplan_check(args)
     return run_console(args)
@@ -410,7 +440,7 @@ def run_console(args: argparse.Namespace) -> int:
         site = SimulatedSite(simulator.board, plan, start, settings.motion.sensing_range)
     camera = camera_feed(
         args.camera, simulator, args.calibration, args.fast_threshold, args.camera_fps,
-        site.world if site else None, site.surroundings if site else None,
+        site.world if site else None, site.surroundings if site else None, plan.landmarks,
     )  # fmt: skip
     setup = RecordingSetup(
         port=port or simulator_url(args.firmware),
@@ -546,6 +576,30 @@ def run_floorplan_import(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_floorplan_landmarks(args: argparse.Namespace) -> int:
+    """Markers placed on a floor plan and written into it, or its markers' pages."""
+    try:
+        plan = load_floorplan(args.file)
+        if args.print_to is not None:
+            written = write_pages(plan, args.print_to)
+            pages = f"{len(written) - 1} page{'s' if len(written) != 2 else ''}"
+            print(f"wrote {pages} to {args.print_to}, and all of them in "
+                  f"{written[-1]}: print them at actual size (100 %)")  # fmt: skip
+            return 0
+        placement = place_markers(plan, args.every)
+        if placement.added:
+            write_landmarks(plan, placement.landmarks)
+    except (FloorPlanError, ValueError, OSError) as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    for note in placement.notes:
+        print(f"giraff-console: {args.file}: {note}", file=sys.stderr)
+    total = len(placement.landmarks.markers)
+    print(f"{args.file}: placed {placement.added} markers ({placement.beside_doors} beside "
+          f"doorways, {placement.along_walls} along walls); it has {total} in all")  # fmt: skip
+    return 0
+
+
 def run_export(args: argparse.Namespace) -> int:
     """A recorded session as an MCAP file."""
     try:
@@ -571,11 +625,15 @@ def camera_feed(
     fps: float = DEFAULT_FPS,
     world: World | None = None,
     surroundings: Surroundings | None = None,
+    landmarks: Landmarks | None = None,
 ) -> CameraFeed:
     """The camera asked for, else the synthetic one with the simulator (seeing `world`,
     or a demo world, and `surroundings`), else camera 0; a test pattern when none of
-    them is there (§3.4.1)."""
+    them is there (§3.4.1). With `landmarks`, the marker detector is there for the
+    operator to switch on (`o`); nothing consumes its sightings yet, so it does not run
+    by itself and cost the camera its budget."""
     synthetic = None
+    camera_world = None
     if simulator is not None:
         camera_world = WorldCamera(world or demo_world(), surroundings=surroundings)
         board = simulator.board
@@ -587,7 +645,22 @@ def camera_feed(
     camera = int(device) if device is not None and device.isdigit() else device
     source, size, note = open_camera(camera, *DEFAULT_RESOLUTION, synthetic)
     undistortion = Undistortion.from_file(calibration) if calibration else None
-    pipeline = Pipeline([FastCorners(fast_threshold), CannyEdges()], undistortion)
+    processors: list[FrameProcessor] = [FastCorners(fast_threshold), CannyEdges()]
+
+    def intrinsics(width: int, height: int) -> CameraIntrinsics | None:
+        """The intrinsics of the frames the processors see: a calibrated camera's after
+        undistortion, the synthetic camera's exactly, else unknown (markers are then
+        outlined but not placed)."""
+        if undistortion is not None:
+            return undistortion.intrinsics(width, height)
+        if camera_world is not None and feed.source is synthetic:
+            known = camera_world.intrinsics(width, height)
+            return CameraIntrinsics(known.fx, known.fy, known.cx, known.cy, known.distortion)
+        return None
+
+    if landmarks is not None:
+        processors.append(MarkerDetector(landmarks.family, landmarks.size, intrinsics))
+    pipeline = Pipeline(processors, undistortion)
     pipeline.toggle("fast")
     truecolor = os.environ.get("COLORTERM") in ("truecolor", "24bit")
     feed = CameraFeed(

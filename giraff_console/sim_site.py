@@ -17,13 +17,25 @@ from __future__ import annotations
 import math
 
 from giraff_console.planning.floorplan import FloorPlan
+from giraff_console.planning.grid import OCCUPIED
+from giraff_console.planning.landmarks import aruco_dictionary
+from giraff_console.planning.route_planner import ROBOT_RADIUS_M, walls_of
 from giraff_console.planning.walls import doorway, wall_segments
 from giraff_console.robot.odometry import Pose
 from giraff_console.sim.board import GiraffBoard
+from giraff_console.sim.collision import Solids
 from giraff_console.sim.drive import TruePose
 from giraff_console.sim.range_finder import SimRangeFinder
 from giraff_console.sim.surroundings import Surroundings
-from giraff_console.sim.world import DOOR_FRAME, POSTER_WIDTH, WALL, Wall, World
+from giraff_console.sim.world import (
+    DOOR_FRAME,
+    POSTER_WIDTH,
+    WALL,
+    Wall,
+    World,
+    WorldMarker,
+    marker_pattern,
+)
 
 # The simulated range finder: how far it sees, and how wide.
 SENSING_RANGE_M = 1.5
@@ -34,7 +46,8 @@ class SimulatedSite:
     """The board, placed in the building, with its obstacles and range finder."""
 
     def __init__(self, board: GiraffBoard, plan: FloorPlan, start: Pose | None,
-                 sensing_range: float = SENSING_RANGE_M) -> None:  # fmt: skip
+                 sensing_range: float = SENSING_RANGE_M,
+                 robot_radius: float = ROBOT_RADIUS_M) -> None:  # fmt: skip
         self.board = board
         self.plan = plan
         if start is not None:
@@ -46,6 +59,19 @@ class SimulatedSite:
         for door in plan.doors:
             if not door.open:
                 self.surroundings.close_door(door.id, *doorway(plan, door))
+        # The building is solid: a robot of `robot_radius` that drives into a wall stops
+        # against it, wheels stalled (sim/collision.py). The walls are the outlines' (the
+        # camera's), doorways open; a plan without outlines has its grid's occupied cells.
+        # Closed doors and boxes are the surroundings', which open and move.
+        if any(room.outline for room in plan.rooms.values()) or plan.grid is None:
+            walls = [(wall.a, wall.b) for wall in wall_segments(plan) if wall.kind != "door"]
+            board.make_solid(Solids(walls, robot_radius, self.surroundings))
+        else:
+            grid = walls_of(plan)
+            assert grid is not None
+            occupied = grid.cells == OCCUPIED
+            board.make_solid(Solids.from_grid(occupied, grid.resolution, grid.origin,
+                                              robot_radius, self.surroundings))  # fmt: skip
         self.range_finder = SimRangeFinder(
             lambda: board.true_pose, self.surroundings, sensing_range, SENSING_FOV_DEG
         )
@@ -66,7 +92,8 @@ class SimulatedSite:
 
 def plan_world(plan: FloorPlan) -> World:
     """The building as the synthetic camera sees it: the plan's walls, door frames dark,
-    a poster half-way along every wall long enough to hang one."""
+    a poster half-way along every wall long enough to hang one, and the plan's markers
+    where it says they hang, each with its true pattern from cv2.aruco (issue 14)."""
     kinds = {"wall": WALL, "frame": DOOR_FRAME, "door": DOOR_FRAME}
     walls = []
     for segment in wall_segments(plan):
@@ -75,4 +102,16 @@ def plan_world(plan: FloorPlan) -> World:
         (ax, ay), (bx, by) = segment.a, segment.b
         poster = (segment.length - POSTER_WIDTH) / 2 if segment.length > 2.0 else math.nan
         walls.append(Wall(ax, ay, bx, by, kinds[segment.kind], poster))
-    return World(walls)
+    markers = []
+    landmarks = plan.landmarks
+    if landmarks is not None:
+        dictionary = aruco_dictionary(landmarks.family)
+        for marker in landmarks.markers:
+            markers.append(
+                WorldMarker(
+                    marker.id, marker.at[0], marker.at[1], marker.height,
+                    math.radians(marker.facing), landmarks.size,
+                    marker_pattern(dictionary, marker.id),
+                )
+            )  # fmt: skip
+    return World(walls, markers)

@@ -81,3 +81,19 @@ def test_console_script_is_installed():
     scripts = {ep.name: ep.value for ep in entry_points(group="console_scripts")}
     # Through launch.py, which blocks the stop signals before any thread can start.
     assert scripts.get("giraff-console") == "giraff_console.launch:main"
+
+
+def test_floorplan_landmarks_places_and_prints_from_the_shell(tmp_path):
+    help_text = run("floorplan", "landmarks", "--help").stdout
+    assert "--every M" in help_text and "--print DIR" in help_text
+    plan = tmp_path / "plan.yaml"
+    room = "{at: [2, 1], outline: [[0, 0], [4, 0], [4, 2], [0, 2]]}"
+    plan.write_text(f"name: x\nrooms:\n  a: {room}\ndoors: []\n")
+    placed = run("floorplan", "landmarks", str(plan))
+    assert placed.returncode == 0, placed.stderr
+    assert "placed 2 markers (0 beside doorways, 2 along walls)" in placed.stdout
+    printed = run("floorplan", "landmarks", str(plan), "--print", str(tmp_path / "pages"))
+    assert printed.returncode == 0, printed.stderr
+    assert sorted(p.name for p in (tmp_path / "pages").iterdir()) == [
+        "marker-000.png", "marker-001.png", "markers.pdf"
+    ]  # fmt: skip

@@ -30,6 +30,8 @@ class CameraPicture:
     size: tuple[int, int]
     fps: float
     keypoints: int | None
+    # The ids of the markers found in the frame, when the marker detector ran on it.
+    markers: tuple[int, ...] | None = None
 
 
 class CameraFeed:
@@ -51,6 +53,9 @@ class CameraFeed:
         self._next_source: CameraSource | None = None
         # Called with every raw frame, on the camera's thread: a recording, a snapshot.
         self.taps: list[Callable[[Frame], None]] = []
+        # Called with every frame and what the processors found in it, on the camera's
+        # thread: marker sightings for localisation ("markers" in the data).
+        self.listeners: list[Callable[[Frame, dict[str, object]], None]] = []
         self.last_frame: Frame | None = None
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="camera", daemon=True)
@@ -97,16 +102,20 @@ class CameraFeed:
         self.last_frame = frame
         for tap in list(self.taps):
             tap(frame)
-        processed = self.pipeline.run(frame.image)
+        processed = self.pipeline.run(frame.image, frame.captured_at)
+        for listener in list(self.listeners):
+            listener(frame, processed.data)
         now = time.monotonic()
         self._times = [t for t in self._times if now - t < 1.0] + [now]
         keypoints = processed.data.get("keypoints")
+        markers = processed.data.get("marker_ids")
         return CameraPicture(
             self.renderer.render(processed.image, *self._cells),
             self.source.name,
             frame.size,
             float(len(self._times)),
             keypoints if isinstance(keypoints, int) else None,
+            tuple(markers) if isinstance(markers, list) else None,
         )
 
     def _run(self) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -27,11 +28,34 @@ class Processed:
 
 
 class FrameProcessor(Protocol):
-    """Takes the image so far and the grey frame; returns the image to show and its data."""
+    """Takes the image so far, the grey frame and when it was captured (monotonic
+    seconds; NaN if unknown); returns the image to show and its data. It draws on a
+    copy, never on the image it is given."""
 
     name: str
 
-    def process(self, image: np.ndarray, grey: np.ndarray) -> Processed: ...
+    def process(self, image: np.ndarray, grey: np.ndarray, captured_at: float) -> Processed: ...
+
+
+@dataclass(frozen=True)
+class CameraIntrinsics:
+    """A pinhole camera in OpenCV's terms: focal lengths and principal point in pixels
+    (pixel centres at whole numbers), and the distortion coefficients of OpenCV's
+    standard model (none: the frame is ideal, or already undistorted).
+
+    sim/camera.py has the same class, field for field: the simulator imports nothing of
+    the console, and the console's camera package nothing of the simulator."""
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    distortion: tuple[float, ...] = ()
+
+    def matrix(self) -> np.ndarray:
+        return np.array(
+            [[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]], dtype=np.float64
+        )
 
 
 class FastCorners:
@@ -42,7 +66,7 @@ class FastCorners:
     def __init__(self, threshold: int = FAST_THRESHOLD) -> None:
         self.detector = cv2.FastFeatureDetector_create(threshold=threshold)
 
-    def process(self, image: np.ndarray, grey: np.ndarray) -> Processed:
+    def process(self, image: np.ndarray, grey: np.ndarray, captured_at: float) -> Processed:
         keypoints = self.detector.detect(grey)
         shown = cv2.drawKeypoints(image, keypoints, None, PINK)
         return Processed(shown, {"keypoints": len(keypoints), "corners": [k.pt for k in keypoints]})
@@ -53,7 +77,7 @@ class CannyEdges:
 
     name = "canny"
 
-    def process(self, image: np.ndarray, grey: np.ndarray) -> Processed:
+    def process(self, image: np.ndarray, grey: np.ndarray, captured_at: float) -> Processed:
         edges = cv2.Canny(grey, CANNY_LOW, CANNY_HIGH)
         return Processed(
             cv2.cvtColor(edges, cv2.COLOR_GRAY2BGR), {"edge_pixels": int(np.count_nonzero(edges))}
@@ -61,32 +85,50 @@ class CannyEdges:
 
 
 class Pipeline:
-    """Undistorts each frame if a calibration is given, then runs the enabled processors."""
+    """Undistorts each frame if a calibration is given, then runs the enabled processors.
+
+    A processor that something needs whatever the operator shows (the marker detector,
+    for localisation) is `require`d: it runs on every frame, and its drawing shows only
+    while it is also enabled."""
 
     def __init__(self, processors: list[FrameProcessor],
                  undistortion: Undistortion | None = None) -> None:  # fmt: skip
         self.processors = {p.name: p for p in processors}
         self.undistortion = undistortion
         self.enabled: list[str] = []
+        self.required: list[str] = []
+
+    def _known(self, name: str) -> None:
+        if name not in self.processors:
+            raise KeyError(f"no processor called {name!r}: {', '.join(self.processors)}")
 
     def toggle(self, name: str) -> bool:
         """Switch a processor on or off; returns whether it is on now."""
-        if name not in self.processors:
-            raise KeyError(f"no processor called {name!r}: {', '.join(self.processors)}")
+        self._known(name)
         if name in self.enabled:
             self.enabled.remove(name)
             return False
         self.enabled.append(name)
         return True
 
-    def run(self, image: np.ndarray) -> Processed:
+    def require(self, name: str) -> None:
+        """Run `name` on every frame from now on, shown or not."""
+        self._known(name)
+        if name not in self.required:
+            self.required.append(name)
+
+    def run(self, image: np.ndarray, captured_at: float = math.nan) -> Processed:
         if self.undistortion is not None:
             image = self.undistortion.apply(image)
         grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
         result = Processed(image)
         for name in self.enabled:
-            step = self.processors[name].process(result.image, grey)
+            step = self.processors[name].process(result.image, grey, captured_at)
             result = Processed(step.image, {**result.data, **step.data})
+        for name in self.required:
+            if name not in self.enabled:
+                step = self.processors[name].process(result.image, grey, captured_at)
+                result = Processed(result.image, {**result.data, **step.data})
         return result
 
 
@@ -171,12 +213,22 @@ class Undistortion:
         size = (_side(path, document, "image_width"), _side(path, document, "image_height"))
         return cls(matrix, distortion, size)
 
+    def scaled_matrix(self, size: tuple[int, int]) -> np.ndarray:
+        """The camera matrix at another resolution than the calibration's."""
+        scale = np.diag([size[0] / self.size[0], size[1] / self.size[1], 1.0])
+        return scale @ self.camera_matrix
+
+    def intrinsics(self, width: int, height: int) -> CameraIntrinsics:
+        """The intrinsics of frames this has undistorted: `apply` remaps onto the
+        calibration's own camera matrix (scaled to the frame), with no distortion left."""
+        matrix = self.scaled_matrix((width, height))
+        return CameraIntrinsics(matrix[0, 0], matrix[1, 1], matrix[0, 2], matrix[1, 2])
+
     def apply(self, image: np.ndarray) -> np.ndarray:
         size = (image.shape[1], image.shape[0])
         maps = self._maps.get(size)
         if maps is None:
-            scale = np.diag([size[0] / self.size[0], size[1] / self.size[1], 1.0])
-            matrix = scale @ self.camera_matrix
+            matrix = self.scaled_matrix(size)
             maps = cv2.fisheye.initUndistortRectifyMap(
                 matrix, self.distortion, np.eye(3), matrix, size, cv2.CV_16SC2
             )

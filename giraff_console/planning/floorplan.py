@@ -3,9 +3,11 @@
 The thesis proposes giving the robot "a floor plan of the building ... naming each room
 and the available doorways between them", stored as a graph that A* searches to find
 which doors to go through (room_graph.py). An optional occupancy grid (§2.6.4) lies under
-it for planning between the doors. Floor plans are written by hand, so every mistake is
-reported as `file:line: message` naming the key, all of them at once, and never as a
-traceback; floorplans/README.md documents the schema and the rules checked here.
+it for planning between the doors, and optional landmarks, printed markers on the walls
+that the robot finds itself by (§2.3, checked in landmarks.py). Floor plans are written
+by hand, so every mistake is reported as `file:line: message` naming the key, all of
+them at once, and never as a traceback; floorplans/README.md documents the schema and
+the rules checked here.
 """
 
 from __future__ import annotations
@@ -39,10 +41,19 @@ _SHORT = reprlib.Repr()
 _SHORT.maxlevel, _SHORT.maxstring, _SHORT.maxother, _SHORT.maxlong = 3, 60, 60, 40
 _ID = re.compile(r"[A-Za-z0-9_-]{1,64}\Z")  # ids are typed in commands: "go room-101"
 _TOP = {"name": True, "rooms": True, "doors": True, "grid": False, "start": False}
+_TOP |= {"landmarks": False}
 _ROOM = {"label": False, "at": True, "heading": False, "outline": False}
 _DOOR = {"between": True, "at": True, "width": False, "open": False, "id": False}
 _GRID = {"image": True, "resolution": True, "origin": False, "negate": False}
 _GRID |= {"occupied_thresh": False, "free_thresh": False}
+_LANDMARKS = {"family": True, "size": True, "markers": True}
+_MARKER = {"id": True, "at": True, "height": True, "facing": True}
+# A marker's printed side and the height of its centre, metres. Below 5 cm the robot's
+# camera resolves a marker only from a metre or so; above 30 cm it no longer fits on a
+# page to print. Its centre at 0.3 to 2.2 m keeps the whole of it between the skirting
+# board and a 2.5 m ceiling, where the camera in the robot's head (1.3 m) can see it.
+MARKER_SIZE_M = (0.05, 0.30)
+MARKER_HEIGHT_M = (0.3, 2.2)
 
 
 @dataclass(frozen=True)
@@ -76,6 +87,24 @@ class GridSpec:
 
 
 @dataclass(frozen=True)
+class Marker:
+    """A fiducial marker fixed flat to a wall (issue 14), for the robot to find itself
+    by: the camera sees it and knows its id, the plan says where it is."""
+
+    id: int
+    at: Point  # its centre on the wall, metres in the map frame
+    height: float  # its centre above the floor, metres
+    facing: float  # the way its face looks (its normal), degrees counter-clockwise from +x
+
+
+@dataclass(frozen=True)
+class Landmarks:
+    family: str  # a cv2.aruco predefined dictionary, lower case, no DICT_: apriltag_36h11
+    size: float  # the printed side of the black square, metres
+    markers: tuple[Marker, ...]
+
+
+@dataclass(frozen=True)
 class FloorPlan:
     name: str
     rooms: dict[str, Room]
@@ -83,6 +112,8 @@ class FloorPlan:
     grid: GridSpec | None
     start: str | None
     path: Path
+    # Last, with a default, so that every FloorPlan(...) written before it still works.
+    landmarks: Landmarks | None = None
 
 
 @dataclass(frozen=True)
@@ -299,6 +330,36 @@ class _Reader(ProblemLog):
             return None
         return GridSpec(self.path.parent / image, resolution, origin, int(negate), occupied, free)
 
+    def landmarks(self, value: Any) -> tuple[Any, Any, list[tuple[int, Marker]]]:
+        """The family, the size and the markers that read well, each with its index in
+        the file's list; None for a family or size that does not."""
+        where: Where = ("landmarks",)
+        raw = self.mapping(value, where, _LANDMARKS) or {}
+        family = self.text(raw["family"], (*where, "family")) if "family" in raw else None
+        size = self.number(raw["size"], (*where, "size"), *MARKER_SIZE_M) if "size" in raw else None
+        raw_markers = raw.get("markers") or []  # "markers:" with nothing after it: none yet
+        if not isinstance(raw_markers, list):
+            self.bad((*where, "markers"), "a list of markers", raw_markers)
+            raw_markers = []
+        markers = [(i, self.marker(i, item)) for i, item in enumerate(raw_markers)]
+        return family, size, [(i, marker) for i, marker in markers if marker is not None]
+
+    def marker(self, i: int, value: Any) -> Marker | None:
+        where: Where = ("landmarks", "markers", i)
+        raw = self.mapping(value, where, _MARKER)
+        if raw is None or any(key not in raw for key in _MARKER):
+            return None
+        before = len(self.problems)
+        marker_id = raw["id"]
+        if isinstance(marker_id, bool) or not isinstance(marker_id, int) or marker_id < 0:
+            self.bad((*where, "id"), "a whole number from 0", marker_id)
+        at = self.point(raw["at"], (*where, "at"))
+        height = self.number(raw["height"], (*where, "height"), *MARKER_HEIGHT_M)
+        facing = self.number(raw["facing"], (*where, "facing"), -360.0, 360.0)
+        if len(self.problems) > before:
+            return None
+        return Marker(marker_id, at, height, facing % 360.0)
+
 
 def load_yaml(path: Path) -> tuple[yaml.Node | None, Any]:
     """The YAML file at `path`, as its node tree (for lines) and its document; raises
@@ -360,9 +421,29 @@ def _read(path: Path) -> tuple[FloorPlan | None, list[Problem]]:
         _check_reachable(reader, list(rooms), good_doors, start)
     if grid is not None:
         _check_grid(reader, grid, rooms)
+    landmarks = None
+    if top.get("landmarks") is not None:
+        landmarks = _landmarks(reader, top["landmarks"], name, rooms, good_doors, len(raw_rooms))
     if reader.problems:
         return None, reader.problems
-    return FloorPlan(name, rooms, good_doors, grid, start, path), []
+    return FloorPlan(name, rooms, good_doors, grid, start, path, landmarks), []
+
+
+def _landmarks(
+    reader: _Reader, value: Any, name: Any, rooms: dict[str, Room], doors: list[Door], count: int
+) -> Landmarks | None:
+    """The plan's markers, checked against its walls once every room has read well (a
+    broken room would leave its markers off every wall)."""
+    # Imported here: the checks need the plan's walls, and walls.py imports this module.
+    from giraff_console.planning.landmarks import landmark_problems
+
+    family, size, markers = reader.landmarks(value)
+    walls = FloorPlan(name, rooms, doors, None, None, reader.path) if len(rooms) == count else None
+    for where, message in landmark_problems(family, size, markers, walls):
+        reader.add(where, message)
+    if family is None or size is None:
+        return None
+    return Landmarks(family, size, tuple(marker for _, marker in markers))
 
 
 def _check_ids(reader: _Reader, doors: list[Door | None], room_ids: set[str]) -> None:

@@ -22,6 +22,7 @@ from giraff_console.protocol.framing import CALIBRATION_LINE, LINE_END, PROMPT
 from giraff_console.protocol.kinematics import WHEEL_BASE_M
 from giraff_console.protocol.mode import WRITABLE_MODE_MASK
 from giraff_console.sim.battery import Battery
+from giraff_console.sim.collision import Solids
 from giraff_console.sim.drive import Drive, MoveRefused, TruePose
 from giraff_console.sim.firmware import DEFAULT_FIRMWARE, FIRMWARES, Firmware
 from giraff_console.sim.head import Head
@@ -81,11 +82,15 @@ class GiraffBoard:
         self.stalk = Stalk(now)
         # Where the robot charges: set by whoever puts it in a building (sim_site).
         self.dock: TruePose | None = None
+        # What the robot cannot drive through: also set by whoever puts it in a building.
+        self._solids: Solids | None = None
         self._power_up(TruePose())
 
     def _power_up(self, pose: TruePose) -> None:
         now = self.clock.now()
-        self.drive = Drive(self._imperfections, now, self.firmware, self.config.wheel_base)
+        self.drive = Drive(
+            self._imperfections, now, self.firmware, self.config.wheel_base, self._solids
+        )
         self.drive.pose = pose
         self.head = Head(self.config.homing_seconds, self.config.tilt_speed, now)
         if self.config.auto_home:
@@ -343,6 +348,19 @@ class GiraffBoard:
             self.drive.pose = pose
             # Set down on the dock, it charges from now on.
             self.battery.update(now, 0.0, self._docked(), 0.0)
+
+    def make_solid(self, solids: Solids | None) -> None:
+        """Walls and obstacles the robot stops against (sim/collision.py), from now on;
+        None for open space, the default. They outlast a power cut: they are the
+        building's, not the board's."""
+        with self._lock:
+            self._advance(self.clock.now())
+            self._solids = solids
+            self.drive.solids = solids
+
+    @property
+    def solids(self) -> Solids | None:
+        return self._solids
 
     def press_button(self, button: int) -> None:
         """Press the red (0) or green (1) button on the chassis."""

@@ -8,11 +8,19 @@ vectorised with numpy, and a given pose always gives the same image.
 Given `Surroundings`, the camera also shows the boxes and closed doors that the range
 finder senses, painted over the walls where they stand in front: the operator must see
 why the robot stopped at a doorway (§2.4), not only a dot on the map.
+
+Markers on the walls (issue 14) are drawn from their true cells, at their size, height
+and facing, so that OpenCV's detector finds them in the pixels as it would in a real
+camera's: nothing else tells the console where a marker is. A real sensor integrates
+the light over each pixel; the markers are supersampled likewise, so their edges fall
+between pixels where they should and a pose from their corners is as good as the
+pixels allow. The camera is an ideal pinhole whose intrinsics `intrinsics` gives.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -30,12 +38,16 @@ from giraff_console.sim.world import (
     POSTER_BOTTOM,
     POSTER_HEIGHT,
     POSTER_WIDTH,
+    QUIET_ZONE_CELLS,
     World,
 )
 
 # The Giraff's camera is a wide-angle one in its head (§4.4).
 FIELD_OF_VIEW_DEG = 90.0
+# The mount: on the robot's centre line, above the middle of the wheel axle, looking
+# level along the robot's heading (the head's tilt is not simulated).
 CAMERA_HEIGHT_M = 1.3
+CAMERA_FORWARD_M = 0.0
 WALL_HEIGHT_M = 2.5
 FLOOR_TILE_M = 0.5
 PANEL_M = 1.2
@@ -50,14 +62,45 @@ CEILING, WALL_PAINT, SEAM, SKIRTING, FRAME, POSTER_DARK, POSTER_LIGHT, TILE_A, T
 # Obstacles: an orange box, its faces shaded by which way they face, and a door leaf a
 # shade lighter than its frame so the frame still shows around it.
 BOX, BOX_SIDE, BOX_LID, DOOR_LEAF = range(10, 14)
+# A marker's printed page: shaded per pixel between ink and paper after the palette.
+MARKER_PAGE = 14
 PALETTE = np.array(
     [
         [225, 225, 220], [178, 196, 214], [110, 120, 130], [60, 70, 90], [40, 55, 85],
         [40, 30, 150], [235, 235, 235], [150, 150, 140], [120, 118, 110], [70, 70, 70],
-        [30, 140, 235], [20, 105, 185], [90, 180, 250], [45, 70, 105],
+        [30, 140, 235], [20, 105, 185], [90, 180, 250], [45, 70, 105], [240, 240, 240],
     ],
     dtype=np.uint8,
 )  # fmt: skip
+INK, PAPER = 25.0, 240.0
+# A marker is drawn where a column's wall lies within this of the marker's plane and
+# runs along it (within 10 degrees): it hangs on that wall, not on one round a corner.
+MARKER_ON_WALL_M = 0.10
+MARKER_ALONG_WALL_COS = math.cos(math.radians(80))
+# Fine samples per cell side, 2 to MAX_FINE per pixel side: small cells get the most, so that
+# an edge lands within a few hundredths of a pixel of where it should.
+FINE_SAMPLES_PER_CELL = 32
+MAX_FINE = 16
+
+
+@dataclass(frozen=True)
+class CameraIntrinsics:
+    """A pinhole camera in OpenCV's terms: focal lengths and principal point in pixels
+    (pixel centres at whole numbers), and the distortion coefficients (none here).
+
+    The console's camera/markers.py has the same class: the simulator imports nothing of
+    the console, so the two are kept field for field alike."""
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    distortion: tuple[float, ...] = ()
+
+    def matrix(self) -> np.ndarray:
+        return np.array(
+            [[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]], dtype=np.float64
+        )
 
 
 class WorldCamera:
@@ -73,9 +116,22 @@ class WorldCamera:
         self.fov = math.radians(fov_deg)
         self.surroundings = surroundings
 
+    def focal(self, width: int) -> float:
+        """The focal length in pixels at `width`: the field of view spans the width."""
+        return (width / 2) / math.tan(self.fov / 2)
+
+    def intrinsics(self, width: int, height: int) -> CameraIntrinsics:
+        """The camera's intrinsics at `width` x `height`, exactly as `render` projects.
+
+        Column c's ray passes through x = c + 0.5 measured from the image's left edge,
+        and the optical axis through width / 2; OpenCV puts pixel centres at whole
+        numbers, hence the half pixel off the principal point."""
+        focal = self.focal(width)
+        return CameraIntrinsics(focal, focal, width / 2 - 0.5, height / 2 - 0.5)
+
     def render(self, pose: TruePose, width: int, height: int) -> np.ndarray:
         """A BGR image of `height` x `width` pixels."""
-        focal = (width / 2) / math.tan(self.fov / 2)
+        focal = self.focal(width)
         horizon = height / 2
         offsets = np.arctan2(width / 2 - (np.arange(width) + 0.5), focal).astype(np.float32)
         angles = pose.heading + offsets
@@ -88,15 +144,21 @@ class WorldCamera:
         material = np.full((height, width), CEILING, dtype=np.uint8)
         self._floor(material, z, pose, angles, offsets, horizon, focal)
         self._walls(material, z, hit, along, np.isfinite(distance))
+        pages = self._markers(material, z, pose, dx, dy, distance, hit, horizon, focal)
         if self.surroundings is not None:
             obstacles = self.surroundings.snapshot()
             if len(obstacles.kinds):
                 self._obstacles(
                     material, obstacles, pose, dx, dy, distance, offsets, horizon, focal
                 )
+        image = PALETTE[material]
+        for rows, columns, grey in pages:
+            # Where a box or a door now stands in front, it hides the page.
+            shown = material[rows, columns] == MARKER_PAGE
+            image[rows[shown], columns[shown]] = grey[shown, None]
         # A real lens never draws a perfectly sharp step; without this slight blur FAST
         # finds nothing on ideal corners.
-        return cv2.GaussianBlur(PALETTE[material], (3, 3), 0)
+        return cv2.GaussianBlur(image, (3, 3), 0)
 
     def _cast(self, x: float, y: float, dx: np.ndarray, dy: np.ndarray):
         """Nearest wall along each ray: its index, the distance, and how far along it."""
@@ -125,6 +187,105 @@ class WorldCamera:
         wall[in_poster & ~dark] = POSTER_LIGHT
         wall[:, world.kind[hit] == DOOR_FRAME] = FRAME
         material[on_wall] = wall[on_wall]
+
+    def _markers(self, material, z, pose, dx, dy, distance, hit, horizon, focal) -> list:
+        """The markers' pages where their walls are the nearest thing a column sees.
+
+        Returns, for each marker in view, its pixels (rows, columns) and their grey
+        levels, and marks those pixels MARKER_PAGE so that obstacles can still hide
+        them."""
+        world = self.world
+        seen = np.isfinite(distance)
+        if not world.markers or not seen.any():
+            return []
+        camera = np.array([pose.x, pose.y])
+        candidates = self._facing_the_camera(pose)
+        if not len(candidates):
+            return []
+        columns = np.flatnonzero(seen)
+        points = camera + distance[columns, None] * np.stack([dx[columns], dy[columns]], -1)
+        centre = world.marker_centre[candidates]
+        normal = world.marker_normal[candidates]
+        rel = points[:, None, :] - centre[None, :, :]  # (columns, candidates, 2)
+        off = np.einsum("cmk,mk->cm", rel, normal)
+        across = np.einsum("cmk,mk->cm", rel, world.marker_right[candidates])
+        parallel = np.abs(world.direction[hit[columns]] @ normal.T)
+        on = (np.abs(off) <= MARKER_ON_WALL_M) & (parallel <= MARKER_ALONG_WALL_COS)
+        on &= np.abs(across) <= world.marker_outer[candidates] / 2
+        pages = []
+        for which_candidate in np.flatnonzero(on.any(axis=0)):
+            marker = world.markers[candidates[which_candidate]]
+            cols = columns[on[:, which_candidate]]
+            rows, which = np.nonzero(np.abs(z[:, cols] - marker.height) <= marker.outer / 2)
+            if not len(rows):
+                continue
+            cols = cols[which]
+            grey = self._page(marker, pose, rows, cols, material.shape, focal)
+            material[rows, cols] = MARKER_PAGE
+            pages.append((rows, cols, grey))
+        return pages
+
+    def _facing_the_camera(self, pose: TruePose) -> np.ndarray:
+        """The markers that might be in view: their faces towards the camera (from the
+        other side of its wall a marker is not there to see), within range and within
+        the field of view give or take a page. Keeps the per-column work to a few of a
+        building's hundreds."""
+        world = self.world
+        to_marker = world.marker_centre - [pose.x, pose.y]
+        ahead = to_marker @ [math.cos(pose.heading), math.sin(pose.heading)]
+        aside = to_marker @ [-math.sin(pose.heading), math.cos(pose.heading)]
+        page = world.marker_outer
+        front = np.einsum("mk,mk->m", to_marker, world.marker_normal) < 0
+        near = np.hypot(ahead, aside) < MAX_RANGE_M
+        in_view = np.abs(aside) <= (ahead + page) * math.tan(self.fov / 2) + page
+        return np.flatnonzero(front & near & (ahead > -page) & in_view)
+
+    def _page(self, marker, pose, rows, cols, shape, focal) -> np.ndarray:
+        """The grey level of each of a marker's pixels: the page warped into the picture
+        k times finer than its pixels, then averaged over each pixel, as a sensor would.
+
+        The page is a plane, so the picture of it is a homography of its cells; OpenCV
+        warps them, each fine sample taking the cell it falls in."""
+        top, left = rows.min(), cols.min()
+        height, width = rows.max() - top + 1, cols.max() - left + 1
+        centre = np.array([marker.x, marker.y, marker.height])
+        facing = marker.facing
+        right = np.array([-math.sin(facing), math.cos(facing), 0.0])
+        up = np.array([0.0, 0.0, 1.0])
+        camera = np.array([pose.x, pose.y, CAMERA_HEIGHT_M])
+        ahead = np.array([math.cos(pose.heading), math.sin(pose.heading), 0.0])
+        # The camera's axes in the world: x to the right, y down, z ahead.
+        axes = np.array([[ahead[1], -ahead[0], 0.0], [0.0, 0.0, -1.0], ahead])
+        # Page metres (across to the right, up) to picture pixels.
+        page_to_camera = np.column_stack([axes @ right, axes @ up, axes @ (centre - camera)])
+        page_to_picture = self.intrinsics(shape[1], shape[0]).matrix() @ page_to_camera
+        # Cells to sample: cell (i, j)'s centre at whole numbers, as OpenCV's remaps take
+        # them; the page's quiet zone around the pattern.
+        half, cell = marker.outer / 2, marker.cell
+        cells_to_page = np.array([[cell, 0.0, cell / 2 - half], [0.0, -cell, half - cell / 2],
+                                  [0.0, 0.0, 1.0]])  # fmt: skip
+        # How many pixels a cell spans at the page's centre: the finer, the fewer samples.
+        seen_from = camera - centre
+        gap = float(seen_from[:2] @ [math.cos(facing), math.sin(facing)])
+        cell_pixels = focal * cell * gap / max(float(seen_from @ seen_from), 1e-6)
+        k = int(np.clip(math.ceil(FINE_SAMPLES_PER_CELL / max(cell_pixels, 1e-3)), 2, MAX_FINE))
+        # Fine sample (i, j) of the box at pixel (left + (i + 0.5) / k - 0.5, ...).
+        fine_to_picture = np.array(
+            [[1 / k, 0.0, left + 0.5 / k - 0.5], [0.0, 1 / k, top + 0.5 / k - 0.5], [0, 0, 1.0]]
+        )
+        try:
+            fine_to_cells = np.linalg.inv(page_to_picture @ cells_to_page) @ fine_to_picture
+        except np.linalg.LinAlgError:  # seen exactly edge-on: no page to see
+            return np.full(len(rows), PAPER, dtype=np.uint8)
+        paper = np.pad(marker.pattern, QUIET_ZONE_CELLS, constant_values=True)
+        shade = np.where(paper, np.float32(PAPER), np.float32(INK))
+        fine = cv2.warpPerspective(
+            shade, fine_to_cells, (width * k, height * k),
+            flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
+            borderMode=cv2.BORDER_CONSTANT, borderValue=PAPER,
+        )  # fmt: skip
+        box = cv2.resize(fine, (width, height), interpolation=cv2.INTER_AREA)
+        return np.round(box[rows - top, cols - left]).astype(np.uint8)
 
     def _obstacles(
         self, material, obstacles: Obstacles, pose, dx, dy, wall_distance, offsets, horizon, focal

@@ -5,6 +5,10 @@ preemption rules, the same counters and sign quirks. It also integrates the robo
 true planar pose from the wheel speeds, which the wire never shows. Later firmware adds
 `mode 2` and braking on a `set p` with zero speed (sim/firmware.py).
 
+Given solid walls (sim/collision.py), a robot that drives into one stops against it: the
+move stays commanded and the wheels stall, as in a stall of the imperfection model
+(§2.3.2), until a move takes it away from the wall or the wall goes (a door opened).
+
 The board drives its wheels by its own geometry (0.499 m between the wheels, §3.2.1.3):
 its counters, TURN_FACTOR and gear ratios all use it. The true pose turns by the
 robot's real wheel base, which the firmware does not know and a driver may set apart.
@@ -14,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from itertools import pairwise
 
 from giraff_console.protocol.kinematics import (
     TURN_FACTOR_DEG_PER_M,
@@ -23,6 +28,7 @@ from giraff_console.protocol.kinematics import (
     wheel_speeds,
 )
 from giraff_console.protocol.mode import ModeBit
+from giraff_console.sim.collision import Solids
 from giraff_console.sim.firmware import ANGULAR_MODE_BIT, DEFAULT_FIRMWARE, FIRMWARES, Firmware
 from giraff_console.sim.gear import NO_GEAR, plan_gear
 from giraff_console.sim.imperfections import ImperfectionModel, Mishap
@@ -51,8 +57,11 @@ class Drive:
         now: float,
         firmware: Firmware = FIRMWARES[DEFAULT_FIRMWARE],
         wheel_base: float = WHEEL_BASE_M,
+        solids: Solids | None = None,
     ) -> None:
         self.imperfections = imperfections
+        # What the robot cannot drive through; None for open space.
+        self.solids = solids
         self.firmware = firmware
         self.wheel_base = wheel_base
         # The mode bits a move keeps: ABSOLUTE, and on later firmware the angular bit.
@@ -80,6 +89,8 @@ class Drive:
         self._stall_left = 0.0
         self._estop_at: float | None = None
         self._estop_release: float | None = None
+        # Pushed against a wall: the running move waits, commanded, its wheels stalled.
+        self._blocked = False
 
     # -- commands -----------------------------------------------------------------------
 
@@ -221,7 +232,7 @@ class Drive:
                 blocked = min(self._stall_left, elapsed)
                 self._stall_left -= blocked
                 elapsed -= blocked
-                self.stalled = self._stall_left > 0 and self._move is not None
+                self.stalled = self._move is not None and (self._stall_left > 0 or self._blocked)
                 if blocked == 0:
                     break
                 continue
@@ -237,7 +248,11 @@ class Drive:
             if self._estop_at is not None:
                 step = min(step, self._estop_at - self._motion_time)
             step = max(step, 0.0)
-            self._run_until(self._motion_time + step)
+            if self._run_until(self._motion_time + step):
+                # Against a wall: the wheels do not turn for the rest of this time. The
+                # move's own clock waits with them, as in a stall, so that its mishaps
+                # and its end are not reached while nothing moves.
+                break
             elapsed -= step
             if self._stall is not None and self._motion_time >= self._stall.after:
                 self._stall_left, self._stall = self._stall.seconds, None
@@ -254,60 +269,136 @@ class Drive:
         move = self._move
         return move is not None and move.started + move.profile.duration <= self._motion_time
 
-    def _run_until(self, target: float) -> None:
-        """Advance within the running move, finishing it if `target` reaches its end."""
+    def _run_until(self, target: float) -> bool:
+        """Advance within the running move, finishing it if `target` reaches its end.
+        True if it pushed against a wall on the way, and got no further."""
         move = self._move
         if move is not None:
             end = move.started + move.profile.duration
-            self._integrate(move, min(target, end))
+            if self._integrate(move, min(target, end)):
+                return True
             if target >= end:
                 self._finish()
         self._motion_time = max(self._motion_time, target)
+        return False
 
-    def _integrate(self, move: RunningMove, until: float) -> None:
-        """Advance the move, its counters, the odometers and the true pose to `until`.
+    def _integrate(self, move: RunningMove, until: float) -> bool:
+        """Advance the move, its counters, the odometers and the true pose to `until`,
+        or to where the robot meets a wall on the way: then True, and `_blocked`.
 
         Straight lines and rotations in place integrate exactly in one step; curves and
-        caster drift take steps of at most a few millimetres of path.
+        caster drift take steps of at most a few millimetres of path. Each step is a
+        straight chord, which the walls are tested against.
         """
         t = self._motion_time - move.started
         t_end = until - move.started
-        self.imperfections.moved(t_end - t)
-        steps = 1
-        turning = move.gear is not NO_GEAR or move.angular_gear is not None
-        if move.style is Style.PATH and (turning or self.imperfections.misaligned):
-            travelled = move.profile.arc_length_at(t_end) - move.profile.arc_length_at(t)
-            steps = max(1, math.ceil(travelled / _STEP_M))
-        for i in range(1, steps + 1):
-            t_i = t + (t_end - t) * i / steps
+        t_step = t
+        for t_i in self._step_times(move, t, t_end):
             position, velocity = move.profile.state_at(t_i)
             ds = position - move.position
             if move.angular_gear is not None:
                 # Mode 2 turns at the same rate forwards and backwards.
                 gear = move.gear_ratio if ds == 0 else math.copysign(1, ds) * move.angular_gear
-                mean_gear = gear
                 left, right = wheel_speeds(ds, gear)
-                move.gear_ratio = gear
             elif move.style is Style.PATH:
                 gear = move.gear.at(move.profile.arc_length_at(t_i))
-                mean_gear = (gear + move.gear_ratio) / 2
-                left, right = wheel_speeds(ds, mean_gear)
-                move.gear_ratio = gear
+                left, right = wheel_speeds(ds, (gear + move.gear_ratio) / 2)
             else:
                 # Positive rotation is clockwise: the left wheel goes forward.
+                gear = move.gear_ratio
                 left, right = ds, -ds
             # The wheels turned as the board's geometry said; the robot turns by its own.
             turn = (right - left) / self.wheel_base
             centre = (left + right) / 2
+            caster = 0.0
             if move.style is Style.PATH:
-                turn += self.imperfections.caster_turn(centre)
+                caster = self.imperfections.caster_turn_over(centre)
+                turn += caster
+            share = self._free_share(centre, turn)
+            if share < 1.0:
+                self._push_against(move, t, t_step, t_i, share, ds, (left, right, gear, caster))
+                return True
+            self.imperfections.caster_turned(caster)
             self._move_pose(centre, turn)
             self.left_odometer += left
             self.right_odometer += right
             self.wheel_travel += (abs(left) + abs(right)) / 2
             move.position = position
-            self.velocity = velocity
+            move.gear_ratio = gear
+            if ds != 0:
+                self._blocked = False  # it moves again: away from the wall, or the wall went
+            self.velocity = 0.0 if self._blocked else velocity
+            t_step = t_i
+        self.imperfections.moved(t_end - t)
+        self.stalled = self._blocked
         self._motion_time = until
+        self._update_counters(move)
+        return False
+
+    def _step_times(self, move: RunningMove, t: float, t_end: float) -> list[float]:
+        """The ends of the integration steps from `t` to `t_end` (the move's times).
+
+        Among walls, a step also ends where the move reverses (a preempting target
+        behind the robot: it brakes through zero and comes back, A.1): the way there
+        could meet a wall that the way back, summed into one chord, would hide."""
+        pieces = [t, t_end]
+        if self.solids is not None and move.style is Style.PATH:
+            reversal = _reversal(move, t, t_end)
+            if reversal is not None:
+                pieces = [t, reversal, t_end]
+        turning = move.gear is not NO_GEAR or move.angular_gear is not None
+        fine = move.style is Style.PATH and (turning or self.imperfections.misaligned)
+        times: list[float] = []
+        for start, end in pairwise(pieces):
+            steps = 1
+            if fine:
+                travelled = move.profile.arc_length_at(end) - move.profile.arc_length_at(start)
+                steps = max(1, math.ceil(travelled / _STEP_M))
+            times += [start + (end - start) * i / steps for i in range(1, steps + 1)]
+        return times
+
+    def _free_share(self, distance: float, turn: float) -> float:
+        """How much of a step of `distance` along the chord at the step's mid heading
+        the robot can make before it pushes into a wall or an obstacle (0 to 1)."""
+        if self.solids is None or distance == 0:
+            return 1.0  # turning in place: a disc keeps its footprint
+        pose = self.pose
+        mid = pose.heading + turn / 2
+        x1, y1 = pose.x + distance * math.cos(mid), pose.y + distance * math.sin(mid)
+        return self.solids.free_fraction(pose.x, pose.y, x1, y1)
+
+    def _push_against(self, move: RunningMove, t: float, t_step: float, t_i: float, share: float,
+                      ds: float, step: tuple[float, float, float, float]) -> None:  # fmt: skip
+        """The step from `t_step` to `t_i` meets a wall `share` of the way: go that far,
+        then stall with the move still commanded (§2.3.2: "motion is commanded but the
+        odometry stops changing"). The wheels stop; a move that follows starts from rest,
+        and one that leaves the wall is free to (sim/collision.py). `step` is the whole
+        step's wheel travel, gear ratio and caster turn."""
+        left, right, gear, caster = step
+        pose = self.pose
+        turn = (right - left) / self.wheel_base + caster
+        mid = pose.heading + turn / 2
+        centre = (left + right) / 2 * share
+        # Along the very chord that was found free, so that the robot ends touching the
+        # wall and not in it.
+        self.pose = TruePose(
+            pose.x + centre * math.cos(mid),
+            pose.y + centre * math.sin(mid),
+            pose.heading + turn * share,
+        )
+        self.imperfections.caster_turned(caster * share)
+        self.left_odometer += left * share
+        self.right_odometer += right * share
+        self.wheel_travel += (abs(left) + abs(right)) / 2 * share
+        start = move.position
+        move.position = start + ds * share
+        move.gear_ratio += (gear - move.gear_ratio) * share
+        stopped = t_step if share == 0 else _time_at(move, t_step, t_i, start, ds * share)
+        self.imperfections.moved(stopped - t)
+        self._motion_time = move.started + stopped
+        self.velocity = 0.0
+        self._blocked = True
+        self.stalled = True
         self._update_counters(move)
 
     def _move_pose(self, distance: float, turn: float) -> None:
@@ -433,6 +524,7 @@ class Drive:
         self._stall = None
         self._estop_at = None
         self.stalled = False
+        self._blocked = False
 
     def _halt(self) -> None:
         """Stop dead and forget every move, as ESTOP does."""
@@ -444,7 +536,36 @@ class Drive:
         self.velocity = 0.0
         self.cvg = 0.0
         self.stalled = False
+        self._blocked = False
 
     def _reset_counters(self) -> None:
         self.cdis = 0.0
         self.cang = 0.0
+
+
+def _time_at(move: RunningMove, low: float, high: float, start: float, gone: float) -> float:
+    """When, between the move's times `low` and `high`, it had gone `gone` beyond
+    `start` (bisection: a step is short, and the profile's position continuous)."""
+    for _ in range(48):
+        mid = (low + high) / 2
+        position, _ = move.profile.state_at(mid)
+        if (position - start) / gone < 1.0:
+            low = mid
+        else:
+            high = mid
+    return low
+
+
+def _reversal(move: RunningMove, low: float, high: float) -> float | None:
+    """When, strictly between the move's times `low` and `high`, its velocity passes
+    through zero, if it does: at most once, early on (plan_move: braking through zero
+    to come back, or setting off from a speed the other way)."""
+    profile = move.profile
+    speed, start = profile.start_speed, 0.0
+    for phase in profile.phases:
+        end_speed = speed + phase.accel * phase.duration
+        if speed * end_speed < 0:
+            zero = start - speed / phase.accel
+            return zero if low < zero < high else None
+        speed, start = end_speed, start + phase.duration
+    return None

@@ -6,9 +6,10 @@ would add "an infrared laser range finder ... to minimize the risk of crashing i
 things" (§6); the simulator stands in for one (`range_finder.py`) and needs things for
 it to find. An operator puts chairs and trolleys down and shuts doors here while the
 robot runs; the range finder, the synthetic camera and a bumper check read them from
-other threads. So every change is made under a lock, and readers get an immutable
-snapshot, rebuilt only when the revision has moved on, so that reading it every tick
-costs next to nothing.
+other threads, and the board's wheels stop against them as against the walls
+(collision.py, which reads the same segments). So every change is made under a lock,
+and readers get an immutable snapshot, rebuilt only when the revision has moved on, so
+that reading it every tick costs next to nothing.
 """
 
 from __future__ import annotations

@@ -1,15 +1,22 @@
-"""The simulated world the synthetic camera sees: walls, door frames and posters.
+"""The simulated world the synthetic camera sees: walls, door frames, posters and markers.
 
-A built-in demo world stands in until floor plans land: two rooms joined by a doorway,
-with panelled walls, dark door frames and chequered posters, so that a corner detector
-has something to find wherever the robot looks.
+A built-in demo world stands in when there is no floor plan: two rooms joined by a
+doorway, with panelled walls, dark door frames and chequered posters, so that a corner
+detector has something to find wherever the robot looks.
+
+Fiducial markers (issue 14) hang on the walls as printed: a black square of `size`
+metres holding the marker's bits, on white paper. The simulator knows only the pattern
+of cells, not what family it belongs to; `marker_pattern` takes it from a cv2.aruco
+dictionary, so the camera draws exactly what a detector looks for.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 WALL, DOOR_FRAME = 0, 1
@@ -31,10 +38,62 @@ class Wall:
     poster_at: float = math.nan
 
 
-class World:
-    """Walls as arrays, ready for vectorised ray casting."""
+# White paper around the black square, in cells: the detector needs the square's outer
+# edge to stand against something light. The printed pages are cut with this margin
+# (planning/landmarks.py, PAPER_MARGIN_CELLS; the simulator does not import planning).
+QUIET_ZONE_CELLS = 2
 
-    def __init__(self, walls: list[Wall]) -> None:
+
+@dataclass(frozen=True, eq=False)
+class WorldMarker:
+    """A fiducial marker on a wall.
+
+    (`x`, `y`) is its centre in the map frame, `height` the centre above the floor,
+    `facing` the way its face looks (its normal, radians counter-clockwise from +x), and
+    `size` the side of the black square in metres. `pattern` is the square's cells,
+    border included (8 x 8 for AprilTag 36h11), True where a cell is white.
+    """
+
+    id: int
+    x: float
+    y: float
+    height: float
+    facing: float
+    size: float
+    pattern: np.ndarray
+
+    def __post_init__(self) -> None:
+        pattern = np.asarray(self.pattern, dtype=bool)
+        if pattern.ndim != 2 or pattern.shape[0] != pattern.shape[1] or pattern.shape[0] < 3:
+            raise ValueError(f"marker {self.id}: the pattern must be a square of cells")
+        if not (self.size > 0 and math.isfinite(self.size)):
+            raise ValueError(f"marker {self.id}: the size must be positive")
+        pattern.setflags(write=False)
+        object.__setattr__(self, "pattern", pattern)
+
+    @property
+    def cell(self) -> float:
+        """The side of one cell of the pattern, metres."""
+        return self.size / self.pattern.shape[0]
+
+    @property
+    def outer(self) -> float:
+        """The side of the white paper around the square, metres."""
+        return self.cell * (self.pattern.shape[0] + 2 * QUIET_ZONE_CELLS)
+
+
+def marker_pattern(dictionary: cv2.aruco.Dictionary, marker_id: int) -> np.ndarray:
+    """The cells of marker `marker_id` of a cv2.aruco dictionary, with its one-cell black
+    border: True where white. One pixel a cell, straight from OpenCV's own generator."""
+    cells = dictionary.markerSize + 2
+    image = cv2.aruco.generateImageMarker(dictionary, marker_id, cells, borderBits=1)
+    return image > 127
+
+
+class World:
+    """Walls (and the markers on them) as arrays, ready for vectorised ray casting."""
+
+    def __init__(self, walls: list[Wall], markers: Iterable[WorldMarker] = ()) -> None:
         if not walls:
             raise ValueError("a world needs walls")
         self.walls = walls
@@ -43,6 +102,20 @@ class World:
         self.kind = np.array([w.kind for w in walls], dtype=np.int8)
         self.poster_at = np.array([w.poster_at for w in walls], dtype=np.float64)
         self.length = np.hypot(*(self.end - self.start).T)
+        self.direction = (self.end - self.start) / np.maximum(self.length, 1e-12)[:, None]
+        self.markers = tuple(markers)
+        ids = [m.id for m in self.markers]
+        if len(set(ids)) != len(ids):
+            raise ValueError("two markers share an id")
+        m = self.markers
+        self.marker_centre = np.array([[k.x, k.y] for k in m], dtype=np.float64).reshape(-1, 2)
+        facing = np.array([k.facing for k in m], dtype=np.float64)
+        # The face's normal, and the way the printed image's columns run as seen by
+        # someone facing it: to their right, which is the normal turned a quarter left.
+        self.marker_normal = np.stack([np.cos(facing), np.sin(facing)], axis=-1)
+        self.marker_right = np.stack([-np.sin(facing), np.cos(facing)], axis=-1)
+        self.marker_height = np.array([k.height for k in m], dtype=np.float64)
+        self.marker_outer = np.array([k.outer for k in m], dtype=np.float64)
 
 
 def _room(x0: float, y0: float, x1: float, y1: float, door: tuple[str, float] | None,

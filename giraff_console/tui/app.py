@@ -68,7 +68,7 @@ CONSOLE_COMMANDS = [
     ("get NAME", "read a parameter, e.g. get bulk_data"),
     ("home", "any other bare controller command"),
     ("stalk up|down|N", "raise or lower the head's stalk a step, or set it 0-1000 (g, v)"),
-    ("fast, canny", "switch a camera processor on or off"),
+    ("fast, canny, markers", "switch a camera processor on or off (markers: outlines, ids)"),
     ("record, record stop", "record a session into recordings/ (also r)"),
     ("play [DIR], play stop", "play the newest session, or DIR, back; stop it (also p)"),
     ("pause, resume, seek S, rate X", "control a playback: seconds in, speed 0.25 to 16"),
@@ -122,6 +122,8 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
                 tooltip="FAST corners on the camera image, on or off"),
         Binding("e", "processor('canny')", "Edges", show=False, id="canny",
                 tooltip="Canny edges on the camera image, on or off"),
+        Binding("o", "processor('markers')", "Markers", show=False, id="markers",
+                tooltip="outline the markers the camera finds, with their ids, on or off"),
         Binding("enter", "command_line", "Command", id="command",
                 tooltip="type a controller or console command"),
         Binding("a", "toggle_poll", "Poll", show=False, id="poll",
@@ -302,6 +304,8 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
         text = f"cam {picture.size[0]}x{picture.size[1]} {picture.fps:.0f} fps"
         if picture.keypoints is not None:
             text += f" · FAST {picture.keypoints}"
+        if picture.markers:
+            text += f" · markers {' '.join(map(str, sorted(picture.markers)))}"
         self.top_bar.show_camera(text)
         self.camera_view.show(picture)
 
@@ -381,6 +385,9 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
     def action_processor(self, name: str) -> None:
         if self.camera is None:
             self.note("no camera")
+            return
+        if name not in self.camera.pipeline.processors:
+            self.note(f"no {name}: the floor plan has no landmarks")
             return
         on = self.camera.pipeline.toggle(name)
         self.note(f"{name} {'on' if on else 'off'}")
@@ -554,7 +561,7 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
                 return
             speed = self.control.teleop.set_speed(wanted)
             self.note(f"driving speed {speed:.2f} m/s")
-        elif word in ("fast", "canny"):
+        elif word in ("fast", "canny", "markers"):
             self.action_processor(word)
         elif word in SESSION_COMMANDS:
             self._session_command(word, rest.strip())

@@ -3,6 +3,7 @@ never a traceback (issue 12)."""
 
 from __future__ import annotations
 
+import math
 import shutil
 from importlib.resources import files
 
@@ -10,6 +11,7 @@ import yaml
 from hypothesis import given
 
 from giraff_console.planning.floorplan import FloorPlanError, load_floorplan
+from giraff_console.planning.landmarks import IN_FRONT_M, inside
 from tests.fuzz.inputs import FUZZ, file_cases, replaced
 from tests.fuzz.test_route_files import dump
 
@@ -29,16 +31,33 @@ def _near_start(count: int) -> list[str]:
     return kept
 
 
+def ahead(marker: dict) -> tuple[float, float]:
+    """A point in front of a marker, in the room it faces into."""
+    (x, y), facing = marker["at"], math.radians(marker["facing"])
+    return x + IN_FRONT_M * math.cos(facing), y + IN_FRONT_M * math.sin(facing)
+
+
 ROOMS = {room: PLAN["rooms"][room] for room in _near_start(6)}
 DOORS = [door for door in PLAN["doors"] if set(door["between"]) <= set(ROOMS)]
-SEED = yaml.safe_dump({**PLAN, "rooms": ROOMS, "doors": DOORS}, sort_keys=False).encode()
+# The markers on those rooms' walls, facing into them: the rest hang on walls the seed lacks.
+MARKERS = [
+    marker
+    for marker in PLAN["landmarks"]["markers"]
+    if any(inside(ahead(marker), room["outline"]) for room in ROOMS.values())
+]
+LANDMARKS = {**PLAN["landmarks"], "markers": MARKERS}
+SEED = yaml.safe_dump(
+    {**PLAN, "rooms": ROOMS, "doors": DOORS, "landmarks": LANDMARKS}, sort_keys=False
+).encode()
 
 
 def test_the_seed_is_a_good_floor_plan(folder):
     shutil.copyfile(str(EXAMPLES / "care-home.pgm"), folder / "care-home.pgm")
     path = folder / "seed.yaml"
     path.write_bytes(SEED)
-    assert len(load_floorplan(path).doors) == len(DOORS) > 2
+    plan = load_floorplan(path)
+    assert len(plan.doors) == len(DOORS) > 2
+    assert len(plan.landmarks.markers) == len(MARKERS) > 2 * len(DOORS)
 
 
 @FUZZ

@@ -1,0 +1,404 @@
+"""Placing markers on a floor plan's walls for the user, and writing them into the file.
+
+`giraff-console floorplan landmarks FILE` puts a marker beside every doorway on both
+sides, in each of the two rooms, where the robot sees one as it comes up to the door and
+as it leaves through it; then along every wall at least `every` metres long, so that no
+long stretch of wall is without one. Markers already in the plan stay where they are
+(staff may have put them up): new ones only fill in. The file is edited as text, so the
+user's comments and layout survive; only the `landmarks:` block is written anew.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field, replace
+from itertools import pairwise
+
+import yaml
+
+from giraff_console.planning.floorplan import (
+    DOOR_TOLERANCE_M,
+    Door,
+    FloorPlan,
+    FloorPlanError,
+    Landmarks,
+    Marker,
+    Point,
+    Problem,
+    Room,
+    load_floorplan,
+)
+from giraff_console.planning.landmarks import (
+    DEFAULT_FAMILY,
+    FACING_TOLERANCE_DEG,
+    WALL_TOLERANCE_M,
+    angle_between,
+    id_count,
+    paper_side,
+    where_it_goes,
+)
+from giraff_console.planning.walls import FRAME_M
+
+DEFAULT_EVERY_M = 4.0
+# 16 cm: at 800 x 600 with the Giraff's 90° camera, AprilTag 36h11's 8 cells are still
+# 3 pixels each at 4 m, about as far as a corridor lets the robot see one square on.
+DEFAULT_SIZE_M = 0.16
+# Centre 1.10 m above the floor: below the camera in the robot's head (1.3 m), so a
+# marker near the robot is still in view, and above chairs and handrails.
+DEFAULT_HEIGHT_M = 1.10
+# Clear wall kept between a marker's paper and a door frame, a corner, another marker.
+DOOR_GAP_M = 0.15
+CORNER_GAP_M = 0.10
+MARKER_GAP_M = 0.30
+# A doorway's marker is at most this far from it (its centre from the doorway's edge).
+BESIDE_DOOR_M = 1.0
+
+
+@dataclass
+class Face:
+    """One side of one wall: an edge of a room's outline, seen from inside the room.
+    Positions along it are metres from `a`."""
+
+    room: Room
+    a: Point
+    b: Point
+    paper: float  # the side of a marker's paper
+    blocked: list[tuple[float, float]] = field(default_factory=list)  # doorways, corners
+    taken: list[float] = field(default_factory=list)  # markers' centres
+
+    @property
+    def length(self) -> float:
+        return math.dist(self.a, self.b)
+
+    @property
+    def along(self) -> Point:
+        return (self.b[0] - self.a[0]) / self.length, (self.b[1] - self.a[1]) / self.length
+
+    @property
+    def facing(self) -> float:
+        """The normal into the room, degrees: outlines may run either way round."""
+        ux, uy = self.along
+        left = math.degrees(math.atan2(ux, -uy))
+        return left % 360.0 if _counter_clockwise(self.room.outline or ()) else (left + 180) % 360
+
+    def point(self, t: float) -> Point:
+        return self.a[0] + self.along[0] * t, self.a[1] + self.along[1] * t
+
+    def position(self, point: Point) -> float:
+        return (point[0] - self.a[0]) * self.along[0] + (point[1] - self.a[1]) * self.along[1]
+
+    def distance(self, point: Point) -> float:
+        ux, uy = self.along
+        off = abs((point[0] - self.a[0]) * uy - (point[1] - self.a[1]) * ux)
+        t = self.position(point)
+        return off if 0 <= t <= self.length else math.inf
+
+    def holds(self, marker: Marker) -> bool:
+        return (self.distance(marker.at) <= WALL_TOLERANCE_M
+                and angle_between(marker.facing, self.facing) <= FACING_TOLERANCE_DEG)  # fmt: skip
+
+    def free(self) -> list[tuple[float, float]]:
+        """Where a marker's centre may go: its paper clear of doorways, corners and
+        other markers, by the gaps above."""
+        half = self.paper / 2
+        walls = [(-math.inf, CORNER_GAP_M), (self.length - CORNER_GAP_M, math.inf), *self.blocked]
+        walls += [(t - half - MARKER_GAP_M, t + half + MARKER_GAP_M) for t in self.taken]
+        spans: list[tuple[float, float]] = []
+        start = -math.inf
+        for low, high in sorted((low - half, high + half) for low, high in walls):
+            if low > start:
+                spans.append((start, low))
+            start = max(start, high)
+        return [(low, high) for low, high in spans if math.isfinite(low) and math.isfinite(high)]
+
+    def nearest(self, t: float, side: int = 0, within: float = math.inf) -> float | None:
+        """The free position nearest `t`, only beyond it (`side` 1) or before it (-1)."""
+        best = None
+        for low, high in self.free():
+            if side > 0:
+                low = max(low, t)
+            elif side < 0:
+                high = min(high, t)
+            if low <= high:
+                here = min(max(t, low), high)
+                if abs(here - t) <= within and (best is None or abs(here - t) < abs(best - t)):
+                    best = here
+        return best
+
+
+def _counter_clockwise(outline: tuple[Point, ...]) -> bool:
+    area = sum(ax * by - bx * ay for (ax, ay), (bx, by)
+               in zip(outline, [*outline[1:], outline[0]], strict=True))  # fmt: skip
+    return area > 0
+
+
+@dataclass(frozen=True)
+class Placement:
+    landmarks: Landmarks
+    beside_doors: int
+    along_walls: int
+    notes: list[str]
+
+    @property
+    def added(self) -> int:
+        return self.beside_doors + self.along_walls
+
+
+def place_markers(
+    plan: FloorPlan,
+    every: float = DEFAULT_EVERY_M,
+    size: float = DEFAULT_SIZE_M,
+    height: float = DEFAULT_HEIGHT_M,
+    family: str = DEFAULT_FAMILY,
+) -> Placement:
+    """The plan's markers with new ones beside its doorways and along its long walls.
+    The plan's own family and size win over those given. ValueError for a plan without
+    outlines, or more markers than the family has ids."""
+    if not (math.isfinite(every) and every > 0):
+        raise ValueError("markers are placed every so many metres: --every must be positive")
+    existing = plan.landmarks.markers if plan.landmarks else ()
+    if plan.landmarks is not None:
+        family, size = plan.landmarks.family, plan.landmarks.size
+    faces = _faces(plan, paper_side(family, size))
+    if not faces:
+        raise ValueError(f"{plan.path}: no room has an outline, so there are no walls to "
+                         "put markers on")  # fmt: skip
+    for marker in existing:
+        for face in faces:
+            if face.holds(marker):
+                face.taken.append(face.position(marker.at))
+    notes: list[str] = []
+    added: list[tuple[Face, float]] = []
+    for door in plan.doors:
+        for room_id in door.between:
+            place = _beside(door, [face for face in faces if face.room.id == room_id])
+            if place is None:
+                if plan.rooms[room_id].outline:
+                    notes.append(f"no room for a marker beside door {door.id!r} in {room_id!r}")
+                continue
+            if place[1] is not None:
+                place[0].taken.append(place[1])
+                added.append((place[0], place[1]))
+    beside_doors = len(added)
+    for face in faces:
+        for t in _along(face, every):
+            added.append((face, t))
+    ids = _new_ids(family, existing, len(added))
+    new = [
+        Marker(marker_id, _rounded(face.point(t)), height, round(face.facing, 1) % 360)
+        for marker_id, (face, t) in zip(ids, added, strict=True)
+    ]
+    markers = tuple(sorted((*existing, *new), key=lambda marker: marker.id))
+    landmarks = Landmarks(family, size, markers)
+    return Placement(landmarks, beside_doors, len(added) - beside_doors, notes)
+
+
+def _faces(plan: FloorPlan, paper: float) -> list[Face]:
+    faces = []
+    for room in plan.rooms.values():
+        outline = room.outline or ()
+        for a, b in pairwise([*outline, *outline[:1]]):
+            if math.dist(a, b) == 0:
+                continue
+            face = Face(room, a, b, paper)
+            for door in plan.doors:
+                if face.distance(door.at) <= DOOR_TOLERANCE_M:
+                    t = face.position(door.at)
+                    reach = door.width / 2 + FRAME_M + DOOR_GAP_M
+                    face.blocked.append((t - reach, t + reach))
+            faces.append(face)
+    return faces
+
+
+def _beside(door: Door, faces: list[Face]) -> tuple[Face, float | None] | None:
+    """Where a doorway's marker goes in one of its rooms: on the doorway's own wall, to
+    the right of it as seen from the room (on the other side if there is no room there),
+    else on the room's nearest other wall; (face, None) if one is there already."""
+    own = [face for face in faces if face.distance(door.at) <= DOOR_TOLERANCE_M]
+    half = door.width / 2
+    for face in faces:
+        for taken in face.taken:
+            if (
+                abs(taken - face.position(door.at)) - half <= BESIDE_DOOR_M
+                if face in own
+                else math.dist(face.point(taken), door.at) <= BESIDE_DOOR_M + half
+            ):
+                return face, None
+    for face in own:
+        t = face.position(door.at)
+        nx, ny = math.cos(math.radians(face.facing)), math.sin(math.radians(face.facing))
+        right = 1 if face.along[0] * -ny + face.along[1] * nx > 0 else -1
+        for side in (right, -right):
+            spot = face.nearest(t + side * half, side, BESIDE_DOOR_M)
+            if spot is not None:
+                return face, spot
+    others = [(face, face.nearest(face.position(door.at))) for face in faces if face not in own]
+    spots = [
+        (math.dist(face.point(t), door.at), face, t)
+        for face, t in others
+        if t is not None and math.dist(face.point(t), door.at) <= BESIDE_DOOR_M + half
+    ]
+    if not spots:
+        return None
+    _, face, t = min(spots, key=lambda spot: spot[0])
+    return face, t
+
+
+def _along(face: Face, every: float) -> list[float]:
+    """Markers for a wall at least `every` long, added until no two neighbours on it are
+    more than 1.25 `every` apart and neither corner is more than `every` from one: each
+    covers `every` / 2 either side, and a stretch left uncovered must be longer than
+    `every` / 4 between two markers, or `every` / 2 at a corner, to get one of its own."""
+    if face.length < every - 1e-9:
+        return []
+    placed: list[float] = []
+    reach = every / 2
+    for _ in range(math.ceil(4 * face.length / every) + 4):  # each round places one or more
+        stretch = _uncovered(face, reach)
+        if stretch is None:
+            break
+        low, high = stretch
+        count = max(1, math.floor((high - low) / every + 0.5))
+        targets = [low + (k + 0.5) * (high - low) / count for k in range(count)]
+        spots = [face.nearest(target, 0, reach) for target in targets]
+        if not any(spot is not None for spot in spots):
+            spots = [face.nearest((low + high) / 2, 0, reach)]  # _uncovered found room there
+        for spot in spots:
+            # Each against the markers placed before it in this round, too.
+            if spot is not None and face.nearest(spot, 0, 0.0) is not None:
+                face.taken.append(spot)
+                placed.append(spot)
+    return placed
+
+
+def _uncovered(face: Face, reach: float) -> tuple[float, float] | None:
+    """The first stretch of the face more than `reach` from every marker on it that is
+    long enough to need one and has room for one."""
+    start = 0.0
+    for t in [*sorted(face.taken), face.length + reach]:
+        low, high = start, min(t - reach, face.length)
+        at_corner = low == 0.0 or high == face.length
+        long_enough = high - low > (reach if at_corner else reach / 2)
+        if long_enough and face.nearest((low + high) / 2, 0, reach) is not None:
+            return low, high
+        start = max(start, t + reach)
+    return None
+
+
+def _new_ids(family: str, existing: tuple[Marker, ...], count: int) -> list[int]:
+    """`count` ids after the plan's highest, then any left free below it."""
+    used = {marker.id for marker in existing}
+    start = max(used, default=-1) + 1
+    ids = [i for i in range(start, id_count(family)) if i not in used][:count]
+    ids += [i for i in range(start) if i not in used][: count - len(ids)]
+    if len(ids) < count:
+        raise ValueError(f"{family} has {id_count(family)} ids, too few for "
+                         f"{len(existing) + count} markers: use a larger --every")  # fmt: skip
+    return ids
+
+
+def _rounded(point: Point) -> Point:
+    # Millimetres: a marker on a slanting wall moves less than a millimetre off it.
+    return round(point[0], 3) + 0.0, round(point[1], 3) + 0.0
+
+
+# Writing them into the file.
+
+
+def number(value: float) -> str:
+    """A number as a person writes it: 12, 12.4, 1.105; one with more digits (written
+    by hand) exactly as it is, so that the plan reads back the same."""
+    if round(value, 3) != value:
+        return repr(value)
+    text = f"{value:.3f}".rstrip("0").rstrip(".")
+    return "0" if text == "-0" else text
+
+
+def landmarks_block(plan: FloorPlan, landmarks: Landmarks) -> str:
+    """The `landmarks:` key as YAML text, each marker on one line with where it goes."""
+    lines = [
+        "landmarks:",
+        '  # Fiducial markers on the walls (floorplans/README.md, "Landmarks"). `giraff-console',
+        "  # floorplan landmarks` rewrites this block: comments in it are not kept.",
+        f"  family: {landmarks.family}",
+        f"  size: {number(landmarks.size)}",
+        "  markers:",
+    ]
+    for marker in landmarks.markers:
+        place = where_it_goes(plan, marker)
+        line = (f"  - {{id: {marker.id}, at: [{number(marker.at[0])}, {number(marker.at[1])}], "
+                f"height: {number(marker.height)}, facing: {number(marker.facing)}}}")  # fmt: skip
+        lines.append(f"{line}  # {place}" if place else line)
+    return "\n".join(lines) + "\n"
+
+
+def with_landmarks(text: str, block: str) -> str:
+    """The plan's text with its `landmarks:` key replaced by `block`, or `block` added at
+    the end; everything else as it was. ValueError if the file's top level is not a block
+    mapping, which a text edit could not keep intact."""
+    node = yaml.compose(text, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
+    if not isinstance(node, yaml.MappingNode) or node.flow_style:
+        raise ValueError("its top level is not a block mapping (`key: value` lines), so the "
+                         "landmarks cannot be written into it")  # fmt: skip
+    for key, value in node.value:
+        if isinstance(key, yaml.ScalarNode) and key.value == "landmarks":
+            start = text.rfind("\n", 0, key.start_mark.index) + 1
+            end = text.find("\n", _last_mark(value))
+            end = len(text) if end < 0 else end + 1
+            return text[:start] + block + text[end:]
+    eol = "\r\n" if "\r\n" in text else "\n"
+    if text and not text.endswith("\n"):
+        text += eol
+    return f"{text}{eol}{block}" if text else block
+
+
+def _last_mark(node: yaml.Node) -> int:
+    """Where a value's own text ends: a block collection's end mark lies past the comments
+    and blank lines after it, which belong to the next key."""
+    if isinstance(node, yaml.ScalarNode) or node.flow_style or not node.value:
+        return node.end_mark.index
+    last = node.value[-1]
+    return _last_mark(last[1] if isinstance(last, tuple) else last)
+
+
+def write_landmarks(plan: FloorPlan, landmarks: Landmarks) -> FloorPlan:
+    """Write the markers into the plan's file and return the plan read back from it. The
+    new text goes to a temporary file beside it, which must pass every check before it
+    replaces the file: whatever happens, the file is either as it was or complete."""
+    path = plan.path
+    if path.is_symlink():
+        # Renaming over a link would replace the link, not the plan it points to.
+        raise ValueError(f"{path} is a symbolic link: give the file it points to")
+    with path.open(encoding="utf-8", newline="") as source:
+        text = source.read()
+    block = landmarks_block(plan, landmarks)
+    if "\r\n" in text:
+        block = block.replace("\n", "\r\n")  # a file written on Windows stays as it was
+    new_text = with_landmarks(text, block)
+    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8", newline="") as out:
+            out.write(new_text)
+            out.flush()
+            os.fsync(out.fileno())
+        os.chmod(temporary, path.stat().st_mode & 0o7777)
+        try:
+            written = load_floorplan(temporary)
+        except FloorPlanError as error:
+            problems = [Problem(path, p.line, p.message) for p in error.problems]
+            raise FloorPlanError(problems) from None
+        if written.landmarks != landmarks or _rest(written) != _rest(plan):
+            raise FloorPlanError([Problem(path, None, "the plan did not read back as written")])
+        os.replace(temporary, path)
+    finally:
+        if os.path.exists(temporary):
+            os.unlink(temporary)
+    return load_floorplan(path)
+
+
+def _rest(plan: FloorPlan) -> tuple:
+    """All of a plan but its markers and where it was read from."""
+    grid = plan.grid and replace(plan.grid, image=plan.grid.image.resolve())
+    return plan.name, plan.rooms, plan.doors, grid, plan.start

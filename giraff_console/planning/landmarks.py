@@ -1,0 +1,375 @@
+"""Fiducial markers on the walls of a floor plan, for the robot to find itself by (issue 14).
+
+Dead reckoning alone drifts without bound (§2.3.1), and the casters can turn the robot
+up to about 45° more than the wheels say after a turn in place (§3.2.1.5). A printed
+marker at a known place on a wall fixes that: the camera sees it, cv2.aruco decodes its
+id, and the plan says where that id hangs. The marker families are OpenCV's predefined
+dictionaries (AprilTag 36h11 by default), so that the image printed for the wall is
+exactly what the detector looks for.
+
+The checks here are the ones `floorplan check` runs on a plan's `landmarks:` key
+(floorplans/README.md, "Landmarks"): a marker must be on a wall, flat on it (its facing
+square to the wall) and facing into a room, with an id its family has and no other
+marker has.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from giraff_console.planning.floorplan import (
+    DOOR_TOLERANCE_M,
+    FloorPlan,
+    Marker,
+    Point,
+    Room,
+    Where,
+    shown,
+)
+from giraff_console.planning.walls import WallSegment, wall_segments
+
+# OpenCV's predefined dictionaries by the names a floor plan uses: DICT_APRILTAG_36h11
+# is `apriltag_36h11`. OpenCV spells some twice (36h11 and 36H11): one name each here.
+FAMILIES: dict[str, int] = {
+    name.removeprefix("DICT_").lower(): getattr(cv2.aruco, name)
+    for name in dir(cv2.aruco)
+    if name.startswith("DICT_")
+}
+DEFAULT_FAMILY = "apriltag_36h11"
+
+# A marker's centre may be this far from a wall (the outline edge): a hand-measured
+# position is good to a few centimetres, and a wall is about 10 cm thick.
+WALL_TOLERANCE_M = 0.05
+# A marker lies flat on its wall, so its normal is the wall's. The filter takes the
+# marker's facing from the plan: a facing 2° off turns into a 2° heading error, against
+# the 3° the robot must keep to (issue 14), so no more than that is let through.
+FACING_TOLERANCE_DEG = 2.0
+# How far in front of a marker a point must lie inside a room for it to face into one.
+IN_FRONT_M = 0.25
+# White paper round the black square, in cells: the detector needs the square's edge to
+# stand against something light, and a wall may be dark. Pages are cut along this.
+PAPER_MARGIN_CELLS = 2
+
+
+def aruco_dictionary(family: str) -> cv2.aruco.Dictionary:
+    """The cv2.aruco dictionary of a family named as in a floor plan; ValueError if
+    OpenCV has none by that name."""
+    if family not in FAMILIES:
+        raise ValueError(
+            f"unknown marker family {shown(family)}: a cv2.aruco predefined dictionary, "
+            f"one of {', '.join(sorted(FAMILIES))}"
+        )
+    return cv2.aruco.getPredefinedDictionary(FAMILIES[family])
+
+
+def id_count(family: str) -> int:
+    """How many markers the family has: ids run from 0 to one less."""
+    return int(aruco_dictionary(family).bytesList.shape[0])
+
+
+def cells(family: str) -> int:
+    """Cells along a side of the black square, its one-cell black border included."""
+    return int(aruco_dictionary(family).markerSize) + 2
+
+
+def marker_image(family: str, marker_id: int, side_px: int) -> np.ndarray:
+    """The black square of marker `marker_id`, `side_px` pixels a side, 0 black and 255
+    white, from OpenCV's own generator; without the white paper round it."""
+    return cv2.aruco.generateImageMarker(aruco_dictionary(family), marker_id, side_px, borderBits=1)
+
+
+def paper_side(family: str, size: float) -> float:
+    """The side of the paper a marker is printed on and cut to, metres."""
+    count = cells(family)
+    return size * (count + 2 * PAPER_MARGIN_CELLS) / count
+
+
+# Geometry shared with placement and the printed pages.
+
+
+def unit(degrees: float) -> Point:
+    return math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+
+
+def angle_between(a: float, b: float) -> float:
+    """The difference between two directions in degrees, 0 to 180."""
+    return abs((a - b + 180.0) % 360.0 - 180.0)
+
+
+def inside(point: Point, outline: Sequence[Point]) -> bool:
+    """Whether the point lies inside the polygon (on an edge counts as outside)."""
+    contour = np.array(outline, dtype=np.float32).reshape(-1, 1, 2)
+    return cv2.pointPolygonTest(contour, (float(point[0]), float(point[1])), False) > 0
+
+
+def room_in_front(plan: FloorPlan, at: Point, facing: float) -> Room | None:
+    """The room a marker at `at` facing `facing` looks into, if any."""
+    dx, dy = unit(facing)
+    ahead = (at[0] + dx * IN_FRONT_M, at[1] + dy * IN_FRONT_M)
+    for room in plan.rooms.values():
+        if room.outline and inside(ahead, room.outline):
+            return room
+    return None
+
+
+class MarkerWalls:
+    """The walls a marker may hang on, with their ends as arrays to measure against."""
+
+    def __init__(self, segments: Sequence[WallSegment]) -> None:
+        self.segments = tuple(segments)
+        self.a = np.array([wall.a for wall in segments], dtype=np.float64).reshape(-1, 2)
+        self.b = np.array([wall.b for wall in segments], dtype=np.float64).reshape(-1, 2)
+        self.d = self.b - self.a
+        span = np.einsum("ij,ij->i", self.d, self.d)
+        self.span = np.where(span == 0, 1.0, span)
+
+    def __bool__(self) -> bool:
+        return bool(self.segments)
+
+    def distances(self, point: Point) -> np.ndarray:
+        """The distance from `point` to each wall."""
+        p = np.array(point, dtype=np.float64)
+        t = np.clip(np.einsum("ij,ij->i", p - self.a, self.d) / self.span, 0.0, 1.0)
+        return np.hypot(*(p - self.a - t[:, None] * self.d).T)
+
+
+def marker_walls(plan: FloorPlan) -> MarkerWalls:
+    """The walls a marker may hang on: every wall and door frame; not a door, which
+    swings, and not a doorway."""
+    return MarkerWalls([segment for segment in wall_segments(plan) if segment.kind != "door"])
+
+
+def wall_direction(wall: WallSegment) -> float:
+    """The wall's direction, degrees counter-clockwise from +x."""
+    return math.degrees(math.atan2(wall.b[1] - wall.a[1], wall.b[0] - wall.a[0]))
+
+
+def facing_error(wall: WallSegment, facing: float) -> float:
+    """How far `facing` is from square to the wall, on whichever side, in degrees."""
+    normal = wall_direction(wall) + 90.0
+    return min(angle_between(facing, normal), angle_between(facing, normal + 180.0))
+
+
+@dataclass(frozen=True)
+class WallFit:
+    """How a marker sits on the plan's walls."""
+
+    wall: WallSegment | None  # the wall it is on: near it, and the squarest of those
+    distance: float  # from the nearest wall, metres
+
+
+def fit_on_walls(at: Point, facing: float, walls: MarkerWalls) -> WallFit:
+    distances = walls.distances(at)
+    near = [walls.segments[i] for i in np.flatnonzero(distances <= WALL_TOLERANCE_M)]
+    best = min(near, key=lambda wall: facing_error(wall, facing), default=None)
+    return WallFit(best, float(distances.min()))
+
+
+# The checks.
+
+
+def landmark_problems(
+    family: str | None,
+    size: float | None,
+    markers: Sequence[tuple[int, Marker]],
+    plan: FloorPlan | None,
+) -> list[tuple[Where, str]]:
+    """Every problem with a plan's markers, each at the key it is about. `markers` are
+    those that read well, each with its index in the file; `plan` has the rooms and doors
+    to check them against, or is None when those did not read well."""
+    problems: list[tuple[Where, str]] = []
+    count = None
+    if family is not None:
+        try:
+            count = id_count(family)
+        except ValueError as error:
+            problems.append((("landmarks", "family"), str(error)))
+    first: dict[int, int] = {}
+    for i, marker in markers:
+        where: Where = ("landmarks", "markers", i, "id")
+        if count is not None and marker.id >= count:
+            problems.append(
+                (
+                    where,
+                    f"marker id {shown(marker.id)} is beyond {family}'s {count} ids "
+                    f"(0 to {count - 1})",
+                )
+            )
+        if marker.id in first:
+            problems.append(
+                (
+                    where,
+                    f"duplicate marker id {shown(marker.id)} (also landmarks.markers"
+                    f"[{first[marker.id]}]): the robot tells markers apart by id alone",
+                )
+            )
+        first.setdefault(marker.id, i)
+    if plan is not None:
+        square = cells(family) if count is not None and family is not None else None
+        problems += _wall_problems(plan, size, markers, square)
+    return problems
+
+
+def _wall_problems(
+    plan: FloorPlan, size: float | None, markers: Sequence[tuple[int, Marker]], count: int | None
+) -> list[tuple[Where, str]]:
+    if not markers:
+        return []
+    walls = marker_walls(plan)
+    if not walls:
+        return [(("landmarks",), "markers hang on walls, and this plan has none: "
+                                 "give its rooms outlines")]  # fmt: skip
+    problems: list[tuple[Where, str]] = []
+    for i, marker in markers:
+        where: Where = ("landmarks", "markers", i)
+        problem = _wall_problem(plan, walls, marker, size)
+        if problem is not None:
+            problems.append(((*where, problem[0]), problem[1]))
+    if size is not None:
+        # The paper round each square must stay clear too, or the detector loses its edge.
+        reach = size * (count + 2) / count if count else size
+        problems += _overlaps(markers, reach)
+    return problems
+
+
+def _wall_problem(
+    plan: FloorPlan, walls: MarkerWalls, marker: Marker, size: float | None
+) -> tuple[str, str] | None:
+    """The first thing wrong with where a marker hangs, as (key, message), if any."""
+    name = f"marker {marker.id} at {list(marker.at)}"
+    fit = fit_on_walls(marker.at, marker.facing, walls)
+    if fit.wall is None:
+        for door in plan.doors:
+            if math.dist(door.at, marker.at) <= door.width / 2 + DOOR_TOLERANCE_M:
+                return "at", f"{name} is in the doorway of door {door.id!r}: put it beside it"
+        return "at", (
+            f"{name} is {fit.distance:.2f} m from the nearest wall (at most "
+            f"{WALL_TOLERANCE_M} m): markers hang on walls"
+        )
+    error = facing_error(fit.wall, marker.facing)
+    if error > FACING_TOLERANCE_DEG:
+        normal = (wall_direction(fit.wall) + 90.0) % 180.0
+        return "facing", (
+            f"marker {marker.id} faces {marker.facing:g}°, {error:.1f}° from square to its "
+            f"wall: it lies flat on it, facing {normal:g}° or {normal + 180:g}° "
+            f"(within {FACING_TOLERANCE_DEG:g}°)"
+        )
+    if room_in_front(plan, marker.at, marker.facing) is None:
+        other = room_in_front(plan, marker.at, marker.facing + 180.0)
+        turn = f": turn it round to face {(marker.facing + 180) % 360:g}°, into {other.id!r}"
+        return "facing", (
+            f"marker {marker.id} faces {marker.facing:g}°, into no room{turn if other else ''}"
+        )
+    if size is not None:
+        ux, uy = unit(wall_direction(fit.wall))
+        for side in (-1, 1):
+            end = (marker.at[0] + side * ux * size / 2, marker.at[1] + side * uy * size / 2)
+            if walls.distances(end).min() > WALL_TOLERANCE_M:
+                return "at", (
+                    f"{name} overhangs the end of its wall (a doorway or a corner): "
+                    f"its {size:g} m square must be on the wall"
+                )
+    return None
+
+
+def _overlaps(markers: Sequence[tuple[int, Marker]], reach: float) -> list[tuple[Where, str]]:
+    """Markers on the same side of a wall closer than their paper allows; swept in x, so
+    that a plan of thousands of markers costs little."""
+    problems: list[tuple[Where, str]] = []
+    ordered = sorted(markers, key=lambda item: item[1].at[0])
+    for k, (i, marker) in enumerate(ordered):
+        for j, other in ordered[k + 1 :]:
+            if other.at[0] - marker.at[0] >= reach:
+                break
+            gap = math.dist(marker.at, other.at)
+            if gap < reach and angle_between(marker.facing, other.facing) < 90.0:
+                first, second = (i, marker), (j, other)
+                if j < i:
+                    first, second = second, first
+                problems.append(
+                    (
+                        ("landmarks", "markers", second[0], "at"),
+                        f"marker {second[1].id} overlaps marker {first[1].id}: their centres are "
+                        f"{gap:.2f} m apart, their papers {reach:.2f} m wide",
+                    )
+                )
+    return problems
+
+
+# Where a marker goes, in words for the people who put it up.
+
+_COMPASS = (
+    "east",
+    "north-east",
+    "north",
+    "north-west",
+    "west",
+    "south-west",
+    "south",
+    "south-east",
+)
+# A door this close to a marker (from the doorway's edge) is what its place is told from.
+NEAR_DOOR_M = 2.0
+
+
+@dataclass(frozen=True)
+class MarkerPlace:
+    room: Room  # the room it faces into, where it is put up from
+    wall: str  # "north wall": the compass of the map, north up
+    beside: str  # "centre 0.31 m right of the doorway to Main corridor"
+
+    def __str__(self) -> str:
+        return f"{self.room.id}, {self.wall}, {self.beside}"
+
+
+def compass(degrees: float) -> str:
+    return _COMPASS[round((degrees % 360.0) / 45.0) % 8]
+
+
+def where_it_goes(plan: FloorPlan, marker: Marker) -> MarkerPlace | None:
+    """The room a marker is in, which of its walls, and where along it, told from the
+    nearest doorway on that wall or else its nearer corner, as seen facing the wall.
+    None for a marker that faces into no room."""
+    room = room_in_front(plan, marker.at, marker.facing)
+    if room is None or not room.outline:
+        return None
+    nx, ny = unit(marker.facing)
+    right = (-ny, nx)  # along the wall, to the right of someone facing it
+    edges = list(zip(room.outline, [*room.outline[1:], room.outline[0]], strict=True))
+    a, b = min(edges, key=lambda edge: _to_segment(marker.at, *edge))
+    wall = f"{compass(marker.facing + 180.0)} wall"
+
+    def offset(point: Point) -> float:
+        """How far right of `point` the marker's centre is, along the wall."""
+        return (marker.at[0] - point[0]) * right[0] + (marker.at[1] - point[1]) * right[1]
+
+    best = None
+    for door in plan.doors:
+        if _to_segment(door.at, a, b) > DOOR_TOLERANCE_M or room.id not in door.between:
+            continue
+        along = offset(door.at)
+        gap = abs(along) - door.width / 2
+        if gap <= NEAR_DOOR_M and (best is None or gap < best[0]):
+            best = (gap, along, door)
+    if best is not None:
+        gap, along, door = best
+        other = plan.rooms[next(r for r in door.between if r != room.id)]
+        side = "right" if along > 0 else "left"
+        return MarkerPlace(room, wall, f"centre {gap:.2f} m {side} of the doorway to {other.label}")
+    corner = min((a, b), key=lambda end: abs(offset(end)))
+    side = "left" if offset(corner) > 0 else "right"
+    return MarkerPlace(
+        room, wall, f"centre {abs(offset(corner)):.2f} m from the {side}-hand corner"
+    )
+
+
+def _to_segment(p: Point, a: Point, b: Point) -> float:
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    span = dx * dx + dy * dy
+    t = 0.0 if span == 0 else max(0.0, min(1.0, ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / span))
+    return math.hypot(p[0] - a[0] - t * dx, p[1] - a[1] - t * dy)
