@@ -34,6 +34,11 @@ from giraff_console.robot.safety import (
 
 # The target is renewed once it is closer than the braking distance plus this many ticks.
 RENEW_TICKS = 2
+# A stop that has left the wheels still for this long, with the board still reporting
+# its move, is held up by something (a wall, a box): the move is given up with a target
+# of nothing, which the board ends at once from a standstill (B.2 StartStraight), so
+# that nothing is left pending to lurch on when the way clears.
+STALLED_STOP_S = 1.0
 # r for curved motion (A.4.2 needs r > 50); the thesis's console used 1000.
 PATH_STYLE = 1000
 ROTATE_STYLE = 0
@@ -92,6 +97,7 @@ class Teleop:
         self._target = 0.0
         self._style: int | None = None
         self._stopping = False
+        self._still_since: float | None = None
         # What the board holds for its next move, as sent on the wire (board_set).
         self._board: dict[str, str] = {}
 
@@ -157,6 +163,9 @@ class Teleop:
         """The commands for this control tick, in order."""
         if not state.moving and self._stopping:
             self._style, self._stopping = None, False
+        if self._stopping and self._held_up(state):
+            self._style, self._stopping = None, False
+            return [Command("set", "p", 0)]
         if state.estop:
             self._style, self._stopping = None, False
             return []
@@ -213,7 +222,10 @@ class Teleop:
         left = abs(self._target) - abs(counter)
         speed = abs(plan["v"])
         margin = abs(plan["p"]) / self.limits.lookahead + speed * RENEW_TICKS * self.tick
-        if self._unsent(plan) or left < margin:
+        # The other way at once (backing away from a wall, whose stalled wheels would
+        # never bring the old target near enough to renew).
+        reversed_ = plan["p"] * self._target < 0
+        if self._unsent(plan) or left < margin or reversed_:
             return self._commands(plan)
         return []
 
@@ -234,11 +246,22 @@ class Teleop:
             if name != "p" and self._board.get(name) != format_number(value)
         ]
 
+    def _held_up(self, state: MotorState) -> bool:
+        """Whether the stop has had the wheels still for STALLED_STOP_S while the board
+        still holds the move."""
+        if not state.moving or state.gvr != 0:
+            self._still_since = None
+            return False
+        if self._still_since is None:
+            self._still_since = state.received_at
+        return state.received_at - self._still_since >= STALLED_STOP_S
+
     def _stop(self, state: MotorState) -> list[Command]:
         """Brake to a stop: the braking distance plus the reaction margin (§3.2.1.2)."""
         if self._stopping:
             return []
         self._stopping = True
+        self._still_since = None
         limits = self.limits
         if self._style == ROTATE_STYLE:
             wheel = rotation_wheel_speed(state, ROTATE_STYLE)

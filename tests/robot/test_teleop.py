@@ -11,6 +11,8 @@ from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.telemetry import LinkState
 from giraff_console.robot.teleop import DriveLimits, Teleop
+from giraff_console.sim.collision import Solids
+from giraff_console.sim.surroundings import Surroundings
 
 TICK = 0.05
 
@@ -212,3 +214,32 @@ def test_the_target_is_renewed_only_when_the_robot_gets_close(console):
     console.hold(Intent.FORWARD, 3.0)
     renewals = [c for c in console.sent if c.startswith("set p")]
     assert 8 <= len(renewals) <= 20  # not once a tick (60 ticks)
+
+
+def walled(console: Console) -> None:
+    """A wall across the way ahead, 1 m in front of the robot's centre."""
+    console.board.make_solid(Solids([((1.0, -5.0), (1.0, 5.0))], 0.3, Surroundings()))
+
+
+def test_let_go_against_a_wall_the_held_up_stop_is_given_up_and_it_backs_off(console):
+    walled(console)
+    # Let go with the wall nearer than the braking distance: the stop runs into it.
+    console.hold(Intent.FORWARD, 1.9)
+    console.run(0.5)
+    assert console.board.true_pose.x == pytest.approx(0.7, abs=0.01)  # against the wall
+    console.run(1.5)
+    # The stop could not be made against the wall; it was given up, not left pending.
+    assert not console.moving()
+    assert "set p 0" in console.sent
+    assert not console.loop.teleop.active
+    console.hold(Intent.BACKWARD, 1.5)
+    console.run(1.5)
+    assert console.board.true_pose.x < 0.5
+
+
+def test_against_a_wall_the_other_way_backs_off_without_letting_go_first(console):
+    walled(console)
+    console.hold(Intent.FORWARD, 4.0)
+    assert console.board.true_pose.x == pytest.approx(0.7, abs=0.01)
+    console.hold(Intent.BACKWARD, 1.5)
+    assert console.board.true_pose.x < 0.6
