@@ -27,7 +27,7 @@ import serial
 
 from giraff_console.clock import RealClock
 from giraff_console.link import BoardLink
-from giraff_console.missions.docking import DOCK, GoToPose, dock_arrival
+from giraff_console.missions.docking import DOCK, GoToPose, go_mission
 from giraff_console.missions.go_to import GoTo
 from giraff_console.missions.navigation import Navigator
 from giraff_console.planning.floorplan import FloorPlanError, load_floorplan
@@ -153,15 +153,9 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
         # Planned before the loop starts, so that the simulator's clock has not moved
         # on by however long planning took.
         sense = site.range_finder.readings if site is not None else None
-        pose = lambda: control.odometry.pose  # noqa: E731
-        mission: GoTo | GoToPose
-        if args.room == DOCK:
-            mission = GoToPose(navigator, DOCK, dock_arrival(navigator), pose,
-                               tick=control.period, limits=limits, sense=sense,
-                               notify=control.report, patience=patience)  # fmt: skip
-        else:
-            mission = GoTo(navigator, args.room, pose, tick=control.period, limits=limits,
-                           sense=sense, notify=control.report, patience=patience)  # fmt: skip
+        mission = go_mission(navigator, args.room, lambda: control.odometry.pose,
+                             tick=control.period, limits=limits, sense=sense,
+                             notify=control.report, patience=patience)  # fmt: skip
     except PlanningError as error:
         return _fail(str(error), EXIT_USAGE if isinstance(error, UnknownRoomError) else EXIT_FAILED)
     # Before the loop's thread starts: SIGHUP (the SSH connection dropped), SIGTERM and

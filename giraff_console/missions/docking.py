@@ -22,7 +22,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from giraff_console.link.motor_state import MotorState
-from giraff_console.missions.go_to import GoReport, go_report
+from giraff_console.missions.go_to import GoReport, GoTo, go_report
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.path_mission import Course, PathMission, Sense
 from giraff_console.missions.progress_watch import Patience
@@ -110,6 +110,27 @@ class GoToPose(PathMission):
     def report(self, why: str) -> GoReport:
         """How it went, once the loop has ended the mission for `why`."""
         return go_report(self, self.goal, self.arrival.point, self.arrival.heading, why)
+
+
+def go_mission(navigator: Navigator, room: str, pose: Callable[[], Pose], *, tick: float,
+               limits: MotionLimits | None = None, sense: Sense | None = None,
+               notify: Callable[[str], None] = lambda text: None,
+               patience: Patience | None = None) -> GoTo | GoToPose:  # fmt: skip
+    """What `go ROOM` drives, for every front end: to a room of the plan, or, for
+    `dock`, onto the dock square on. PlanningError if there is no way."""
+    if room == DOCK:
+        return GoToPose(navigator, DOCK, dock_arrival(navigator), pose, tick=tick,
+                        limits=limits, sense=sense, notify=notify, patience=patience)  # fmt: skip
+    return GoTo(
+        navigator,
+        room,
+        pose,
+        tick=tick,
+        limits=limits,
+        sense=sense,
+        notify=notify,
+        patience=patience,
+    )
 
 
 def dock_arrival(navigator: Navigator) -> Arrival:

@@ -76,21 +76,13 @@ class Navigator:
         """Plan from `pose` to `room_id` and make it the route shown; PlanningError with
         a message for the operator if there is none."""
         with self._lock:
-            planned = self.planner.from_point((pose.x, pose.y), room_id)
-            self._arrival = None
-            self.state = NavigationState(room_id, planned, self.state.closed,
-                                         obstacles=self.state.obstacles)  # fmt: skip
-            return planned
+            return self._set_goal(room_id, None, pose)
 
     def arrive(self, goal: str, arrival: Arrival, pose: Pose) -> PlannedPath:
         """Plan from `pose` to `arrival` (shown as `goal`, such as "dock") and make it the
         route shown; PlanningError with a message for the operator if there is none."""
         with self._lock:
-            planned = self.planner.to_arrival((pose.x, pose.y), arrival)
-            self._arrival = arrival
-            self.state = NavigationState(goal, planned, self.state.closed,
-                                         obstacles=self.state.obstacles)  # fmt: skip
-            return planned
+            return self._set_goal(goal, arrival, pose)
 
     def close(self, door_id: str, pose: Pose) -> NavigationState:
         """Shut a door; the route, if any, is planned again from `pose`."""
@@ -145,11 +137,22 @@ class Navigator:
         goal, planned, problem = self.state.goal, None, None
         if goal is not None:
             try:
-                start = (pose.x, pose.y)
-                arrival = self._arrival
-                planned = (self.planner.from_point(start, goal) if arrival is None
-                           else self.planner.to_arrival(start, arrival))  # fmt: skip
+                planned = self._plan_to(goal, self._arrival, pose)
             except PlanningError as error:
                 problem = str(error)
         self.state = NavigationState(goal, planned, closed, problem, self.state.obstacles)
         return self.state
+
+    def _set_goal(self, goal: str, arrival: Arrival | None, pose: Pose) -> PlannedPath:
+        planned = self._plan_to(goal, arrival, pose)
+        self._arrival = arrival
+        self.state = NavigationState(goal, planned, self.state.closed,
+                                     obstacles=self.state.obstacles)  # fmt: skip
+        return planned
+
+    def _plan_to(self, goal: str, arrival: Arrival | None, pose: Pose) -> PlannedPath:
+        """To the room `goal`'s point, or, with an arrival, there."""
+        start = (pose.x, pose.y)
+        if arrival is None:
+            return self.planner.from_point(start, goal)
+        return self.planner.to_arrival(start, arrival)

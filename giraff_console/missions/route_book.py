@@ -17,10 +17,9 @@ from giraff_console.missions.docking import (
     GoToPose,
     Recharge,
     back_to,
-    dock_arrival,
+    go_mission,
 )
 from giraff_console.missions.follow_route import FollowRoute
-from giraff_console.missions.go_to import GoTo
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.path_mission import Sense
 from giraff_console.missions.patrol import (
@@ -207,11 +206,9 @@ class RouteBook:
         """To a room of the plan, or (`dock`) onto the dock; PlanningError if no way."""
         assert self.navigator is not None
         control = self.control
-        if room == DOCK:
-            return self._arrive(DOCK, dock_arrival(self.navigator))
-        return GoTo(self.navigator, room, lambda: control.odometry.pose, tick=control.period,
-                    limits=self.limits, sense=self.sense, notify=self.report,
-                    patience=self.patience)  # fmt: skip
+        return go_mission(self.navigator, room, lambda: control.odometry.pose,
+                          tick=control.period, limits=self.limits, sense=self.sense,
+                          notify=self.report, patience=self.patience)  # fmt: skip
 
     def _arrive(self, goal: str, arrival: Arrival) -> GoToPose:
         assert self.navigator is not None

@@ -11,8 +11,7 @@ from __future__ import annotations
 
 from textual import work
 
-from giraff_console.missions.docking import DOCK, GoToPose, dock_arrival
-from giraff_console.missions.go_to import GoTo
+from giraff_console.missions.docking import DOCK, go_mission
 from giraff_console.missions.navigation import NavigationState, Navigator
 from giraff_console.missions.progress_watch import Patience
 from giraff_console.motion.speed_profile import MotionLimits
@@ -87,17 +86,10 @@ class NavigationCommands:
         dock` drives onto the dock square on."""
         control = self.control
         site = self.site
-        pose = lambda: control.odometry.pose  # noqa: E731
-        sense = site.range_finder.readings if site is not None else None
-        notify = lambda text: self.post_message(StatusNote(text))  # noqa: E731
-        mission: GoTo | GoToPose
-        if room == DOCK:
-            mission = GoToPose(navigator, DOCK, dock_arrival(navigator), pose,
-                               tick=control.period, limits=self.motion, patience=self.patience,
-                               sense=sense, notify=notify)  # fmt: skip
-        else:
-            mission = GoTo(navigator, room, pose, tick=control.period, limits=self.motion,
-                           patience=self.patience, sense=sense, notify=notify)  # fmt: skip
+        mission = go_mission(navigator, room, lambda: control.odometry.pose,
+                             tick=control.period, limits=self.motion, patience=self.patience,
+                             sense=site.range_finder.readings if site is not None else None,
+                             notify=lambda text: self.post_message(StatusNote(text)))  # fmt: skip
         planned = navigator.state.planned
         if planned is not None:
             route = planned.route
