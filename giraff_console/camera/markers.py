@@ -110,15 +110,15 @@ def refine_corners(grey: np.ndarray, corners: np.ndarray, cells: int) -> np.ndar
         if line is None:
             return None
         lines.append(line)
-    refined = []
+    points = []
     for i in range(4):
         (p, d), (q, e) = lines[i - 1], lines[i]
         system = np.column_stack([d, -e])
         if abs(np.linalg.det(system)) < 1e-6:
             return None
         t = np.linalg.solve(system, q - p)
-        refined.append(p + t[0] * d)
-    refined = np.array(refined)
+        points.append(p + t[0] * d)
+    refined = np.array(points)
     # A corner that moved more than a cell is not the same corner.
     if np.max(np.linalg.norm(refined - corners, axis=1)) > max(2.0, sides.min() / cells):
         return None

@@ -261,10 +261,12 @@ def _wall_problem(
         )
     if room_in_front(plan, marker.at, marker.facing) is None:
         other = room_in_front(plan, marker.at, marker.facing + 180.0)
-        turn = f": turn it round to face {(marker.facing + 180) % 360:g}°, into {other.id!r}"
-        return "facing", (
-            f"marker {marker.id} faces {marker.facing:g}°, into no room{turn if other else ''}"
+        turn = (
+            ""
+            if other is None
+            else (f": turn it round to face {(marker.facing + 180) % 360:g}°, into {other.id!r}")
         )
+        return "facing", (f"marker {marker.id} faces {marker.facing:g}°, into no room{turn}")
     if size is not None:
         ux, uy = unit(wall_direction(fit.wall))
         for side in (-1, 1):

@@ -366,27 +366,27 @@ class PoseFilter:
     def mahalanobis(self, sighting: Observation, marker: Any) -> float:
         """The sighting's squared Mahalanobis distance from what the estimate expects, as
         the gate computes it (3 degrees of freedom with a facing, 2 without)."""
-        sighting = usable(sighting)
-        if not self.placed or sighting is None:
+        seen = usable(sighting)
+        if not self.placed or seen is None:
             return math.inf
         at = marker_pose(marker)
-        if sighting.facing_rad is not None:
-            v, s, _ = self._pose_innovation(sighting, at)
+        if seen.facing_rad is not None:
+            v, s, _ = self._pose_innovation(seen, at)
         else:
-            v, s, _ = self._range_bearing_innovation(sighting, at, self._x)
+            v, s, _ = self._range_bearing_innovation(seen, at, self._x)
         return float(v @ np.linalg.solve(s, v))
 
     def correct(self, sighting: Observation, marker: Any) -> bool:
         """Correct the estimate by one sighting of `marker` (its pose in the map, or a
         floor plan's marker). False, and the filter untouched, when the gate rejects it
         or the filter is not placed yet (see place_from)."""
-        sighting = usable(sighting)
-        if not self.placed or sighting is None:
+        seen = usable(sighting)
+        if not self.placed or seen is None:
             return False
         at = marker_pose(marker)
-        if sighting.facing_rad is not None:
-            return self._correct_pose(sighting, at)
-        return self._correct_range_bearing(sighting, at)
+        if seen.facing_rad is not None:
+            return self._correct_pose(seen, at)
+        return self._correct_range_bearing(seen, at)
 
     def _accept(self, v: np.ndarray, s: np.ndarray) -> bool:
         d2 = float(v @ np.linalg.solve(s, v))
