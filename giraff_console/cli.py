@@ -27,7 +27,7 @@ from giraff_console.camera.processors import (
     Pipeline,
     Undistortion,
 )
-from giraff_console.camera.source import DEFAULT_RESOLUTION, SyntheticCamera, open_camera
+from giraff_console.camera.source import DEFAULT_RESOLUTION, Frame, SyntheticCamera, open_camera
 from giraff_console.clock import Clock, RealClock
 from giraff_console.data_folders import (
     data_folder,
@@ -40,6 +40,7 @@ from giraff_console.link import BoardLink
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
+from giraff_console.patrol_command import add_patrol_parser, run_patrol
 from giraff_console.planning.floorplan import (
     FloorPlan,
     FloorPlanError,
@@ -52,6 +53,7 @@ from giraff_console.planning.landmark_placement import (
     place_markers,
     write_landmarks,
 )
+from giraff_console.planning.landmarks import marker_detector, marker_poses
 from giraff_console.planning.marker_pages import write_pages
 from giraff_console.planning.plan_drawing import draw_plan
 from giraff_console.planning.room_graph import PlanningError, UnknownRoomError
@@ -68,6 +70,7 @@ from giraff_console.recording.session import (
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.last_stop import SIGNALS, LastStop
+from giraff_console.robot.marker_eye import hand_on
 from giraff_console.robot.replay import replay_poses
 from giraff_console.robot.teleop import Teleop
 from giraff_console.send_command import add_send_parser, run_send
@@ -229,8 +232,13 @@ def build_parser() -> argparse.ArgumentParser:
     export = commands.add_parser(
         "export",
         help="export a recorded session to MCAP, for Foxglove",
-        description="Write SESSION's pose, controller transcript and JPEG camera frames "
-        "to OUT as MCAP channels (/pose, /controller, /camera) with JSON schemas.",
+        description="Write SESSION's controller transcript, odometry pose, the pose "
+        "filter's estimate with its covariance (sessions recorded with the filter) and JPEG "
+        "camera frames to OUT as MCAP channels (/controller, /pose, /pose_estimate, /camera) "
+        "with JSON schemas. /pose is the odometry's (frame odom); /pose_estimate is "
+        "giraff.PoseWithCovarianceInFrame (frame map): a foxglove.PoseInFrame with a "
+        "row-major 6x6 covariance over x, y, z, roll, pitch, yaw, in which z, roll and pitch "
+        "are 0. See recordings/README.md.",
     )
     export.add_argument("session", type=Path, metavar="SESSION")
     export.add_argument("out", type=Path, metavar="OUT.mcap")
@@ -317,6 +325,7 @@ def build_parser() -> argparse.ArgumentParser:
     )  # fmt: skip
 
     add_go_parser(commands, EXAMPLE_FLOORPLAN)
+    add_patrol_parser(commands, EXAMPLE_FLOORPLAN)
 
     add_send_parser(commands)
     return parser
@@ -333,7 +342,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """The command `args` names."""
-    if args.command not in (None, "replay", "go"):
+    if args.command not in (None, "replay", "go", "patrol"):
         # Nothing here drives by itself: signals end the command as usual. The program's
         # entry point blocked them for the console's own watcher (launch.py).
         signal.pthread_sigmask(signal.SIG_UNBLOCK, SIGNALS)
@@ -345,13 +354,14 @@ def run(args: argparse.Namespace) -> int:
         return run_export(args)
     if args.command == "plan":
         return run_plan(args)
-    if args.command == "go":
+    if args.command in ("go", "patrol"):
         try:
             settings, port = settings_and_port(args)
         except SettingsError as error:
             print(f"giraff-console: {error}", file=sys.stderr)
             return EXIT_USAGE
-        return run_go(args, settings, port, EXAMPLE_FLOORPLAN)
+        command = run_go if args.command == "go" else run_patrol
+        return command(args, settings, port, EXAMPLE_FLOORPLAN)
     if args.command == "floorplan" and args.floorplan_command == "show":
         return run_floorplan_show(args)
     if args.command == "floorplan" and args.floorplan_command == "import":
@@ -394,7 +404,7 @@ def run_console(args: argparse.Namespace) -> int:
     except (FloorPlanError, OSError) as error:
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_USAGE
-    if args.sim_speed <= 0:
+    if not args.sim_speed > 0:  # NaN too
         print("giraff-console: --sim-speed must be positive", file=sys.stderr)
         return EXIT_USAGE
     if args.firmware is not None and port is not None:
@@ -434,14 +444,16 @@ def run_console(args: argparse.Namespace) -> int:
     if start is not None:
         # The console has no way to find the robot on the plan by itself (§2.3): it
         # starts where the plan says, and so does the simulated robot.
-        control.odometry.reset(start)
+        control.place(start)
     site = None
     if simulator is not None:
         site = SimulatedSite(simulator.board, plan, start, settings.motion.sensing_range)
     camera = camera_feed(
         args.camera, simulator, args.calibration, args.fast_threshold, args.camera_fps,
         site.world if site else None, site.surroundings if site else None, plan.landmarks,
+        clock,
     )  # fmt: skip
+    marker_note = find_the_robot(control, camera, plan)
     setup = RecordingSetup(
         port=port or simulator_url(args.firmware),
         camera={
@@ -483,6 +495,8 @@ def run_console(args: argparse.Namespace) -> int:
         crashed=last_stop.crashed,
     )
     app.notes_at_start.append(plan_note)
+    if marker_note is not None:
+        app.notes_at_start.append(marker_note)
 
     last_stop.install()
     try:
@@ -626,19 +640,21 @@ def camera_feed(
     world: World | None = None,
     surroundings: Surroundings | None = None,
     landmarks: Landmarks | None = None,
+    clock: Clock | None = None,
 ) -> CameraFeed:
     """The camera asked for, else the synthetic one with the simulator (seeing `world`,
-    or a demo world, and `surroundings`), else camera 0; a test pattern when none of
-    them is there (§3.4.1). With `landmarks`, the marker detector is there for the
-    operator to switch on (`o`); nothing consumes its sightings yet, so it does not run
-    by itself and cost the camera its budget."""
+    or a demo world, and `surroundings`, its frames stamped by `clock`, the control
+    loop's), else camera 0; a test pattern when none of them is there (§3.4.1). With
+    `landmarks`, the marker detector runs on every frame, for the localisation (see
+    `find_the_robot`); `o` shows what it finds."""
     synthetic = None
     camera_world = None
     if simulator is not None:
         camera_world = WorldCamera(world or demo_world(), surroundings=surroundings)
         board = simulator.board
         synthetic = SyntheticCamera(
-            lambda width, height: camera_world.render(board.true_pose, width, height)
+            lambda width, height: camera_world.render(board.true_pose, width, height),
+            (clock or RealClock()).now,
         )
     if device is None and synthetic is None:
         device = "0"
@@ -659,15 +675,41 @@ def camera_feed(
         return None
 
     if landmarks is not None:
-        processors.append(MarkerDetector(landmarks.family, landmarks.size, intrinsics))
+        processors.append(marker_detector(landmarks, intrinsics))
     pipeline = Pipeline(processors, undistortion)
     pipeline.toggle("fast")
+    if landmarks is not None:
+        pipeline.require("markers")
     truecolor = os.environ.get("COLORTERM") in ("truecolor", "24bit")
     feed = CameraFeed(
         source, size, pipeline, HalfBlockRenderer(truecolor), lambda picture: None, fps
     )
     feed.note = note
     return feed
+
+
+def find_the_robot(control: ControlLoop, camera: CameraFeed, plan: FloorPlan) -> str | None:
+    """Let the plan's markers, as the camera finds them, correct where the robot is
+    believed to be (robot/localisation.py); a note for the status log when the plan
+    has markers the camera cannot place. Only the live camera's frames count: a
+    recording played back shows where the robot was then, not where it is."""
+    markers = marker_poses(plan)
+    detector = camera.pipeline.processors.get("markers")
+    if not markers or not isinstance(detector, MarkerDetector):
+        return None
+    if detector.intrinsics(*camera.size) is None:
+        # Markers the console cannot place would leave every mission looking for one.
+        return ("markers: the plan has markers, but this camera has no calibration "
+                "(--calibration), so they are outlined but not used to find the robot")  # fmt: skip
+    control.localisation.use_markers(markers)
+    live, hand = camera.source, hand_on(control.localisation)
+
+    def listener(frame: Frame, data: dict[str, object]) -> None:
+        if camera.source is live:
+            hand(frame, data)
+
+    camera.listeners.append(listener)
+    return f"markers: finding the robot by the plan's {len(markers)} markers"
 
 
 def board_connector(port: str | None, settings: Settings, simulator: serial.SerialBase | None):

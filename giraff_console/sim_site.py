@@ -16,13 +16,18 @@ from __future__ import annotations
 
 import math
 
+from giraff_console.camera.source import SyntheticCamera
+from giraff_console.clock import Clock
 from giraff_console.planning.floorplan import FloorPlan
 from giraff_console.planning.grid import OCCUPIED
-from giraff_console.planning.landmarks import aruco_dictionary
+from giraff_console.planning.landmarks import aruco_dictionary, marker_detector
 from giraff_console.planning.route_planner import ROBOT_RADIUS_M, walls_of
 from giraff_console.planning.walls import doorway, wall_segments
+from giraff_console.robot.localisation import Localisation
+from giraff_console.robot.marker_eye import EYE_FPS, EYE_SIZE, MarkerEye
 from giraff_console.robot.odometry import Pose
 from giraff_console.sim.board import GiraffBoard
+from giraff_console.sim.camera import WorldCamera
 from giraff_console.sim.collision import Solids
 from giraff_console.sim.drive import TruePose
 from giraff_console.sim.range_finder import SimRangeFinder
@@ -81,6 +86,29 @@ class SimulatedSite:
     def true_pose(self) -> Pose:
         pose = self.board.true_pose
         return Pose(pose.x, pose.y, pose.heading)
+
+    def camera(self, clock: Clock) -> tuple[SyntheticCamera, WorldCamera]:
+        """The synthetic camera on the robot as it really stands, its frames stamped by
+        `clock` (the control loop's: a frame's time is what moves its markers to the
+        present, robot/localisation.py), and the world camera that draws them."""
+        world_camera = WorldCamera(self.world, surroundings=self.surroundings)
+        board = self.board
+        source = SyntheticCamera(
+            lambda width, height: world_camera.render(board.true_pose, width, height),
+            clock.now,
+        )
+        return source, world_camera
+
+    def eye(self, localisation: Localisation, clock: Clock, *, fps: float = EYE_FPS,
+            size: tuple[int, int] = EYE_SIZE) -> MarkerEye | None:  # fmt: skip
+        """The synthetic camera as the localisation's eye, without a screen; None when
+        the plan has no markers to see."""
+        landmarks = self.plan.landmarks
+        if landmarks is None:
+            return None
+        source, world_camera = self.camera(clock)
+        detector = marker_detector(landmarks, world_camera.intrinsics)
+        return MarkerEye(source, detector, localisation, clock, fps=fps, size=size)
 
     def close_door(self, door_id: str) -> None:
         """Shut a door of the plan in the simulated building (KeyError if none)."""

@@ -5,7 +5,13 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from giraff_console.cli import main
+from giraff_console.headless import built_in_simulator
+
+# A small camera, a few frames a second: enough to find the robot by, and quick.
+SMALL_EYE = ("--eye-size", "400x300", "--eye-fps", "5")
 
 KEYS = {
     "arrived", "room", "why", "pose_estimate", "pose_true", "error_m", "heading_error_deg",
@@ -20,7 +26,8 @@ def go(capsys, *args: str) -> tuple[int, dict | None, str]:
 
 
 def test_go_arrives_and_reports_as_json(capsys):
-    code, report, err = go(capsys, "day-room", "--sim-speed", "inf", "--json")
+    # Dead reckoning: on a perfect simulator, what the drive does by itself.
+    code, report, err = go(capsys, "day-room", "--sim-speed", "inf", "--json", "--no-landmarks")
     assert code == 0
     assert set(report) == KEYS
     assert report["arrived"] and report["room"] == "day-room" and report["why"] == "done"
@@ -31,9 +38,33 @@ def test_go_arrives_and_reports_as_json(capsys):
 
 
 def test_a_faster_clock_changes_nothing_but_the_wall_time(capsys):
-    _, fast, _ = go(capsys, "room-105", "--sim-speed", "inf", "--json")
-    _, slower, _ = go(capsys, "room-105", "--sim-speed", "400", "--json")
+    # The camera's frames too fall at the same virtual times: markers and all.
+    _, fast, _ = go(capsys, "room-105", "--sim-speed", "inf", "--json", *SMALL_EYE)
+    _, slower, _ = go(capsys, "room-105", "--sim-speed", "400", "--json", *SMALL_EYE)
     assert fast == slower
+    assert fast["arrived"] and fast["error_m"] <= 0.03
+
+
+def test_faults_off_keeps_the_imperfect_odometry_but_not_its_stalls_and_estops():
+    board = built_in_simulator(None, 3, faults=False).board
+    quiet = board.config.imperfections
+    assert quiet.stall_rate == quiet.estop_rate == 0
+    assert quiet.move_error_m > 0 and quiet.caster_drift_deg > 0 and quiet.seed == 3
+    assert built_in_simulator(None, 3, faults=True).board.config.imperfections.stall_rate > 0
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (("--sim-start", "attic"), "--sim-start: no room called 'attic'"),
+        (("--eye-size", "big"), "--eye-size wants WxH"),
+        (("--eye-fps", "0"), "--eye-fps must be a positive number"),
+        (("--port", "/dev/null", "--imperfect"), "--imperfect: only with the simulator"),
+    ],
+)
+def test_bad_simulator_options_are_usage_errors(capsys, options, message):
+    code, report, err = go(capsys, "kitchen", *options)
+    assert code == 2 and report is None and message in err
 
 
 def test_an_unknown_room_exits_2_with_the_rooms(capsys):
@@ -44,7 +75,8 @@ def test_an_unknown_room_exits_2_with_the_rooms(capsys):
 
 def test_no_way_to_the_room_exits_1_with_the_reason(capsys):
     # A box in the dock's doorway: the robot sees it, and there is no other way out.
-    code, report, err = go(capsys, "kitchen", "--sim-speed", "inf", "--json", "--block", "2,10.3")
+    code, report, err = go(capsys, "kitchen", "--sim-speed", "inf", "--json", "--block", "2,10.3",
+                           "--no-landmarks")  # fmt: skip
     assert code == 1
     assert not report["arrived"] and "no way" in report["why"]
     assert "Traceback" not in err

@@ -18,7 +18,7 @@ outlined with their ids, but no distance or bearing is claimed.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import cv2
@@ -96,29 +96,23 @@ def refine_corners(grey: np.ndarray, corners: np.ndarray, cells: int) -> np.ndar
     corners where neighbouring lines cross. `cells` is the cells along a side, border
     included (8 for AprilTag 36h11)."""
     corners = corners.astype(np.float64)
-    centre = corners.mean(axis=0)
-    sides = np.linalg.norm(np.roll(corners, -1, axis=0) - corners, axis=1)
+    following = np.roll(corners, -1, axis=0)
+    sides = np.linalg.norm(following - corners, axis=1)
     if sides.min() < 4:
         return None
-    ink = _ink(grey, corners)
-    lines = []
-    for i in range(4):
-        a, b = corners[i], corners[(i + 1) % 4]
-        # Across this side a cell is as wide as the neighbouring sides' cells are long.
-        cell = (sides[i - 1] + sides[(i + 1) % 4]) / 2 / cells
-        line = _side(grey, a, b, centre, cell, ink)
-        if line is None:
-            return None
-        lines.append(line)
-    points = []
-    for i in range(4):
-        (p, d), (q, e) = lines[i - 1], lines[i]
-        system = np.column_stack([d, -e])
-        if abs(np.linalg.det(system)) < 1e-6:
-            return None
-        t = np.linalg.solve(system, q - p)
-        points.append(p + t[0] * d)
-    refined = np.array(points)
+    # Across each side a cell is as wide as the neighbouring sides' cells are long.
+    cell = (np.roll(sides, 1) + np.roll(sides, -1)) / 2 / cells
+    lines = _sides(grey, corners, following, corners.mean(axis=0), cell, _ink(grey, corners))
+    if lines is None:
+        return None
+    # Each corner where the side before it crosses the side after it.
+    p, d = np.roll(lines[0], 1, axis=0), np.roll(lines[1], 1, axis=0)
+    q, e = lines
+    determinant = e[:, 0] * d[:, 1] - d[:, 0] * e[:, 1]
+    if np.abs(determinant).min() < 1e-6:
+        return None
+    gap = q - p
+    refined = p + ((e[:, 0] * gap[:, 1] - gap[:, 0] * e[:, 1]) / determinant)[:, None] * d
     # A corner that moved more than a cell is not the same corner.
     if np.max(np.linalg.norm(refined - corners, axis=1)) > max(2.0, sides.min() / cells):
         return None
@@ -133,65 +127,109 @@ def _ink(grey: np.ndarray, corners: np.ndarray) -> float:
     box = grey[y0:y1, x0:x1]
     mask = np.zeros(box.shape, dtype=np.uint8)
     cv2.fillConvexPoly(mask, np.round(corners - [x0, y0]).astype(np.int32), 1)
-    inside = box[mask.astype(bool)]
-    return float(np.percentile(inside, 2)) if inside.size else 0.0
+    inside = np.sort(box[mask.astype(bool)]).astype(np.float64)
+    if not inside.size:
+        return 0.0
+    # The 2nd percentile as np.percentile has it (between the two nearest, linearly),
+    # without its overhead, which is most of this function's.
+    at = 0.02 * (len(inside) - 1)
+    low = int(at)
+    high = min(low + 1, len(inside) - 1)
+    return float(inside[low] + (inside[high] - inside[low]) * (at - low))
 
 
-def _side(grey, a, b, centre, cell, ink, passes=2):
-    """The line (a point, a unit direction) along which the ink meets the paper between
-    corners a and b: where each profile across it first rises through half-way."""
-    reach = max(1.5, 1.2 * cell)
-    offsets = np.arange(-reach, reach + PROFILE_STEP_PX / 2, PROFILE_STEP_PX)
+def _sides(grey, a, b, centre, cell, ink, passes=2):
+    """The lines (points and unit directions, a row a side) along which the ink meets
+    the paper on the sides from corners a to corners b: where each profile across a
+    side first rises through half-way. None if a side has none.
+
+    The four sides are measured together, each with its own samples, padded to the
+    longest side's and masked: numpy's overhead is paid once a pass, not once a side."""
+    step = PROFILE_STEP_PX
+    reach = np.maximum(1.5, 1.2 * cell)
+    # np.arange(-reach, reach + step / 2, step) for each side, padded to the widest: the
+    # same samples (numpy steps by (start + step) - start, a hair off `step`).
+    start = -reach
+    widths = np.ceil((reach + step / 2 - start) / step).astype(int)
+    across = np.arange(widths.max())
+    offsets = start[:, None] + across * ((start + step) - start)[:, None]
+    within = across < widths[:, None]  # (sides, offsets)
     line = None
     for _ in range(passes):
-        length = float(np.linalg.norm(b - a))
-        along = (b - a) / length
-        outward = np.array([along[1], -along[0]])
-        if outward @ (centre - a) > 0:
-            outward = -outward
-        count = int(np.clip(length / 2, 6, 32))
-        at = np.linspace(*SIDE_SPAN, count) * length
-        points = a + at[:, None, None] * along + offsets[None, :, None] * outward
+        length = np.linalg.norm(b - a, axis=1)
+        along = (b - a) / length[:, None]
+        outward = np.stack([along[:, 1], -along[:, 0]], axis=1)
+        outward[np.einsum("sk,sk->s", outward, centre - a) > 0] *= -1
+        counts = np.minimum(np.maximum(length / 2, 6), 32).astype(int)
+        # np.linspace(*SIDE_SPAN, count) for each side, to the same count.
+        rows = np.arange(counts.max())
+        first, last = SIDE_SPAN
+        at = rows * ((last - first) / (counts - 1))[:, None] + first
+        at[np.arange(len(counts)), counts - 1] = last
+        at *= length[:, None]
+        used = rows < counts[:, None]  # (sides, points)
+        # Where each profile's samples are: (sides, points, offsets), x then y.
+        x, y = (a[:, k, None, None] + at[..., None] * along[:, k, None, None]
+                + offsets[:, None, :] * outward[:, k, None, None] for k in (0, 1))  # fmt: skip
         profiles = cv2.remap(
-            grey, points[..., 0].astype(np.float32), points[..., 1].astype(np.float32),
-            cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE,
-        ).astype(np.float64)  # fmt: skip
+            grey, x.reshape(-1, len(across)).astype(np.float32),
+            y.reshape(-1, len(across)).astype(np.float32), cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_REPLICATE,
+        ).reshape(x.shape).astype(np.float64)  # fmt: skip
         # The paper: the brightest just outside, within the quiet zone.
-        paper = float(np.median(profiles[:, offsets > 0].max(axis=1)))
-        if paper - ink < 30:
+        outside = (within & (offsets > 0))[:, None]
+        brightest = np.where(outside, profiles, -np.inf).max(axis=2)
+        paper = np.array([_median(side[:n]) for side, n in zip(brightest, counts, strict=True)])
+        if (paper - ink < 30).any():
             return None
         level = (ink + paper) / 2
-        above = profiles >= level
-        rising = ~above[:, :-1] & above[:, 1:]  # (points, offsets - 1)
-        edge = []
-        for k in np.flatnonzero(rising.any(axis=1)):
-            # The rise nearest the side as it stands: the ink-to-paper edge itself.
-            j = np.flatnonzero(rising[k])
-            j = j[np.argmin(np.abs(offsets[j]))]
-            low, high = profiles[k, j], profiles[k, j + 1]
-            s = offsets[j] + (level - low) / (high - low) * PROFILE_STEP_PX
-            edge.append(a + at[k] * along + s * outward)
-        if len(edge) < 4:
+        above = profiles >= level[:, None, None]
+        rising = ~above[..., :-1] & above[..., 1:] & within[:, None, 1:] & used[..., None]
+        crossed = rising.any(axis=2)  # (sides, points)
+        if crossed.sum(axis=1).min() < 4:
             return None
-        edge = np.array(edge)
-        line = _fit(edge)
-        distance = np.abs((edge - line[0]) @ np.array([line[1][1], -line[1][0]]))
-        if (distance > OUTLIER_PX).any() and (distance <= OUTLIER_PX).sum() >= 4:
-            line = _fit(edge[distance <= OUTLIER_PX])
-        point, direction = line
-        if direction @ along < 0:
-            direction = -direction
-        a = point + ((a - point) @ direction) * direction
-        b = point + ((b - point) @ direction) * direction
+        # On each profile, the rise nearest the side as it stands: the ink-to-paper edge
+        # itself (the first of two as near).
+        j = np.where(rising, np.abs(offsets[:, None, :-1]), np.inf).argmin(axis=2)
+        low = np.take_along_axis(profiles, j[..., None], axis=2)[..., 0]
+        high = np.take_along_axis(profiles, j[..., None] + 1, axis=2)[..., 0]
+        with np.errstate(divide="ignore", invalid="ignore"):  # profiles that never rise
+            s = (level[:, None] - low) / (high - low) * step
+        s = np.where(crossed, s + np.take_along_axis(offsets, j, axis=1), 0.0)
+        edge = a[:, None] + at[..., None] * along[:, None] + s[..., None] * outward[:, None]
+        point, direction = _fit(edge, crossed)
+        normal = np.stack([direction[:, 1], -direction[:, 0]], axis=1)
+        distance = np.abs(np.einsum("spk,sk->sp", edge - point[:, None], normal))
+        near = crossed & (distance <= OUTLIER_PX)
+        again = (crossed & ~near).any(axis=1) & (near.sum(axis=1) >= 4)
+        if again.any():
+            refit = _fit(edge, near)
+            point[again], direction[again] = refit[0][again], refit[1][again]
+        direction[np.einsum("sk,sk->s", direction, along) < 0] *= -1
+        a = point + np.einsum("sk,sk->s", a - point, direction)[:, None] * direction
+        b = point + np.einsum("sk,sk->s", b - point, direction)[:, None] * direction
         line = (point, direction)
     return line
 
 
-def _fit(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The straight line nearest `points` (total least squares): a point and a direction."""
-    middle = points.mean(axis=0)
-    _, _, axes = np.linalg.svd(points - middle)
-    return middle, axes[0]
+def _fit(points: np.ndarray, taken: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For each row of `points`, the straight line nearest those `taken` (total least
+    squares): a point and a unit direction, a row each.
+
+    The direction is the principal axis of the points' scatter, in closed form for two
+    dimensions (what an SVD gives)."""
+    points = np.where(taken[..., None], points, 0.0)
+    middle = points.sum(axis=1) / taken.sum(axis=1)[:, None]
+    x, y = np.moveaxis(np.where(taken[..., None], points - middle[:, None], 0.0), 2, 0)
+    angle = 0.5 * np.arctan2(2 * (x * y).sum(axis=1), (x * x - y * y).sum(axis=1))
+    return middle, np.stack([np.cos(angle), np.sin(angle)], axis=1)
+
+
+def _median(values: np.ndarray) -> float:
+    """np.median's result for a few values, without its overhead."""
+    ordered = np.sort(values)
+    n = len(ordered)
+    return float((ordered[(n - 1) // 2] + ordered[n // 2]) / 2)
 
 
 def detector_parameters() -> cv2.aruco.DetectorParameters:
@@ -215,7 +253,15 @@ class MarkerDetector:
 
     `intrinsics(width, height)` gives the camera's intrinsics at a frame's size, or None
     when they are not known. The sightings of each frame are in the data under
-    "markers"; the ids under "marker_ids"."""
+    "markers"; the ids under "marker_ids".
+
+    `ids`, when given (the floor plan's markers), are the only ones looked for: others of
+    the family are not reported. OpenCV 5 decodes a candidate square by comparing its
+    cells with every marker the detector knows, all 587 of AprilTag 36h11 otherwise, and
+    a building's posters and tiles make a dozen candidates a frame: with the example
+    care home's 172 the decoding costs a third as much (docs/performance.md, issue 14).
+    AprilTag 36h11's markers differ in at least 11 of their 36 bits, so leaving the others
+    out lets no misread one pass for a plan's: the error correction is the family's."""
 
     name = "markers"
 
@@ -225,6 +271,7 @@ class MarkerDetector:
         size: float,
         intrinsics: Callable[[int, int], CameraIntrinsics | None] | None = None,
         mount: CameraMount | None = None,
+        ids: Iterable[int] | None = None,
     ) -> None:
         if not (size > 0 and math.isfinite(size)):
             raise ValueError("the markers' size must be positive")
@@ -233,8 +280,20 @@ class MarkerDetector:
         self.intrinsics = intrinsics or (lambda width, height: None)
         self.mount = mount or CameraMount()
         dictionary = aruco_dictionary(family)
-        self.detector = cv2.aruco.ArucoDetector(dictionary, detector_parameters())
         self.cells = int(dictionary.markerSize) + 2
+        # The id of each of the detector's markers, by its index there.
+        self.ids = np.arange(len(dictionary.bytesList))
+        if ids is not None:
+            wanted = np.array(sorted(set(ids)), dtype=int)
+            if len(wanted) and (wanted[0] < 0 or wanted[-1] >= len(self.ids)):
+                raise ValueError(f"{family} has markers 0 to {len(self.ids) - 1} only")
+            self.ids = wanted
+            if len(wanted):  # none wanted: `detect` finds none without looking
+                dictionary = cv2.aruco.Dictionary(
+                    dictionary.bytesList[wanted], dictionary.markerSize,
+                    dictionary.maxCorrectionBits,
+                )  # fmt: skip
+        self.detector = cv2.aruco.ArucoDetector(dictionary, detector_parameters())
         half = size / 2
         # The order IPPE_SQUARE wants, which is also the order the detector gives.
         self.square = np.array(
@@ -254,16 +313,19 @@ class MarkerDetector:
 
     def detect(self, grey: np.ndarray, frame_time: float = math.nan) -> list[MarkerSighting]:
         """The markers in a grey frame, each with its pose from the robot if it can."""
-        corners, ids, _ = self.detector.detectMarkers(grey)
-        if ids is None:
+        if not len(self.ids):
+            return []
+        corners, found_ids, _ = self.detector.detectMarkers(grey)
+        if found_ids is None:
             return []
         intrinsics = self.intrinsics(grey.shape[1], grey.shape[0])
         sightings = []
-        for found, marker_id in zip(corners, ids.ravel(), strict=True):
+        for found, index in zip(corners, found_ids.ravel(), strict=True):
             points = found.reshape(4, 2).astype(np.float64)
             refined = refine_corners(grey, points, self.cells)
             points = refined if refined is not None else points
-            sightings.append(self._sighting(int(marker_id), points, intrinsics, frame_time))
+            marker_id = int(self.ids[index])
+            sightings.append(self._sighting(marker_id, points, intrinsics, frame_time))
         return sightings
 
     def _sighting(

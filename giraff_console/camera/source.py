@@ -103,7 +103,10 @@ class SyntheticCamera:
         return self._size
 
     def read(self) -> Frame | None:
-        return Frame(self.render(*self._size), self.clock())
+        # Stamped when the view is taken, not once it is drawn: on the simulator's
+        # faster clock the drawing's milliseconds would be seconds of driving.
+        captured_at = self.clock()
+        return Frame(self.render(*self._size), captured_at)
 
     def close(self) -> None:
         pass

@@ -32,6 +32,7 @@ from giraff_console.planning.room_graph import PlanningError
 from giraff_console.planning.route_planner import Arrival
 from giraff_console.protocol.codec import Command
 from giraff_console.robot.battery import Battery
+from giraff_console.robot.localisation import Estimate
 from giraff_console.robot.mission import Mission
 from giraff_console.robot.odometry import Pose
 
@@ -73,27 +74,36 @@ class GoToPose(PathMission):
                  pose: Callable[[], Pose], *, tick: float, limits: MotionLimits | None = None,
                  turn_limits: TurnLimits | None = None, sense: Sense | None = None,
                  notify: Callable[[str], None] = lambda text: None,
-                 patience: Patience | None = None) -> None:  # fmt: skip
+                 patience: Patience | None = None,
+                 estimate: Callable[[], Estimate] | None = None) -> None:  # fmt: skip
         self.goal = goal
         self.arrival = arrival
         self.name = f"go {goal}"
         self.retry = f"go {goal}" if goal == DOCK else "patrol resume"
-        here = pose()
-        off = math.degrees(abs(math.remainder(here.heading - arrival.heading, math.tau)))
-        self._there_already = (
-            math.dist((here.x, here.y), arrival.point) <= ON_DOCK_M and off <= ON_DOCK_DEG
-        )
+        self._there_already = self._there(pose())
         super().__init__(navigator, pose, tick=tick, limits=limits, turn_limits=turn_limits,
-                         sense=sense, notify=notify, patience=patience)  # fmt: skip
+                         sense=sense, notify=notify, patience=patience,
+                         estimate=estimate)  # fmt: skip
         if self._there_already:
             self.time_optimal = 0.0
 
+    def _arrived_already(self, pose: Pose) -> bool:
+        return self._there(pose)
+
+    def _there(self, here: Pose) -> bool:
+        arrival = self.arrival
+        off = math.degrees(abs(math.remainder(here.heading - arrival.heading, math.tau)))
+        return math.dist((here.x, here.y), arrival.point) <= ON_DOCK_M and off <= ON_DOCK_DEG
+
     def step(self, now: float, state: MotorState | None) -> list[Command]:
         if self._there_already:
-            # Out and back in again would only turn the robot round twice on the spot.
             self._there_already = False
-            self._started = self._ended = now
-            return []
+            estimate = self._estimate() if self._estimate is not None else None
+            # A robot not found yet is on its dock only by assumption: it looks first.
+            if estimate is None or not estimate.lost:
+                # Out and back in again would only turn the robot round twice on the spot.
+                self._started = self._ended = now
+                return []
         return super().step(now, state)
 
     def _course(self, pose: Pose) -> Course:
@@ -115,12 +125,15 @@ class GoToPose(PathMission):
 def go_mission(navigator: Navigator, room: str, pose: Callable[[], Pose], *, tick: float,
                limits: MotionLimits | None = None, sense: Sense | None = None,
                notify: Callable[[str], None] = lambda text: None,
-               patience: Patience | None = None) -> GoTo | GoToPose:  # fmt: skip
+               patience: Patience | None = None,
+               estimate: Callable[[], Estimate] | None = None) -> GoTo | GoToPose:  # fmt: skip
     """What `go ROOM` drives, for every front end: to a room of the plan, or, for
-    `dock`, onto the dock square on. PlanningError if there is no way."""
+    `dock`, onto the dock square on. PlanningError if there is no way. With `estimate`
+    the mission minds how well the robot knows where it is (path_mission.py)."""
     if room == DOCK:
         return GoToPose(navigator, DOCK, dock_arrival(navigator), pose, tick=tick,
-                        limits=limits, sense=sense, notify=notify, patience=patience)  # fmt: skip
+                        limits=limits, sense=sense, notify=notify, patience=patience,
+                        estimate=estimate)  # fmt: skip
     return GoTo(
         navigator,
         room,
@@ -130,6 +143,7 @@ def go_mission(navigator: Navigator, room: str, pose: Callable[[], Pose], *, tic
         sense=sense,
         notify=notify,
         patience=patience,
+        estimate=estimate,
     )
 
 

@@ -22,6 +22,7 @@ from giraff_console.missions.route import Route
 from giraff_console.motion.shaping import TurnLimits
 from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.planning.room_graph import PlanningError
+from giraff_console.robot.localisation import Estimate
 from giraff_console.robot.odometry import Pose
 
 # The robot must stand this close to where the route starts (else: go there first).
@@ -45,6 +46,7 @@ class FollowRoute(PathMission):
         sense: Sense | None = None,
         notify: Callable[[str], None] = lambda text: None,
         patience: Patience | None = None,
+        estimate: Callable[[], Estimate] | None = None,
     ) -> None:
         if not route.path:
             raise PlanningError(f"route {route.name} has no path to follow (taught before "
@@ -56,7 +58,8 @@ class FollowRoute(PathMission):
         self._goal_heading = route.path[-1].heading
         self._passed = 0  # path points behind the robot
         super().__init__(navigator, pose, tick=tick, limits=limits, turn_limits=turn_limits,
-                         sense=sense, notify=notify, patience=patience)  # fmt: skip
+                         sense=sense, notify=notify, patience=patience,
+                         estimate=estimate)  # fmt: skip
 
     def _course(self, pose: Pose) -> Course:
         here = (pose.x, pose.y)

@@ -20,6 +20,7 @@ from giraff_console.motion.path import wrap
 from giraff_console.motion.shaping import TurnLimits
 from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.planning.room_graph import PlanningError
+from giraff_console.robot.localisation import Estimate
 from giraff_console.robot.odometry import Pose
 
 
@@ -85,12 +86,14 @@ class GoTo(PathMission):
         sense: Sense | None = None,
         notify: Callable[[str], None] = lambda text: None,
         patience: Patience | None = None,
+        estimate: Callable[[], Estimate] | None = None,
     ) -> None:
         self.room = room
         self.name = f"go {room}"
         self.retry = f"go {room}"
         super().__init__(navigator, pose, tick=tick, limits=limits, turn_limits=turn_limits,
-                         sense=sense, notify=notify, patience=patience)  # fmt: skip
+                         sense=sense, notify=notify, patience=patience,
+                         estimate=estimate)  # fmt: skip
 
     def _course(self, pose: Pose) -> Course:
         assert self.navigator is not None

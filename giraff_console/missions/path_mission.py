@@ -16,6 +16,14 @@ the way that no new plan gets round) ends the mission with the reason and what t
 ESTOP, a lost link and the operator's keys end it in the control loop. The control loop
 stops the robot when a mission ends with a problem.
 
+With an `estimate` from a plan with markers (issue 14), the mission also minds how well
+the robot knows where it is, by the bounds of certainty.py. Never found by a marker since
+the start, it looks for one before it sets off (localising.py); unsure, it drives slower;
+lost, it comes to a stop, looks, and plans again from where the marker says it is; and
+it arrives only once the estimate is known well enough and at the goal, looking and
+coming in again if need be. Its turns on the spot are steered as steady_turn.py says.
+Without markers it drives by the odometry as it always has.
+
 What `progress` shows is the plan under way: while the robot stops to plan again it
 says so rather than showing the few centimetres of braking left, and when the robot
 gets no nearer it says for how long rather than an ETA.
@@ -32,16 +40,34 @@ from typing import Protocol
 import numpy as np
 
 from giraff_console.link.motor_state import MotorState
+from giraff_console.missions.certainty import (
+    ARRIVAL_TRIES,
+    REAPPROACH_M,
+    SLOW_FRACTION,
+    confirmed,
+    how_lost,
+    lost,
+    lost_again,
+    moved,
+    settling,
+    slow_stretches,
+    sure,
+)
+from giraff_console.missions.localising import Look, Outcome
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.progress_watch import Patience, ProgressWatch
+from giraff_console.missions.steady_turn import SteadyTurn
 from giraff_console.motion.executor import Executor, Trace
-from giraff_console.motion.path import Drive
-from giraff_console.motion.shaping import TurnLimits, shape
+from giraff_console.motion.path import Drive, Rotation, Section, wrap
+from giraff_console.motion.shaping import ALIGNED_RAD, TurnLimits, shape
 from giraff_console.motion.speed_profile import MotionLimits, SlowZone
+from giraff_console.planning.landmarks import marker_poses
 from giraff_console.planning.legs import Leg
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.planning.route_planner import PlannedPath
+from giraff_console.planning.walls import wall_segments
 from giraff_console.protocol.codec import Command
+from giraff_console.robot.localisation import Estimate
 from giraff_console.robot.odometry import Pose
 
 Point = tuple[float, float]
@@ -107,9 +133,13 @@ class PathMission:
         sense: Sense | None = None,
         notify: Callable[[str], None] = lambda text: None,
         patience: Patience | None = None,
+        estimate: Callable[[], Estimate] | None = None,
     ) -> None:
         """`notify` gets a line for the operator when the mission changes its plan;
-        `patience` says how long it may go without getting nearer before it gives up."""
+        `patience` says how long it may go without getting nearer before it gives up.
+        `estimate`, called on the control loop's thread when the mission is stepped,
+        says how well `pose` is known (see the module docstring); without it, or
+        while the plan has no markers, the mission steers by `pose` alone."""
         self.navigator = navigator
         self.notify = notify
         self.limits = limits or MotionLimits()
@@ -129,6 +159,25 @@ class PathMission:
         self._traces: list[Trace] = []
         self._leg: Leg | None = None
         self._leg_index = -1
+        self._estimate = estimate
+        self._markers = marker_poses(navigator.plan) if navigator is not None else {}
+        self._look: Look | None = None
+        self._look_next = False  # look once stopped, rather than plan again at once
+        self._set_off = False  # the robot has been commanded to move
+        # With markers to find the robot by, plans are slowed where it will be unsure:
+        # from their start when made unsure, and after turns on the spot (`turned`: it
+        # has just turned before the plan starts).
+        self._minding = False
+        self._unsure_start = False
+        self._turned = False
+        self._arrival_tries = 0
+        # Arriving, the estimate is taken as it is: a look found no better, or the plan
+        # under way is the turn to the goal's heading after one.
+        self._as_known = False
+        self._steady_turn = SteadyTurn()
+        self._look_kind = "lost"
+        self._goal: tuple[Point, float | None] = ((0.0, 0.0), None)
+        # Planned from where the robot is assumed to be: a first look may move it.
         self.executor = self._plan(pose())
         self.time_optimal = self.executor.time_optimal
         self._progress_watch = ProgressWatch(patience or Patience(), 0.0, self.executor.remaining())
@@ -136,6 +185,10 @@ class PathMission:
     def _course(self, pose: Pose) -> Course:
         """The way to go from `pose`; PlanningError if there is none."""
         raise NotImplementedError
+
+    def _arrived_already(self, pose: Pose) -> bool:
+        """Whether a robot at `pose`, found there by a first look, need not move at all."""
+        return False
 
     # -- the Mission protocol -----------------------------------------------------------
 
@@ -149,6 +202,21 @@ class PathMission:
         pose = self._pose()
         if self._sense is not None:
             self._watch(now, pose)
+        estimate = self._estimate() if self._estimate is not None else None
+        if estimate is not None and not estimate.landmarks:
+            estimate = None  # no markers to find the robot by: the odometry is all there is
+        if (estimate is not None) != self._minding:
+            self._minding = estimate is not None
+            if estimate is not None and not self._set_off and not self._restart:
+                # The plan made before the mission knew: slowed where it will be unsure.
+                self._unsure_start = estimate.unsure
+                self.executor = self._executor_for(self._sections)
+                self.time_optimal = self.executor.time_optimal
+        if self._look is not None:
+            if estimate is not None:
+                return self._step_look(now, state, estimate, pose)
+            self._drop_look()  # the markers were taken away: plan again, by the odometry
+            self._restart, self._restart_why = True, "no markers any more"
         closed = self.navigator.state.closed if self.navigator is not None else frozenset()
         if closed != self._closed:
             self._closed = closed
@@ -158,6 +226,8 @@ class PathMission:
                             "closed on the route; stopping to go round")  # fmt: skip
                 self.executor.brake(now)
                 self._restart, self._restart_why = True, "a door closed on the route"
+        if estimate is not None:
+            self._mind(now, estimate)
         watch = self._progress_watch
         if watch.stuck(now):
             self.problem = self._stuck(pose, f"stuck for {watch.still_for(now):.0f} s near {{}}")
@@ -165,26 +235,32 @@ class PathMission:
         if self._restart and self.executor.finished:
             if state.moving:
                 return []
+            if self._look_next and estimate is not None:
+                self._look_next = False
+                if watch.out_of_looks():
+                    self.problem = lost_again(pose, watch.looks, self.retry)
+                    return []
+                self._look = self._make_look(estimate, None, "lost")
+                return self._step_look(now, state, estimate, pose)
+            self._look_next = False
             if watch.out_of_replans():
                 self.problem = self._stuck(pose, f"stuck near {{}} after {watch.replans} new "
                                                  "ways in a row that got no nearer")  # fmt: skip
                 return []
-            self._traces.append(self.executor.trace)
-            try:
-                self.executor = self._plan(pose)
-            except PlanningError as error:
-                self.problem = str(error)
+            first = not self._set_off
+            if not self._replan(pose, estimate):
                 return []
-            self._restart = False
-            self.replans += 1
-            watch.replanned(self.executor.remaining())
-            through = f" through {', '.join(self._doors)}" if self._doors else ""
-            self.notify(f"{self.name}: new way, {self.executor.remaining():.1f} m{through}")
-        commands = self.executor.step(now, state, pose)
+            if not first:
+                watch.replanned(self.executor.remaining())
+        steer = pose
+        if estimate is not None:
+            steer = self._steady_turn.pose(self.executor, pose, estimate.odometry)
+        commands = self.executor.step(now, state, steer)
+        self._set_off = self._set_off or bool(commands)
         if self.executor.problem is not None:
             self.problem = self.executor.problem
         elif self.executor.finished and not self._restart:
-            self._ended = now
+            self._arrive(now, estimate, pose)
         elif not self._restart:
             # While braking for a new plan, what is left of the old one is not progress.
             watch.driven(now, self.executor.remaining())
@@ -200,6 +276,7 @@ class PathMission:
     def resume(self, now: float) -> None:
         if self._paused:
             self._paused = False
+            self._drop_look()  # a look, if it still must, starts again from the stop
             self.executor.abandon()
             self._restart, self._restart_why = True, "resuming"
             self._progress_watch.restart(now)
@@ -232,6 +309,8 @@ class PathMission:
         """The room, a bar, the distance left and the time left, for the main view."""
         if self.finished:
             return f"{self.name}: arrived"
+        if self._look is not None:
+            return f"{self.name} {self._bar(self._total)} {self._look.progress}, no ETA"
         if self._restart:
             # The plan being given up says nothing true of the way left: the braking
             # metres of the old one would read as nearly there.
@@ -266,6 +345,143 @@ class PathMission:
             trace.gear_jumps += each.gear_jumps
         return trace
 
+    # -- knowing where it is (issue 14) --------------------------------------------------
+
+    def _mind(self, now: float, estimate: Estimate) -> None:
+        """Lost: come to a stop to look for a marker. Moved by a marker before setting
+        off: plan again from there."""
+        if estimate.lost and not settling(estimate):
+            if not self._look_next:
+                self._look_next = True
+                stopping = "stopping" if self._set_off else "before setting off"
+                self.notify(f"{self.name}: {how_lost(estimate)}; {stopping} to look for a "
+                            "marker")  # fmt: skip
+                self.executor.brake(now)
+                self._restart, self._restart_why = True, "looking for a marker"
+        elif not self._set_off and not self._restart and moved(self._planned_from, estimate.pose):
+            # The first marker seen puts the robot where it says: the plan starts
+            # somewhere else.
+            self.executor.brake(now)
+            self._restart, self._restart_why = True, "a marker moved the pose"
+
+    def _replan(self, pose: Pose, estimate: Estimate | None, turned: bool = False) -> bool:
+        """Plan again from `pose`, its start slowly while `estimate` is unsure, and after
+        a turn on the spot (`turned`: a look) while the casters settle; False, with the
+        problem set, if there is no way. Before the robot has moved (a first look moved
+        the pose it assumed) this is the mission's first plan, not a new way: its
+        progress is watched from here."""
+        first = not self._set_off
+        self._traces.append(self.executor.trace)
+        if first:
+            self._restart = False  # the way from where the robot is is no way round
+        self._unsure_start = estimate is not None and estimate.unsure
+        self._turned = turned
+        try:
+            self.executor = self._plan(pose)
+        except PlanningError as error:
+            self.problem = str(error)
+            return False
+        self._restart = False
+        if first:
+            self.time_optimal = self.executor.time_optimal
+            self._progress_watch = ProgressWatch(self._progress_watch.patience, self._now,
+                                                 self.executor.remaining())  # fmt: skip
+            return True
+        self.replans += 1
+        through = f" through {', '.join(self._doors)}" if self._doors else ""
+        self.notify(f"{self.name}: new way, {self.executor.remaining():.1f} m{through}")
+        return True
+
+    def _make_look(self, estimate: Estimate, prefer: float | None, kind: str) -> Look:
+        """A look for a marker: `kind` "lost" until the estimate is back under the slow
+        bound, "arrival" until it is within the arrival bounds."""
+        navigator = self.navigator
+        walls = wall_segments(navigator.plan, navigator.state.closed) if navigator else []
+        if kind == "arrival":
+            why = f"arrived, known to ±{estimate.sigma_m:.2f} m: looking for a marker"
+            enough = confirmed
+        else:
+            why = f"{how_lost(estimate)}: looking for a marker"
+            enough = sure
+        self._look_kind = kind
+        return Look(estimate, self._markers, walls, limits=self.limits, tick=self.tick,
+                    enough=enough, prefer=prefer, why=why)  # fmt: skip
+
+    def _step_look(self, now: float, state: MotorState, estimate: Estimate,
+                   pose: Pose) -> list[Command]:  # fmt: skip
+        look = self._look
+        assert look is not None
+        commands = look.step(now, state, estimate)
+        if look.problem is not None:
+            self.problem = look.problem
+            return []
+        if not look.finished:
+            return commands
+        self._drop_look()
+        if look.outcome is Outcome.NOT_FOUND and estimate.lost:
+            self.problem = lost(estimate, self.retry)
+            return []
+        if self._look_kind == "arrival":
+            if look.outcome is Outcome.NOT_FOUND:
+                self.notify(f"{self.name}: no marker in sight to confirm the arrival "
+                            f"(±{estimate.sigma_m:.2f} m)")  # fmt: skip
+            self._as_known = look.outcome is not Outcome.FOUND  # no use looking again
+            self._arrive(now, estimate, pose)
+            return commands
+        seen = ", ".join(str(i) for i in estimate.seen) or "a marker"
+        self.notify(f"{self.name}: found by {seen}, ±{estimate.sigma_m:.2f} m; carrying on")
+        first = not self._set_off
+        if first and self._arrived_already(pose):
+            self._started = self._ended = now
+            return commands
+        self._restart = True
+        if self._replan(pose, estimate, turned=True):
+            # Before setting off too: a robot that keeps finding markers too far to be sure
+            # by must not turn on the spot for ever.
+            self._progress_watch.looked(now - (look.started_at or now), self.executor.remaining())
+        return commands
+
+    def _arrive(self, now: float, estimate: Estimate | None, pose: Pose) -> None:
+        """The plan is driven. With markers the robot has arrived once the estimate is
+        within the arrival bounds (else it looks for a marker) and at the goal (else it
+        comes in again, or turns to the goal's heading); after ARRIVAL_TRIES of those it
+        settles for what it has, and says so."""
+        goal, heading = self._goal
+        off = math.dist((pose.x, pose.y), goal)
+        turned = heading is not None and abs(wrap(heading - pose.heading)) > ALIGNED_RAD
+        # The turn to the goal's heading after a look adds only the wheels' error over
+        # that turn, which looking again, turning away and back, would not take out.
+        known = estimate is None or self._as_known or confirmed(estimate)
+        if estimate is None or (known and off <= REAPPROACH_M and not turned):
+            self._ended = now
+            return
+        if self._arrival_tries >= ARRIVAL_TRIES:
+            self.notify(f"{self.name}: arrived as near as it could, {off:.2f} m off by the "
+                        f"estimate, known to ±{estimate.sigma_m:.2f} m")  # fmt: skip
+            self._ended = now
+            return
+        self._arrival_tries += 1
+        self._as_known = False
+        # The look or the new approach is not the way getting no nearer.
+        self._progress_watch.restart(now)
+        if not known:
+            self._look = self._make_look(estimate, heading, "arrival")
+        elif off > REAPPROACH_M:
+            self.notify(f"{self.name}: {off:.2f} m off the goal by the markers; coming in again")
+            self._restart, self._restart_why = True, "coming in again"
+            self._replan(pose, estimate, turned=True)
+        else:
+            assert heading is not None
+            self._traces.append(self.executor.trace)
+            turn = Rotation(pose, wrap(heading - pose.heading))
+            self.executor = Executor([turn], self.limits, self.tick)
+            self._as_known = True
+
+    def _drop_look(self) -> None:
+        if self._look is not None:
+            self._traces.extend(self._look.traces)
+            self._look = None
+
     # -- inside -------------------------------------------------------------------------
 
     def _stuck(self, pose: Pose, how: str) -> str:
@@ -288,15 +504,31 @@ class PathMission:
                          legs.clear if legs is not None else None, self.turn_limits,
                          course.doorways)  # fmt: skip
         self.planned = course.planned
+        self._planned_from = pose
+        self._goal = (course.points[-1], course.goal_heading)
         self._doors = course.doors
         self._closed = self.navigator.state.closed if self.navigator is not None else frozenset()
         self._leg, self._leg_index = None, -1
         plan = self.navigator.plan if self.navigator is not None else None
         doors = [door.at for door in plan.doors if door.id in course.doors] if plan else []
-        speed = self.limits.door_speed
-        executor = Executor(
-            sections, self.limits, self.tick, lambda drive: _door_zones(drive, doors, speed)
-        )
+        self._sections, self._door_points = sections, doors
+        return self._executor_for(sections)
+
+    def _executor_for(self, sections: Sequence[Section]) -> Executor:
+        """The executor of a plan's `sections`: slowly through its doorways, and, minding
+        the estimate, where the robot will be unsure of where it is (certainty.py)."""
+        limits, doors = self.limits, self._door_points
+        slow = slow_stretches(sections, self._unsure_start, self._turned) if self._minding else {}
+        cap = limits.v_max * SLOW_FRACTION
+
+        def zones(drive: Drive) -> list[SlowZone]:
+            found = _door_zones(drive, doors, limits.door_speed)
+            stretch = min(slow.get(id(drive), 0.0), drive.length)
+            if stretch > 0:
+                found.append(SlowZone(0.0, stretch, cap))
+            return found
+
+        executor = Executor(sections, limits, self.tick, zones)
         self._total = executor.remaining()
         return executor
 

@@ -15,6 +15,9 @@ from dataclasses import dataclass
 # Less than this nearer to the goal is not progress: the odometry's jitter, a turn on
 # the spot's last degrees, a creep against a box.
 PROGRESS_M = 0.2
+# Looks for a marker in a row without progress (missions/localising.py): a way along
+# which the robot keeps losing itself as soon as it has looked needs the operator.
+MAX_LOOKS = 3
 
 
 @dataclass(frozen=True)
@@ -40,19 +43,32 @@ class ProgressWatch:
     def __init__(self, patience: Patience, now: float, left: float) -> None:
         self.patience = patience
         self.replans = 0  # replans since the last progress
+        self.looks = 0  # looks for a marker since the last progress
         self._best = left
         self._since = now
 
     def driven(self, now: float, left: float) -> None:
         """The plan under way has `left` metres to go at `now`."""
         if left <= self._best - PROGRESS_M:
-            self._best, self._since, self.replans = left, now, 0
+            self._best, self._since, self.replans, self.looks = left, now, 0, 0
 
     def replanned(self, left: float) -> None:
         """A new plan of `left` metres: a longer way round is not a step back, but it is
         a replan without progress until the robot gets PROGRESS_M along it."""
         self._best = left
         self.replans += 1
+
+    def looked(self, seconds: float, left: float) -> None:
+        """A look for a marker took `seconds`, and the new plan from where it put the
+        robot is `left` metres: the time spent looking is not time stuck, and the way
+        measured from a corrected pose is no step back, but a look without progress."""
+        self._since += seconds
+        self._best = left
+        self.looks += 1
+
+    def out_of_looks(self) -> bool:
+        """Another look would be one too many without progress."""
+        return self.looks >= MAX_LOOKS
 
     def restart(self, now: float) -> None:
         """The operator held the mission (pause): what came before does not count."""

@@ -116,7 +116,7 @@ class RouteBook:
             self.report(f"not teaching: {error}")
             return False
         session = self._record(owner=self._teaching)
-        self.teacher = RouteTeacher(name, self.control.clock.now(), self.control.odometry.pose,
+        self.teacher = RouteTeacher(name, self.control.clock.now(), self.control.pose,
                                     settings, str(session) if session else None)  # fmt: skip
         self.control.observers.append(self.teacher.observe_exchange)
         # A playback now would feed recorded commands to the route being taught.
@@ -129,7 +129,7 @@ class RouteBook:
             self.report("not teaching: `teach NAME` first")
             return
         try:
-            mark = self.teacher.mark(place, self.control.clock.now(), self.control.odometry.pose)
+            mark = self.teacher.mark(place, self.control.clock.now(), self.control.pose)
         except RouteError as error:
             self.report(f"refused: {error}")
             return
@@ -144,7 +144,7 @@ class RouteBook:
         self.control.observers.remove(teacher.observe_exchange)
         self.sessions.busy = None
         self._stop_recording(owner=self._teaching)
-        route = teacher.finish(self.control.clock.now(), self.control.odometry.pose)
+        route = teacher.finish(self.control.clock.now(), self.control.pose)
         try:
             path = save_route(route, self.directory)
         except (OSError, RouteError) as error:
@@ -198,24 +198,27 @@ class RouteBook:
 
     def _follow_mission(self, route: Route) -> FollowRoute:
         control = self.control
-        return FollowRoute(route, self.navigator, lambda: control.odometry.pose,
+        return FollowRoute(route, self.navigator, lambda: control.pose,
                            tick=control.period, limits=self.limits, sense=self.sense,
-                           notify=self.report, patience=self.patience)  # fmt: skip
+                           notify=self.report, patience=self.patience,
+                           estimate=control.estimate)  # fmt: skip
 
     def _go_mission(self, room: str) -> Mission:
         """To a room of the plan, or (`dock`) onto the dock; PlanningError if no way."""
         assert self.navigator is not None
         control = self.control
-        return go_mission(self.navigator, room, lambda: control.odometry.pose,
+        return go_mission(self.navigator, room, lambda: control.pose,
                           tick=control.period, limits=self.limits, sense=self.sense,
-                          notify=self.report, patience=self.patience)  # fmt: skip
+                          notify=self.report, patience=self.patience,
+                          estimate=control.estimate)  # fmt: skip
 
     def _arrive(self, goal: str, arrival: Arrival) -> GoToPose:
         assert self.navigator is not None
         control = self.control
-        return GoToPose(self.navigator, goal, arrival, lambda: control.odometry.pose,
+        return GoToPose(self.navigator, goal, arrival, lambda: control.pose,
                         tick=control.period, limits=self.limits, sense=self.sense,
-                        notify=self.report, patience=self.patience)  # fmt: skip
+                        notify=self.report, patience=self.patience,
+                        estimate=control.estimate)  # fmt: skip
 
     def _recharge(self) -> Recharge | None:
         """What a patrol needs to charge on the way; None without a floor plan with a
@@ -252,7 +255,7 @@ class RouteBook:
             control = self.control
             run = PatrolRun(patrol, routes, self._stop_reached if patrol.snapshots else _ignore,
                             go=go, follow=self._follow_mission, recharge=self._recharge(),
-                            pose=lambda: control.odometry.pose, notify=self.report)  # fmt: skip
+                            pose=lambda: control.pose, notify=self.report)  # fmt: skip
         except PatrolError as error:
             self.report(str(error))
             return False

@@ -1,9 +1,11 @@
 """Recording sessions and playing them back, for the console and the command line alike.
 
-Recording taps the control loop's exchanges and the camera's frames (§3.2.1.1, §3.4.1);
-each frame is stored with the odometry sample nearest to it (§3.3.1). Playback hands
-the control loop a recorded log instead of the board, and the camera feed the recorded
-video, both following the same playback position.
+Recording taps the control loop's exchanges and the camera's frames (§3.2.1.1, §3.4.1),
+and the pose filter's estimate after each tick (issue 14). Each frame is stored with the
+pose nearest to it in time (§3.3.1): the estimate's, which is what the console steered
+by and showed; the odometry's own is in the estimates beside it. Playback hands the
+control loop a recorded log and its estimates instead of the board, and the camera feed
+the recorded video, all following the same playback position.
 """
 
 from __future__ import annotations
@@ -11,13 +13,15 @@ from __future__ import annotations
 import contextlib
 import math
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from giraff_console.camera.association import SampleHistory
 from giraff_console.camera.feed import CameraFeed
 from giraff_console.camera.source import CameraSource, Frame
-from giraff_console.recording.playback import Playback, frame_times, open_log
+from giraff_console.recording.control_log import LogProblem
+from giraff_console.recording.estimates import ESTIMATES
+from giraff_console.recording.playback import Playback, frame_times, open_estimates, open_log
 from giraff_console.recording.recorded_video import RecordedVideo, session_video
 from giraff_console.recording.session import (
     CONTROL_LOG,
@@ -28,7 +32,7 @@ from giraff_console.recording.session import (
     read_meta,
 )
 from giraff_console.robot.control_loop import ControlLoop
-from giraff_console.robot.replay import session_start
+from giraff_console.robot.replay import recorded_estimate, session_start
 from giraff_console.robot.telemetry import Telemetry
 
 # Problems with a log are listed up to this many; the rest are counted.
@@ -172,18 +176,18 @@ class Sessions:
             path, log = open_log(session)
             times = frame_times(session, log)
             meta = read_meta(session) if session.is_dir() else {}
+            estimates = open_estimates(session)
         except SessionError as error:
             self.report(f"not playing: {error}")
             return None
-        for problem in log.problems[:SHOWN_PROBLEMS]:
-            self.report(f"{path}: {problem}")
-        if len(log.problems) > SHOWN_PROBLEMS:
-            self.report(f"{path}: {len(log.problems) - SHOWN_PROBLEMS} more lines skipped")
+        self._report_problems(path, log.problems)
+        self._report_problems(session / ESTIMATES, estimates.problems)
         if not log.entries:
             self.report(f"not playing: {path} has no playable lines")
             return None
         clock = self.control.clock
-        playback = Playback(session.name, log, clock.now(), start=SessionStart.from_meta(meta))
+        playback = Playback(session.name, log, clock.now(), start=SessionStart.from_meta(meta),
+                            estimates=estimates.entries)  # fmt: skip
         video = session_video(session)
         self._playing = playback
         if self.camera is not None and video is not None:
@@ -197,14 +201,26 @@ class Sessions:
         self.control.play(playback, lambda: self._ended(playback))
         return playback
 
+    def _report_problems(self, path: Path, problems: Sequence[LogProblem]) -> None:
+        for problem in problems[:SHOWN_PROBLEMS]:
+            self.report(f"{path}: {problem}")
+        if len(problems) > SHOWN_PROBLEMS:
+            self.report(f"{path}: {len(problems) - SHOWN_PROBLEMS} more lines skipped")
+
     def stop_playback(self) -> None:
         """Back to live; the camera follows when the loop has let go of the playback."""
         self.control.stop_playback()
 
     def _telemetry(self, telemetry: Telemetry) -> None:
-        if self.recorder is not None:
+        recorder = self.recorder
+        if recorder is not None:
+            now = self.control.clock.now()
+            # The pose the console steers by and shows: the filter's estimate.
             pose = telemetry.pose
-            self._history.add(self.control.clock.now(), (pose.x, pose.y, pose.heading))
+            self._history.add(now, (pose.x, pose.y, pose.heading))
+            if telemetry.estimate is not None:
+                origin = recorder.started_at
+                recorder.estimate(recorded_estimate(telemetry.estimate, now - origin, origin))
 
     def _ended(self, playback: Playback) -> None:
         """A playback is over; unless another has taken its place, the camera is live."""

@@ -347,8 +347,11 @@ class Executor:
         settled = abs(remaining) <= DONE_M / 4 or (
             t >= profile.duration and abs(remaining) <= SETTLE_TURN_M
         )
-        if settled and not state.moving:
-            return None
+        if settled:
+            # Within the tolerance: the board finishes the move it has. Renewed now, every
+            # set p would miss by its few millimetres again (§5.5) and the turn would hunt
+            # round its end, for tens of seconds on the imperfect simulator.
+            return None if not state.moving else []
         done = profile.length - remaining
         _, v_cmd, _ = profile.at(self._advance_plan(profile, done, now) + self.tick)
         if t >= profile.duration:

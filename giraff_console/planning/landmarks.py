@@ -16,15 +16,17 @@ marker has.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
+from giraff_console.camera.markers import CameraIntrinsics, MarkerDetector
 from giraff_console.planning.floorplan import (
     DOOR_TOLERANCE_M,
     FloorPlan,
+    Landmarks,
     Marker,
     Point,
     Room,
@@ -32,6 +34,7 @@ from giraff_console.planning.floorplan import (
     shown,
 )
 from giraff_console.planning.walls import WallSegment, wall_segments
+from giraff_console.robot.odometry import Pose
 
 # OpenCV's predefined dictionaries by the names a floor plan uses: DICT_APRILTAG_36h11
 # is `apriltag_36h11`. OpenCV spells some twice (36h11 and 36H11): one name each here.
@@ -375,3 +378,23 @@ def _to_segment(p: Point, a: Point, b: Point) -> float:
     span = dx * dx + dy * dy
     t = 0.0 if span == 0 else max(0.0, min(1.0, ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / span))
     return math.hypot(p[0] - a[0] - t * dx, p[1] - a[1] - t * dy)
+
+
+def marker_poses(plan: FloorPlan) -> dict[int, Pose]:
+    """Each of the plan's markers as the pose filter takes it: its centre on the wall,
+    and the way its face looks in radians (robot/localisation.py); none without
+    landmarks."""
+    if plan.landmarks is None:
+        return {}
+    return {marker.id: Pose(marker.at[0], marker.at[1], math.radians(marker.facing))
+            for marker in plan.landmarks.markers}  # fmt: skip
+
+
+def marker_detector(
+    landmarks: Landmarks, intrinsics: Callable[[int, int], CameraIntrinsics | None]
+) -> MarkerDetector:
+    """The detector for a plan's markers: its family and size, looking for its ids only
+    (a plan with none yet: every id of the family), which saves decoding every other
+    marker of the family in each square-looking thing in the frame."""
+    ids = [marker.id for marker in landmarks.markers]
+    return MarkerDetector(landmarks.family, landmarks.size, intrinsics, ids=ids or None)

@@ -9,6 +9,17 @@ caller, who runs the robot's odometry over the log: robot/ is above this layer.
 Messages are JSON with a JSON schema: Foxglove's own schemas for the pose and the
 camera, and `giraff.ControllerLine` for the log lines. A session without a video has no
 `/camera` channel at all, rather than an empty one.
+
+`/pose` is the odometry's, as it always was, in the `odom` frame. A session recorded
+with the pose filter (issue 14) also has `/pose_estimate`, the filter's estimate in the
+`map` frame, at every recorded estimate (recording/estimates.py), with its covariance.
+Foxglove has no JSON schema for a pose with a covariance, so `giraff.PoseWithCovarianceInFrame`
+is `foxglove.PoseInFrame` with ROS's `PoseWithCovariance` covariance added: 36 numbers,
+row-major, over (x, y, z, rotation about x, about y, about z). The filter estimates x, y
+and the heading (the rotation about z); z, roll and pitch are not estimated, since the
+robot stands on the floor, and their rows and columns are 0, as ROS's planar localisers
+(amcl) leave them. The standard deviations the console shows, whether a marker has
+found the robot and the markers seen and rejected go along.
 """
 
 from __future__ import annotations
@@ -29,7 +40,8 @@ from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import Writer
 
 from giraff_console.recording.control_log import LogRead
-from giraff_console.recording.playback import frame_times, open_log
+from giraff_console.recording.estimates import ESTIMATES, RecordedEstimate
+from giraff_console.recording.playback import frame_times, open_estimates, open_log
 from giraff_console.recording.recorded_video import session_video, video_frames
 from giraff_console.recording.session import PoseSample, SessionError, read_meta
 
@@ -56,6 +68,14 @@ def _numbers(title: str, *names: str) -> dict[str, Any]:
 _STRING = {"type": "string"}
 _TIME = _object("time", sec={"type": "integer", "minimum": 0},
                 nsec={"type": "integer", "minimum": 0, "maximum": 999_999_999})  # fmt: skip
+_POSE = _object(
+    "foxglove.Pose",
+    position=_numbers("foxglove.Vector3", "x", "y", "z"),
+    orientation=_numbers("foxglove.Quaternion", "x", "y", "z", "w"),
+)
+_IDS = {"type": "array", "items": {"type": "integer"}}
+# The filter's (x, y, heading) in ROS's (x, y, z, roll, pitch, yaw) order.
+_AXES = (0, 1, 5)
 SCHEMAS = {
     "/controller": _object(
         "giraff.ControllerLine",
@@ -66,15 +86,25 @@ SCHEMAS = {
         reply=_STRING,
         automatic={"type": "boolean"},
     ),
-    "/pose": _object(
-        "foxglove.PoseInFrame",
+    "/pose": _object("foxglove.PoseInFrame", timestamp=_TIME, frame_id=_STRING, pose=_POSE),
+    "/pose_estimate": _object(
+        "giraff.PoseWithCovarianceInFrame",
         timestamp=_TIME,
         frame_id=_STRING,
-        pose=_object(
-            "foxglove.Pose",
-            position=_numbers("foxglove.Vector3", "x", "y", "z"),
-            orientation=_numbers("foxglove.Quaternion", "x", "y", "z", "w"),
-        ),
+        pose=_POSE,
+        covariance={
+            "type": "array",
+            "items": {"type": "number"},
+            "minItems": 36,
+            "maxItems": 36,
+            "description": "row-major 6x6 over x, y, z, rotation about x, y, z (ROS's "
+            "PoseWithCovariance); z, roll and pitch are not estimated and are 0",
+        },
+        sigma_m={"type": "number", "description": "position std dev, worst direction, m"},
+        sigma_heading={"type": "number", "description": "heading std dev, radians"},
+        found={"type": "boolean", "description": "a marker has placed or confirmed the pose"},
+        seen={**_IDS, "description": "markers used in the last 5 s"},
+        rejected={**_IDS, "description": "markers the gate rejected in the last 5 s"},
     ),
     # Foxglove's JSON encoding carries bytes as base64 text.
     "/camera": _object(
@@ -100,6 +130,10 @@ def export_session(session: Path, out: Path, poses: Iterable[PoseSample], *,
         raise SessionError(f"nothing to export: {log_path} has no log lines")
     problems = [f"control.log {problem}" for problem in log.problems]
     streams = {"/controller": _controller(log), "/pose": _poses(poses)}
+    estimates = open_estimates(session)
+    problems += [f"{ESTIMATES} {problem}" for problem in estimates.problems]
+    if estimates.entries:
+        streams["/pose_estimate"] = _estimates(estimates.entries)
     video = session_video(session)
     if video is not None:
         times = frame_times(session, log)
@@ -156,12 +190,40 @@ def _controller(log: LogRead) -> Iterator[Message]:
 
 def _poses(poses: Iterable[PoseSample]) -> Iterator[Message]:
     for pose in sorted(poses, key=lambda pose: pose.offset):
-        # A turn of `heading` about +z, as a unit quaternion.
-        half = pose.heading / 2
-        turn = {"x": 0.0, "y": 0.0, "z": math.sin(half), "w": math.cos(half)}
-        position = {"x": pose.x, "y": pose.y, "z": 0.0}
-        body = {"frame_id": "odom", "pose": {"position": position, "orientation": turn}}
+        body = {"frame_id": "odom", "pose": _pose(pose.x, pose.y, pose.heading)}
         yield pose.offset, "/pose", body
+
+
+def _estimates(estimates: Iterable[RecordedEstimate]) -> Iterator[Message]:
+    for estimate in estimates:
+        body = {
+            "frame_id": "map",
+            "pose": _pose(*estimate.pose),
+            "covariance": covariance_6x6(estimate.covariance),
+            "sigma_m": estimate.sigma_m,
+            "sigma_heading": estimate.sigma_heading,
+            "found": estimate.found,
+            "seen": list(estimate.seen),
+            "rejected": list(estimate.rejected),
+        }
+        yield estimate.offset, "/pose_estimate", body
+
+
+def covariance_6x6(covariance: tuple[tuple[float, float, float], ...]) -> list[float]:
+    """(x, y, heading)'s 3x3 covariance as ROS's row-major 6x6 over (x, y, z, roll, pitch,
+    yaw); z, roll and pitch are not estimated: 0."""
+    full = [0.0] * 36
+    for row, axis in enumerate(_AXES):
+        for column, other in enumerate(_AXES):
+            full[axis * 6 + other] = covariance[row][column]
+    return full
+
+
+def _pose(x: float, y: float, heading: float) -> dict[str, Any]:
+    # A turn of `heading` about +z, as a unit quaternion.
+    half = heading / 2
+    turn = {"x": 0.0, "y": 0.0, "z": math.sin(half), "w": math.cos(half)}
+    return {"position": {"x": x, "y": y, "z": 0.0}, "orientation": turn}
 
 
 def _frames(path: Path, times: list[float], quality: int, problems: list[str]) -> Iterator[Message]:

@@ -9,6 +9,10 @@ The original stopped its playback loop at every automatic `bulk_data` line, sinc
 poll followed each camera frame (§3.2.1.1). Frames recorded here carry their own times
 (camera.frames.csv), which `frame_times` reads; for a log of the original's, the n-th
 automatic poll is the n-th frame.
+
+The pose filter's estimates (estimate.jsonl, recording/estimates.py) go along with the
+playback, for the replayer to hand out at their times; a session recorded before the
+filter has none.
 """
 
 from __future__ import annotations
@@ -17,12 +21,19 @@ import bisect
 import csv
 import math
 import threading
+from collections.abc import Sequence
 from pathlib import Path
 
 from giraff_console.link.exchange import Exchange, ExchangeKind
 from giraff_console.protocol.errors import GiraffError
 from giraff_console.protocol.replies import parse_reply
 from giraff_console.recording.control_log import LogEntry, LogRead, read_log
+from giraff_console.recording.estimates import (
+    ESTIMATES,
+    EstimatesRead,
+    RecordedEstimate,
+    parse_estimates,
+)
 from giraff_console.recording.session import (
     CONTROL_LOG,
     FRAMES,
@@ -58,6 +69,20 @@ def open_log(session: Path) -> tuple[Path, LogRead]:
         raise SessionError(f"cannot read {session}: {error.strerror or error}") from None
 
 
+def open_estimates(session: Path) -> EstimatesRead:
+    """The estimates recorded with `session`: none for a session recorded before the
+    pose filter, or for an original console's log file."""
+    path = session / ESTIMATES
+    try:
+        if not session.is_dir() or not path.is_file():
+            return EstimatesRead([], [])
+        with path.open("rb") as file:
+            data = file.read()
+    except OSError as error:
+        raise SessionError(f"cannot read {path}: {error.strerror or error}") from None
+    return parse_estimates(data.decode("utf-8", "replace").split("\n"))
+
+
 def frame_times(session: Path, log: LogRead) -> list[float]:
     """Each video frame's time into the session, in frame order."""
     meta = read_meta(session) if session.is_dir() else {}
@@ -85,15 +110,17 @@ class Playback:
 
     The control loop takes the due entries; the camera asks for the position to pick
     the frame. Times are the console's monotonic clock; positions are seconds into the
-    session.
+    session. `estimates` are the pose filter's, in time order, if the session has them.
     """
 
     def __init__(self, name: str, log: LogRead, now: float, speed: float = 1.0,
-                 start: SessionStart | None = None) -> None:  # fmt: skip
+                 start: SessionStart | None = None,
+                 estimates: Sequence[RecordedEstimate] = ()) -> None:  # fmt: skip
         self.name = name
         self.start = start or SessionStart()
         self.log = log
         self.entries = log.entries
+        self.estimates = tuple(estimates)
         self._offsets = [entry.offset for entry in self.entries]
         self._lock = threading.Lock()
         self._next = 0

@@ -1,8 +1,11 @@
 """A recorded session on disk: `recordings/<YYYYmmdd_HHMMSS>/` (§3.2.1.1, §3.8).
 
 - `control.log`: every exchange with the board, in the original's format (control_log).
+- `estimate.jsonl`: the pose filter's estimate with its covariance, and the odometry's
+  pose beside it (estimates). Sessions recorded before the filter have none.
 - `camera/` and `camera.frames.csv`: the video, as one-second MP4 segments that a
-  crash cannot spoil, and each frame's capture time and nearest odometry sample
+  crash cannot spoil, and each frame's capture time and the pose nearest to it, which
+  is the filter's estimate (the odometry's in sessions recorded before the filter)
   (camera.recorder). Sessions recorded before the segments have one `camera.mp4`.
 - `meta.json`: versions, port, floor plan, camera settings, and when it started, on the
   wall clock and on the monotonic clock the log and frame times are taken from.
@@ -29,6 +32,13 @@ from giraff_console.camera.source import Frame
 from giraff_console.link.exchange import Exchange
 from giraff_console.protocol.kinematics import WHEEL_BASE_M, WHEEL_BASE_RANGE_M
 from giraff_console.recording.control_log import entry_for, format_entry
+from giraff_console.recording.estimates import (
+    ESTIMATE_INTERVAL_S,
+    ESTIMATES,
+    RecordedEstimate,
+    follows,
+    format_estimate,
+)
 from giraff_console.recording.log_writer import LogWriter
 
 CONTROL_LOG = "control.log"
@@ -175,10 +185,12 @@ class RecordingSetup:
 
 
 class SessionRecorder:
-    """Records one session: the control log at once, the video from the first frame.
+    """Records one session: the control log and the estimates at once, the video from the
+    first frame.
 
-    `exchange` is a link observer and `frame` a camera tap; both are called from other
-    threads and return at once. A log that cannot be written stops the recording and
+    `exchange` is a link observer, `estimate` is given the filter's estimate after each
+    tick and `frame` is a camera tap; all are called from other threads and return at
+    once. A log that cannot be written stops the recording and
     calls `on_error`; video and snapshots that cannot be written call `warn`, and the
     log goes on. Whatever drives the robot goes on undisturbed either way.
     """
@@ -194,6 +206,7 @@ class SessionRecorder:
         self.started_at = clock()
         self._video: VideoRecorder | None = None
         self._video_failed = False
+        self._last_estimate: RecordedEstimate | None = None
         self.meta: dict[str, Any] = {
             "format": 1,
             "giraff_console": __version__,
@@ -209,6 +222,13 @@ class SessionRecorder:
             self._write_meta()
             self.log = LogWriter(self.path / CONTROL_LOG, self._failed)
         except OSError as error:
+            raise SessionError(f"cannot record in {self.path}: {error.strerror}") from None
+        try:
+            # Without the estimates the session still plays, as one recorded before the
+            # filter does: a failure to write them later is only a warning.
+            self.estimates = LogWriter(self.path / ESTIMATES, self.warn)
+        except OSError as error:
+            self.log.close()
             raise SessionError(f"cannot record in {self.path}: {error.strerror}") from None
         self.stopped = False
 
@@ -238,6 +258,20 @@ class SessionRecorder:
         entry = entry_for(exchange, self.started_at)
         if entry is not None and not self.stopped:
             self.log.write(format_entry(entry))
+
+    def estimate(self, estimate: RecordedEstimate) -> None:
+        """The filter's estimate after a tick: written when playback could not carry the
+        last one written along by the odometry, or that one is ESTIMATE_INTERVAL_S old
+        (see recording/estimates.py)."""
+        last = self._last_estimate
+        if self.stopped or not estimate.finite():
+            return
+        # A microsecond's grace, so that ticks that are 0.2 s apart on paper are.
+        if (last is not None and estimate.offset - last.offset < ESTIMATE_INTERVAL_S - 1e-6
+                and follows(last, estimate)):  # fmt: skip
+            return
+        self._last_estimate = estimate
+        self.estimates.write(format_estimate(estimate))
 
     def frame(self, frame: Frame, sample: Sample | None = None) -> None:
         """A camera tap: the frame goes to the video, with its odometry sample."""
@@ -274,7 +308,8 @@ class SessionRecorder:
         """Stop recording and say what was kept."""
         self.stopped = True
         self.log.close()
-        summary = f"{self.log.written} log lines"
+        self.estimates.close()
+        summary = f"{self.log.written} log lines, {self.estimates.written} estimates"
         if self._video is not None:
             self._video.close()
             summary += f", {self._video.written} video frames"

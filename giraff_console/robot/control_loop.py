@@ -55,8 +55,9 @@ from giraff_console.robot.battery import Battery
 from giraff_console.robot.board_gauges import BoardGauges
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.deadman import Deadman, Intent
+from giraff_console.robot.localisation import Estimate, Localisation
 from giraff_console.robot.mission import Mission
-from giraff_console.robot.odometry import Odometry
+from giraff_console.robot.odometry import Odometry, Pose
 from giraff_console.robot.odometry_feed import OdometryFeed
 from giraff_console.robot.replay import Replayer
 from giraff_console.robot.safety import rotation_wheel_speed, stop_robot
@@ -99,6 +100,10 @@ class ControlLoop:
         # `report` may be replaced after construction: they look it up when they speak.
         self.feed = OdometryFeed(self.odometry, odometers, lambda text: self.report(text), twm)
         self.gauges = BoardGauges(lambda text: self.report(text))
+        # Where the robot is: the odometry, corrected by the markers the camera sees
+        # once the plan's markers are given to it (localisation.use_markers).
+        self.localisation = Localisation(self.odometry, now=clock.now,
+                                         report=lambda text: self.report(text))  # fmt: skip
         self.autopoll = True
         # Every exchange on whatever link is open, and every recorded one played back:
         # the transcript, a recording, a route being taught. Safe to change at any time.
@@ -262,6 +267,20 @@ class ControlLoop:
         return self._mission
 
     @property
+    def pose(self) -> Pose:
+        """Where the robot is believed to be: what missions, teaching and the screen
+        go by (the loop's thread moves it on; a read from elsewhere is a snapshot)."""
+        return self.localisation.pose
+
+    def estimate(self) -> Estimate:
+        """The pose with how well it is known (the loop's thread; see `pose`)."""
+        return self.localisation.estimate()
+
+    def place(self, pose: Pose) -> None:
+        """The robot stands at `pose`: before the loop starts, or from its thread."""
+        self.localisation.place(pose)
+
+    @property
     def board(self) -> BoardFeatures | None:
         """What the probe found on the board connected; None while there is none."""
         return self.feed.features
@@ -373,6 +392,10 @@ class ControlLoop:
                 why = self.feed.mission_stop()
                 if why is not None:
                     self._end_mission(why)
+            # The wheels' travel since the last tick, then the markers seen meanwhile,
+            # before anything steers by the pose.
+            self.localisation.follow()
+            self.localisation.correct()
             if driving and state is not None:
                 if state.estop:
                     self.deadman.release()
@@ -698,7 +721,7 @@ class ControlLoop:
         telemetry = Telemetry(
             link=LinkState.CONNECTED if self.link else LinkState.LOST,
             state=replayer.state if replayer else self._state,
-            pose=replayer.pose if replayer else self.odometry.pose,
+            pose=replayer.pose if replayer else self.localisation.pose,
             intent=self.deadman.held(),
             speed=self.teleop.speed,
             board_r=self.teleop.board_r,
@@ -710,6 +733,7 @@ class ControlLoop:
             battery=self.gauges.battery,
             stalk=self.gauges.stalk,
             board=self.feed.features,
+            estimate=replayer.estimate if replayer else self.localisation.estimate(),
         )
         for observer in list(self.telemetry_observers):
             try:

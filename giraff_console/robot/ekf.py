@@ -196,7 +196,8 @@ class PoseFilter:
     @property
     def pose(self) -> Pose:
         """The estimate; the origin facing +x while not placed."""
-        return Pose(float(self._x[0]), float(self._x[1]), float(self._x[2]))
+        x = self._x  # one read: every step replaces the array, never writes into it
+        return Pose(float(x[0]), float(x[1]), float(x[2]))
 
     @property
     def covariance(self) -> np.ndarray:

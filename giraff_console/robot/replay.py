@@ -7,10 +7,18 @@ and carries on when playback ends. The recorded reads are taken as the live cons
 took them (`RecordedReads`): with the wheel reading and the wheel base the session
 started with, every read of bulk_data for a board whose reads reset imdl/imdr, and the
 encoders' counts that followed the poll when they were the reading.
+
+A session recorded with the pose filter (issue 14) also has its estimates, written a
+few times a second (recording/estimates.py). Between two, the live filter only carried
+its pose along by what the wheels did; playback does the same with the odometry it
+integrates again, so that the pose shown moves at every poll and sits, at each recorded
+estimate, exactly where that one says. Its covariance is the latest recorded. The pose
+shown during such a playback is the estimate's, as it was live.
 """
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
@@ -19,8 +27,10 @@ from giraff_console.link.exchange import Exchange
 from giraff_console.link.motor_state import MotorState
 from giraff_console.protocol.errors import ProtocolError
 from giraff_console.recording.control_log import LogEntry, LogRead
+from giraff_console.recording.estimates import RecordedEstimate
 from giraff_console.recording.playback import Playback, as_exchange
 from giraff_console.recording.session import PoseSample, SessionStart
+from giraff_console.robot.localisation import Estimate
 from giraff_console.robot.odometry import Odometry, Pose
 from giraff_console.robot.wheel_odometers import Reading
 
@@ -40,7 +50,7 @@ class PlaybackStatus:
 
 
 class Replayer:
-    """A playback and the pose and motor state it implies.
+    """A playback and the pose, motor state and estimate it implies.
 
     The pose after a seek is integrated again from the nearest point already passed, not
     from the start, so that seeking in an hour-long session stays quick: a checkpoint of
@@ -53,8 +63,15 @@ class Replayer:
         self.reads = RecordedReads(self.odometry.reading)
         self.state: MotorState | None = None
         self._done = 0  # entries interpreted so far
+        # Recorded estimates taken in so far, and where the odometry stood when the last
+        # of them was taken in: what it has done since carries that estimate along.
+        self._estimates = 0
+        self._anchor: Pose | None = None
+        # The console's clock minus the playback position, as of the last advance or
+        # seek: to put a recorded correction's time on the console's clock.
+        self._clock_offset = 0.0
         # Entries interpreted -> (pose, odometry reference, state, a poll waiting for its
-        # encoders) at that point.
+        # encoders, estimates taken in, anchor) at that point.
         self._checkpoints: dict[int, _Checkpoint] = {0: self._checkpoint()}
 
     def advance(self, now: float, notify: Callable[[Exchange], None]) -> None:
@@ -63,16 +80,21 @@ class Replayer:
             exchange = as_exchange(entry, now)
             notify(exchange)
             self._interpret(entry)
+        # The same grace as Playback.due's: what is handed out and what is taken in agree.
+        self._take_estimates(self._position(now) + 1e-6)
 
     def seek(self, now: float, offset: float) -> None:
-        """Move to `offset`, the pose with it."""
+        """Move to `offset`, the pose and the estimate with it."""
         target = self.playback.seek(now, offset)
         start = max(index for index in self._checkpoints if index <= target)
-        pose, reference, self.state, self.reads.pending = self._checkpoints[start]
+        checkpoint = self._checkpoints[start]
+        pose, reference, self.state, self.reads.pending = checkpoint[:4]
+        self._estimates, self._anchor = checkpoint[4:]
         self.odometry.reset(pose, reference)
         self._done = start
         for entry in self.playback.entries[start:target]:
             self._interpret(entry)
+        self._take_estimates(self._position(now))
 
     def status(self, now: float) -> PlaybackStatus:
         playback = self.playback
@@ -81,12 +103,56 @@ class Replayer:
 
     @property
     def pose(self) -> Pose:
-        return self.odometry.pose
+        """The recorded estimate's pose if the session has one by now, as the console
+        showed it live; else the odometry's."""
+        estimate = self.estimate
+        return self.odometry.pose if estimate is None else estimate.pose
+
+    @property
+    def estimate(self) -> Estimate | None:
+        """The pose filter's estimate at the playback position, as recorded and carried
+        along by the odometry since (see the module docstring); None for a session
+        recorded without, or before its first estimate."""
+        if self._estimates == 0 or self._anchor is None:
+            return None
+        recorded = self.playback.estimates[self._estimates - 1]
+        now = self.odometry.pose
+        corrected = recorded.corrected_at
+        return Estimate(
+            pose=carried(Pose(*recorded.pose), self._anchor, now),
+            odometry=carried(Pose(*recorded.odometry), self._anchor, now),
+            covariance=recorded.covariance,
+            sigma_m=recorded.sigma_m,
+            sigma_heading=recorded.sigma_heading,
+            ellipse=recorded.ellipse,
+            landmarks=recorded.landmarks,
+            found=recorded.found,
+            seen=recorded.seen,
+            rejected=recorded.rejected,
+            corrected_at=None if corrected is None else corrected + self._clock_offset,
+        )
+
+    def _position(self, now: float) -> float:
+        position = self.playback.position(now)
+        self._clock_offset = now - position
+        return position
+
+    def _take_estimates(self, until: float) -> None:
+        """Take in the recorded estimates up to `until` seconds into the session."""
+        estimates = self.playback.estimates
+        taken = bisect.bisect_right(estimates, until, lo=self._estimates,
+                                    key=lambda estimate: estimate.offset)  # fmt: skip
+        if taken > self._estimates:
+            self._estimates, self._anchor = taken, self.odometry.pose
 
     def _checkpoint(self) -> _Checkpoint:
-        return self.odometry.pose, self.odometry.reference, self.state, self.reads.pending
+        odometry = self.odometry
+        return (odometry.pose, odometry.reference, self.state, self.reads.pending,
+                self._estimates, self._anchor)  # fmt: skip
 
     def _interpret(self, entry: LogEntry) -> None:
+        # An estimate was published after the polls up to its time, before later ones.
+        self._take_estimates(math.nextafter(entry.offset, -math.inf))
         self._done += 1
         state = self.reads.take(entry)
         if state is not None:
@@ -99,7 +165,42 @@ class Replayer:
             self._checkpoints[self._done] = self._checkpoint()
 
 
-_Checkpoint = tuple[Pose, MotorState | None, MotorState | None, MotorState | None]
+_Checkpoint = tuple[Pose, MotorState | None, MotorState | None, MotorState | None, int, Pose | None]
+
+
+def carried(pose: Pose, since: Pose, now: Pose) -> Pose:
+    """`pose` moved as the odometry moved from `since` to `now`: the same step, taken in
+    the robot's own frame, which is how the filter predicts between corrections."""
+    dx, dy = now.x - since.x, now.y - since.y
+    cos_s, sin_s = math.cos(since.heading), math.sin(since.heading)
+    ahead, left = cos_s * dx + sin_s * dy, -sin_s * dx + cos_s * dy
+    cos_p, sin_p = math.cos(pose.heading), math.sin(pose.heading)
+    return Pose(pose.x + cos_p * ahead - sin_p * left, pose.y + sin_p * ahead + cos_p * left,
+                pose.heading + (now.heading - since.heading))  # fmt: skip
+
+
+def recorded_estimate(estimate: Estimate, offset: float, origin: float) -> RecordedEstimate:
+    """`estimate`, published `offset` seconds into a session whose clock starts at
+    `origin`, as estimate.jsonl keeps it."""
+    corrected = estimate.corrected_at
+    return RecordedEstimate(
+        offset=offset,
+        pose=_triple(estimate.pose),
+        odometry=_triple(estimate.odometry),
+        covariance=estimate.covariance,  # type: ignore[arg-type]
+        sigma_m=estimate.sigma_m,
+        sigma_heading=estimate.sigma_heading,
+        ellipse=estimate.ellipse,
+        landmarks=estimate.landmarks,
+        found=estimate.found,
+        seen=estimate.seen,
+        rejected=estimate.rejected,
+        corrected_at=None if corrected is None else corrected - origin,
+    )
+
+
+def _triple(pose: Pose) -> tuple[float, float, float]:
+    return pose.x, pose.y, pose.heading
 
 
 class RecordedReads:

@@ -9,6 +9,7 @@ from giraff_console.link.board_probe import BoardFeatures
 from giraff_console.link.motor_state import MotorState
 from giraff_console.robot.battery import Battery
 from giraff_console.robot.deadman import Intent
+from giraff_console.robot.localisation import Estimate
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.replay import PlaybackStatus
 
@@ -25,6 +26,9 @@ class Telemetry:
     `board` is what the probe found on the board connected (None while the link is
     lost); `battery` and `stalk` (the height setting `h`, 0..1000) are the latest
     readings of a later board, None until read or on a board without them.
+    `pose` is where the robot is believed to be, `estimate.pose` (the pose filter's,
+    robot/localisation.py); `estimate` says how well that is known and keeps the
+    odometry's own pose beside it. During a playback both are the recording's.
     """
 
     link: LinkState
@@ -41,3 +45,4 @@ class Telemetry:
     battery: Battery | None = None
     stalk: int | None = None
     board: BoardFeatures | None = None
+    estimate: Estimate | None = None

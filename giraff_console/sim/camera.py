@@ -1,9 +1,13 @@
 """What a camera on the simulated robot sees: a ray caster over the world's walls.
 
 One ray per image column finds the nearest wall; the wall, the tiled floor and the
-ceiling are then shaded per pixel with procedural textures: panel seams and a skirting
-board on the walls, dark door frames, chequered posters and floor tiles. All of it is
-vectorised with numpy, and a given pose always gives the same image.
+ceiling are then textured as a renderer does: panel seams and a skirting board on the
+walls, dark door frames, chequered posters and floor tiles. The floor is a plane, so its
+picture is a homography of its tiles; a wall seen by one column is a strip of heights,
+the same for every column of its kind. Both are looked up with OpenCV's warps in the
+textures of sim/camera_textures.py rather than worked out per pixel (issue 14 asks for
+10 fps with markers beside other work, and a localisation benchmark of a hundred
+thousand frames), and a given pose always gives the same image.
 
 Given `Surroundings`, the camera also shows the boxes and closed doors that the range
 finder senses, painted over the walls where they stand in front: the operator must see
@@ -25,6 +29,26 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from giraff_console.sim.camera_textures import (
+    BOX,
+    BOX_LID,
+    BOX_SIDE,
+    CEILING,
+    COLOURS,
+    DOOR_LEAF,
+    FLOOR_TEXEL_M,
+    FLOOR_TEXTURE,
+    FRAME_STRIP,
+    MARKER_PAGE,
+    PAINT_STRIP,
+    PANEL_M,
+    POSTER_CELL_WIDTH,
+    SEAM_M,
+    SEAM_STRIP,
+    WALL_HEIGHT_M,
+    WALL_STRIP_STEP_M,
+    WALL_STRIPS,
+)
 from giraff_console.sim.drive import TruePose
 from giraff_console.sim.surroundings import (
     BLOCK,
@@ -33,14 +57,7 @@ from giraff_console.sim.surroundings import (
     Surroundings,
     cast_rays,
 )
-from giraff_console.sim.world import (
-    DOOR_FRAME,
-    POSTER_BOTTOM,
-    POSTER_HEIGHT,
-    POSTER_WIDTH,
-    QUIET_ZONE_CELLS,
-    World,
-)
+from giraff_console.sim.world import DOOR_FRAME, POSTER_WIDTH, QUIET_ZONE_CELLS, World
 
 # The Giraff's camera is a wide-angle one in its head (§4.4).
 FIELD_OF_VIEW_DEG = 90.0
@@ -48,30 +65,11 @@ FIELD_OF_VIEW_DEG = 90.0
 # level along the robot's heading (the head's tilt is not simulated).
 CAMERA_HEIGHT_M = 1.3
 CAMERA_FORWARD_M = 0.0
-WALL_HEIGHT_M = 2.5
-FLOOR_TILE_M = 0.5
-PANEL_M = 1.2
 MAX_RANGE_M = 50.0
 # A chair or a trolley: lower than the camera, so that its lid shows.
 BLOCK_HEIGHT_M = 0.8
 
-# Materials, and their colours in BGR as OpenCV keeps them.
-CEILING, WALL_PAINT, SEAM, SKIRTING, FRAME, POSTER_DARK, POSTER_LIGHT, TILE_A, TILE_B, GROUT = (
-    range(10)
-)
-# Obstacles: an orange box, its faces shaded by which way they face, and a door leaf a
-# shade lighter than its frame so the frame still shows around it.
-BOX, BOX_SIDE, BOX_LID, DOOR_LEAF = range(10, 14)
-# A marker's printed page: shaded per pixel between ink and paper after the palette.
-MARKER_PAGE = 14
-PALETTE = np.array(
-    [
-        [225, 225, 220], [178, 196, 214], [110, 120, 130], [60, 70, 90], [40, 55, 85],
-        [40, 30, 150], [235, 235, 235], [150, 150, 140], [120, 118, 110], [70, 70, 70],
-        [30, 140, 235], [20, 105, 185], [90, 180, 250], [45, 70, 105], [240, 240, 240],
-    ],
-    dtype=np.uint8,
-)  # fmt: skip
+# A marker's page in grey: its ink and its paper (PALETTE's MARKER_PAGE is a placeholder).
 INK, PAPER = 25.0, 240.0
 # A marker is drawn where a column's wall lies within this of the marker's plane and
 # runs along it (within 10 degrees): it hangs on that wall, not on one round a corner.
@@ -136,22 +134,25 @@ class WorldCamera:
         offsets = np.arctan2(width / 2 - (np.arange(width) + 0.5), focal).astype(np.float32)
         angles = pose.heading + offsets
         dx, dy = np.cos(angles), np.sin(angles)
-        hit, distance, along = self._cast(pose.x, pose.y, dx, dy)
-        depth = np.maximum(distance * np.cos(offsets), 1e-3).astype(np.float32)
-        rows = np.arange(height, dtype=np.float32)[:, None] + 0.5
-        # The height above the floor that each pixel would see on its column's wall.
-        z = CAMERA_HEIGHT_M - (rows - horizon) * (depth[None, :] / focal)
-        material = np.full((height, width), CEILING, dtype=np.uint8)
-        self._floor(material, z, pose, angles, offsets, horizon, focal)
-        self._walls(material, z, hit, along, np.isfinite(distance))
-        pages = self._markers(material, z, pose, dx, dy, distance, hit, horizon, focal)
+        hit, distance, along = self._cast(pose, dx, dy)
+        seen = np.isfinite(distance)
+        # Where a column sees no wall its depth is never used; kept finite all the same.
+        depth = np.where(seen, np.maximum(distance * np.cos(offsets), 1e-3), 1.0)
+        depth = depth.astype(np.float32)
+        # The ceiling above the horizon, the floor below it, the walls over both.
+        first = math.ceil(horizon)
+        material = np.empty((height, width), dtype=np.uint8)
+        material[:first] = CEILING
+        material[first:] = self._floor(pose, width, height, first, focal)
+        self._walls(material, depth, hit, along, seen, focal)
+        pages = self._markers(material, pose, dx, dy, distance, depth, hit, focal)
         if self.surroundings is not None:
             obstacles = self.surroundings.snapshot()
             if len(obstacles.kinds):
                 self._obstacles(
                     material, obstacles, pose, dx, dy, distance, offsets, horizon, focal
                 )
-        image = PALETTE[material]
+        image = cv2.LUT(cv2.cvtColor(material, cv2.COLOR_GRAY2BGR), COLOURS)
         for rows, columns, grey in pages:
             # Where a box or a door now stands in front, it hides the page.
             shown = material[rows, columns] == MARKER_PAGE
@@ -160,35 +161,66 @@ class WorldCamera:
         # finds nothing on ideal corners.
         return cv2.GaussianBlur(image, (3, 3), 0)
 
-    def _cast(self, x: float, y: float, dx: np.ndarray, dy: np.ndarray):
-        """Nearest wall along each ray: its index, the distance, and how far along it."""
+    def _cast(self, pose: TruePose, dx: np.ndarray, dy: np.ndarray):
+        """Nearest wall along each ray: its index, the distance, and how far along it.
+
+        Only the walls that can be in view are cast against: a building has hundreds,
+        and most lie wholly behind the camera or beyond an edge of its field of view."""
         world = self.world
-        t, s = cast_rays(x, y, dx, dy, world.start, world.end)
-        hit = np.argmin(t, axis=1)
+        walls = self._in_view(pose)
         columns = np.arange(len(dx))
-        distance = t[columns, hit]
+        if not len(walls):
+            return np.zeros(len(dx), dtype=np.intp), np.full(len(dx), np.inf), np.zeros(len(dx))
+        t, s = cast_rays(pose.x, pose.y, dx, dy, world.start[walls], world.end[walls])
+        nearest = np.argmin(t, axis=1)
+        hit = walls[nearest]
+        distance = t[columns, nearest]
         distance = np.where(distance < MAX_RANGE_M, distance, np.inf)
-        along = s[columns, hit] * world.length[hit]
+        along = s[columns, nearest] * world.length[hit]
         return hit, distance, along
 
-    def _walls(self, material, z, hit, along, seen) -> None:
+    def _in_view(self, pose: TruePose) -> np.ndarray:
+        """The walls not wholly behind the camera nor wholly beyond one edge of its field
+        of view (the half-planes through the camera that bound it): no ray reaches the
+        others. Some walls out of view are kept; none in view is dropped."""
         world = self.world
-        on_wall = (z >= 0) & (z <= WALL_HEIGHT_M) & seen[None, :]
-        u = np.broadcast_to(along.astype(np.float32)[None, :], z.shape)
-        wall = np.where(np.mod(u, PANEL_M) < 0.03, SEAM, WALL_PAINT).astype(np.uint8)
-        wall[z < 0.12] = SKIRTING
-        poster_u = u - world.poster_at[hit].astype(np.float32)[None, :]
-        poster_v = z - POSTER_BOTTOM
-        in_poster = (poster_u >= 0) & (poster_u <= POSTER_WIDTH)
-        in_poster &= (poster_v >= 0) & (poster_v <= POSTER_HEIGHT)
-        with np.errstate(invalid="ignore"):  # NaN where a wall has no poster
-            dark = (np.floor(poster_u / 0.15) + np.floor(poster_v / 0.16)) % 2 == 0
-        wall[in_poster & dark] = POSTER_DARK
-        wall[in_poster & ~dark] = POSTER_LIGHT
-        wall[:, world.kind[hit] == DOOR_FRAME] = FRAME
-        material[on_wall] = wall[on_wall]
+        if self.fov >= math.pi:
+            return np.arange(len(world.walls))
+        ahead = np.array([math.cos(pose.heading), math.sin(pose.heading)])
+        left = np.array([-ahead[1], ahead[0]])
+        cos, sin = math.cos(self.fov / 2), math.sin(self.fov / 2)
+        outside = []
+        for end in (world.start, world.end):
+            rel = end - [pose.x, pose.y]
+            forward, aside = rel @ ahead, rel @ left
+            outside.append(np.stack([forward < 0, aside * cos - forward * sin > 0,
+                                     -aside * cos - forward * sin > 0]))  # fmt: skip
+        return np.flatnonzero(~(outside[0] & outside[1]).any(axis=0))
 
-    def _markers(self, material, z, pose, dx, dy, distance, hit, horizon, focal) -> list:
+    def _walls(self, material, depth, hit, along, seen, focal) -> None:
+        """The walls, each column painted from its kind of strip (WALL_STRIPS): the height
+        each pixel sees on the wall picks the strip's row. Pixels above or below the wall
+        fall off the strip and keep the ceiling or the floor."""
+        world = self.world
+        u = along.astype(np.float32)
+        seam = np.mod(u, PANEL_M) < SEAM_M
+        poster_u = u - world.poster_at[hit].astype(np.float32)
+        with np.errstate(invalid="ignore"):  # NaN where a wall has no poster
+            on_poster = (poster_u >= 0) & (poster_u <= POSTER_WIDTH)
+            odd = np.floor(poster_u / POSTER_CELL_WIDTH) % 2 == 1
+        strip = np.where(seam, SEAM_STRIP, PAINT_STRIP) + on_poster * (1 + odd)
+        strip = np.where(world.kind[hit] == DOOR_FRAME, FRAME_STRIP, strip)
+        # No strip at all (off the table, so left alone) where a column sees no wall.
+        strip = np.where(seen, strip, -1).astype(np.float32)
+        # Row i of the strips from i to i + 1 millimetres: OpenCV takes the nearest row.
+        rows = _heights(depth, material.shape[0], focal)
+        rows *= np.float32(1 / WALL_STRIP_STEP_M)
+        rows -= np.float32(0.5)
+        columns = np.broadcast_to(strip, rows.shape).copy()
+        cv2.remap(WALL_STRIPS, columns, rows, cv2.INTER_NEAREST, dst=material,
+                  borderMode=cv2.BORDER_TRANSPARENT)  # fmt: skip
+
+    def _markers(self, material, pose, dx, dy, distance, depth, hit, focal) -> list:
         """The markers' pages where their walls are the nearest thing a column sees.
 
         Returns, for each marker in view, its pixels (rows, columns) and their grey
@@ -216,7 +248,8 @@ class WorldCamera:
         for which_candidate in np.flatnonzero(on.any(axis=0)):
             marker = world.markers[candidates[which_candidate]]
             cols = columns[on[:, which_candidate]]
-            rows, which = np.nonzero(np.abs(z[:, cols] - marker.height) <= marker.outer / 2)
+            z = _heights(depth[cols], material.shape[0], focal)
+            rows, which = np.nonzero(np.abs(z - marker.height) <= marker.outer / 2)
             if not len(rows):
                 continue
             cols = cols[which]
@@ -337,17 +370,35 @@ class WorldCamera:
             painted = np.where(face, paint[None, :], material[:, columns])
             material[:, columns] = np.where(lid, np.uint8(BOX_LID), painted)
 
-    def _floor(self, material, z, pose, angles, offsets, horizon, focal) -> None:
-        """Floor tiles below the walls, found by following each pixel's ray to the floor."""
-        first = math.ceil(horizon)
-        lower = z[first:] < 0
-        rows = np.arange(first, material.shape[0], dtype=np.float32)[:, None] + 0.5
-        reach = (CAMERA_HEIGHT_M * focal / (rows - horizon)) / np.cos(offsets)[None, :]
-        fx = pose.x + reach * np.cos(angles).astype(np.float32)[None, :]
-        fy = pose.y + reach * np.sin(angles).astype(np.float32)[None, :]
-        tile = np.where(
-            (np.floor(fx / FLOOR_TILE_M) + np.floor(fy / FLOOR_TILE_M)) % 2 == 0, TILE_A, TILE_B
-        )
-        grout = (np.mod(fx, FLOOR_TILE_M) < 0.02) | (np.mod(fy, FLOOR_TILE_M) < 0.02)
-        tile = np.where(grout, GROUT, tile).astype(np.uint8)
-        material[first:][lower] = tile[lower]
+    def _floor(self, pose: TruePose, width: int, height: int, first: int, focal: float):
+        """The floor's tiles from row `first` (the first below the horizon) down.
+
+        The floor is a plane, so where each pixel's ray meets it is a homography of the
+        pixel: column c, row r sees the floor CAMERA_HEIGHT_M * focal / (r + 0.5 -
+        horizon) metres ahead of the camera, and (width / 2 - 0.5 - c) / focal times as
+        far to its left. OpenCV warps the repeating texture with it."""
+        ahead = np.array([math.cos(pose.heading), math.sin(pose.heading)])
+        left = np.array([-ahead[1], ahead[0]])
+        camera = np.array([pose.x, pose.y])
+        # Homogeneous in (c, r - first, 1); the last row is r + 0.5 - horizon.
+        below = first + 0.5 - height / 2
+        floor = np.zeros((3, 3))
+        floor[:2, 0] = -CAMERA_HEIGHT_M * left
+        floor[:2, 1] = camera
+        floor[:2, 2] = CAMERA_HEIGHT_M * (focal * ahead + (width / 2 - 0.5) * left)
+        floor[:2, 2] += camera * below
+        floor[2] = [0.0, 1.0, below]
+        # Metres to texels, texel i's square from i to i + 1 (OpenCV rounds to the nearest).
+        to_texels = np.array([[1 / FLOOR_TEXEL_M, 0.0, -0.5], [0.0, 1 / FLOOR_TEXEL_M, -0.5],
+                              [0.0, 0.0, 1.0]])  # fmt: skip
+        return cv2.warpPerspective(
+            FLOOR_TEXTURE, to_texels @ floor, (width, height - first),
+            flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_WRAP,
+        )  # fmt: skip
+
+
+def _heights(depth: np.ndarray, height: int, focal: float) -> np.ndarray:
+    """The height above the floor that each pixel of a picture `height` rows high sees
+    on a wall `depth` ahead of the camera, a column per depth."""
+    rows = np.arange(height, dtype=np.float32)[:, None] + 0.5
+    return CAMERA_HEIGHT_M - (rows - height / 2) * (depth[None, :] / focal)

@@ -37,7 +37,7 @@ from giraff_console.tui.command_line import CommandLine
 from giraff_console.tui.help_screen import HelpScreen
 from giraff_console.tui.key_guard import KeyGuard
 from giraff_console.tui.main_view import MainView
-from giraff_console.tui.map_canvas import MapScene, plan_scene
+from giraff_console.tui.map_scene import MapScene, located, plan_scene
 from giraff_console.tui.map_view import MapView
 from giraff_console.tui.messages import (
     CameraPictureUpdated,
@@ -322,10 +322,9 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
         )
         self.top_bar.show(message.telemetry)
         self.main_view.show(message.telemetry)
-        navigation = self.navigator.state if self.navigator is not None else None
-        if message.telemetry.pose != self.pose or navigation is not self._shown_state:
-            self.pose = message.telemetry.pose
-            self._show_map(navigation)
+        # Every snapshot: the map view draws again only if what it shows has changed.
+        self.pose = message.telemetry.pose
+        self._show_map(self.navigator.state if self.navigator is not None else None)
 
     def on_navigation_changed(self, message: NavigationChanged) -> None:
         self._show_map(message.state)
@@ -340,8 +339,8 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
             doors = tuple(replace(door, open=door.id not in closed) for door in self._scene.doors)
             path = tuple(state.planned.path) if state.planned is not None else ()
             self._scene = replace(self._scene, doors=doors, path=path, obstacles=state.obstacles)
-        pose = self.pose
-        self._scene = replace(self._scene, robot=(pose.x, pose.y, pose.heading))
+        estimate = self.telemetry.estimate if self.telemetry is not None else None
+        self._scene = located(self._scene, self.pose, estimate)
         self.map_view.show(self._scene)
 
     def on_exchange_seen(self, message: ExchangeSeen) -> None:

@@ -7,9 +7,10 @@ eight times as much as the half-block camera picture. A dot is a square of the m
 
 It is pure and vectorised, as the view is redrawn at up to 20 Hz while the robot moves:
 the grid is max-pooled into dots, the shapes drawn with cv2 into a mask a layer, and the
-masks packed into characters styled in runs. Layers, highest first: robot, planned path,
-obstacles, doors, walls, unknown space. A character shows the dots of all of them in the
-colour of the highest; room labels replace the dots where they fit.
+masks packed into characters styled in runs. Layers, highest first: robot, markers
+rejected and seen lately, the robot's uncertainty ellipse, planned path, obstacles,
+doors, the plan's markers, walls, unknown space. A character shows the dots of all of them
+in the colour of the highest; room labels replace the dots where they fit.
 """
 
 from __future__ import annotations
@@ -24,21 +25,28 @@ import numpy as np
 from rich.style import Style
 from rich.text import Span, Text
 
-from giraff_console.planning.floorplan import FloorPlan
 from giraff_console.planning.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
-
-Point = tuple[float, float]
+from giraff_console.tui.map_scene import DoorMark, MapScene, Point
 
 MIN_METRES_PER_DOT = 0.02  # a 0.1 m wall five dots thick: closer shows nothing more
 MAX_METRES_PER_DOT = 2.0  # a 100 m building in 25 characters
 OBSTACLE_RADIUS_M = 0.05
+# A marker is drawn as a spot about the size of a printed one (the example's are 0.16 m),
+# just in front of its wall, so that the markers either side of a wall stay apart.
+MARKER_RADIUS_M = 0.08
+# The uncertainty ellipse is drawn at two standard deviations, which hold the robot 86%
+# of the time (a two-dimensional normal); one would hold it only 39% of the time.
+ELLIPSE_SIGMAS = 2.0
 # Fractional dot coordinates for cv2's drawing functions: 3 bits place a shape to 1/8 dot,
 # so that a path does not jitter by a whole dot as the view pans.
 _SHIFT = 3
 _ONE = 1 << _SHIFT
 
 # Layers, in rising priority; each character is styled by the highest one it has dots of.
-BLANK, UNSEEN, WALL, DOOR_OPEN, DOOR_CLOSED, OBSTACLE, PATH, ROBOT, LABEL = range(9)
+# The plan's markers hang beside doorways, so zoomed out they share characters with
+# the doors: they go under them, so that a door still shows whether it is shut.
+(BLANK, UNSEEN, WALL, MARKER, DOOR_OPEN, DOOR_CLOSED, OBSTACLE, PATH, ELLIPSE, MARKER_SEEN,
+ MARKER_REJECTED, ROBOT, LABEL) = range(13)  # fmt: skip
 
 # Each layer's colour as a name, which 256- and 16-colour terminals show well, and in
 # finer RGB for truecolor ones.
@@ -47,44 +55,27 @@ _COLOURS = {
     WALL: ("grey82", "rgb(214,214,214)"),
     DOOR_OPEN: ("green3", "rgb(60,210,90)"),
     DOOR_CLOSED: ("red3", "rgb(215,40,40)"),
+    # The markers are purple, bright once seen, orange when the filter's gate turned one
+    # down (a marker moved on the wall, or a misread): colours nothing else uses.
+    MARKER: ("medium_purple3", "rgb(140,100,200)"),
     OBSTACLE: ("red1", "rgb(255,70,70)"),
     PATH: ("cyan1", "rgb(0,215,255)"),
+    ELLIPSE: ("gold3", "rgb(215,175,0)"),  # the robot's, so a darker shade of its yellow
+    MARKER_SEEN: ("magenta1", "rgb(255,80,255)"),
+    MARKER_REJECTED: ("dark_orange", "rgb(255,130,0)"),
     ROBOT: ("yellow1", "rgb(255,230,40)"),
 }
+_BOLD = (MARKER_SEEN, MARKER_REJECTED, ROBOT)
 
 
 @cache
 def layer_styles(truecolor: bool) -> dict[int, Style | None]:
     """The style of every layer, for rendering and for tests that check colours."""
     styles: dict[int, Style | None] = {
-        layer: Style(color=colours[truecolor], bold=layer == ROBOT)
+        layer: Style(color=colours[truecolor], bold=layer in _BOLD)
         for layer, colours in _COLOURS.items()
     }
     return styles | {BLANK: None, LABEL: Style(dim=True)}
-
-
-@dataclass(frozen=True)
-class DoorMark:
-    """A door as the map draws it: a line across its doorway, green open or red shut."""
-
-    id: str
-    centre: Point
-    width: float  # metres
-    open: bool
-    along: Point = (1.0, 0.0)  # unit vector along the wall, across the doorway
-
-
-@dataclass(frozen=True)
-class MapScene:
-    """What the map shows. Make a new one (dataclasses.replace) whenever anything moves."""
-
-    walls: OccupancyGrid  # the plan's own grid, not inflated: the operator sees real walls
-    doors: tuple[DoorMark, ...] = ()
-    labels: tuple[tuple[str, Point], ...] = ()
-    robot: tuple[float, float, float] | None = None  # x, y, heading in radians
-    path: tuple[Point, ...] = ()
-    obstacles: tuple[Point, ...] = ()
-    robot_radius: float = 0.3
 
 
 @dataclass(frozen=True)
@@ -138,44 +129,6 @@ def fit_grid(grid: OccupancyGrid, cols: int, rows: int) -> Viewport:
     return Viewport(centre, _clamp(max(width / (2 * max(1, cols)), height / (4 * max(1, rows)))))
 
 
-def wall_direction(grid: OccupancyGrid, centre: Point, width: float) -> Point:
-    """The unit vector along the wall a door of `width` at `centre` is cut into.
-
-    Rays through the centre are probed every 15 degrees beyond the doorway's half-width;
-    the wall is the one that meets the most occupied cells on both sides. A straight
-    probe, unlike fitting the nearby wall cells, is not swayed by a corner next to the
-    door. Horizontal if no wall is near.
-    """
-    angles = np.radians(np.arange(0, 180, 15))
-    step = grid.resolution / 2
-    reach = np.arange(width / 4, width / 2 + 0.5, step)
-    offsets = np.concatenate((reach, -reach))
-    xs = centre[0] + np.cos(angles)[:, None] * offsets
-    ys = centre[1] + np.sin(angles)[:, None] * offsets
-    rows, cols = grid.shape
-    col = np.floor((xs - grid.origin[0]) / grid.resolution).astype(int)
-    row = rows - 1 - np.floor((ys - grid.origin[1]) / grid.resolution).astype(int)
-    inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
-    walls = np.zeros(xs.shape, bool)
-    walls[inside] = grid.cells[row[inside], col[inside]] == OCCUPIED
-    best = int(np.argmax(walls.sum(axis=1)))
-    if not walls[best].any():
-        return 1.0, 0.0
-    # Rounded, so that a vertical wall is (0, 1) and not (6e-17, 1).
-    return round(float(np.cos(angles[best])), 9), round(float(np.sin(angles[best])), 9)
-
-
-def plan_scene(plan: FloorPlan, grid: OccupancyGrid) -> MapScene:
-    """The still parts of a plan's map: its walls, its doors and its rooms' ids, which
-    are what the operator types ("go room-101")."""
-    doors = tuple(
-        DoorMark(door.id, door.at, door.width, door.open, wall_direction(grid, door.at, door.width))
-        for door in plan.doors
-    )
-    labels = tuple((room_id, room.at) for room_id, room in plan.rooms.items())
-    return MapScene(grid, doors, labels)
-
-
 # The bit of each dot of a Braille character, by (dot row, dot column): Unicode numbers
 # the left column's first three dots, then the right column's, then the bottom row.
 _BITS = ((0, 3), (1, 4), (2, 5), (6, 7))
@@ -203,8 +156,10 @@ def render_map(scene: MapScene, viewport: Viewport, cols: int, rows: int, trueco
     masks[UNSEEN, 5::8, 2::4] = rank[5::8, 2::4] == _UNKNOWN
     masks[WALL] = rank == _WALL
     _draw_doors(scene.doors, frame, masks)
-    _draw_obstacles(scene.obstacles, frame, masks[OBSTACLE])
+    _draw_markers(scene, frame, masks)
+    _draw_spots(scene.obstacles, OBSTACLE_RADIUS_M, frame, masks[OBSTACLE])
     _draw_path(scene.path, frame, masks[PATH])
+    _draw_ellipse(scene.robot, scene.ellipse, frame, masks[ELLIPSE])
     _draw_robot(scene.robot, scene.robot_radius, frame, masks[ROBOT])
 
     codes = _pack(masks, rows, cols)
@@ -216,10 +171,11 @@ def render_map(scene: MapScene, viewport: Viewport, cols: int, rows: int, trueco
     inked = codes > 0
     top = (inked * np.arange(len(codes), dtype=np.int8)[:, None, None]).max(axis=0)
     chars = np.bitwise_or.reduce(codes, axis=0).astype(np.uint32) + 0x2800
-    # A label must fit inside its room at this zoom, clear of the robot, the doors and the
-    # obstacles, and of the path where it can be.
-    room = floor & ~inked[[DOOR_OPEN, DOOR_CLOSED, OBSTACLE, ROBOT]].any(axis=0)
-    _place_labels(scene.labels, viewport, room, inked[PATH], chars, top)
+    # A label must fit inside its room at this zoom, clear of the robot, the doors, the
+    # markers and the obstacles, and of the path and the ellipse where it can be.
+    solid = [DOOR_OPEN, DOOR_CLOSED, MARKER, OBSTACLE, MARKER_SEEN, MARKER_REJECTED, ROBOT]
+    room = floor & ~inked[solid].any(axis=0)
+    _place_labels(scene.labels, viewport, room, inked[PATH] | inked[ELLIPSE], chars, top)
     return _styled(chars, top, layer_styles(truecolor))
 
 
@@ -322,16 +278,33 @@ def _draw_doors(doors: tuple[DoorMark, ...], frame: _Frame, masks: np.ndarray) -
         cv2.line(mask, start, end, 1, 1, cv2.LINE_8, _SHIFT)
 
 
-def _draw_obstacles(obstacles: tuple[Point, ...], frame: _Frame, mask: np.ndarray) -> None:
-    """Each obstacle a small disc, and at least a dot: a scan can hold hundreds of points,
-    so they are set in one go and grown together."""
-    if not obstacles:
+def _draw_markers(scene: MapScene, frame: _Frame, masks: np.ndarray) -> None:
+    """Each marker a spot in front of its wall, in the layer of what became of it lately."""
+    if not scene.markers:
         return
-    col, row = ((frame.dots(obstacles) + _ONE // 2) >> _SHIFT).T
+    at = np.array([marker.at for marker in scene.markers], dtype=np.float64)
+    facing = np.array([marker.facing for marker in scene.markers])
+    spots = at + MARKER_RADIUS_M * np.stack((np.cos(facing), np.sin(facing)), axis=1)
+    ids = np.array([marker.id for marker in scene.markers])
+    rejected = np.isin(ids, scene.rejected)
+    seen = np.isin(ids, scene.seen) & ~rejected
+    for layer, chosen in ((MARKER, ~(seen | rejected)), (MARKER_SEEN, seen),
+                          (MARKER_REJECTED, rejected)):  # fmt: skip
+        _draw_spots(spots[chosen], MARKER_RADIUS_M, frame, masks[layer])
+
+
+def _draw_spots(
+    points: tuple[Point, ...] | np.ndarray, radius_m: float, frame: _Frame, mask: np.ndarray
+) -> None:
+    """Each point a small disc, and at least a dot: a scan can hold hundreds of obstacles,
+    so they are set in one go and grown together."""
+    if not len(points):
+        return
+    col, row = ((frame.dots(points) + _ONE // 2) >> _SHIFT).T
     height, width = frame.shape
-    seen = (col >= 0) & (col < width) & (row >= 0) & (row < height)
-    mask[row[seen], col[seen]] = 1
-    radius = round(OBSTACLE_RADIUS_M / frame.step)
+    inside = (col >= 0) & (col < width) & (row >= 0) & (row < height)
+    mask[row[inside], col[inside]] = 1
+    radius = round(radius_m / frame.step)
     if radius:
         disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
         mask[:] = cv2.dilate(mask, disc)
@@ -341,6 +314,28 @@ def _draw_path(path: tuple[Point, ...], frame: _Frame, mask: np.ndarray) -> None
     if path:
         points = frame.dots(path if len(path) > 1 else (*path, *path))
         cv2.polylines(mask, [points], False, 1, 1, cv2.LINE_8, _SHIFT)
+
+
+def _draw_ellipse(
+    robot: tuple[float, float, float] | None,
+    ellipse: tuple[float, float, float] | None,
+    frame: _Frame,
+    mask: np.ndarray,
+) -> None:
+    """The uncertainty ellipse's outline about the robot, at ELLIPSE_SIGMAS; none while
+    the filter has no finite one. Within the robot's disc it is hidden by the robot."""
+    if robot is None or ellipse is None or not all(map(math.isfinite, ellipse)):
+        return
+    major, minor, angle = ellipse
+    major, minor = ELLIPSE_SIGMAS * major, ELLIPSE_SIGMAS * minor
+    # Enough corners that each side is about a dot long, for a smooth outline.
+    corners = int(np.clip(2 * math.pi * major / frame.step, 16, 720))
+    t = np.linspace(0.0, 2 * math.pi, corners, endpoint=False)
+    along, across = major * np.cos(t), minor * np.sin(t)
+    cos_a, sin_a = math.cos(angle), math.sin(angle)
+    outline = np.stack((robot[0] + cos_a * along - sin_a * across,
+                        robot[1] + sin_a * along + cos_a * across), axis=1)  # fmt: skip
+    cv2.polylines(mask, [frame.dots(outline)], True, 1, 1, cv2.LINE_8, _SHIFT)
 
 
 def _draw_robot(

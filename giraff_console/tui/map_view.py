@@ -1,4 +1,5 @@
-"""The map view: the floor plan with the robot and its planned path, drawn in Braille.
+"""The map view: the floor plan with the robot, how well it knows where it is, the
+markers it finds itself by and its planned path, drawn in Braille.
 
 The drawing is map_canvas's; this widget holds what to draw and where the operator is
 looking. It follows the robot by default, but only re-centres when the robot nears an
@@ -9,19 +10,43 @@ robot starts it again.
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 from rich.segment import Segment
 from rich.style import Style
+from rich.text import Text
 from textual import events
 from textual.strip import Strip
 from textual.widget import Widget
 
-from giraff_console.tui.map_canvas import MapScene, Viewport, fit_grid, render_map
+from giraff_console.robot.localisation import RECENT_S
+from giraff_console.tui.map_canvas import (
+    ELLIPSE,
+    ELLIPSE_SIGMAS,
+    MARKER,
+    MARKER_REJECTED,
+    MARKER_SEEN,
+    Viewport,
+    fit_grid,
+    layer_styles,
+    render_map,
+)
+from giraff_console.tui.map_scene import MapScene
 
 ZOOM_STEP = 1.25  # one notch of the mouse wheel
 # The robot is re-centred once it leaves the middle 60% of the view.
 FOLLOW_MARGIN = 0.2
+_SIGMAS = f"{ELLIPSE_SIGMAS:g}\N{GREEK SMALL LETTER SIGMA}"
+# The chance that a two-dimensional normal falls within k sigmas: 1 - exp(-k²/2).
+_INSIDE = 1 - math.exp(-(ELLIPSE_SIGMAS**2) / 2)
+# The legend in full; the caption's is short enough for the map beside the logs.
+LEGEND = (
+    f"The robot is yellow, and the gold ellipse round it is {_SIGMAS}: the robot is inside "
+    f"it {_INSIDE:.0%} of the time. Markers are purple, magenta if seen in the last "
+    f"{RECENT_S:g} s, orange if rejected as not where the plan says. Wheel to zoom, drag "
+    "to pan."
+)
 
 
 class MapView(Widget):
@@ -34,6 +59,7 @@ class MapView(Widget):
     def __init__(self, truecolor: bool = True, **kwargs) -> None:
         super().__init__(**kwargs)
         self.truecolor = truecolor
+        self.tooltip = LEGEND
         self.scene: MapScene | None = None
         self.viewport: Viewport | None = None  # None until the first scene is fitted
         self.follow = True
@@ -46,14 +72,31 @@ class MapView(Widget):
     @property
     def caption(self) -> str:
         """One line for a border title, such as "map 0.2 m/dot · follow"."""
+        return self._title().plain
+
+    def _title(self) -> Text:
+        """The caption, with a legend in the map's colours for what needs one: the
+        ellipse, how many sigmas it is drawn at, and the markers' three states."""
         if self.viewport is None:
-            return "map"
-        caption = f"map {self.viewport.metres_per_dot:.3g} m/dot"
-        return f"{caption} · follow" if self.follow else caption
+            return Text("map")
+        title = Text(f"map {self.viewport.metres_per_dot:.3g} m/dot")
+        if self.follow:
+            title.append(" · follow")
+        scene, styles = self.scene, layer_styles(self.truecolor)
+        if scene is not None and scene.ellipse is not None:
+            title.append(" · ").append(_SIGMAS, styles[ELLIPSE])
+        if scene is not None and scene.markers:
+            title.append(" · ").append("markers", styles[MARKER]).append(" ")
+            title.append("seen", styles[MARKER_SEEN]).append(" ")
+            title.append("rejected", styles[MARKER_REJECTED])
+        return title
 
     def show(self, scene: MapScene) -> None:
         """Draw `scene` instead of the last one. Pass a new scene for every change: the
-        drawing is kept until the scene, the viewport or the size changes."""
+        drawing is kept until the scene, the viewport or the size changes, and a scene
+        equal to the last one (the robot standing still) is not drawn again."""
+        if scene == self.scene:
+            return
         self.scene = scene
         self._strips = None
         if self.viewport is None:
@@ -131,7 +174,7 @@ class MapView(Widget):
         return True
 
     def _changed(self) -> None:
-        self.border_title = self.caption
+        self.border_title = self._title()
         self.refresh()
 
     def on_resize(self) -> None:

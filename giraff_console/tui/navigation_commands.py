@@ -86,10 +86,11 @@ class NavigationCommands:
         dock` drives onto the dock square on."""
         control = self.control
         site = self.site
-        mission = go_mission(navigator, room, lambda: control.odometry.pose,
+        mission = go_mission(navigator, room, lambda: control.pose,
                              tick=control.period, limits=self.motion, patience=self.patience,
                              sense=site.range_finder.readings if site is not None else None,
-                             notify=lambda text: self.post_message(StatusNote(text)))  # fmt: skip
+                             notify=lambda text: self.post_message(StatusNote(text)),
+                             estimate=control.estimate)  # fmt: skip
         planned = navigator.state.planned
         if planned is not None:
             route = planned.route

@@ -12,6 +12,8 @@ from textual.widgets import Static
 from giraff_console.link import MotorState
 from giraff_console.protocol.charger import ChargeStatus
 from giraff_console.robot.battery import Battery
+from giraff_console.robot.localisation import Estimate
+from giraff_console.robot.odometry import Pose
 from giraff_console.robot.stalk import head_height
 from giraff_console.robot.telemetry import LinkState, Telemetry
 
@@ -23,6 +25,10 @@ _CHARGE_MARKS = {
     ChargeStatus.INIT: "charger starting",
     ChargeStatus.NOT_DOCKED: "",
 }
+
+# The pose when missions would stop and look for a marker: hard to miss, and not the
+# red of the alarms (link lost, ESTOP), which mean the robot cannot move at all.
+_LOST_STYLE = "bold black on dark_orange"
 
 
 class TopBar(Static):
@@ -49,13 +55,12 @@ class TopBar(Static):
 
     def show(self, telemetry: Telemetry) -> None:
         self._telemetry = telemetry
-        pose = telemetry.pose
         text = Text(no_wrap=True, overflow="ellipsis")
         for badge, style in self._badges(telemetry):
             text.append(f" {badge} ", style=style)
             text.append(" ")
         text.append(f"{self.camera} │ ", style="dim")
-        text.append(f"X={pose.x:.2f} Y={pose.y:.2f} H={pose.heading_deg:.1f}", style="bold")
+        text.append(*pose_text(telemetry.pose, telemetry.estimate))
         if telemetry.battery is not None:
             text.append(" │ ", style="dim")
             text.append(*battery_text(telemetry.battery, self.battery_low))
@@ -84,6 +89,39 @@ class TopBar(Static):
             where = f"{clock_time(playback.position)}/{clock_time(math.ceil(playback.duration))}"
             badges.append((f"PLAYBACK {where} {state}", "bold black on green"))
         return badges
+
+
+def pose_text(pose: Pose, estimate: Estimate | None) -> tuple[str, str]:
+    """`X=12.40±0.03 Y=3.10±0.03 H=90.0±1.2` and its style.
+
+    Each ± is one standard deviation: x's and y's from the covariance's diagonal, the
+    heading's in degrees; left out where the estimate has none (a playback without one)
+    or no finite one. In a plan with markers, a pose no marker has found yet, or known
+    too loosely to drive on, is marked and shown reversed in orange, as missions then
+    stop and look (robot/localisation.py `lost`); one a mission slows for is yellow.
+    """
+    x, y, heading = f"X={pose.x:.2f}", f"Y={pose.y:.2f}", f"H={pose.heading_deg:.1f}"
+    if estimate is None:
+        return f"{x} {y} {heading}", "bold"
+    (xx, _, _), (_, yy, _), _ = estimate.covariance
+    x += _plus_minus(_root(xx), 2)
+    y += _plus_minus(_root(yy), 2)
+    heading += _plus_minus(math.degrees(estimate.sigma_heading), 1)
+    text = f"{x} {y} {heading}"
+    if estimate.landmarks and not estimate.found:
+        return f"{text} (not found)", _LOST_STYLE
+    if estimate.lost:
+        return f"{text} (lost)", _LOST_STYLE
+    return text, "bold yellow" if estimate.unsure else "bold"
+
+
+def _root(variance: float) -> float:
+    """The standard deviation of `variance`; NaN for a negative one, which is no spread."""
+    return math.sqrt(variance) if variance >= 0 else math.nan
+
+
+def _plus_minus(sigma: float, decimals: int) -> str:
+    return f"±{sigma:.{decimals}f}" if math.isfinite(sigma) else ""
 
 
 def battery_text(battery: Battery, low: float) -> tuple[str, str]:

@@ -214,3 +214,42 @@ def test_the_plan_s_markers_hang_in_the_simulated_building():
         cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
     )
     assert placed.id in [s.id for s in found]
+
+
+def test_a_detector_told_the_plan_s_ids_finds_those_alone_by_their_own_ids():
+    pair = [WorldMarker(i, 5.0, y, 1.1, math.pi, SIZE, marker_pattern(DICTIONARY, i))
+            for i, y in ((3, -0.6), (250, 0.6))]  # fmt: skip
+    image = WorldCamera(World(ROOM, pair)).render(TruePose(3.0, 0.0, 0.0), 800, 600)
+    grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+    every = {s.id: s for s in MarkerDetector(FAMILY, SIZE, synthetic).detect(grey)}
+    assert set(every) == {3, 250}
+    # The detector numbers the few it knows from 0; the sightings keep the markers' ids.
+    [only] = MarkerDetector(FAMILY, SIZE, synthetic, ids=[250, 9]).detect(grey)
+    assert only.id == 250 and np.array_equal(only.corners, every[250].corners)
+    assert MarkerDetector(FAMILY, SIZE, synthetic, ids=[]).detect(grey) == []
+    with pytest.raises(ValueError, match="markers 0 to 586"):
+        MarkerDetector(FAMILY, SIZE, ids=[3, 587])
+
+
+def test_looking_for_the_plan_s_markers_alone_finds_the_same_sightings():
+    plan = load_floorplan("giraff_console/floorplans/care-home.yaml")
+    camera = WorldCamera(plan_world(plan))
+    ids = [marker.id for marker in plan.landmarks.markers]
+    everything = MarkerDetector(plan.landmarks.family, plan.landmarks.size, synthetic)
+    planned = MarkerDetector(plan.landmarks.family, plan.landmarks.size, synthetic, ids=ids)
+    found = 0
+    for marker in camera.world.markers[::30]:
+        # 2 m in front of it, a little to one side, turned a little away.
+        slant = math.radians(20)
+        pose = TruePose(
+            marker.x + 2.0 * math.cos(marker.facing + slant),
+            marker.y + 2.0 * math.sin(marker.facing + slant),
+            marker.facing + slant + math.pi + math.radians(10),
+        )
+        grey = cv2.cvtColor(camera.render(pose, 800, 600), cv2.COLOR_BGR2GRAY)
+        expected, seen = everything.detect(grey), planned.detect(grey)
+        assert [s.id for s in seen] == [s.id for s in expected]
+        for a, b in zip(seen, expected, strict=True):
+            assert np.array_equal(a.corners, b.corners) and a.distance_m == b.distance_m
+        found += len(seen)
+    assert found >= 6

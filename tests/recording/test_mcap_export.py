@@ -16,6 +16,7 @@ from mcap.reader import make_reader
 from giraff_console.camera.recorder import RecordedFrame, VideoRecorder
 from giraff_console.camera.source import Frame
 from giraff_console.recording.control_log import LogEntry, format_entry
+from giraff_console.recording.estimates import RecordedEstimate, format_estimate
 from giraff_console.recording.mcap_export import export_session
 from giraff_console.recording.session import VIDEO, PoseSample, SessionError
 
@@ -212,3 +213,76 @@ def test_a_failure_after_writing_leaves_no_temporary_file(tmp_path):
         export_session(session, out, POSES)
     assert sorted(path.name for path in tmp_path.iterdir()) == ["20240101_120000", "taken"]
     assert list(out.iterdir()) == []
+
+
+# -- the pose filter's estimate (issue 14) ---------------------------------------------
+
+COVARIANCE = ((0.0025, 1e-4, -3e-4), (1e-4, 0.0036, 2e-4), (-3e-4, 2e-4, 0.0012))
+ESTIMATES = [
+    RecordedEstimate(
+        offset=0.2 * i,
+        pose=(1.0 + 0.1 * i, 2.0, math.pi / 2),
+        odometry=(0.1 * i, 0.0, 0.0),
+        covariance=tuple(tuple(v * (i + 1) for v in row) for row in COVARIANCE),  # type: ignore[arg-type]
+        sigma_m=0.05 * (i + 1),
+        sigma_heading=0.03,
+        ellipse=(0.05, 0.04, 0.3),
+        landmarks=True,
+        found=i > 0,
+        seen=(7,) if i > 0 else (),
+        corrected_at=0.2 if i > 0 else None,
+    )
+    for i in range(4)
+]
+
+
+def with_estimates(session: Path) -> Path:
+    lines = "".join(format_estimate(estimate) + "\n" for estimate in ESTIMATES)
+    (session / "estimate.jsonl").write_text(lines)
+    return session
+
+
+def test_the_estimate_goes_out_with_its_covariance_beside_the_odometrys_pose(tmp_path):
+    out = tmp_path / "session.mcap"
+    result = export_session(with_estimates(make_session(tmp_path)), out, POSES)
+    assert result.channels["/pose_estimate"] == len(ESTIMATES) and result.problems == []
+    summary, messages = read_back(out)
+    schemas = {c.topic: summary.schemas[c.schema_id] for c in summary.channels.values()}
+    assert schemas["/pose_estimate"].name == "giraff.PoseWithCovarianceInFrame"
+    assert schemas["/pose"].name == "foxglove.PoseInFrame"  # the odometry's, as before
+    assert len(by_topic(messages, "/pose")) == len(POSES)
+    found = by_topic(messages, "/pose_estimate")
+    for message, recorded in zip(found, ESTIMATES, strict=True):
+        assert abs(message.log_time - (STARTED_UNIX + recorded.offset) * 1e9) < 1_000
+        body = json.loads(message.data)
+        assert body["frame_id"] == "map"
+        assert body["pose"]["position"] == dict(zip("xyz", (*recorded.pose[:2], 0.0), strict=True))
+        assert body["pose"]["orientation"]["z"] == pytest.approx(math.sqrt(0.5))
+        # Row-major 6x6 over x, y, z, roll, pitch, yaw: the filter's x, y and heading are
+        # rows and columns 0, 1 and 5; z, roll and pitch, which it does not estimate, 0.
+        expected = np.zeros((6, 6))
+        expected[np.ix_([0, 1, 5], [0, 1, 5])] = recorded.covariance
+        assert body["covariance"] == expected.flatten().tolist()
+        assert (body["sigma_m"], body["found"], body["seen"]) == (
+            recorded.sigma_m,
+            recorded.found,
+            list(recorded.seen),
+        )
+
+
+def test_a_session_recorded_before_the_filter_has_no_estimate_channel(tmp_path):
+    out = tmp_path / "session.mcap"
+    result = export_session(make_session(tmp_path, video=False), out, POSES)
+    summary, _ = read_back(out)
+    assert "/pose_estimate" not in {channel.topic for channel in summary.channels.values()}
+    assert "/pose_estimate" not in result.channels
+
+
+def test_a_cut_off_estimate_is_reported_and_the_rest_exported(tmp_path):
+    session = with_estimates(make_session(tmp_path, video=False))
+    path = session / "estimate.jsonl"
+    text = path.read_text()
+    path.write_text(text[: len(text) - 30])  # a crash while writing the last one
+    result = export_session(session, tmp_path / "session.mcap", POSES)
+    assert result.channels["/pose_estimate"] == len(ESTIMATES) - 1
+    assert result.problems == ["estimate.jsonl line 4: incomplete last line, ignored"]

@@ -193,7 +193,7 @@ def test_a_marker_hangs_only_on_its_own_wall():
     assert [s.id for s in seen(camera, pose)] == [9]
     columns = np.flatnonzero(page_mask(camera, pose).any(axis=0))
     rays = pose.heading + np.arctan2(WIDTH / 2 - (columns + 0.5), camera.focal(WIDTH))
-    hit, _, _ = camera._cast(pose.x, pose.y, np.cos(rays), np.sin(rays))
+    hit, _, _ = camera._cast(pose, np.cos(rays), np.sin(rays))
     assert set(hit.tolist()) == {1}  # ROOM[1], the east wall
     assert corner.outer == pytest.approx(SIZE * (8 + 2 * QUIET_ZONE_CELLS) / 8)
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 from textual import events
 
-from giraff_console.cli import camera_feed
+from giraff_console.cli import camera_feed, find_the_robot
 from giraff_console.link import BoardLink
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.route_book import RouteBook
@@ -19,6 +19,7 @@ from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.teleop import Teleop
 from giraff_console.sim.drive import TruePose
+from giraff_console.sim_site import SimulatedSite
 from giraff_console.tui.app import GiraffConsole
 from giraff_console.tui.messages import CameraPictureUpdated
 
@@ -47,7 +48,26 @@ class Rig:
             press(intent)
 
         self.control.press = counted_press
-        self.camera = camera_feed(None, self.link.port) if camera else None
+        self.navigator = None
+        plan = None
+        if floorplan is not None:
+            plan = load_floorplan(floorplan)
+            self.navigator = Navigator(plan, walls_of(plan))
+            start = self.navigator.start_pose
+            assert start is not None
+            self.control.odometry.reset(start)
+            self.board.place(TruePose(start.x, start.y, start.heading))
+        self.camera = None
+        if camera and plan is not None:
+            # The camera sees the plan's building and its markers, which the detector
+            # finds and the localisation is fed, as `giraff-console --sim` does.
+            site = SimulatedSite(self.board, plan, self.navigator.start_pose)
+            self.camera = camera_feed(None, self.link.port, world=site.world,
+                                      surroundings=site.surroundings,
+                                      landmarks=plan.landmarks, clock=self.clock)  # fmt: skip
+            find_the_robot(self.control, self.camera, plan)
+        elif camera:
+            self.camera = camera_feed(None, self.link.port)
         if self.camera is not None:
             # Frames are stamped on the virtual clock, like the log, so that they line up.
             self.camera.source.clock = self.clock.now
@@ -57,14 +77,6 @@ class Rig:
             self.sessions = Sessions(self.control, self.camera, recordings, setup, print)
             routes = recordings.parent / "routes"
             self.routes = RouteBook(self.control, self.sessions, routes, print)
-        self.navigator = None
-        if floorplan is not None:
-            plan = load_floorplan(floorplan)
-            self.navigator = Navigator(plan, walls_of(plan))
-            start = self.navigator.start_pose
-            assert start is not None
-            self.control.odometry.reset(start)
-            self.board.place(TruePose(start.x, start.y, start.heading))
         self.app = GiraffConsole(
             self.control,
             navigator=self.navigator,

@@ -22,14 +22,12 @@ from giraff_console.tui.map_canvas import (
     ROBOT,
     UNSEEN,
     WALL,
-    DoorMark,
-    MapScene,
     Viewport,
     fit_grid,
     layer_styles,
     render_map,
-    wall_direction,
 )
+from giraff_console.tui.map_scene import DoorMark, MapScene, wall_direction
 from giraff_console.tui.map_view import MapView
 
 BLANK = chr(0x2800)

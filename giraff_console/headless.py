@@ -1,0 +1,356 @@
+"""What `go` and `patrol` share: the robot run without the console's screen.
+
+Both load the floor plan, connect to a board or to the built-in simulator in the plan's
+building, run the same control loop the console runs, find the robot by the plan's
+markers (issue 14) and drive one mission to its end, its progress on standard error.
+
+With the simulator the loop runs on a virtual clock, `--sim-speed` times faster than
+real time: every tick falls at the same virtual time whatever the speed, so a faster
+clock changes nothing but how long the run takes. The simulated camera is the
+localisation's eye (robot/marker_eye.py), looked through on the loop's thread between
+ticks, so that its frames fall at the same virtual times too.
+
+The simulator-only options make the tests of issue 14 possible from the shell: the
+robot put down somewhere other than the dock the console assumes (`--sim-start`), a
+marker that has slid along its wall but not in the plan (`--move-marker`), imperfect
+odometry and casters without the random stalls and ESTOPs that end missions
+(`--faults off`), and dead reckoning alone to compare with (`--no-landmarks`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import threading
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+
+import serial
+
+from giraff_console.clock import Clock, RealClock
+from giraff_console.link import BoardLink
+from giraff_console.missions.navigation import Navigator
+from giraff_console.missions.path_mission import Sense
+from giraff_console.planning.floorplan import FloorPlan, FloorPlanError, load_floorplan
+from giraff_console.planning.landmarks import fit_on_walls, marker_poses, marker_walls
+from giraff_console.planning.route_planner import walls_of
+from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.robot.deadman import Deadman
+from giraff_console.robot.last_stop import LastStop
+from giraff_console.robot.marker_eye import EYE_FPS, EYE_SIZE, MarkerEye
+from giraff_console.robot.mission import Mission
+from giraff_console.robot.odometry import Pose
+from giraff_console.robot.telemetry import LinkState, Telemetry
+from giraff_console.robot.teleop import Teleop
+from giraff_console.settings import Settings
+from giraff_console.sim import GiraffBoard
+from giraff_console.sim.drive import TruePose
+from giraff_console.sim_site import SimulatedSite, plan_world
+from giraff_console.simulator_options import add_firmware_option, simulator_url
+
+EXIT_ARRIVED, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+# Seconds of real time to wait for the board's first answer.
+CONNECT_TIMEOUT_S = 10.0
+# The options that only mean something in the simulated building.
+SIM_ONLY = ("imperfect", "block", "sim_start", "move_marker", "eye_fps", "eye_size")
+
+
+class UsageError(Exception):
+    """A mistake in the command: an option, the floor plan, a room; exit code 2."""
+
+
+def add_robot_options(parser: argparse.ArgumentParser, example: Path) -> None:
+    """The options of every command that drives without the screen."""
+    parser.add_argument(
+        "--floorplan", type=Path, default=argparse.SUPPRESS, metavar="FILE",
+        help=f"floor plan YAML (default: the example care home, {example})",
+    )  # fmt: skip
+    parser.add_argument(
+        "--port", metavar="PORT|URL", default=argparse.SUPPRESS,
+        help="the motor board's serial device or pyserial URL (default: from the settings "
+        "file; without one, the built-in simulator)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--sim", action="store_true", default=argparse.SUPPRESS,
+        help="use the built-in simulator, in the floor plan's building",
+    )  # fmt: skip
+    parser.add_argument("--json", action="store_true", help="print how it went as JSON")
+    parser.add_argument(
+        "--sim-speed", type=float, default=argparse.SUPPRESS, metavar="K",
+        help="run the simulator's clock K times faster than real time; inf for as fast as "
+        "it can (default: 1)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--imperfect", action="store_true",
+        help="simulate a real robot's errors: distances, caster drift, stalls, ESTOP",
+    )  # fmt: skip
+    parser.add_argument("--seed", type=int, default=1, metavar="N", help="seed for --imperfect")
+    parser.add_argument(
+        "--faults", choices=("on", "off"), default="on",
+        help="with --imperfect, off keeps the distance errors and caster drift but makes "
+        "no random stalls or ESTOPs, which end missions by design (default: %(default)s)",
+    )  # fmt: skip
+    add_firmware_option(parser, after_command=True)
+    parser.add_argument(
+        "--no-landmarks", action="store_true",
+        help="dead reckoning only: ignore the floor plan's markers (the estimate is then "
+        "the odometry's)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--block", action="append", default=[], metavar="X,Y",
+        help="put a 0.5 m box in the simulated building at X,Y metres (repeatable)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--sim-start", metavar="ROOM",
+        help="put the simulated robot at ROOM's point, facing its heading, instead of on "
+        "the dock; the console is not told and still assumes the dock",
+    )  # fmt: skip
+    parser.add_argument(
+        "--move-marker", action="append", default=[], metavar="ID:DX",
+        help="slide the simulated building's marker ID DX metres along its wall (positive: "
+        "to your right as you face it), leaving the floor plan as it is (repeatable)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--eye-fps", type=float, metavar="F",
+        help=f"frames a second the simulated camera looks for markers (default: {EYE_FPS:g})",
+    )  # fmt: skip
+    parser.add_argument(
+        "--eye-size", metavar="WxH",
+        help=f"the simulated camera's frame size (default: {EYE_SIZE[0]}x{EYE_SIZE[1]})",
+    )  # fmt: skip
+
+
+class HeadlessRobot:
+    """The floor plan, the board (or the simulator in the plan's building) and the
+    control loop on it, as `args` ask; UsageError for a mistake in them. Nothing runs
+    until `run`."""
+
+    def __init__(self, args: argparse.Namespace, settings: Settings, port: str | None,
+                 example: Path) -> None:  # fmt: skip
+        if port is not None:
+            given = [f"--{name.replace('_', '-')}" for name in SIM_ONLY if getattr(args, name)]
+            if given:
+                raise UsageError(f"{', '.join(given)}: only with the simulator (--sim)")
+        if not args.sim_speed > 0:  # NaN too
+            raise UsageError("--sim-speed must be positive")
+        try:
+            self.plan = load_floorplan(args.floorplan or example)
+            self.navigator = Navigator(self.plan, walls_of(self.plan), settings.robot_radius)
+            self.limits = settings.motion.limits()
+            self.patience = settings.motion.patience()
+            blocks = [_point(text) for text in args.block]
+            moved = _moved_plan(self.plan, args.move_marker)
+            eye_fps = EYE_FPS if args.eye_fps is None else args.eye_fps
+            eye_size = EYE_SIZE if args.eye_size is None else _size(args.eye_size)
+        except (FloorPlanError, OSError, ValueError) as error:
+            raise UsageError(str(error)) from None
+        if not (eye_fps > 0 and math.isfinite(eye_fps)):
+            raise UsageError("--eye-fps must be a positive number")
+        if args.sim_start is not None and args.sim_start not in self.plan.rooms:
+            raise UsageError(f"--sim-start: no room called {args.sim_start!r}")
+        self.start = self.navigator.start_pose
+        self.site: SimulatedSite | None = None
+        self.stepped: float | None = None
+        if port is None:
+            seed = args.seed if args.imperfect else None
+            simulator = built_in_simulator(args.firmware, seed, faults=args.faults == "on")
+            clock: Clock = simulator.clock
+            self.stepped = args.sim_speed
+            site = self.site = SimulatedSite(simulator.board, self.plan, self.start,
+                                             settings.motion.sensing_range)  # fmt: skip
+            for x, y in blocks:
+                site.surroundings.block(x, y)
+            if moved is not None:
+                # The building's markers, not the plan's: the console still goes by these.
+                site.world = plan_world(moved)
+            if args.sim_start is not None:
+                room = self.plan.rooms[args.sim_start]
+                site.board.place(TruePose(*room.at, math.radians(room.heading or 0.0)))
+
+            def connect() -> BoardLink:
+                if not simulator.is_open:
+                    simulator.open()
+                link = BoardLink(simulator, timeout=settings.timeout, clock=simulator.clock)
+                link.handshake(power_line="none")
+                return link
+        else:
+            clock = RealClock()
+
+            def connect() -> BoardLink:
+                return BoardLink.open(port, timeout=settings.timeout,
+                                      power_line=settings.power_line)  # fmt: skip
+
+        control = self.control = ControlLoop(
+            connect,
+            teleop=Teleop(settings.teleop.limits()),
+            deadman=Deadman(clock, settings.teleop.grace, settings.teleop.repeat_timeout),
+            rate_hz=settings.control_rate,
+            clock=clock,
+            wheel_base=settings.board.wheel_base,
+            odometers=settings.board.odometers,
+            twm=settings.board.twm,
+        )
+        if self.start is not None:
+            # The console cannot know where the robot was put down: it assumes the dock,
+            # and the markers correct that (robot/localisation.py, "No starting guess").
+            control.place(self.start)
+        control.report = lambda text: print(f"giraff-console: {text}", file=sys.stderr)
+        # The markers find the robot only through a camera, which `go` and `patrol` have
+        # with the simulator alone (its synthetic one); on a real robot they drive by
+        # the odometry, as the console does with a camera that has no calibration.
+        self.eye: MarkerEye | None = None
+        if self.plan.landmarks is not None and not args.no_landmarks:
+            if self.site is None:
+                control.report("markers: not used without a camera (go and patrol have the "
+                               "simulator's only): driving by the odometry")  # fmt: skip
+            else:
+                self.eye = self.site.eye(control.localisation, clock, fps=eye_fps, size=eye_size)
+        self.landmarks = self.eye is not None
+        if self.eye is not None:
+            control.localisation.use_markers(marker_poses(self.plan))
+            eye = self.eye
+            # The simulator is always on a stepped virtual clock: the eye looks on the
+            # loop's thread, between ticks (robot/marker_eye.py).
+            control.telemetry_observers.append(lambda telemetry: eye.look())
+
+    @property
+    def sense(self) -> Sense | None:
+        """The simulated range finder's readings, for missions; None on a real robot."""
+        return self.site.range_finder.readings if self.site is not None else None
+
+    def true_pose(self) -> Pose | None:
+        """Where the simulated robot really is (never the console's to know); None on a
+        real robot."""
+        return self.site.true_pose() if self.site is not None else None
+
+    def run(self, mission: Mission, ended: Callable[[str], None],
+            meanwhile: Callable[[], None] = lambda: None) -> bool:  # fmt: skip
+        """Start the loop, drive `mission` to its end, stop the loop; False if the board
+        never answered. `ended` gets the reason, on the loop's thread; `meanwhile` is
+        called on this thread every few seconds while it drives, and once after."""
+        control = self.control
+        connected, done = threading.Event(), threading.Event()
+
+        def finish(why: str) -> None:
+            try:
+                ended(why)
+            finally:
+                done.set()  # whatever the report did: the command must end
+
+        def start(telemetry: Telemetry) -> None:
+            # On the loop's thread, at the first tick that has the board: the mission
+            # starts at the same virtual time however fast the clock runs, before any
+            # frame the eye takes meanwhile could make a run differ from the next.
+            if telemetry.link is LinkState.CONNECTED and not connected.is_set():
+                connected.set()
+                control.run_mission(mission, finish)
+
+        control.telemetry_observers.append(start)
+        # Before the loop's thread starts: SIGHUP (the SSH connection dropped), SIGTERM
+        # and SIGINT stop the robot from the loop's own thread and end the mission.
+        last_stop = LastStop(control)
+        last_stop.install()
+        control.start(stepped=self.stepped)
+        try:
+            if not connected.wait(CONNECT_TIMEOUT_S):
+                return False
+            _show_progress(mission, done, meanwhile)
+            return True
+        finally:
+            control.stop()
+            last_stop.uninstall()
+
+
+def _show_progress(mission: Mission, done: threading.Event,
+                   meanwhile: Callable[[], None]) -> None:  # fmt: skip
+    """The mission's progress on standard error until it is `done`; a signal ends it
+    (LastStop)."""
+    tty = sys.stderr.isatty()
+    while not done.wait(0.5 if tty else 5.0):
+        line = mission.progress
+        print(f"\r{line}\033[K" if tty else line, end="" if tty else "\n", file=sys.stderr)
+        meanwhile()
+    if tty:
+        print(file=sys.stderr)
+    meanwhile()
+
+
+def built_in_simulator(firmware: str | None, seed: int | None, faults: bool) -> serial.SerialBase:
+    """The built-in simulator on a virtual clock, its board made here so that the
+    imperfections can leave out the random stalls and ESTOPs (`--faults off`)."""
+    url = simulator_url(firmware, virtual_clock=True, imperfect_seed=seed)
+    simulator = serial.serial_for_url(url, do_not_open=True)
+    config, _ = simulator.from_url(url)  # also gives the port its virtual clock
+    if not faults:
+        quiet = replace(config.imperfections, stall_rate=0.0, estop_rate=0.0)
+        config = replace(config, imperfections=quiet)
+    simulator.board = GiraffBoard(simulator.clock, config)
+    simulator.open()
+    return simulator
+
+
+def _moved_plan(plan: FloorPlan, moves: list[str]) -> FloorPlan | None:
+    """A copy of the plan with markers slid along their walls (`ID:DX`), for the
+    simulated building; None without moves. ValueError for a bad move."""
+    if not moves:
+        return None
+    landmarks = plan.landmarks
+    if landmarks is None:
+        raise ValueError("--move-marker: the floor plan has no markers")
+    markers = {marker.id: marker for marker in landmarks.markers}
+    walls = marker_walls(plan)
+    for text in moves:
+        marker_id, along = _move(text)
+        if marker_id not in markers:
+            raise ValueError(f"--move-marker: the floor plan has no marker {marker_id}")
+        marker = markers[marker_id]
+        # Along the wall is square to the marker's facing; +90° is the marker's own
+        # left, the right of someone standing in front of it.
+        angle = math.radians(marker.facing + 90.0)
+        at = (marker.at[0] + along * math.cos(angle), marker.at[1] + along * math.sin(angle))
+        if fit_on_walls(at, marker.facing, walls).wall is None:
+            raise ValueError(f"--move-marker {text}: marker {marker_id} would slide off its "
+                             f"wall, to ({at[0]:.2f}, {at[1]:.2f})")  # fmt: skip
+        markers[marker_id] = replace(marker, at=at)
+    moved = tuple(markers[marker.id] for marker in landmarks.markers)
+    return replace(plan, landmarks=replace(landmarks, markers=moved))
+
+
+def _move(text: str) -> tuple[int, float]:
+    try:
+        marker_id, along = text.split(":")
+        return int(marker_id), _finite(float(along))
+    except ValueError:
+        raise ValueError(f"--move-marker wants ID:DX (metres), not {text!r}") from None
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        width, height = (int(part) for part in text.lower().split("x"))
+    except ValueError:
+        raise ValueError(f"--eye-size wants WxH in pixels, not {text!r}") from None
+    if not (16 <= width <= 4096 and 16 <= height <= 4096):
+        raise ValueError(f"--eye-size wants 16 to 4096 pixels a side, not {text!r}")
+    return width, height
+
+
+def _point(text: str) -> tuple[float, float]:
+    try:
+        x, y = (_finite(float(part)) for part in text.split(","))
+    except ValueError:
+        raise ValueError(f"--block wants X,Y in metres, not {text!r}") from None
+    return x, y
+
+
+def _finite(value: float) -> float:
+    if not math.isfinite(value):
+        raise ValueError("not finite")
+    return value
+
+
+def fail(message: str, code: int) -> int:
+    """Say what went wrong; the exit code."""
+    print(f"giraff-console: {message}", file=sys.stderr)
+    return code

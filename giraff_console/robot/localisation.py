@@ -1,0 +1,323 @@
+"""Where the robot is: the odometry corrected by the markers the camera sees (§2.3).
+
+The control loop owns one Localisation. On its thread, after every poll, `follow` hands
+the pose filter (ekf.py) what the wheels did since the last poll; the camera, on its own
+thread, hands `sighted` each frame's markers, and `correct` (the loop's thread again)
+takes them in before the tick uses the pose. Everything that steered by the odometry's
+pose steers by `pose`, the filter's estimate; the odometry's own stays beside it for
+recordings and for comparison (`Estimate.odometry`).
+
+Why a frame is moved to the present before it corrects anything
+    A frame is taken a few tens of milliseconds, on a loaded PC a few hundred, before
+    the loop gets its markers, and the robot has moved on meanwhile (30 cm/s is 3 cm a
+    tenth of a second). Each sighting is carried from the frame's time to now by what
+    the odometry did in between (interpolated between the polls either side of the
+    frame), which over that short a time is good to millimetres.
+    A frame older than `HISTORY_S` is dropped: the odometry between then and now is no
+    longer kept, and so old a frame says little anyway.
+
+No starting guess
+    The console assumes the robot starts on its dock (the plan's start room), as it
+    always has; without markers in the plan that is all there is. With markers, that
+    assumption is not evidence: until a marker has confirmed the pose (`found`), a
+    sighting the gate rejects places the robot where the sighting says instead (the
+    first marker seen places the robot: ids are unique in a plan). After that the gate
+    holds, so that a marker moved on the wall but not in the plan cannot drag the
+    estimate away.
+
+The pose when the odometry's jumps
+    The odometry's pose jumps when its first-motion check replaces the wheel reading
+    (odometry_feed.py). The filter follows the wheels, not that pose, so it would not
+    see the jump; `follow` notices the odometry's pose is no longer where its own wheel
+    steps put it and moves the estimate by the same change.
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+import queue
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from giraff_console.robot.ekf import Observation, PoseFilter, wrap
+from giraff_console.robot.odometry import Odometry, Pose
+
+# Sightings older than this are dropped (see the module docstring).
+HISTORY_S = 1.0
+# What counts as seen or rejected "recently", for the map and the top line.
+RECENT_S = 5.0
+# Where the robot is assumed to start, on its dock, as a standard deviation: a robot
+# put on its dock by hand sits within a few centimetres and degrees.
+START_SIGMA_M = 0.05
+START_SIGMA_HEADING = math.radians(3.0)
+# The bounds missions act on (missions/localising.py): past SLOW_SIGMA_M a mission slows
+# down, past LOOK_SIGMA_M it stops and looks for a marker. The error at a stop is
+# required to stay within 0.10 m (issue 14); a 2-sigma 0.10 m is a sigma of 0.05 m.
+SLOW_SIGMA_M = 0.10
+LOOK_SIGMA_M = 0.20
+# Until the robot is found, only a marker this near confirms or places it: a 16 cm
+# marker's facing, which placing needs, is good to a few degrees at 2-3 m, and a degree
+# is 7 cm at 4 m. A farther one waits for a nearer (a look turns to them, nearer first).
+PLACE_REACH_M = 4.0
+# A step whose centre moves less than this fraction of what its wheels turn is a turn
+# in place, which leaves the casters out of line (§3.2.1.5).
+IN_PLACE_FRACTION = 0.1
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """Where the robot is believed to be, and how well that is known, as of one tick.
+
+    `pose` is the filter's estimate (the odometry's own while the plan has no markers);
+    `odometry` is dead reckoning alone. `covariance` is (x, y, heading)'s 3x3, row by
+    row; `sigma_m` the position's standard deviation along its worst direction and
+    `sigma_heading` the heading's (radians); `ellipse` the 1-sigma position ellipse:
+    semi-major and semi-minor axes (metres) and the major axis's direction (radians
+    from +x). `landmarks`: the plan has markers to find the robot by; `found`: a marker
+    has placed or confirmed the pose since the start. `seen` and `rejected` are the
+    ids of the markers used, and rejected by the gate, in the last RECENT_S seconds;
+    `corrected_at` when a marker last corrected the pose, on the loop's clock."""
+
+    pose: Pose
+    odometry: Pose
+    covariance: tuple[tuple[float, float, float], ...]
+    sigma_m: float
+    sigma_heading: float
+    ellipse: tuple[float, float, float]
+    landmarks: bool = False
+    found: bool = False
+    seen: tuple[int, ...] = ()
+    rejected: tuple[int, ...] = ()
+    corrected_at: float | None = None
+    # The standard deviation (radians) of the turn the casters have still to make since
+    # the last turn on the spot (§3.2.1.5; ekf.py), released as the robot moves.
+    caster_pending: float = 0.0
+
+    @property
+    def lost(self) -> bool:
+        """Known too loosely to drive on (LOOK_SIGMA_M), or never found, in a plan whose
+        markers could tell; never without markers, where the odometry is all there is."""
+        return self.landmarks and (not self.found or self.sigma_m > LOOK_SIGMA_M)
+
+    @property
+    def unsure(self) -> bool:
+        """Known loosely enough to slow down for (SLOW_SIGMA_M), in a plan with markers."""
+        return self.landmarks and (not self.found or self.sigma_m > SLOW_SIGMA_M)
+
+
+def start_covariance() -> np.ndarray:
+    return np.diag([START_SIGMA_M**2, START_SIGMA_M**2, START_SIGMA_HEADING**2])
+
+
+class Localisation:
+    """The pose filter, fed by the odometry and the camera's markers; see the module
+    docstring. `follow`, `correct` and `estimate` are for the control loop's thread;
+    `sighted` is safe from any thread."""
+
+    def __init__(self, odometry: Odometry, markers: Mapping[int, Pose] | None = None,
+                 now: Callable[[], float] = lambda: 0.0,
+                 report: Callable[[str], None] = lambda text: None) -> None:  # fmt: skip
+        self.odometry = odometry
+        self.now = now
+        self.report = report
+        # Each marker's centre on its wall and the way its face looks (planning's
+        # landmarks.marker_poses): the robot layer knows nothing of floor plans.
+        self.markers: dict[int, Pose] = {}
+        self.filter = PoseFilter(odometry.pose, start_covariance())
+        self.found = False
+        self._wheels = odometry.wheels
+        # Where the odometry's pose would be if it only moved by the wheel steps followed.
+        self._odometry_pose = odometry.pose
+        # (time, odometry pose) after each step followed, for moving frames to the present.
+        self._history: collections.deque[tuple[float, Pose]] = collections.deque()
+        self._sightings: queue.SimpleQueue[list[Observation]] = queue.SimpleQueue()
+        self._seen: dict[int, float] = {}
+        self._rejected: dict[int, float] = {}
+        self._unknown_reported: set[int] = set()
+        # Sightings used and rejected, by marker, since the console started: what a
+        # patrol's report and the localisation benchmark count.
+        self.used: collections.Counter[int] = collections.Counter()
+        self.rejections: collections.Counter[int] = collections.Counter()
+        self.use_markers(markers or {})
+
+    def use_markers(self, markers: Mapping[int, Pose]) -> None:
+        """Find the robot by these markers from now on (none: by the odometry alone)."""
+        self.markers = dict(markers)
+
+    # -- from any thread ----------------------------------------------------------------
+
+    def sighted(self, sightings: Iterable[Observation]) -> None:
+        """One frame's markers, each with the frame's time on the loop's clock."""
+        frame = list(sightings)
+        if frame:
+            self._sightings.put(frame)
+
+    # -- on the loop's thread -----------------------------------------------------------
+
+    def place(self, pose: Pose, covariance: np.ndarray | None = None) -> None:
+        """The robot is at `pose` (the operator says so, or the console starts on the
+        dock): the odometry and the estimate start again from there."""
+        self.odometry.reset(pose, self.odometry.reference)
+        self.filter.reset(pose, start_covariance() if covariance is None else covariance)
+        self._odometry_pose = pose
+        self._wheels = self.odometry.wheels
+        self._history.clear()
+        self._history.append((self.now(), pose))
+        self.found = False
+
+    def follow(self) -> None:
+        """Predict by what the wheels did since the last call (see the module docstring
+        for the odometry's jumps)."""
+        odometry = self.odometry
+        left = odometry.wheels[0] - self._wheels[0]
+        right = odometry.wheels[1] - self._wheels[1]
+        self._wheels = odometry.wheels
+        if left or right:
+            base = odometry.wheel_base
+            centre = abs(left + right) / 2
+            in_place = centre < IN_PLACE_FRACTION * max(abs(left), abs(right))
+            self.filter.predict(left, right, base, turned_in_place=in_place)
+            self._odometry_pose = _step(self._odometry_pose, left, right, base)
+        jump = _between(self._odometry_pose, odometry.pose)
+        if math.hypot(jump.x, jump.y) > 1e-6 or abs(jump.heading) > 1e-6:
+            self.filter.reset(_compose(self.filter.pose, jump), self.filter.covariance)
+            self._odometry_pose = odometry.pose
+        now = self.now()
+        self._history.append((now, odometry.pose))
+        while self._history and self._history[0][0] < now - HISTORY_S:
+            self._history.popleft()
+
+    def correct(self) -> None:
+        """Take in the markers seen since the last call, each moved to the present."""
+        since = self.now() - RECENT_S
+        for recent in (self._seen, self._rejected):
+            for marker_id in [i for i, at in recent.items() if at < since]:
+                del recent[marker_id]
+        while True:
+            try:
+                frame = self._sightings.get_nowait()
+            except queue.Empty:
+                return
+            for sighting in frame:
+                self._take(sighting)
+
+    def _take(self, sighting: Observation) -> None:
+        marker = self.markers.get(sighting.marker_id)
+        if marker is None:
+            if sighting.marker_id not in self._unknown_reported and self.markers:
+                self._unknown_reported.add(sighting.marker_id)
+                self.report(f"marker {sighting.marker_id} seen, but the floor plan has no "
+                            "such marker: ignored")  # fmt: skip
+            return
+        now = self.now()
+        present = self._to_present(sighting, now)
+        if present is None:
+            return
+        marker_id = sighting.marker_id
+        near = present.distance_m <= PLACE_REACH_M
+        if not self.found and not near:
+            return  # too weak to confirm the assumed start by, or to place the robot
+        if self.filter.correct(present, marker):
+            self.found = True
+            self._seen[marker_id] = now
+            self.used[marker_id] += 1
+            return
+        if not self.found and present.facing_rad is not None:
+            # Not found yet: the assumed start is no evidence; this marker is.
+            pose = self.filter.place_from(present, marker)
+            self.found = True
+            self._seen[marker_id] = now
+            self.used[marker_id] += 1
+            self.report(f"found by marker {marker_id}: at x={pose.x:.2f} y={pose.y:.2f}")
+            return
+        self._rejected[marker_id] = now
+        self.rejections[marker_id] += 1
+
+    def _to_present(self, sighting: Observation, now: float) -> Observation | None:
+        """The sighting as a camera at the robot's pose now would make it."""
+        then = self._odometry_at(sighting.time)
+        if then is None:
+            return None
+        moved = _between(then, self.odometry.pose)  # in the frame's robot frame
+        # The marker in the robot's frame at the frame's time, then now.
+        mx = sighting.distance_m * math.cos(sighting.bearing_rad) - moved.x
+        my = sighting.distance_m * math.sin(sighting.bearing_rad) - moved.y
+        cos_t, sin_t = math.cos(moved.heading), math.sin(moved.heading)
+        x, y = cos_t * mx + sin_t * my, -sin_t * mx + cos_t * my
+        facing = sighting.facing_rad
+        return replace(
+            sighting,
+            distance_m=math.hypot(x, y),
+            bearing_rad=math.atan2(y, x),
+            facing_rad=None if facing is None else wrap(facing - moved.heading),
+            time=now,
+        )
+
+    def _odometry_at(self, time: float) -> Pose | None:
+        """The odometry's pose at `time`, between the two steps kept either side of it
+        (a frame falls between two polls); None if out of reach."""
+        history = self._history
+        if not history or not math.isfinite(time) or time < history[0][0] - 1e-9:
+            return None
+        before_at, before = history[0]
+        for at, pose in history:
+            if at > time:
+                share = (time - before_at) / (at - before_at)
+                move = _between(before, pose)
+                return _compose(before, Pose(move.x * share, move.y * share,
+                                             move.heading * share))  # fmt: skip
+            before_at, before = at, pose
+        return before
+
+    def estimate(self) -> Estimate:
+        """The estimate now. Safe from another thread as a snapshot: it only reads."""
+        since = self.now() - RECENT_S
+        # Copied before they are read: the loop's thread may add to them meanwhile.
+        seen = tuple(sorted(i for i, at in self._seen.copy().items() if at >= since))
+        rejected = tuple(sorted(i for i, at in self._rejected.copy().items() if at >= since))
+        f = self.filter
+        covariance = f.covariance
+        return Estimate(
+            pose=f.pose,
+            odometry=self.odometry.pose,
+            covariance=tuple(tuple(float(v) for v in row) for row in covariance),  # type: ignore[misc]
+            sigma_m=f.sigma_m,
+            sigma_heading=f.sigma_heading,
+            ellipse=f.ellipse(),
+            landmarks=bool(self.markers),
+            found=self.found,
+            seen=seen,
+            rejected=rejected,
+            corrected_at=f.corrected_at if self.found else None,
+            caster_pending=f.caster_pending,
+        )
+
+    @property
+    def pose(self) -> Pose:
+        return self.filter.pose
+
+
+def _step(pose: Pose, left: float, right: float, wheel_base: float) -> Pose:
+    """`pose` moved by the wheels' travel, as Odometry.update integrates it."""
+    distance = (left + right) / 2
+    turn = (right - left) / wheel_base
+    mid = pose.heading + turn / 2
+    return Pose(pose.x + distance * math.cos(mid), pose.y + distance * math.sin(mid),
+                pose.heading + turn)  # fmt: skip
+
+
+def _between(a: Pose, b: Pose) -> Pose:
+    """`b` in `a`'s frame: the move from a to b as the robot at a sees it."""
+    dx, dy = b.x - a.x, b.y - a.y
+    cos_a, sin_a = math.cos(a.heading), math.sin(a.heading)
+    return Pose(cos_a * dx + sin_a * dy, -sin_a * dx + cos_a * dy, wrap(b.heading - a.heading))
+
+
+def _compose(a: Pose, move: Pose) -> Pose:
+    """`a` moved by `move`, given in a's frame."""
+    cos_a, sin_a = math.cos(a.heading), math.sin(a.heading)
+    return Pose(a.x + cos_a * move.x - sin_a * move.y, a.y + sin_a * move.x + cos_a * move.y,
+                a.heading + move.heading)  # fmt: skip

@@ -1,0 +1,104 @@
+"""The camera as the localisation's eye: its markers handed to the pose filter (issue 14).
+
+With the console's screen, the camera feed already finds markers on its own thread
+(camera/markers.py); `hand_on` is the listener that passes each frame's markers to the
+control loop's localisation. Without a screen (`go`, `patrol`, with the simulator),
+`MarkerEye` takes the frames itself at the camera's rate, on the loop's thread between
+ticks of the simulator's stepped virtual clock, so that a frame falls at the same
+virtual time whatever the speed and no virtual time passes while it is looked at.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+
+import cv2
+
+from giraff_console.camera.markers import MarkerDetector, MarkerSighting
+from giraff_console.camera.source import CameraSource, Frame
+from giraff_console.clock import Clock
+from giraff_console.robot.ekf import Observation
+from giraff_console.robot.localisation import Localisation
+
+# The Giraff's camera delivers about 10 frames a second at 800x600 (§3.3).
+EYE_FPS = 10.0
+EYE_SIZE = (800, 600)
+
+
+def observations(sightings: object) -> list[Observation]:
+    """A frame's marker sightings (a processor's data under "markers") as the filter
+    takes them; those without a distance (unknown intrinsics) are left to the filter
+    to drop."""
+    if not isinstance(sightings, list):
+        return []
+    return [
+        Observation(s.id, s.distance_m, s.bearing_rad,
+                    None if math.isnan(s.facing_rad) else s.facing_rad, s.frame_time)
+        for s in sightings if isinstance(s, MarkerSighting)
+    ]  # fmt: skip
+
+
+def hand_on(localisation: Localisation) -> Callable[[Frame, dict[str, object]], None]:
+    """A camera feed's listener that gives `localisation` each frame's markers."""
+
+    def listener(frame: Frame, data: dict[str, object]) -> None:
+        localisation.sighted(observations(data.get("markers")))
+
+    return listener
+
+
+class MarkerEye:
+    """Frames from `source` at `fps`, their markers found by `detector` and handed to
+    `localisation`, when `look` is called; see the module docstring."""
+
+    def __init__(self, source: CameraSource, detector: MarkerDetector,
+                 localisation: Localisation, clock: Clock, *, fps: float = EYE_FPS,
+                 size: tuple[int, int] = EYE_SIZE) -> None:  # fmt: skip
+        if not fps > 0:
+            raise ValueError("the camera's rate must be positive")
+        self.source = source
+        self.detector = detector
+        self.localisation = localisation
+        self.clock = clock
+        self.period = 1.0 / fps
+        self.size = source.open(*size)
+        # What it has looked at, and what that cost in wall time: every frame taken
+        # (rendered, with the simulator) and found markers in, and the finding alone.
+        self.frames = 0
+        self.sightings = 0
+        self.look_seconds = 0.0
+        self.detect_seconds = 0.0
+        self._next = -math.inf
+
+    def look(self) -> None:
+        """Take a frame if one is due, find its markers and hand them on."""
+        now = self.clock.now()
+        if now < self._next:
+            return
+        self._next = max(self._next + self.period, now)
+        started = time.perf_counter()
+        frame = self.source.read()
+        if frame is None:
+            return
+        grey = cv2.cvtColor(frame.image, cv2.COLOR_BGR2GRAY)
+        detecting = time.perf_counter()
+        found = observations(self.detector.detect(grey, frame.captured_at))
+        done = time.perf_counter()
+        self.frames += 1
+        self.sightings += len(found)
+        self.look_seconds += done - started
+        self.detect_seconds += done - detecting
+        self.localisation.sighted(found)
+
+    def cost(self) -> dict[str, float | int | None]:
+        """Frames and sightings so far, and the milliseconds a frame cost: all of it, and
+        finding the markers alone."""
+        frames = self.frames
+        return {
+            "frames": frames,
+            "sightings": self.sightings,
+            "ms_per_frame": round(1e3 * self.look_seconds / frames, 2) if frames else None,
+            "detect_ms_per_frame": round(1e3 * self.detect_seconds / frames, 2) if frames else None,
+        }

@@ -1,0 +1,202 @@
+"""The localisation: the odometry followed, sightings moved to the present, the first
+marker placing a robot that is not where the console assumed, and the gate holding
+once it is found."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from giraff_console.clock import VirtualClock
+from giraff_console.link.motor_state import MotorState
+from giraff_console.robot.ekf import Observation, PoseFilter
+from giraff_console.robot.localisation import LOOK_SIGMA_M, Localisation
+from giraff_console.robot.odometry import Odometry, Pose
+from giraff_console.robot.wheel_odometers import Reading
+
+BASE = 0.499
+# A marker on a wall 3 m ahead of the dock, facing back along -x.
+WALL_MARKER = Pose(5.0, 0.0, math.pi)
+MARKERS = {7: WALL_MARKER, 8: Pose(5.0, 1.5, math.pi)}
+
+
+class Wheels:
+    """Totals of the thesis's board, fed to the odometry as polls would."""
+
+    def __init__(self, odometry: Odometry, clock: VirtualClock) -> None:
+        self.odometry, self.clock = odometry, clock
+        self.left = self.right = 0.0
+        self.feed()
+
+    def feed(self) -> None:
+        state = MotorState(0.0, 0.0, 0.0, 0.0, 0.0, None, self.left, self.right, 0,
+                           self.clock.now())  # fmt: skip
+        self.odometry.update(state)
+
+    def drive(self, left: float, right: float, steps: int, localisation: Localisation) -> None:
+        for _ in range(steps):
+            self.left += left / steps
+            self.right += right / steps
+            self.clock.advance(0.05)
+            self.feed()
+            localisation.follow()
+
+
+def sighting(true_pose: Pose, marker: Pose, marker_id: int, time: float) -> Observation:
+    """What a perfect camera at `true_pose` sees of `marker`."""
+    seen = PoseFilter(true_pose).expected(marker)
+    return Observation(marker_id, seen.distance_m, seen.bearing_rad, seen.facing_rad, time)
+
+
+def make(markers=MARKERS) -> tuple[Localisation, Wheels, VirtualClock]:
+    clock = VirtualClock(100.0)
+    odometry = Odometry(Pose(2.0, 0.0, 0.0), wheel_base=BASE, reading=Reading.TOTALS)
+    localisation = Localisation(odometry, markers, now=clock.now)
+    localisation.place(Pose(2.0, 0.0, 0.0))
+    return localisation, Wheels(odometry, clock), clock
+
+
+def test_without_markers_the_estimate_is_the_odometry():
+    localisation, wheels, _ = make(markers={})
+    wheels.drive(1.0, 1.3, 20, localisation)
+    estimate = localisation.estimate()
+    assert estimate.pose.x == pytest.approx(estimate.odometry.x, abs=1e-9)
+    assert estimate.pose.y == pytest.approx(estimate.odometry.y, abs=1e-9)
+    assert estimate.pose.heading == pytest.approx(estimate.odometry.heading, abs=1e-9)
+    assert not estimate.landmarks and not estimate.lost and not estimate.unsure
+    # Driving grew the uncertainty from the dock's few centimetres.
+    assert estimate.sigma_m > 0.05
+
+
+def test_a_sighting_that_agrees_confirms_the_pose_and_shrinks_it():
+    localisation, wheels, clock = make()
+    wheels.drive(1.0, 1.0, 20, localisation)  # to x = 3, as assumed
+    before = localisation.estimate().sigma_m
+    localisation.sighted([sighting(Pose(3.0, 0.0, 0.0), WALL_MARKER, 7, clock.now())])
+    localisation.correct()
+    estimate = localisation.estimate()
+    assert estimate.found and estimate.seen == (7,)
+    assert estimate.sigma_m < before
+    assert math.hypot(estimate.pose.x - 3.0, estimate.pose.y) < 0.01
+
+
+def test_the_first_marker_places_a_robot_that_was_not_on_its_dock():
+    localisation, _wheels, clock = make()
+    assert localisation.estimate().lost  # nothing has confirmed the assumed dock
+    # Really 1.2 m to the left and turned 20 degrees: far outside the start's gate.
+    true = Pose(2.0, 1.2, math.radians(20))
+    localisation.sighted([sighting(true, WALL_MARKER, 7, clock.now())])
+    localisation.correct()
+    estimate = localisation.estimate()
+    # One sighting 3 m off places it to decimetres across the line of sight (the
+    # facing's 6 degrees), which later sightings narrow.
+    assert estimate.found and estimate.sigma_m < 0.5
+    assert math.hypot(estimate.pose.x - true.x, estimate.pose.y - true.y) < 0.01
+    assert math.degrees(abs(estimate.pose.heading - true.heading)) < 0.5
+
+
+def test_once_found_a_marker_moved_a_metre_is_rejected_by_the_gate():
+    localisation, _wheels, clock = make()
+    true = Pose(2.0, 0.0, 0.0)
+    localisation.sighted([sighting(true, WALL_MARKER, 7, clock.now())])
+    localisation.correct()
+    found = localisation.estimate().pose
+    # Marker 8 hangs a metre along the wall from where the plan says.
+    moved = Pose(5.0, 0.5, math.pi)
+    localisation.sighted([sighting(true, moved, 8, clock.now())])
+    localisation.correct()
+    estimate = localisation.estimate()
+    assert estimate.rejected == (8,) and estimate.seen == (7,)
+    assert estimate.pose == found
+    assert localisation.rejections == {8: 1} and localisation.used == {7: 1}
+
+
+def test_a_sighting_is_moved_to_the_present_by_the_odometry_since_its_frame():
+    localisation, wheels, clock = make()
+    localisation.sighted([sighting(Pose(2.0, 0.0, 0.0), WALL_MARKER, 7, clock.now())])
+    localisation.correct()
+    taken_at = clock.now()
+    true_then = Pose(2.0, 0.0, 0.0)
+    # The robot drives on for 0.4 s (0.2 m, turning) before the frame's markers arrive.
+    wheels.drive(0.18, 0.22, 8, localisation)
+    localisation.sighted([sighting(true_then, WALL_MARKER, 7, taken_at)])
+    before = localisation.estimate().pose
+    localisation.correct()
+    after = localisation.estimate().pose
+    # Taken as it is, the old frame would pull the estimate back towards x = 2; moved to
+    # the present it agrees with where the odometry has the robot now.
+    assert math.hypot(after.x - before.x, after.y - before.y) < 0.005
+    assert localisation.estimate().seen == (7,)
+
+
+def test_a_frame_older_than_the_history_is_dropped():
+    localisation, wheels, clock = make()
+    old = clock.now()
+    wheels.drive(0.5, 0.5, 40, localisation)  # 2 s
+    localisation.sighted([sighting(Pose(2.0, 0.0, 0.0), WALL_MARKER, 7, old)])
+    localisation.correct()
+    assert localisation.estimate().seen == ()
+
+
+def test_a_marker_the_plan_does_not_have_is_reported_once_and_ignored():
+    said: list[str] = []
+    clock = VirtualClock()
+    odometry = Odometry(Pose(), wheel_base=BASE)
+    localisation = Localisation(odometry, MARKERS, now=clock.now, report=said.append)
+    Wheels(odometry, clock)
+    localisation.follow()
+    for _ in range(3):
+        localisation.sighted([Observation(99, 2.0, 0.0, math.pi, clock.now())])
+        localisation.correct()
+    assert len(said) == 1 and "99" in said[0]
+    assert not localisation.estimate().found
+
+
+def test_the_odometrys_jump_moves_the_estimate_with_it():
+    localisation, wheels, _ = make(markers={})
+    wheels.drive(1.0, 1.0, 10, localisation)
+    odometry = localisation.odometry
+    # The first-motion check replaced the reading: the odometry's pose jumps 0.3 m.
+    odometry.pose = Pose(odometry.pose.x + 0.3, odometry.pose.y, odometry.pose.heading)
+    localisation.follow()
+    assert localisation.pose.x == pytest.approx(odometry.pose.x, abs=1e-9)
+
+
+def test_dead_reckoning_after_a_turn_in_place_and_a_long_drive_is_lost():
+    localisation, wheels, clock = make()
+    localisation.sighted([sighting(Pose(2.0, 0.0, 0.0), WALL_MARKER, 7, clock.now())])
+    localisation.correct()
+    half_turn = math.pi / 2 * BASE / 2
+    wheels.drive(-half_turn, half_turn, 10, localisation)  # a quarter turn on the spot
+    wheels.drive(4.0, 4.0, 80, localisation)
+    estimate = localisation.estimate()
+    assert estimate.sigma_m > LOOK_SIGMA_M and estimate.lost
+
+
+def test_a_marker_too_far_to_place_the_robot_by_waits_for_a_nearer_one():
+    localisation, _wheels, clock = make(markers={7: WALL_MARKER, 9: Pose(7.0, 0.0, math.pi)})
+    true = Pose(2.0, 0.8, 0.0)
+    localisation.sighted([sighting(true, Pose(7.0, 0.0, math.pi), 9, clock.now())])  # 5 m
+    localisation.correct()
+    assert not localisation.estimate().found
+    localisation.sighted([sighting(true, WALL_MARKER, 7, clock.now())])  # 3 m
+    localisation.correct()
+    estimate = localisation.estimate()
+    assert estimate.found and abs(estimate.pose.y - 0.8) < 0.01
+
+
+def test_a_frame_between_two_polls_is_moved_from_where_the_robot_was_between_them():
+    localisation, wheels, clock = make()
+    localisation.sighted([sighting(Pose(2.0, 0.0, 0.0), WALL_MARKER, 7, clock.now())])
+    localisation.correct()
+    wheels.drive(0.1, 0.1, 1, localisation)  # one poll, 0.05 s later, 0.1 m on
+    # A frame taken half-way between the polls, 0.05 m on, reaching the loop a poll later.
+    halfway = clock.now() - 0.025
+    wheels.drive(0.1, 0.1, 1, localisation)
+    localisation.sighted([sighting(Pose(2.05, 0.0, 0.0), WALL_MARKER, 7, halfway)])
+    before = localisation.estimate().pose
+    localisation.correct()
+    after = localisation.estimate().pose
+    assert localisation.estimate().seen == (7,)
+    assert abs(after.x - before.x) < 0.002
