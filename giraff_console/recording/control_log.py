@@ -17,9 +17,10 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol, TypeVar
 
 from giraff_console.link.exchange import Exchange
 from giraff_console.protocol.replies import format_reply
@@ -149,7 +150,25 @@ def read_log(path: Path) -> LogRead:
 
 def parse_log(lines: Iterable[str]) -> LogRead:
     """`read_log` on lines already read; the last one is the text after the last line end."""
-    entries: list[LogEntry] = []
+    entries, problems = parse_lines(lines, parse_entry)
+    return LogRead(entries, problems)
+
+
+class Timed(Protocol):
+    @property
+    def offset(self) -> float: ...
+
+
+TimedEntry = TypeVar("TimedEntry", bound=Timed)
+
+
+def parse_lines(
+    lines: Iterable[str], parse: Callable[[str, int], TimedEntry]
+) -> tuple[list[TimedEntry], list[LogProblem]]:
+    """Every line of a recording's file that `parse(text, line_no)` takes, in time order;
+    a line it refuses (ValueError), one whose time goes backwards and the last, unfinished
+    one (the text after the last line end) are reported and skipped."""
+    entries: list[TimedEntry] = []
     problems: list[LogProblem] = []
     lines = list(lines)
     last = len(lines)
@@ -161,7 +180,7 @@ def parse_log(lines: Iterable[str]) -> LogRead:
             problems.append(LogProblem(line_no, "incomplete last line, ignored"))
             break
         try:
-            entry = parse_entry(text, line_no)
+            entry = parse(text, line_no)
         except ValueError as error:
             problems.append(LogProblem(line_no, f"{error}; skipped"))
             continue
@@ -169,4 +188,4 @@ def parse_log(lines: Iterable[str]) -> LogRead:
             problems.append(LogProblem(line_no, "time goes backwards; skipped"))
             continue
         entries.append(entry)
-    return LogRead(entries, problems)
+    return entries, problems

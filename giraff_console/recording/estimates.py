@@ -34,7 +34,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from giraff_console.recording.control_log import LogProblem
+from giraff_console.recording.control_log import LogProblem, parse_lines
 
 ESTIMATES = "estimate.jsonl"
 # 5 Hz: the covariance, the one thing playback cannot carry along, is at most this old.
@@ -139,24 +139,7 @@ def parse_estimates(lines: Iterable[str]) -> EstimatesRead:
     the control log's are (control_log.parse_log). The last of `lines` is the text after
     the last line end, which a recording cut off (a crash, a power loss) leaves
     unfinished."""
-    entries: list[RecordedEstimate] = []
-    problems: list[LogProblem] = []
-    lines = list(lines)
-    for line_no, text in enumerate(lines, start=1):
-        if not text.strip():
-            continue
-        if line_no == len(lines):
-            problems.append(LogProblem(line_no, "incomplete last line, ignored"))
-            break
-        try:
-            entry = parse_estimate(text, line_no)
-        except ValueError as error:
-            problems.append(LogProblem(line_no, f"{error}; skipped"))
-            continue
-        if entries and entry.offset < entries[-1].offset:
-            problems.append(LogProblem(line_no, "time goes backwards; skipped"))
-            continue
-        entries.append(entry)
+    entries, problems = parse_lines(lines, parse_estimate)
     return EstimatesRead(entries, problems)
 
 
