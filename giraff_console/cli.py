@@ -448,6 +448,8 @@ def run_console(args: argparse.Namespace) -> int:
     site = None
     if simulator is not None:
         site = SimulatedSite(simulator.board, plan, start, settings.motion.sensing_range)
+        # The simulated robot's casters are the simulator's to say (robot/localisation.py).
+        control.localisation.casters_turn_up_to(site.caster_drift)
     camera = camera_feed(
         args.camera, simulator, args.calibration, args.fast_threshold, args.camera_fps,
         site.world if site else None, site.surroundings if site else None, plan.landmarks,

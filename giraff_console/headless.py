@@ -192,6 +192,10 @@ class HeadlessRobot:
             odometers=settings.board.odometers,
             twm=settings.board.twm,
         )
+        if self.site is not None:
+            # The simulated robot's casters are the simulator's to say: the thesis's with
+            # --imperfect, none on the ideal board (robot/localisation.py).
+            control.localisation.casters_turn_up_to(self.site.caster_drift)
         if self.start is not None:
             # The console cannot know where the robot was put down: it assumes the dock,
             # and the markers correct that (robot/localisation.py, "No starting guess").

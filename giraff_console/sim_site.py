@@ -83,6 +83,12 @@ class SimulatedSite:
         self.world = plan_world(plan)
         self._doors = {door.id: door for door in plan.doors}
 
+    @property
+    def caster_drift(self) -> float:
+        """The most the simulated robot's casters turn it after a turn on the spot,
+        radians: the thesis's 45 degrees with --imperfect, none on the ideal board."""
+        return math.radians(self.board.config.imperfections.caster_drift_deg)
+
     def true_pose(self) -> Pose:
         pose = self.board.true_pose
         return Pose(pose.x, pose.y, pose.heading)

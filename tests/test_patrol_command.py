@@ -94,14 +94,14 @@ def test_a_stop_that_is_not_reached_ends_the_patrol_and_exits_1(tmp_path, capsys
 
 
 def test_a_marker_moved_along_its_wall_is_rejected_and_the_robot_still_arrives(tmp_path, capsys):
-    # Marker 108 is in the nurse station, in view on the way in; moved 1 m, but not in
+    # Marker 109 is in the nurse station, in view on the way in; moved 1 m, but not in
     # the plan, it disagrees with every other marker.
     write_patrol(tmp_path, "nurse", [{"room": "nurse-station"}])
     code, (stop, summary), _ = patrol(capsys, "nurse", "--routes", str(tmp_path), "--sim",
                                       "--sim-speed", "inf", "--json", "--move-marker",
-                                      "108:1", *SMALL_EYE)  # fmt: skip
+                                      "109:1", *SMALL_EYE)  # fmt: skip
     assert code == 0 and stop["arrived"] and stop["error_m"] <= 0.03
-    assert 108 in summary["markers_rejected"] and 108 not in summary["markers_used"]
+    assert 109 in summary["markers_rejected"] and 109 not in summary["markers_used"]
 
 
 @pytest.mark.parametrize(

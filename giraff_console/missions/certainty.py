@@ -64,11 +64,16 @@ REAPPROACH_M = 0.03
 # has: each new approach turns on the spot, and the casters then turn the robot unseen
 # as it comes in (§3.2.1.5), which the next look finds.
 ARRIVAL_TRIES = 4
+# What it may settle for then: a robot further off than this, or turned further from
+# the goal's heading, has not arrived, and the mission says so rather than report it
+# there (the bounds every stop must keep, issue 14).
+NEAR_ENOUGH_M = 0.10
+NEAR_ENOUGH_HEADING = math.radians(3.0)
 # A pose that moved this far, or turned this much, between planning and setting off
 # (a marker placed the robot meanwhile) is planned from again.
 REPLAN_MOVED_M = 0.05
 REPLAN_TURNED = math.radians(5.0)
-# The casters' turn still to come, as a standard deviation, below which they count as
+# The casters' turn still to come, as a root mean square, below which they count as
 # settled: about a metre after a full charge (1 - 1/e every 0.3 m, robot/ekf.py).
 CASTERS_SETTLED = math.radians(5.0)
 

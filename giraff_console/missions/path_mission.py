@@ -42,6 +42,8 @@ import numpy as np
 from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.certainty import (
     ARRIVAL_TRIES,
+    NEAR_ENOUGH_HEADING,
+    NEAR_ENOUGH_M,
     REAPPROACH_M,
     SLOW_FRACTION,
     confirmed,
@@ -255,7 +257,8 @@ class PathMission:
         steer = pose
         if estimate is not None:
             steer = self._steady_turn.pose(self.executor, pose, estimate.odometry)
-        commands = self.executor.step(now, state, steer)
+        casters = estimate.caster_rate if estimate is not None else 0.0
+        commands = self.executor.step(now, state, steer, casters)
         self._set_off = self._set_off or bool(commands)
         if self.executor.problem is not None:
             self.problem = self.executor.problem
@@ -456,6 +459,14 @@ class PathMission:
             self._ended = now
             return
         if self._arrival_tries >= ARRIVAL_TRIES:
+            askew = 0.0 if heading is None else abs(wrap(heading - pose.heading))
+            if off > NEAR_ENOUGH_M or askew > NEAR_ENOUGH_HEADING:
+                self.problem = (f"could not get nearer than {off:.2f} m and "
+                                f"{math.degrees(askew):.0f}° to the goal (by the estimate, "
+                                f"known to ±{estimate.sigma_m:.2f} m) after {ARRIVAL_TRIES} "
+                                f"tries; drive the robot there by hand, or type "
+                                f"{self.retry} again")  # fmt: skip
+                return
             self.notify(f"{self.name}: arrived as near as it could, {off:.2f} m off by the "
                         f"estimate, known to ±{estimate.sigma_m:.2f} m")  # fmt: skip
             self._ended = now

@@ -12,10 +12,11 @@ rule with a margin) chosen so that, for one tick, the board does what the plan w
   below what stops the robot within `p` from the speed it may have by then: that is
   what bounds a runaway, and it keeps the board's own stop out of the tick.
 - `vg` is the curvature the path has where the robot will be at the next tick, plus a
-  steering correction, and `vgr` the ramp that reaches it over the distance of that
+  steering correction, less the turn the casters are expected to add after a turn on
+  the spot (§3.2.1.5, robot/ekf.py), and `vgr` the ramp that reaches it over the distance of that
   tick. The path's curvature is piecewise linear in distance, so the ramps reproduce it,
   and the ratio never jumps: it only ever ramps, and `vgr` is never zero (§3.2.1.4).
-- Where the path is, the odometry says; the steering correction takes the robot back to
+- Where the robot is, the pose estimate says; the steering correction takes the robot back to
   it when it drifts (§2.3.1): a curvature of -(e_y / L^2 + 2 e_h / L) for a lateral
   error e_y and a heading error e_h, which settles over a distance of about L, without
   overshoot.
@@ -214,9 +215,12 @@ class Executor:
         """The board's settings are unknown (it was stopped by someone else): send all."""
         self._sent.clear()
 
-    def step(self, now: float, state: MotorState, pose: Pose) -> list[Command]:
+    def step(self, now: float, state: MotorState, pose: Pose,
+             casters: float = 0.0) -> list[Command]:  # fmt: skip
         """The commands for this tick; the section moves on when the board has stopped
-        at the end of the one before."""
+        at the end of the one before. `casters` is the turn (radians per metre driven,
+        positive left) the casters are expected to add now, after a turn on the spot
+        (§3.2.1.5; robot/ekf.py): a drive steers against it."""
         if self.finished or self.problem is not None:
             return []
         if state.imdl is None or state.imdr is None:
@@ -229,7 +233,7 @@ class Executor:
             self._still_since = None
         section = self.sections[self.index]
         if isinstance(section, Drive):
-            commands = self._drive(section, now, state, pose)
+            commands = self._drive(section, now, state, pose, casters)
         else:
             commands = self._rotate(section, now, state, pose)
         if commands is None:  # the section is done; the next starts on the next tick
@@ -244,8 +248,8 @@ class Executor:
 
     # -- driving along the path ---------------------------------------------------------
 
-    def _drive(self, drive: Drive, now: float, state: MotorState,
-               pose: Pose) -> list[Command] | None:  # fmt: skip
+    def _drive(self, drive: Drive, now: float, state: MotorState, pose: Pose,
+               casters: float) -> list[Command] | None:  # fmt: skip
         profile = self.profiles[self.index]
         assert self._t0 is not None
         t = now - self._t0
@@ -287,7 +291,15 @@ class Executor:
         ahead = s + max(speed, 0.0) * self.tick
         correction = -(lateral / STEER_DISTANCE_M**2 + 2 * heading_error / STEER_DISTANCE_M)
         correction = max(-STEER_MAX_CURVATURE, min(STEER_MAX_CURVATURE, correction))
-        gear = max(-MAX_GEAR, min(MAX_GEAR, gear_of(drive.curvature_at(ahead) + correction)))
+        # Against the casters as well: they turn the robot as fast as 2.6 rad a metre
+        # as it sets off after a turn on the spot (45 degrees settling by 1 - 1/e in
+        # 0.3 m), far past what the correction may steer, and on a short run (onto the
+        # dock, through a doorway) the robot would be off line by the time it had
+        # steered back. Steering against what they are expected to do takes that out
+        # as it happens; the correction takes out the rest. The gear ratio's limit
+        # bounds it all.
+        curvature = drive.curvature_at(ahead) + correction - casters
+        gear = max(-MAX_GEAR, min(MAX_GEAR, gear_of(curvature)))
         # In a curve the outer wheel goes 1 + |vg| times as far as the middle (A.2.3),
         # with the ratio anywhere between the one there is and the one aimed at: the
         # outer wheel keeps within the reach.
@@ -400,6 +412,13 @@ class Executor:
             if name == "a":
                 # Rounded up: the acceleration is a floor that bounds the runaway.
                 value = math.ceil(float(value) * 10**DECIMALS) / 10**DECIMALS
+            elif name == "v":
+                # Never past the top speed the guard holds: a brake begun while still
+                # speeding up goes on speeding up until its jerk has turned the
+                # acceleration round (ruckig's velocity interface keeps to the
+                # acceleration and jerk limits, not to the speed), a millimetre a second
+                # past the speed it began at, and at the top speed the guard refuses it.
+                value = min(float(value), self.limits.v_max)
             text = format_number(round(float(value), DECIMALS) if name != "r" else value)
             if self._sent.get(name) != text:
                 commands.append(Command("set", name, float(text) if "." in text else int(text)))

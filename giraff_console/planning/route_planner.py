@@ -17,7 +17,7 @@ from itertools import pairwise
 import cv2
 import numpy as np
 
-from giraff_console.planning.floorplan import FloorPlan, Point
+from giraff_console.planning.floorplan import Door, FloorPlan, Point
 from giraff_console.planning.grid import OccupancyGrid
 from giraff_console.planning.legs import GridLegs, polyline_length
 from giraff_console.planning.rasterise import rasterise
@@ -201,6 +201,14 @@ class RoutePlanner:
             ends = self._approach(door.at, before, after) if door and before != after else None
             if ends is None:
                 waypoints.append((point, before))
+            elif i == 1 and door is not None and self._within_crossing(route.path[0], door, ends):
+                # The robot already stands in this crossing (in the doorway, or between
+                # the approach point and it): going back to the approach point would
+                # drive it backwards into the room it was leaving and turn it round on
+                # the spot in the doorway, where the casters then turn it unseen (up to
+                # 45 degrees, §3.2.1.5) into the door frame. Straight on out instead.
+                waypoints.append((ends[1], None))
+                doorways.add(point)
             else:
                 waypoints += [(ends[0], before), (point, None), (ends[1], None)]
                 doorways.add(point)
@@ -246,6 +254,32 @@ class RoutePlanner:
             if self.legs.clear(entry, exit_):
                 return entry, exit_
         return None
+
+    def _within_crossing(self, start: Point, door: Door, ends: tuple[Point, Point]) -> bool:
+        """Whether `start` lies in the straight crossing of `door` from `ends[0]` to
+        `ends[1]` (past the approach point, short of the exit, and no further to the side
+        of the door's centre line than the robot's body still fits through the doorway),
+        and the straight way from it to the exit is clear.
+
+        The way out is then straight from `start` to the exit, not by the door's centre:
+        from beside the centre, and close to it, the leg to the centre would be a short
+        hop sideways with a turn on the spot at its end, in the doorway. The straight
+        line from `start` to the exit is never further from the centre line than
+        `start` is, so it keeps to the doorway too."""
+        assert self.legs is not None
+        at, exit_ = door.at, ends[1]
+        reach = math.dist(at, exit_)
+        if reach == 0:
+            return False
+        normal = ((exit_[0] - at[0]) / reach, (exit_[1] - at[1]) / reach)
+        dx, dy = start[0] - at[0], start[1] - at[1]
+        along = dx * normal[0] + dy * normal[1]
+        aside = abs(dx * normal[1] - dy * normal[0])
+        # The robot's radius as the margin: the body, not just its centre, fits between
+        # the door posts along the whole stretch.
+        if not (-reach < along < reach and aside <= door.width / 2 - self.robot_radius):
+            return False
+        return self.legs.clear(start, exit_)
 
     def _door_normal(self, at: Point, before: str, after: str) -> Point | None:
         """The unit vector square to the wall the door is in, from `before` to `after`."""

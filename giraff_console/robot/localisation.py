@@ -42,7 +42,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from giraff_console.robot.ekf import Observation, PoseFilter, wrap
+from giraff_console.robot.ekf import FilterNoise, Observation, PoseFilter, wrap
 from giraff_console.robot.odometry import Odometry, Pose
 
 # Sightings older than this are dropped (see the module docstring).
@@ -92,9 +92,12 @@ class Estimate:
     seen: tuple[int, ...] = ()
     rejected: tuple[int, ...] = ()
     corrected_at: float | None = None
-    # The standard deviation (radians) of the turn the casters have still to make since
-    # the last turn on the spot (§3.2.1.5; ekf.py), released as the robot moves.
+    # The turn the casters have still to make since the last turn on the spot
+    # (§3.2.1.5; ekf.py), released as the robot moves: its root mean square (radians),
+    # and how fast they are expected to turn the robot now (radians per metre driven,
+    # positive left), for drives to steer against.
     caster_pending: float = 0.0
+    caster_rate: float = 0.0
 
     @property
     def lost(self) -> bool:
@@ -127,6 +130,7 @@ class Localisation:
         # landmarks.marker_poses): the robot layer knows nothing of floor plans.
         self.markers: dict[int, Pose] = {}
         self.filter = PoseFilter(odometry.pose, start_covariance())
+        self._noise = self.filter.noise
         self.found = False
         self._wheels = odometry.wheels
         # Where the odometry's pose would be if it only moved by the wheel steps followed.
@@ -143,9 +147,28 @@ class Localisation:
         self.rejections: collections.Counter[int] = collections.Counter()
         self.use_markers(markers or {})
 
+    def casters_turn_up_to(self, worst: float) -> None:
+        """The robot's casters turn it by up to `worst` radians after a turn on the spot:
+        the thesis's 45 degrees (§3.2.1.5) unless told otherwise, none on the ideal
+        simulator, whose robot would otherwise be steered against a turn it never
+        makes. The filter's expectation, and its spread, scale with it (ekf.py)."""
+        thesis = FilterNoise()
+        scale = worst / thesis.caster_worst
+        self._noise = replace(self._noise, caster_worst=worst,
+                              caster_sigma=thesis.caster_sigma * scale)  # fmt: skip
+        self.use_markers(self.markers)
+
     def use_markers(self, markers: Mapping[int, Pose]) -> None:
-        """Find the robot by these markers from now on (none: by the odometry alone)."""
+        """Find the robot by these markers from now on (none: by the odometry alone).
+
+        Without markers the casters' turn is expected to be none on average, only
+        uncertain: nothing would ever check the turn expected after each turn on the
+        spot, and a robot whose casters pull less than the thesis's (or the ideal
+        simulator's, which has none) would be steered off by it for good. The estimate
+        is then the odometry's, and missions drive as they did before the filter."""
         self.markers = dict(markers)
+        share = self._noise.caster_share if self.markers else 0.0
+        self.filter.noise = replace(self._noise, caster_share=share)
 
     # -- from any thread ----------------------------------------------------------------
 
@@ -183,7 +206,7 @@ class Localisation:
             self._odometry_pose = _step(self._odometry_pose, left, right, base)
         jump = _between(self._odometry_pose, odometry.pose)
         if math.hypot(jump.x, jump.y) > 1e-6 or abs(jump.heading) > 1e-6:
-            self.filter.reset(_compose(self.filter.pose, jump), self.filter.covariance)
+            self.filter.move_to(_compose(self.filter.pose, jump))
             self._odometry_pose = odometry.pose
         now = self.now()
         self._history.append((now, odometry.pose))
@@ -293,6 +316,7 @@ class Localisation:
             rejected=rejected,
             corrected_at=f.corrected_at if self.found else None,
             caster_pending=f.caster_pending,
+            caster_rate=f.caster_rate,
         )
 
     @property

@@ -36,6 +36,8 @@ class Site:
         self.site = SimulatedSite(self.board, PLAN, start)
         self.control = ControlLoop(lambda: self.link, teleop=Teleop(),
                                    deadman=Deadman(self.clock), clock=self.clock)  # fmt: skip
+        # As the front ends do: the simulated robot's casters are the simulator's to say.
+        self.control.localisation.casters_turn_up_to(self.site.caster_drift)
         self.control.odometry.reset(start)
         self.notes: list[str] = []
         self.control.report = self.notes.append

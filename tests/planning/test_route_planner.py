@@ -120,3 +120,71 @@ def test_legs_are_shortened_to_few_corners_on_the_example():
     # Out of one door, along the corridor and into the other: a handful of corners,
     # not the grid's staircase of hundreds of cells.
     assert len(planned.path) < 12
+
+
+# The example's doorway from the activity room (x 40..44) to the day room (x 32..40):
+# centre (40, 16), 1.2 m wide, in the wall x = 40; its approach point on the activity
+# room's side is 0.9 m before it.
+DOORWAY = (40.0, 16.0)
+DOORWAY_HALF_WIDTH = 0.6
+ENTRY = (40.9, 16.0)
+
+
+def example_planner() -> RoutePlanner:
+    example = Path(__file__).resolve().parents[2] / "giraff_console/floorplans/care-home.yaml"
+    plan = load_floorplan(example)
+    return RoutePlanner(plan, walls_of(plan))
+
+
+def crossing_of_the_doorway(path: list) -> float:
+    """Where (y) the path first crosses the doorway's wall x = 40 going west."""
+    a, b = next((a, b) for a, b in pairwise(path) if a[0] >= DOORWAY[0] > b[0])
+    t = (a[0] - DOORWAY[0]) / (a[0] - b[0])
+    return a[1] + t * (b[1] - a[1])
+
+
+def test_a_robot_stopped_in_the_doorway_goes_on_through_it_not_back():
+    # Measured: stopped in the doorway, the plan drove the robot 0.9 m back into the
+    # activity room and turned it round there, on the spot in the doorway; the casters
+    # then turned it unseen (§3.2.1.5) into the door frame.
+    planner = example_planner()
+    start = (40.01, 15.88)
+    assert planner.room_at(start) == "activity-room"
+    planned = planner.from_point(start, "day-room")
+    assert planned.route.doors and planned.path[0] == start
+    assert max(x for x, _ in planned.legs[0]) <= 40.2  # no backing into the activity room
+    assert all(math.dist(point, ENTRY) > 0.3 for point in planned.path)
+    # Through the doorway with the robot's body clear of its posts, straight.
+    assert abs(crossing_of_the_doorway(planned.path) - DOORWAY[1]) <= (
+        DOORWAY_HALF_WIDTH - ROBOT_RADIUS_M
+    )
+    assert planned.legs[0] == (start, planned.legs[0][-1]) and planned.legs[0][-1][0] < 40
+    assert DOORWAY in planned.doorways
+    assert_clear(planner, planned.path)
+
+
+def test_a_robot_between_the_approach_point_and_the_door_does_not_go_back():
+    planner = example_planner()
+    start = (40.5, 16.0)
+    planned = planner.from_point(start, "day-room")
+    assert all(math.dist(point, ENTRY) > 0.05 for point in planned.path)
+    assert all(x <= start[0] for x, _ in planned.path)  # only ever west, towards the door
+    assert abs(crossing_of_the_doorway(planned.path) - DOORWAY[1]) < 1e-6
+    assert DOORWAY in planned.doorways
+    assert_clear(planner, planned.path)
+
+
+def test_a_robot_further_in_the_room_still_lines_up_at_the_approach_point():
+    planner = example_planner()
+    planned = planner.from_point((42.0, 16.0), "day-room")
+    assert ENTRY in planned.path and DOORWAY in planned.path
+    path = planned.path
+    assert path.index(ENTRY) + 1 == path.index(DOORWAY)  # straight on from the entry
+
+
+def test_a_robot_beside_the_crossing_still_lines_up_at_the_approach_point():
+    # Too far to the side of the door's centre line for the body to clear the posts
+    # going straight: it lines up at the approach point first, as before.
+    planner = example_planner()
+    planned = planner.from_point((40.3, 16.35), "day-room")
+    assert ENTRY in planned.path and DOORWAY in planned.path

@@ -59,6 +59,9 @@ def make(markers=MARKERS) -> tuple[Localisation, Wheels, VirtualClock]:
 
 def test_without_markers_the_estimate_is_the_odometry():
     localisation, wheels, _ = make(markers={})
+    quarter_turn = math.pi / 2 * BASE / 4
+    # A turn on the spot too: with nothing to check it by, no caster turn is expected.
+    wheels.drive(-quarter_turn, quarter_turn, 10, localisation)
     wheels.drive(1.0, 1.3, 20, localisation)
     estimate = localisation.estimate()
     assert estimate.pose.x == pytest.approx(estimate.odometry.x, abs=1e-9)
@@ -67,6 +70,21 @@ def test_without_markers_the_estimate_is_the_odometry():
     assert not estimate.landmarks and not estimate.lost and not estimate.unsure
     # Driving grew the uncertainty from the dock's few centimetres.
     assert estimate.sigma_m > 0.05
+    assert estimate.caster_rate == 0.0
+
+
+def test_with_markers_a_turn_on_the_spot_expects_the_casters_to_turn_on_the_same_way():
+    localisation, wheels, clock = make()
+    localisation.sighted([sighting(Pose(2.0, 0.0, 0.0), WALL_MARKER, 7, clock.now())])
+    localisation.correct()
+    quarter_turn = math.pi / 2 * BASE / 2
+    wheels.drive(quarter_turn, -quarter_turn, 10, localisation)  # clockwise
+    estimate = localisation.estimate()
+    assert estimate.caster_rate < 0  # clockwise too: steer left against it
+    wheels.drive(1.5, 1.5, 30, localisation)
+    estimate = localisation.estimate()
+    # The estimate has turned on clockwise past the odometry as the casters settled.
+    assert estimate.pose.heading < estimate.odometry.heading - math.radians(15)
 
 
 def test_a_sighting_that_agrees_confirms_the_pose_and_shrinks_it():
@@ -200,3 +218,18 @@ def test_a_frame_between_two_polls_is_moved_from_where_the_robot_was_between_the
     after = localisation.estimate().pose
     assert localisation.estimate().seen == (7,)
     assert abs(after.x - before.x) < 0.002
+
+
+def test_a_robot_whose_casters_do_not_turn_it_is_not_steered_against_them():
+    # The ideal simulator's robot: its casters never turn it (none of §3.2.1.5's drift).
+    localisation, wheels, clock = make()
+    localisation.casters_turn_up_to(0.0)
+    localisation.sighted([sighting(Pose(2.0, 0.0, 0.0), WALL_MARKER, 7, clock.now())])
+    localisation.correct()
+    quarter_turn = math.pi / 2 * BASE / 2
+    wheels.drive(quarter_turn, -quarter_turn, 10, localisation)
+    estimate = localisation.estimate()
+    assert estimate.caster_rate == 0.0 and estimate.caster_pending == 0.0
+    wheels.drive(1.5, 1.5, 30, localisation)
+    estimate = localisation.estimate()
+    assert estimate.pose.heading == pytest.approx(estimate.odometry.heading, abs=1e-6)
