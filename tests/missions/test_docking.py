@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 
@@ -10,6 +11,7 @@ from giraff_console.missions.docking import (
     CHARGE_MAX_S,
     CHARGE_START_S,
     DOCK_RUN_M,
+    SHORT_DOCK_RUN_M,
     ChargeLevels,
     ChargingDetour,
     GoToPose,
@@ -39,6 +41,17 @@ def test_the_dock_is_the_start_rooms_point_and_heading(shared_navigator):
     assert arrival.point == room.at
     assert arrival.heading == pytest.approx(math.radians(room.heading or 0.0))
     assert arrival.straight == DOCK_RUN_M
+
+
+def test_a_dock_too_near_a_wall_for_the_long_run_gets_the_short_one():
+    # The dock moved to 1.4 m from its room's south wall (y = 5): 1.5 m back from it is
+    # beyond the wall, 0.8 m is not.
+    room = PLAN.rooms[PLAN.start]
+    near_wall = replace(room, at=(room.at[0], 6.4))
+    plan = replace(PLAN, rooms={**PLAN.rooms, PLAN.start: near_wall})
+    arrival = dock_arrival(Navigator(plan, walls_of(plan)))
+    assert arrival.straight == SHORT_DOCK_RUN_M
+    assert arrival.point == (room.at[0], 6.4)
 
 
 def test_a_route_to_the_dock_ends_with_a_straight_run_along_its_heading(shared_navigator):
