@@ -332,10 +332,10 @@ class PoseFilter:
         share = -math.expm1(-abs(distance) / noise.caster_settle) if distance else 0.0
         if not self.placed:
             # The casters turn the robot whether or not it knows where it is.
-            x, p = self._x.copy(), self._p.copy()
-            x[3] *= 1 - share
+            state, p = self._x.copy(), self._p.copy()
+            state[3] *= 1 - share
             p[3, 3] *= (1 - share) ** 2
-            self._x, self._p = x, p
+            self._x, self._p = state, p
         else:
             x, y, heading, caster = self._x
             turned = turn + share * caster
