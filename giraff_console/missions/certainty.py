@@ -60,6 +60,13 @@ ARRIVE_SIGMA_HEADING = math.radians(1.0)
 # the estimate in the last of those leave the robot that much off. Nearer, the robot
 # only turns on the spot to the goal's heading, if it must.
 REAPPROACH_M = 0.03
+# Having come in again once, the robot settles within this instead: every new approach
+# turns round on the spot twice, and the casters then leave it about as far off as the
+# first time (§3.2.1.5), so a second and third would only repeat it (the benchmark's
+# dock, seeds 6 and 8, came in four times 3-4 cm off). It is the bound 95 % of stops
+# must keep (issue 14), and the dock's: the simulator charges within 0.05 m too
+# (docking.ON_DOCK_M).
+SETTLE_M = 0.05
 # Looks, new approaches and turns on arrival before the mission settles for what it
 # has: each new approach turns on the spot, and the casters then turn the robot unseen
 # as it comes in (§3.2.1.5), which the next look finds.

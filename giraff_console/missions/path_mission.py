@@ -45,6 +45,7 @@ from giraff_console.missions.certainty import (
     NEAR_ENOUGH_HEADING,
     NEAR_ENOUGH_M,
     REAPPROACH_M,
+    SETTLE_M,
     SLOW_FRACTION,
     confirmed,
     how_lost,
@@ -173,6 +174,7 @@ class PathMission:
         self._unsure_start = False
         self._turned = False
         self._arrival_tries = 0
+        self._came_in_again = False  # arriving, it settles within SETTLE_M from then on
         # Arriving, the estimate is taken as it is: a look found no better, or the plan
         # under way is the turn to the goal's heading after one.
         self._as_known = False
@@ -451,11 +453,12 @@ class PathMission:
         settles for what it has, and says so."""
         goal, heading = self._goal
         off = math.dist((pose.x, pose.y), goal)
+        near = SETTLE_M if self._came_in_again else REAPPROACH_M
         turned = heading is not None and abs(wrap(heading - pose.heading)) > ALIGNED_RAD
         # The turn to the goal's heading after a look adds only the wheels' error over
         # that turn, which looking again, turning away and back, would not take out.
         known = estimate is None or self._as_known or confirmed(estimate)
-        if estimate is None or (known and off <= REAPPROACH_M and not turned):
+        if estimate is None or (known and off <= near and not turned):
             self._ended = now
             return
         if self._arrival_tries >= ARRIVAL_TRIES:
@@ -477,9 +480,10 @@ class PathMission:
         self._progress_watch.restart(now)
         if not known:
             self._look = self._make_look(estimate, heading, "arrival")
-        elif off > REAPPROACH_M:
+        elif off > near:
             self.notify(f"{self.name}: {off:.2f} m off the goal by the markers; coming in again")
             self._restart, self._restart_why = True, "coming in again"
+            self._came_in_again = True
             self._replan(pose, estimate, turned=True)
         else:
             assert heading is not None
