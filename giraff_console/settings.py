@@ -270,9 +270,10 @@ def _checked(path: Path, prefix: str, kind: type, data: dict) -> dict:
         # no speed, rate or time of this robot comes near a million.
         if isinstance(value, int | float) and not abs(value) <= MAX_NUMBER:
             raise SettingsError(f"{path}: {prefix}{key} is {value}, out of range")
-        if key in FOLDER_KEYS and (not value.strip() or "\0" in value):
-            raise SettingsError(f"{path}: {prefix}{key} must name a folder")
         if key in FOLDER_KEYS:
+            assert isinstance(value, str)  # a folder key is a text key, checked as one above
+            if not value.strip() or "\0" in value:
+                raise SettingsError(f"{path}: {prefix}{key} must name a folder")
             # Relative to the settings file, not to wherever the console is started.
             data[key] = str(path.parent / Path(value).expanduser())
     return data

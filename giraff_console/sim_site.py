@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 
+from giraff_console.camera.processors import CameraIntrinsics
 from giraff_console.camera.source import SyntheticCamera
 from giraff_console.clock import Clock
 from giraff_console.planning.floorplan import FloorPlan
@@ -113,7 +114,13 @@ class SimulatedSite:
         if landmarks is None:
             return None
         source, world_camera = self.camera(clock)
-        detector = marker_detector(landmarks, world_camera.intrinsics)
+
+        def intrinsics(width: int, height: int) -> CameraIntrinsics:
+            # The simulator's class, field for field; the console has its own.
+            known = world_camera.intrinsics(width, height)
+            return CameraIntrinsics(known.fx, known.fy, known.cx, known.cy, known.distortion)
+
+        detector = marker_detector(landmarks, intrinsics)
         return MarkerEye(source, detector, localisation, clock, fps=fps, size=size)
 
     def close_door(self, door_id: str) -> None:

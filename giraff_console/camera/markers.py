@@ -324,7 +324,8 @@ class MarkerDetector:
             points = found.reshape(4, 2).astype(np.float64)
             refined = refine_corners(grey, points, self.cells)
             points = refined if refined is not None else points
-            marker_id = int(self.ids[index])
+            # The stubs type the ids OpenCV finds as any number; they are integers.
+            marker_id = int(self.ids[int(index)])
             sightings.append(self._sighting(marker_id, points, intrinsics, frame_time))
         return sightings
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Protocol, cast
 
 import cv2
 import numpy as np
@@ -64,11 +64,13 @@ class FastCorners:
     name = "fast"
 
     def __init__(self, threshold: int = FAST_THRESHOLD) -> None:
-        self.detector = cv2.FastFeatureDetector_create(threshold=threshold)
+        # The same function as cv2.FastFeatureDetector_create, in the spelling the stubs know.
+        self.detector = cv2.FastFeatureDetector.create(threshold=threshold)
 
     def process(self, image: np.ndarray, grey: np.ndarray, captured_at: float) -> Processed:
         keypoints = self.detector.detect(grey)
-        shown = cv2.drawKeypoints(image, keypoints, None, PINK)
+        # None has OpenCV allocate the output image; the stubs wrongly refuse it.
+        shown = cv2.drawKeypoints(image, keypoints, cast(np.ndarray, None), PINK)
         return Processed(shown, {"keypoints": len(keypoints), "corners": [k.pt for k in keypoints]})
 
 

@@ -139,7 +139,8 @@ class VideoRecorder:
 
     def _begin_segment(self, captured_at: float) -> cv2.VideoWriter:
         path = segment_path(self.path, self.written)
-        writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), self.fps, self.size)
+        # The same function as cv2.VideoWriter_fourcc, in the spelling the stubs know.
+        writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"mp4v"), self.fps, self.size)
         if not writer.isOpened():
             raise OSError(f"cannot write video to {path}")
         self._writer, self._segment, self._segment_start = writer, path, captured_at

@@ -213,13 +213,14 @@ class BoardLink:
             reply = parse_reply(lines)
         except UnknownNameError as error:
             # The name asked for: the second word of a set or get (a twm has more).
+            failure: GiraffError = error
             if error.name != text.split()[:2][-1]:
                 # An answer to some other command: the line is out of step.
                 self._needs_resync = True
-                error = ProtocolError(f"reply out of step: {error.line!r} to {text!r}")
+                failure = ProtocolError(f"reply out of step: {error.line!r} to {text!r}")
             now = self.clock.now()
-            self._notify(Exchange(kind, text, tuple(lines), None, error, sent_at, now, automatic))
-            raise error from None
+            self._notify(Exchange(kind, text, tuple(lines), None, failure, sent_at, now, automatic))
+            raise failure from None
         except GiraffError as error:
             if isinstance(error, (LinkError, BoardRebootedError)):
                 self._needs_resync = True
@@ -256,15 +257,17 @@ class BoardLink:
             discarded += [*lines, "OK >"]
         self._needs_resync = False
         rebooted = [line for line in discarded if is_banner(line) or line == CALIBRATION_LINE]
-        error = BoardRebootedError(f"the board restarted: {rebooted[-1]!r}") if rebooted else None
+        restarted = (
+            BoardRebootedError(f"the board restarted: {rebooted[-1]!r}") if rebooted else None
+        )
         self._notify(
-            Exchange("resync", token, tuple(discarded), None, error, sent_at, self.clock.now())
+            Exchange("resync", token, tuple(discarded), None, restarted, sent_at, self.clock.now())
         )
         banners = [line for line in rebooted if is_banner(line)]
         if banners:
             self.version = banner_version(banners[-1])
-        if error is not None:
-            raise error
+        if restarted is not None:
+            raise restarted
 
     def _unexpected_input(self) -> bool:
         """Bytes that arrived between exchanges: a sign that the line is out of step."""

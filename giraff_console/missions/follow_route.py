@@ -82,7 +82,7 @@ class FollowRoute(PathMission):
     def _check_clear(self, points: list[tuple[float, float]]) -> None:
         """PlanningError if what is known of the grid blocks the path ahead."""
         legs = self.navigator.planner.legs if self.navigator is not None else None
-        if legs is None or not self.navigator.state.obstacles:
+        if legs is None or self.navigator is None or not self.navigator.state.obstacles:
             return
         travelled = 0.0
         for a, b in pairwise(points):

@@ -124,6 +124,9 @@ class PathMission:
 
     name: str
     retry: str  # what the operator types to try again
+    # Set by _plan, which __init__ calls.
+    _sections: tuple[Section, ...]
+    _closed: frozenset[str]
 
     def __init__(
         self,

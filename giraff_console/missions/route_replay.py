@@ -65,6 +65,8 @@ class RouteReplay:
             if command.name == "p" and command.value is not None:
                 command = self._within_reach(command)
             elif command.value is not None:
+                # A route holds single-valued motion settings: a twm is taught as its sets.
+                assert not isinstance(command.value, tuple)
                 self._board[command.name] = format_number(command.value)
             commands.append(command)
             self._sent += 1

@@ -71,12 +71,12 @@ class Segment:
             return self.start
         steps = 2 * max(1, math.ceil(s / (2 * _STEP_M)))
         t = np.linspace(0.0, s, steps + 1)
-        h = h0 + self.k0 * t + self.sharpness * t * t / 2
+        angles = h0 + self.k0 * t + self.sharpness * t * t / 2
         weights = np.ones(steps + 1)
         weights[1:-1:2], weights[2:-1:2] = 4.0, 2.0
         scale = s / (3 * steps)
-        return Pose(x0 + scale * float(weights @ np.cos(h)),
-                    y0 + scale * float(weights @ np.sin(h)), float(h[-1]))  # fmt: skip
+        return Pose(x0 + scale * float(weights @ np.cos(angles)),
+                    y0 + scale * float(weights @ np.sin(angles)), float(angles[-1]))  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -92,7 +92,8 @@ class DStarLite:
         """The cost of the shortest path in tenths of a cell side, or None if none."""
         if not self._compute():
             return None
-        return self._rhs[self._start]
+        # Finite once there is a path, and a finite cost is a sum of the integer move costs.
+        return int(self._rhs[self._start])
 
     def plan(self) -> list[Cell] | None:
         """The shortest path from start to goal, both included, or None if there is none."""

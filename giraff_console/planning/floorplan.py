@@ -214,7 +214,8 @@ class _Reader(ProblemLog):
 
     def mapping(self, value: Any, where: Where, keys: dict[str, bool]) -> dict | None:
         if not isinstance(value, dict):
-            return self.bad(where, "a mapping of keys", value)
+            self.bad(where, "a mapping of keys", value)
+            return None
         for key in value:
             if key not in keys:
                 sub = (*where, str(key))

@@ -217,6 +217,7 @@ def _scale(source: _Source, raw: list, where: Where, points: list[Point | None])
         ends = [points[v] for v in edge[:2]] if edge is not None else [None]
         if None in ends:
             continue  # already a problem
+        assert edge is not None  # else ends would be [None]
         length = math.dist(*ends)
         distance = _param(edge[2], "distance")
         if not (_is_number(distance) and distance > 0 and length > 0):
@@ -352,8 +353,8 @@ def _doors(
         on = crossing[(a, b)]
         if len(on) > 1:
             names = ", ".join(repr(door.id) for door in on)
-            lanes = f"the lanes from {between[0]!r} to {between[1]!r} cross doors {names}"
-            source.add(on[1].where, f"{lanes}: name a vertex between the doors")
+            crossed = f"the lanes from {between[0]!r} to {between[1]!r} cross doors {names}"
+            source.add(on[1].where, f"{crossed}: name a vertex between the doors")
         elif on:
             (x1, y1), (x2, y2) = on[0].ends
             at = [_m((x1 + x2) / 2), _m((y1 + y2) / 2)]
@@ -383,7 +384,11 @@ def write_floorplan(
     write exists already (FileExistsError)."""
     out = Path(out)
     image = out.with_suffix(grid.image.suffix) if grid is not None else None
-    copy_image = image is not None and not (image.exists() and image.samefile(grid.image))
+    copy_image = (
+        grid is not None
+        and image is not None
+        and not (image.exists() and image.samefile(grid.image))
+    )
     for target in (out, image if copy_image else None):
         if target is not None and target.exists() and not force:
             raise FileExistsError(errno.EEXIST, "already exists", str(target))

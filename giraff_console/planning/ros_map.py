@@ -14,7 +14,7 @@ YAML and report mistakes the way `load_floorplan` does, as `FloorPlanError` prob
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeGuard
 
 import cv2
 
@@ -55,7 +55,7 @@ def read_yaml(path: Path) -> tuple[dict[Any, Any], dict[Where, int]]:
     return document, lines
 
 
-def _is_number(value: Any) -> bool:
+def _is_number(value: Any) -> TypeGuard[float]:
     return isinstance(value, int | float) and not isinstance(value, bool) and _finite(value)
 
 
@@ -117,6 +117,9 @@ def read_ros_map(path: str | Path) -> GridSpec:
     if problems:
         raise FloorPlanError(sorted(problems, key=lambda problem: problem.line or 0))
     assert image_path is not None
+    # Every key is there and checked, or there would have been problems.
+    assert resolution is not None and origin is not None and negate is not None
+    assert occupied is not None and free is not None
     return GridSpec(
         image_path,
         float(resolution),

@@ -238,7 +238,7 @@ def _frames(path: Path, times: list[float], quality: int, problems: list[str]) -
         if not ok:
             problems.append(f"video: frame {index} could not be encoded as JPEG; skipped")
             continue
-        data = base64.b64encode(jpeg).decode("ascii")
+        data = base64.b64encode(jpeg.tobytes()).decode("ascii")
         yield times[index], "/camera", {"frame_id": "camera", "format": "jpeg", "data": data}
     if not read:
         problems.append(f"video: cannot read {path.name}; no frames exported")

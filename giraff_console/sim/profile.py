@@ -122,6 +122,7 @@ def plan_move(
     v, a = peak_speed, accel
     stopping = s0 * s0 / (2 * a) if s0 > 0 else 0.0
 
+    phases: tuple[Phase, ...]  # two or three, by the case
     if s0 > 0 and stopping >= total:
         # Too fast to stop at the target: brake through zero, then come back (B.2).
         reverse_peak = math.sqrt(a * (stopping - total))

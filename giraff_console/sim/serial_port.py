@@ -46,6 +46,9 @@ _FLAGS = ("0", "1")
 class Serial(SerialBase):
     """A pyserial port with a simulated Giraff board on the other end."""
 
+    # Set by SerialBase, which has no type information.
+    is_open: bool
+
     def __init__(self, *args, **kwargs) -> None:
         self.board: GiraffBoard | None = None
         self.clock: Clock = RealClock()

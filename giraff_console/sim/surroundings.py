@@ -232,5 +232,8 @@ class Surroundings:
         """Whether a disc of `radius` at (x, y) overlaps a box or a closed door: what a
         bumper would feel, or a collision check would refuse."""
         obstacles = self.snapshot()
-        things = (*obstacles.blocks.values(), *obstacles.doors.values())
+        things: tuple[Block | Door, ...] = (
+            *obstacles.blocks.values(),
+            *obstacles.doors.values(),
+        )
         return any(thing.distance_to(x, y) <= radius for thing in things)

@@ -15,6 +15,7 @@ from pathlib import Path
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal, Vertical
+from textual.message import Message
 from textual.widgets import Footer
 
 from giraff_console.camera.feed import CameraFeed
@@ -263,19 +264,19 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
             self._show_map()
         else:
             self.map_view.display = False  # nothing to draw: the camera has the room
-        self.control.publish = lambda t: self.post_message(TelemetryUpdated(t))
-        self.control.report = lambda text: self.post_message(StatusNote(text))
-        self.control.observers.append(lambda e: self.post_message(ExchangeSeen(e)))
+        self.control.publish = lambda t: self._post(TelemetryUpdated(t))
+        self.control.report = lambda text: self._post(StatusNote(text))
+        self.control.observers.append(lambda e: self._post(ExchangeSeen(e)))
         for service in (self.sessions, self.routes):
             if service is not None:
-                service.report = lambda text: self.post_message(StatusNote(text))
+                service.report = lambda text: self._post(StatusNote(text))
         if self.simulator:
             self.note("SIMULATOR: no robot is connected; the built-in simulated board answers")
         for text in self.notes_at_start:
             self.note(text)
         if self.camera is not None:
             camera = self.camera
-            camera.publish = lambda picture: self.post_message(CameraPictureUpdated(picture))
+            camera.publish = lambda picture: self._post(CameraPictureUpdated(picture))
             self.camera_view.on_size = camera.set_cells
             self.call_after_refresh(lambda: camera.set_cells(*self.camera_view.size))
             self.note(f"camera: {camera.note}")
@@ -351,6 +352,10 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
 
     def note(self, text: str) -> None:
         self.status_log.note(f"{self.timestamp()} {text}")
+
+    def _post(self, message: Message) -> None:
+        """`post_message` for the callbacks the services make, which return nothing."""
+        self.post_message(message)
 
     # -- keys ---------------------------------------------------------------------------
 

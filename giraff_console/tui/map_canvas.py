@@ -405,8 +405,8 @@ def _styled(chars: np.ndarray, top: np.ndarray, styles: dict[int, Style | None])
     end[np.append(row[1:] != row[:-1], True)] = cols
     offset = row * (cols + 1)
     spans = [
-        Span(int(offset[i] + col[i]), int(offset[i] + end[i]), styles[layer])
+        Span(int(offset[i] + col[i]), int(offset[i] + end[i]), style)
         for i, layer in enumerate(top[row, col].tolist())
-        if styles[layer] is not None
+        if (style := styles[layer]) is not None
     ]
     return Text(plain, spans=spans, no_wrap=True, overflow="crop", end="")

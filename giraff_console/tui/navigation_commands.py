@@ -9,7 +9,10 @@ things in the simulated building's way for the range finder to find.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from textual import work
+from textual.message import Message
 
 from giraff_console.missions.docking import DOCK, go_mission
 from giraff_console.missions.navigation import NavigationState, Navigator
@@ -36,6 +39,7 @@ class NavigationCommands:
     patience: Patience | None
     site: SimulatedSite | None
     pose: Pose
+    post_message: Callable[[Message], bool]
 
     def note(self, text: str) -> None:
         """A line in the status log; the app's own `note` is the one used."""
@@ -86,11 +90,14 @@ class NavigationCommands:
         dock` drives onto the dock square on."""
         control = self.control
         site = self.site
+
+        def notify(text: str) -> None:  # the mission's callback returns nothing
+            self.post_message(StatusNote(text))
+
         mission = go_mission(navigator, room, lambda: control.pose,
                              tick=control.period, limits=self.motion, patience=self.patience,
                              sense=site.range_finder.readings if site is not None else None,
-                             notify=lambda text: self.post_message(StatusNote(text)),
-                             estimate=control.estimate)  # fmt: skip
+                             notify=notify, estimate=control.estimate)  # fmt: skip
         planned = navigator.state.planned
         if planned is not None:
             route = planned.route

@@ -7,8 +7,12 @@ the palette (Ctrl+P); picking an entry runs the same typed command as the comman
 from __future__ import annotations
 
 from functools import partial
+from typing import TYPE_CHECKING, cast
 
 from textual.command import DiscoveryHit, Hit, Hits, Provider
+
+if TYPE_CHECKING:
+    from giraff_console.tui.app import GiraffConsole
 
 
 class RoomCommands(Provider):
@@ -29,16 +33,22 @@ class RoomCommands(Provider):
             entries.append((f"{verb} {door_id}", f"{verb} the door {door_id} and plan again"))
         return entries
 
+    def _console(self) -> GiraffConsole:
+        # Textual types a provider's app as any App; this provider is the console's only.
+        return cast("GiraffConsole", self.app)
+
     async def discover(self) -> Hits:
+        console = self._console()
         for command, help_text in self._entries():
             if command.startswith("go "):
-                yield DiscoveryHit(command, partial(self.app.run_command, command), help=help_text)
+                yield DiscoveryHit(command, partial(console.run_command, command), help=help_text)
 
     async def search(self, query: str) -> Hits:
         matcher = self.matcher(query)
+        console = self._console()
         for command, help_text in self._entries():
             # The label is searched too: "day" finds "go day-room (Day room)".
             score = max(matcher.match(command), matcher.match(help_text))
             if score > 0:
                 yield Hit(score, matcher.highlight(command),
-                          partial(self.app.run_command, command), help=help_text)  # fmt: skip
+                          partial(console.run_command, command), help=help_text)  # fmt: skip

@@ -95,11 +95,13 @@ class SessionCommands:
         if self.sessions is None and word not in ("pause", "resume"):
             self.note("sessions are not available")
         elif word == "record":
+            assert self.sessions is not None  # only pause and resume get this far without sessions
             if argument == "stop":
                 self.sessions.stop_recording()
             elif not self.sessions.recording:
                 self.sessions.start_recording()
         elif word == "play":
+            assert self.sessions is not None  # only pause and resume get this far without sessions
             if argument == "stop":
                 self.sessions.stop_playback()
             else:

@@ -85,9 +85,9 @@ class TopBar(Static):
             badges.append(("● REC", "bold white on dark_red"))
         playback = telemetry.playback
         if playback is not None:
-            state = "paused" if playback.paused else f"{playback.speed:g}x"
+            pace = "paused" if playback.paused else f"{playback.speed:g}x"
             where = f"{clock_time(playback.position)}/{clock_time(math.ceil(playback.duration))}"
-            badges.append((f"PLAYBACK {where} {state}", "bold black on green"))
+            badges.append((f"PLAYBACK {where} {pace}", "bold black on green"))
         return badges
 
 
