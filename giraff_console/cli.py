@@ -37,6 +37,7 @@ from giraff_console.data_folders import (
 )
 from giraff_console.go_command import add_go_parser, run_go
 from giraff_console.link import BoardLink
+from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
@@ -466,6 +467,9 @@ def run_console(args: argparse.Namespace) -> int:
     )  # fmt: skip
     recordings = data_folder(args.recordings, settings.recordings, default_recordings())
     sessions = Sessions(control, camera, recordings, setup, lambda text: None)
+    drives = DriveSetup.on_loop(control, navigator, limits=settings.motion.limits(),
+                                sense=site.range_finder.readings if site else None,
+                                patience=settings.motion.patience())  # fmt: skip
     # Signals and crashes stop the robot from the loop's own thread, then the console
     # leaves; installed below, before any thread starts (the loop's, the camera's).
     last_stop = LastStop(control, leave=lambda why: app.exit(return_code=1))
@@ -479,10 +483,7 @@ def run_console(args: argparse.Namespace) -> int:
             sessions,
             data_folder(args.routes, settings.routes, default_routes()),
             lambda text: None,
-            navigator,
-            settings.motion.limits(),
-            site.range_finder.readings if site else None,
-            settings.motion.patience(),
+            drives,
             settings.battery.levels(),
             settings.teleop.undock_distance,
         ),
@@ -491,8 +492,7 @@ def run_console(args: argparse.Namespace) -> int:
         play=args.session if args.command == "replay" else None,
         navigator=navigator,
         site=site,
-        motion=settings.motion.limits(),
-        patience=settings.motion.patience(),
+        drives=drives,
         stepped=stepped,
         crashed=last_stop.crashed,
     )

@@ -27,7 +27,7 @@ from giraff_console.headless import (
     add_robot_options,
     fail,
 )
-from giraff_console.missions.docking import DOCK, go_mission
+from giraff_console.missions.docking import DOCK
 from giraff_console.planning.room_graph import PlanningError, UnknownRoomError
 from giraff_console.settings import Settings
 
@@ -58,17 +58,14 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
         robot = HeadlessRobot(args, settings, port, example)
     except UsageError as error:
         return fail(str(error), EXIT_USAGE)
-    plan, control = robot.plan, robot.control
+    plan = robot.plan
     if args.room not in plan.rooms and args.room != DOCK:
         return fail(f"no room called {args.room!r} (rooms: {', '.join(sorted(plan.rooms))})",
                     EXIT_USAGE)  # fmt: skip
     try:
         # Planned before the loop starts, so that the simulator's clock has not moved
         # on by however long planning took.
-        mission = go_mission(robot.navigator, args.room, lambda: control.pose,
-                             tick=control.period, limits=robot.limits, sense=robot.sense,
-                             notify=control.report, patience=robot.patience,
-                             estimate=control.estimate)  # fmt: skip
+        mission = robot.drives.go(args.room)
     except PlanningError as error:
         return fail(str(error), EXIT_USAGE if isinstance(error, UnknownRoomError) else EXIT_FAILED)
     # The report and the true pose are taken on the loop's thread as the mission ends,

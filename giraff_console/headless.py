@@ -27,10 +27,13 @@ from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
+import rich.progress
 import serial
+from rich.console import Console
 
 from giraff_console.clock import Clock, RealClock
 from giraff_console.link import BoardLink
+from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.path_mission import Sense
 from giraff_console.planning.floorplan import FloorPlan, FloorPlanError, load_floorplan
@@ -40,7 +43,7 @@ from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.last_stop import LastStop
 from giraff_console.robot.marker_eye import EYE_FPS, EYE_SIZE, MarkerEye
-from giraff_console.robot.mission import Mission
+from giraff_console.robot.mission import TEXT_BAR, Mission
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.robot.teleop import Teleop
@@ -212,6 +215,10 @@ class HeadlessRobot:
             else:
                 self.eye = self.site.eye(control.localisation, clock, fps=eye_fps, size=eye_size)
         self.landmarks = self.eye is not None
+        # What `go` and `patrol` build their missions with: the loop's pose and estimate,
+        # its tick, the settings' limits and patience, and the simulator's range finder.
+        self.drives = DriveSetup.on_loop(control, self.navigator, limits=self.limits,
+                                         sense=self.sense, patience=self.patience)  # fmt: skip
         if self.eye is not None:
             control.localisation.use_markers(marker_poses(self.plan))
             eye = self.eye
@@ -269,15 +276,43 @@ class HeadlessRobot:
 
 def _show_progress(mission: Mission, done: threading.Event,
                    meanwhile: Callable[[], None]) -> None:  # fmt: skip
-    """The mission's progress on standard error until it is `done`; a signal ends it
-    (LastStop)."""
-    tty = sys.stderr.isatty()
-    while not done.wait(0.5 if tty else 5.0):
-        line = mission.progress
-        print(f"\r{line}\033[K" if tty else line, end="" if tty else "\n", file=sys.stderr)
+    """The mission's progress on standard error until it is `done`: drawn with rich on a
+    terminal, else its line every few seconds, as logs and the tests read it; a signal
+    ends it (LastStop)."""
+    if not sys.stderr.isatty():
+        while not done.wait(5.0):
+            print(mission.progress.line(), file=sys.stderr)
+            meanwhile()
         meanwhile()
-    if tty:
-        print(file=sys.stderr)
+        return
+    # A row for the mission and one for the part under way (a patrol's stop). Notes
+    # printed meanwhile go above the rows; so does standard output if it is the terminal
+    # too, but not if it is piped (the JSON lines of --json).
+    columns = (
+        rich.progress.TextColumn("{task.description}", markup=False),
+        rich.progress.BarColumn(bar_width=TEXT_BAR),
+        rich.progress.TextColumn("{task.fields[words]}", markup=False),
+    )
+    bars = rich.progress.Progress(*columns, console=Console(stderr=True), auto_refresh=False,
+                                  redirect_stdout=sys.stdout.isatty())  # fmt: skip
+    rows: list[rich.progress.TaskID] = []
+    shape: list[bool] = []
+    with bars:
+        while not done.wait(0.5):
+            progress = mission.progress
+            parts = [part for part in (progress, progress.detail) if part is not None]
+            if [part.total_m is not None for part in parts] != shape:
+                # A row's bar measures metres or, without them, pulses; rich cannot
+                # take a row's total away again, so the rows are made anew.
+                for row in rows:
+                    bars.remove_task(row)
+                rows = [bars.add_task(part.name, total=part.total_m, words="") for part in parts]
+                shape = [part.total_m is not None for part in parts]
+            for row, part in zip(rows, parts, strict=True):
+                bars.update(row, description=part.name, completed=part.done_m or 0.0,
+                            total=part.total_m, words=part.words())  # fmt: skip
+            bars.refresh()
+            meanwhile()
     meanwhile()
 
 

@@ -35,8 +35,7 @@ from giraff_console.headless import (
     fail,
 )
 from giraff_console.link.motor_state import MotorState
-from giraff_console.missions.docking import DOCK, go_mission
-from giraff_console.missions.follow_route import FollowRoute
+from giraff_console.missions.docking import DOCK
 from giraff_console.missions.go_to import GoReport
 from giraff_console.missions.patrol import (
     PATROL_SUFFIX,
@@ -50,7 +49,6 @@ from giraff_console.missions.patrol import (
 )
 from giraff_console.missions.route import Route, RouteError, load_route
 from giraff_console.protocol.codec import Command
-from giraff_console.robot.mission import Mission
 from giraff_console.settings import Settings
 
 
@@ -94,7 +92,8 @@ def run_patrol(args: argparse.Namespace, settings: Settings, port: str | None,
     log = StopLog(robot, patrol, routes)
     try:
         # The first leg is planned here, before the loop starts (as `go` plans).
-        run = _TimedPatrol(patrol, routes, log.reached, go=log.go, follow=log.follow)
+        run = _TimedPatrol(patrol, routes, log.reached, go=robot.drives.go,
+                           follow=robot.drives.follow)  # fmt: skip
     except PatrolError as error:
         return fail(str(error), EXIT_USAGE)
     log.run = run
@@ -155,20 +154,6 @@ class StopLog:
         # When the leg under way started: the end of the last stop's dwell (None: the
         # patrol's start).
         self._leg_from: float | None = None
-
-    # Missions for the patrol's legs, made on the loop's thread as each leg starts.
-
-    def go(self, room: str) -> Mission:
-        robot, control = self.robot, self.robot.control
-        return go_mission(robot.navigator, room, lambda: control.pose, tick=control.period,
-                          limits=robot.limits, sense=robot.sense, notify=control.report,
-                          patience=robot.patience, estimate=control.estimate)  # fmt: skip
-
-    def follow(self, route: Route) -> Mission:
-        robot, control = self.robot, self.robot.control
-        return FollowRoute(route, robot.navigator, lambda: control.pose, tick=control.period,
-                           limits=robot.limits, sense=robot.sense, notify=control.report,
-                           patience=robot.patience, estimate=control.estimate)  # fmt: skip
 
     # On the loop's thread.
 

@@ -109,3 +109,20 @@ def test_each_layer_imports_only_the_layers_below_it():
                     if layer not in ALLOWED_IMPORTS[part] | {"__init__"}:
                         wrong.append(f"{path.relative_to(ROOT)} imports {name}")
     assert wrong == []
+
+
+def test_missions_that_drive_by_the_plan_are_built_in_one_place():
+    # Issue 15: `go` was built in four places with the same seven arguments. Every front
+    # end now asks missions/drive_setup.py, and only docking.py's go_mission (which it
+    # calls) builds the missions themselves.
+    builders = {"go_mission", "GoTo", "GoToPose", "FollowRoute"}
+    allowed = {"giraff_console/missions/drive_setup.py", "giraff_console/missions/docking.py"}
+    wrong = []
+    for path in (ROOT / "giraff_console").rglob("*.py"):
+        where = path.relative_to(ROOT).as_posix()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name | ast.Attribute):
+                name = node.func.id if isinstance(node.func, ast.Name) else node.func.attr
+                if name in builders and where not in allowed:
+                    wrong.append(f"{where}:{node.lineno} builds {name}")
+    assert wrong == []

@@ -34,7 +34,7 @@ from giraff_console.planning.route_planner import Arrival
 from giraff_console.protocol.codec import Command
 from giraff_console.robot.battery import Battery
 from giraff_console.robot.localisation import Estimate
-from giraff_console.robot.mission import Mission
+from giraff_console.robot.mission import Mission, Progress
 from giraff_console.robot.odometry import Pose
 
 # What `go` takes to mean the dock rather than a room.
@@ -302,10 +302,12 @@ class ChargingDetour:
         return self._phase is _Phase.RETURNING and (self._mission is None or self._mission.finished)
 
     @property
-    def progress(self) -> str:
+    def progress(self) -> Progress:
+        """The part under way's: the mission driving it, or the charge."""
         if self._phase is _Phase.CHARGING:
             battery = self.recharge.battery()
             level = "?" if battery is None or battery.percent is None else f"{battery.percent:.0f}"
-            return f"charging at the dock: {level} % of {self.recharge.levels.charged:.0f} %"
+            charged = self.recharge.levels.charged
+            return Progress("charging at the dock", f"{level} % of {charged:.0f} %")
         mission = self._mission
-        return mission.progress if mission is not None else self._phase.value
+        return mission.progress if mission is not None else Progress(self._phase.value, "")

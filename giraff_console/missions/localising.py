@@ -128,7 +128,7 @@ class Look:
                  enough: Callable[[Estimate], bool], prefer: float | None = None,
                  why: str = "looking for a marker") -> None:  # fmt: skip
         """`prefer`: the heading (map frame) the robot will set off in afterwards;
-        `why` what the progress line says it is doing."""
+        `why` what the mission's progress says it is doing."""
         self.limits = limits
         self.tick = tick
         self.enough = enough
@@ -160,7 +160,9 @@ class Look:
         return self.outcome is not None or self.problem is not None
 
     @property
-    def progress(self) -> str:
+    def state(self) -> str:
+        """What the look is doing, as its mission's progress says: why it looks and how
+        many directions it has looked in."""
         done = f"{self._stops_done} of {self._stops_done + len(self._stops)} directions"
         sweep = ", sweeping the circle" if self._swept else ""
         return f"{self.why} ({done}{sweep})"

@@ -24,8 +24,8 @@ it arrives only once the estimate is known well enough and at the goal, looking 
 coming in again if need be. Its turns on the spot are steered as steady_turn.py says.
 Without markers it drives by the odometry as it always has.
 
-What `progress` shows is the plan under way: while the robot stops to plan again it
-says so rather than showing the few centimetres of braking left, and when the robot
+What `progress` gives is the plan under way: while the robot stops to plan again it
+says so rather than giving the few centimetres of braking left, and when the robot
 gets no nearer it says for how long rather than an ETA.
 """
 
@@ -41,11 +41,11 @@ import numpy as np
 
 from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.certainty import (
+    AFTER_REAPPROACH_M,
     ARRIVAL_TRIES,
     NEAR_ENOUGH_HEADING,
     NEAR_ENOUGH_M,
     REAPPROACH_M,
-    SETTLE_M,
     SLOW_FRACTION,
     confirmed,
     how_lost,
@@ -71,6 +71,7 @@ from giraff_console.planning.route_planner import PlannedPath
 from giraff_console.planning.walls import wall_segments
 from giraff_console.protocol.codec import Command
 from giraff_console.robot.localisation import Estimate
+from giraff_console.robot.mission import ARRIVED, DRIVING, PAUSED, Progress
 from giraff_console.robot.odometry import Pose
 
 Point = tuple[float, float]
@@ -94,7 +95,6 @@ Sense = Callable[[], Scan]
 LOOKOUT_M = 3.0
 # A doorway is passed slowly this far either side of its centre.
 DOOR_ZONE_M = 0.4
-PROGRESS_BAR = 16
 # After this long without progress, the progress line says so instead of an ETA.
 SHOW_STILL_S = 5.0
 # Leaving the margin round a sensed obstacle, the path may come this much closer to it:
@@ -177,7 +177,7 @@ class PathMission:
         self._unsure_start = False
         self._turned = False
         self._arrival_tries = 0
-        self._came_in_again = False  # arriving, it settles within SETTLE_M from then on
+        self._came_in_again = False  # so it settles within AFTER_REAPPROACH_M
         # Arriving, the estimate is taken as it is: a look found no better, or the plan
         # under way is the turn to the goal's heading after one.
         self._as_known = False
@@ -233,6 +233,7 @@ class PathMission:
                             "closed on the route; stopping to go round")  # fmt: skip
                 self.executor.brake(now)
                 self._restart, self._restart_why = True, "a door closed on the route"
+                self._approach_anew()
         if estimate is not None:
             self._mind(now, estimate)
         watch = self._progress_watch
@@ -287,6 +288,7 @@ class PathMission:
             self._drop_look()  # a look, if it still must, starts again from the stop
             self.executor.abandon()
             self._restart, self._restart_why = True, "resuming"
+            self._approach_anew()  # it may have been driven anywhere by hand meanwhile
             self._progress_watch.restart(now)
 
     @property
@@ -313,34 +315,27 @@ class PathMission:
         return self._pose()
 
     @property
-    def progress(self) -> str:
-        """The room, a bar, the distance left and the time left, for the main view."""
+    def progress(self) -> Progress:
+        """The plan under way: the metres left of it and the time left, for the main view."""
         if self.finished:
-            return f"{self.name}: arrived"
+            return Progress(self.name, ARRIVED)
         if self._look is not None:
-            return f"{self.name} {self._bar(self._total)} {self._look.progress}, no ETA"
+            return Progress(self.name, self._look.state, total_m=self._total)
         if self._restart:
             # The plan being given up says nothing true of the way left: the braking
             # metres of the old one would read as nearly there.
-            return f"{self.name} {self._bar(self._total)} stopping to plan a new way " \
-                   f"({self._restart_why}), no ETA"  # fmt: skip
+            why = f"stopping to plan a new way ({self._restart_why})"
+            return Progress(self.name, why, total_m=self._total)
         left = self.executor.remaining()
-        text = f"{self.name} {self._bar(left)} {left:.1f} m left"
         if self._paused:
-            return f"{text} (paused)"
+            return Progress(self.name, PAUSED, left, self._total)
         still = self._progress_watch.still_for(self._now)
         if self.problem is None and still >= SHOW_STILL_S:
-            return f"{text}, no nearer for {still:.0f} s"
+            return Progress(self.name, f"no nearer for {still:.0f} s", left, self._total)
         # The profile's time left, but never less than the distance at full speed: a
         # robot behind its profile would otherwise show 0:00 with metres still to go.
         eta = max(self.executor.remaining_time(self._now), left / self.limits.v_max)
-        minutes, seconds = divmod(round(eta), 60)
-        return f"{text}, ETA {minutes}:{seconds:02d}"
-
-    def _bar(self, left: float) -> str:
-        total = max(self._total, left, 1e-9)
-        filled = round(PROGRESS_BAR * (1 - left / total))
-        return "█" * filled + "░" * (PROGRESS_BAR - filled)
+        return Progress(self.name, DRIVING, left, self._total, eta)
 
     def merged_trace(self) -> Trace:
         """What was commanded over every plan driven, one trace."""
@@ -452,11 +447,12 @@ class PathMission:
     def _arrive(self, now: float, estimate: Estimate | None, pose: Pose) -> None:
         """The plan is driven. With markers the robot has arrived once the estimate is
         within the arrival bounds (else it looks for a marker) and at the goal (else it
-        comes in again, or turns to the goal's heading); after ARRIVAL_TRIES of those it
-        settles for what it has, and says so."""
+        comes in again, or turns to the goal's heading); having come in again, it settles
+        within AFTER_REAPPROACH_M; after ARRIVAL_TRIES of those it settles for what it
+        has, and says so."""
         goal, heading = self._goal
         off = math.dist((pose.x, pose.y), goal)
-        near = SETTLE_M if self._came_in_again else REAPPROACH_M
+        near = AFTER_REAPPROACH_M if self._came_in_again else REAPPROACH_M
         turned = heading is not None and abs(wrap(heading - pose.heading)) > ALIGNED_RAD
         # The turn to the goal's heading after a look adds only the wheels' error over
         # that turn, which looking again, turning away and back, would not take out.
@@ -494,6 +490,12 @@ class PathMission:
             turn = Rotation(pose, wrap(heading - pose.heading))
             self.executor = Executor([turn], self.limits, self.tick)
             self._as_known = True
+
+    def _approach_anew(self) -> None:
+        """A way round, or from wherever it was driven by hand, is a new approach: its
+        arrival is judged afresh, with all its tries."""
+        self._arrival_tries = 0
+        self._came_in_again = False
 
     def _drop_look(self) -> None:
         if self._look is not None:
@@ -579,6 +581,7 @@ class PathMission:
                         f"{pose.y:.1f}); stopping to plan again")  # fmt: skip
             self.executor.brake(now)
             self._restart, self._restart_why = True, "something in the way"
+            self._approach_anew()
 
     def _blocks_path_ahead(self) -> bool:
         """Whether the grid, as it now is, blocks the path within LOOKOUT_M ahead: of

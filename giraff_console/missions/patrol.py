@@ -29,7 +29,7 @@ from giraff_console.missions.yaml_file import YamlFile, shown
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.protocol.codec import Command
 from giraff_console.protocol.errors import GiraffError
-from giraff_console.robot.mission import Mission
+from giraff_console.robot.mission import Mission, Progress
 from giraff_console.robot.odometry import Pose
 
 PATROL_SUFFIX = ".patrol.yaml"
@@ -289,19 +289,21 @@ class PatrolRun:
         return left
 
     @property
-    def progress(self) -> str:
+    def progress(self) -> Progress:
+        """The round and stop, the time left (frozen while paused), and the stop's own
+        progress as the detail until it has arrived; during a detour to the dock, the
+        detour's, with no time left: how long a charge takes is not known."""
+        name = f"patrol {self.name}"
         if self.finished:
-            return f"patrol {self.name}: done, {self.patrol.rounds} rounds"
+            return Progress(name, f"done, {self.patrol.rounds} rounds")
         round_number, index = self._legs[self._leg]
+        rounds, place = f"round {round_number}/{self.patrol.rounds}", self._stop().place
         if self._detour is not None:
-            before = f"before stop {index + 1} ({self._stop().place})"
-            return (f"patrol {self.name}: round {round_number}/{self.patrol.rounds}, {before}: "
-                    f"{self._detour.progress}")  # fmt: skip
-        return (
-            f"patrol {self.name}: round {round_number}/{self.patrol.rounds}, "
-            f"stop {index + 1}/{len(self.patrol.stops)} ({self._stop().place}), "
-            f"{_minutes(self.time_left)} left"
-        )
+            before = f"{rounds}, before stop {index + 1} ({place})"
+            return Progress(name, before, detail=self._detour.progress)
+        stop = f"{rounds}, stop {index + 1}/{len(self.patrol.stops)} ({place})"
+        detail = self._mission.progress if self._dwell_end is None else None
+        return Progress(name, stop, eta_s=self.time_left, detail=detail)
 
     def _stop(self) -> Stop:
         return self.patrol.stops[self._legs[self._leg][1]]
@@ -321,7 +323,7 @@ class _Idle:
     name = "idle"
     problem = None
     finished = False
-    progress = ""
+    progress = Progress(name, "")
 
     def step(self, now: float, state: MotorState | None) -> list[Command]:
         return []
@@ -334,8 +336,3 @@ class _Idle:
 
     def resume(self, now: float) -> None:
         pass
-
-
-def _minutes(seconds: float) -> str:
-    minutes, seconds = divmod(round(seconds), 60)
-    return f"{minutes} min {seconds:02d} s" if minutes else f"{seconds} s"

@@ -11,17 +11,8 @@ import threading
 from collections.abc import Callable
 from pathlib import Path
 
-from giraff_console.missions.docking import (
-    DOCK,
-    ChargeLevels,
-    GoToPose,
-    Recharge,
-    back_to,
-    go_mission,
-)
-from giraff_console.missions.follow_route import FollowRoute
-from giraff_console.missions.navigation import Navigator
-from giraff_console.missions.path_mission import Sense
+from giraff_console.missions.docking import DOCK, ChargeLevels, Recharge, back_to
+from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.patrol import (
     PATROL_SUFFIX,
     PatrolError,
@@ -30,7 +21,6 @@ from giraff_console.missions.patrol import (
     list_patrols,
     load_patrol,
 )
-from giraff_console.missions.progress_watch import Patience
 from giraff_console.missions.route import (
     Route,
     RouteError,
@@ -43,13 +33,10 @@ from giraff_console.missions.route import (
 from giraff_console.missions.route_replay import RouteReplay
 from giraff_console.missions.sessions import Sessions
 from giraff_console.missions.undock import Undock
-from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.planning.room_graph import PlanningError
-from giraff_console.planning.route_planner import Arrival
 from giraff_console.recording.session import SessionRecorder
 from giraff_console.robot.battery import Battery
 from giraff_console.robot.control_loop import ControlLoop
-from giraff_console.robot.mission import Mission
 from giraff_console.robot.telemetry import LinkState, Telemetry
 
 
@@ -62,22 +49,20 @@ class RouteBook:
         sessions: Sessions,
         directory: Path,
         report: Callable[[str], None],
-        navigator: Navigator | None = None,
-        limits: MotionLimits | None = None,
-        sense: Sense | None = None,
-        patience: Patience | None = None,
+        drives: DriveSetup | None = None,
         charge: ChargeLevels | None = None,
         undock_distance: float = 0.3,
     ) -> None:
-        """With a `navigator` (the floor plan), patrols can go to rooms and the dock;
-        `limits`, `sense` (the range finder) and `patience` are for routes followed
-        closed-loop and rooms; `charge` says when a patrol goes to charge, and
+        """`drives` builds the routes followed closed-loop and, with a floor plan, the
+        patrols' ways to rooms and the dock (without it: no plan, the loop's own pose and
+        estimate, the default limits); `charge` says when a patrol goes to charge, and
         `undock_distance` how far it backs out after."""
         self.control = control
-        self.navigator = navigator
-        self.limits = limits
-        self.sense = sense
-        self.patience = patience
+        if drives is None:
+            drives = DriveSetup.on_loop(control, None, notify=lambda text: self.report(text))
+        self.drives = drives
+        self.navigator = drives.navigator
+        self.limits = drives.limits
         self.charge = charge or ChargeLevels()
         self.undock_distance = undock_distance
         self._battery: Battery | None = None
@@ -181,7 +166,7 @@ class RouteBook:
         if route is None or not self._free():
             return False
         try:
-            mission = self._follow_mission(route)
+            mission = self.drives.follow(route)
         except PlanningError as error:
             self.report(f"not following {name}: {error}")
             return False
@@ -196,30 +181,6 @@ class RouteBook:
         self.control.run_mission(Undock(distance, self.limits))
         return True
 
-    def _follow_mission(self, route: Route) -> FollowRoute:
-        control = self.control
-        return FollowRoute(route, self.navigator, lambda: control.pose,
-                           tick=control.period, limits=self.limits, sense=self.sense,
-                           notify=self.report, patience=self.patience,
-                           estimate=control.estimate)  # fmt: skip
-
-    def _go_mission(self, room: str) -> Mission:
-        """To a room of the plan, or (`dock`) onto the dock; PlanningError if no way."""
-        assert self.navigator is not None
-        control = self.control
-        return go_mission(self.navigator, room, lambda: control.pose,
-                          tick=control.period, limits=self.limits, sense=self.sense,
-                          notify=self.report, patience=self.patience,
-                          estimate=control.estimate)  # fmt: skip
-
-    def _arrive(self, goal: str, arrival: Arrival) -> GoToPose:
-        assert self.navigator is not None
-        control = self.control
-        return GoToPose(self.navigator, goal, arrival, lambda: control.pose,
-                        tick=control.period, limits=self.limits, sense=self.sense,
-                        notify=self.report, patience=self.patience,
-                        estimate=control.estimate)  # fmt: skip
-
     def _recharge(self) -> Recharge | None:
         """What a patrol needs to charge on the way; None without a floor plan with a
         start room, where the dock is."""
@@ -228,9 +189,9 @@ class RouteBook:
         return Recharge(
             battery=lambda: self._battery,
             levels=self.charge,
-            dock=lambda: self._go_mission(DOCK),
+            dock=lambda: self.drives.go(DOCK),
             undock=lambda: Undock(self.undock_distance, self.limits),
-            back_to=lambda pose: self._arrive("where it left off", back_to(pose)),
+            back_to=lambda pose: self.drives.arrive("where it left off", back_to(pose)),
         )
 
     def patrol(self, name: str) -> bool:
@@ -250,11 +211,11 @@ class RouteBook:
             if route is None:
                 return False
             routes[stop.route] = route
-        go = self._go_mission if self.navigator is not None else None
+        go = self.drives.go if self.navigator is not None else None
         try:
             control = self.control
             run = PatrolRun(patrol, routes, self._stop_reached if patrol.snapshots else _ignore,
-                            go=go, follow=self._follow_mission, recharge=self._recharge(),
+                            go=go, follow=self.drives.follow, recharge=self._recharge(),
                             pose=lambda: control.pose, notify=self.report)  # fmt: skip
         except PatrolError as error:
             self.report(str(error))

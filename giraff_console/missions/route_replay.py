@@ -17,6 +17,7 @@ from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.route import MOTION_SETTINGS, Route
 from giraff_console.protocol.codec import Command, format_number, parse_number
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M
+from giraff_console.robot.mission import Progress
 from giraff_console.robot.safety import REACH_M
 
 
@@ -131,5 +132,8 @@ class RouteReplay:
         return min(max(at - self._t0, 0.0), self.route.duration)
 
     @property
-    def progress(self) -> str:
-        return f"route {self.name}: {round(self.elapsed)} s of {round(self.route.duration)} s"
+    def progress(self) -> Progress:
+        """The seconds of the route replayed: open-loop, its taught duration is its ETA."""
+        elapsed, duration = self.elapsed, self.route.duration
+        return Progress(f"route {self.name}", f"{round(elapsed)} s of {round(duration)} s",
+                        eta_s=duration - elapsed)  # fmt: skip

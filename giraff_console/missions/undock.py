@@ -16,6 +16,7 @@ from giraff_console.missions.streamed_move import StreamedMove
 from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.protocol.codec import Command
 from giraff_console.protocol.kinematics import TURN_RADIUS_M
+from giraff_console.robot.mission import Progress
 
 # The board turns clockwise, `p = 180` (A.4.9, B.2 QueueUndock): half a turn of wheel.
 HALF_TURN_M = math.pi * TURN_RADIUS_M
@@ -81,12 +82,15 @@ class Undock:
         return not self._plan
 
     @property
-    def progress(self) -> str:
+    def progress(self) -> Progress:
+        """The metres left backing out; turning round, the degrees left, which are no
+        metres of the way."""
         if self.finished:
-            return "undock: done"
+            return Progress(self.name, "done")
         paused = " (paused)" if self._paused else ""
         turning, total = self._plan[0]
         left = self._left if self._move is not None else abs(total)
         if turning:
-            return f"undock: turning round, {math.degrees(left / TURN_RADIUS_M):.0f}° left{paused}"
-        return f"undock: backing out, {left:.2f} m left{paused}"
+            degrees = math.degrees(left / TURN_RADIUS_M)
+            return Progress(self.name, f"turning round, {degrees:.0f}° left{paused}")
+        return Progress(self.name, f"backing out{paused}", left)

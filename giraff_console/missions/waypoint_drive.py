@@ -28,6 +28,7 @@ from giraff_console.motion.path import wrap
 from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.protocol.codec import Command
 from giraff_console.protocol.kinematics import TURN_RADIUS_M
+from giraff_console.robot.mission import ARRIVED, Progress
 from giraff_console.robot.odometry import Pose
 
 Point = tuple[float, float]
@@ -135,17 +136,17 @@ class WaypointDrive:
         return self._finished
 
     @property
-    def progress(self) -> str:
+    def progress(self) -> Progress:
         """The waypoint being driven to and the path left, for the main view."""
         if self._finished:
-            return f"{self.name}: arrived"
+            return Progress(self.name, ARRIVED)
         count = len(self.waypoints)
         here = self._pose()
         path = [(here.x, here.y), *self.waypoints[self._index :]]
         left = sum(math.dist(a, b) for a, b in pairwise(path))
         at = min(self._index + 1, count)
         paused = " (paused)" if self._paused else ""
-        return f"{self.name}: waypoint {at}/{count}, {left:.1f} m left{paused}"
+        return Progress(self.name, f"waypoint {at}/{count}{paused}", left)
 
     # -- inside -------------------------------------------------------------------------
 

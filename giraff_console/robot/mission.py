@@ -6,14 +6,94 @@ commands to send now. The loop checks every command against the same limits as t
 commands (knowing the speed just polled), stops the mission when the operator takes the
 keys, on ESTOP, when the link is lost and when the mission reports a problem, and stops
 the robot when a mission is stopped or paused.
+
+A mission says how it is getting on as data, a `Progress`: each front end draws it in
+its own way (the TUI with Textual's widgets, the CLI with rich's), and where there is
+only text (a log, a pipe) `Progress.line` gives the line operators know.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Protocol
 
 from giraff_console.link.motor_state import MotorState
 from giraff_console.protocol.codec import Command
+
+# What a mission under way says it is doing when its figures say it all.
+DRIVING = "driving"
+PAUSED = "paused"
+ARRIVED = "arrived"
+# The text bar's width, in characters: as wide as it has always been in the main view.
+TEXT_BAR = 16
+
+
+@dataclass(frozen=True)
+class Progress:
+    """Where a mission is, for the operator.
+
+    `state` says what it is doing, in the robot's terms: DRIVING, PAUSED, ARRIVED, "no
+    nearer for 12 s", "stopping to plan a new way (a door closed on the route)", a
+    patrol's "round 2/3, stop 4/32 (kitchen)". The figures are None where there is no
+    honest one to give: `left_m` and `total_m` (the length of the plan under way, which
+    a bar measures `left_m` against) for a mission that drives no planned path;
+    `left_m` while it looks for a marker or stops to plan again, where the braking
+    metres of the plan given up would read as nearly there; `eta_s` then too, and while
+    paused. `detail` is how the part under way of a mission made of others is getting
+    on: a patrol's stop, its detour to the dock.
+    """
+
+    name: str
+    state: str
+    left_m: float | None = None
+    total_m: float | None = None
+    eta_s: float | None = None
+    detail: Progress | None = None
+
+    @property
+    def done_m(self) -> float | None:
+        """How far along the plan under way, for a bar: none of it while the metres
+        left are not known."""
+        if self.total_m is None:
+            return None
+        if self.left_m is None:
+            return 0.0
+        return max(self.total_m - self.left_m, 0.0)
+
+    def words(self) -> str:
+        """What the mission is doing and what it has left, as said after its name and
+        bar: metres left and an ETA for a path; time left for what has no metres; "no
+        ETA" for a path whose metres left are not known."""
+        said = [] if self.state == DRIVING else [self.state]
+        if self.left_m is not None:
+            said.append(f"{self.left_m:.1f} m left")
+            if self.eta_s is not None:
+                minutes, seconds = divmod(round(self.eta_s), 60)
+                said.append(f"ETA {minutes}:{seconds:02d}")
+        elif self.eta_s is not None:
+            minutes, seconds = divmod(round(self.eta_s), 60)
+            said.append(f"{minutes} min {seconds:02d} s left" if minutes else f"{seconds} s left")
+        elif self.total_m is not None:
+            said.append("no ETA")
+        return ", ".join(part for part in said if part)
+
+    def line(self) -> str:
+        """The one line the operator reads where there is only text: the name, a text
+        bar along a planned path, then the words; a progress with no figures of its own
+        goes on with its detail's line. "go day-room ███░░░░░░░░░░░░░ 35.4 m left, ETA
+        1:31", "patrol tour3: round 3/3, stop 4/32 (room-110), 7 s left"."""
+        words = self.words()
+        head = self.name
+        if self.total_m is not None:
+            done = self.done_m or 0.0
+            filled = round(TEXT_BAR * done / max(self.total_m, 1e-9))
+            head = f"{head} {'█' * filled}{'░' * (TEXT_BAR - filled)}"
+        elif words:
+            head = f"{head}:"
+        text = f"{head} {words}" if words else head
+        if self.detail is not None and self.left_m is None and self.eta_s is None:
+            text = f"{text}: {self.detail.line()}"
+        return text
 
 
 class Mission(Protocol):
@@ -47,6 +127,6 @@ class Mission(Protocol):
         ...
 
     @property
-    def progress(self) -> str:
-        """One line for the operator: where the mission is and how long it has left."""
+    def progress(self) -> Progress:
+        """Where the mission is and how long it has left."""
         ...

@@ -10,6 +10,7 @@ from giraff_console.link.motor_state import MotorState
 from giraff_console.robot.battery import Battery
 from giraff_console.robot.deadman import Intent
 from giraff_console.robot.localisation import Estimate
+from giraff_console.robot.mission import Progress
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.replay import PlaybackStatus
 
@@ -41,7 +42,7 @@ class Telemetry:
     loop_hz: float
     late_ms: float
     playback: PlaybackStatus | None = None
-    mission: str | None = None
+    mission: Progress | None = None  # the mission under way's
     battery: Battery | None = None
     stalk: int | None = None
     board: BoardFeatures | None = None

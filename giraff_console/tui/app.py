@@ -20,11 +20,10 @@ from textual.widgets import Footer
 
 from giraff_console.camera.feed import CameraFeed
 from giraff_console.camera.source import RESOLUTIONS as CAMERA_RESOLUTIONS
+from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import NavigationState, Navigator
-from giraff_console.missions.progress_watch import Patience
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
-from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.protocol import Command, CommandError, GiraffError, parse_command, parse_number
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.control_loop import BoardJob, ControlLoop
@@ -190,8 +189,7 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
         play: Path | None = None,
         navigator: Navigator | None = None,
         site: SimulatedSite | None = None,
-        motion: MotionLimits | None = None,
-        patience: Patience | None = None,
+        drives: DriveSetup | None = None,
         stepped: float | None = None,
         undock_distance: float = 0.3,
         battery_low: float = 25.0,
@@ -200,8 +198,9 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
         cursor_blink: bool = True,
         crashed: Callable[[BaseException], None] = lambda error: None,
     ) -> None:
-        """`run_loop` False leaves ticking the loop to the caller (tests on a virtual clock);
-        `battery_low` is the percent below which the top line shows the battery LOW."""
+        """`drives` builds the missions `go` drives; `run_loop` False leaves ticking the
+        loop to the caller (tests on a virtual clock); `battery_low` is the percent below
+        which the top line shows the battery LOW."""
         super().__init__()
         self.control = control
         self.camera = camera
@@ -210,8 +209,13 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
         self.play_at_start = play
         self.navigator = navigator
         self.site = site
-        self.motion = motion or MotionLimits()
-        self.patience = patience
+        if drives is None:
+            # The default limits, and the simulated building's range finder if any.
+            sense = site.range_finder.readings if site is not None else None
+            drives = DriveSetup.on_loop(control, navigator, sense=sense)
+        # One navigator: the map shows the state of the one `go` plans with.
+        assert drives.navigator is navigator, "drives must plan with the console's navigator"
+        self.drives = drives
         self.stepped = stepped
         self._shown_state: NavigationState | None = None
         start = navigator.start_pose if navigator is not None else None

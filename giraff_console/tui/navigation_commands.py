@@ -14,10 +14,9 @@ from collections.abc import Callable
 from textual import work
 from textual.message import Message
 
-from giraff_console.missions.docking import DOCK, go_mission
+from giraff_console.missions.docking import DOCK
+from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import NavigationState, Navigator
-from giraff_console.missions.progress_watch import Patience
-from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.protocol import CommandError, parse_number
 from giraff_console.robot.control_loop import ControlLoop
@@ -29,14 +28,14 @@ NAVIGATION_COMMANDS = ("go", "close", "open", "block", "unblock")
 
 
 class NavigationCommands:
-    """Commands for the floor plan; needs the app's control loop, navigator, motion
-    limits and patience, simulated site (if any), the robot's pose and `post_message`."""
+    """Commands for the floor plan; needs the app's control loop, navigator, what its
+    missions are built with, simulated site (if any), the robot's pose and
+    `post_message`."""
 
     # Set up by the app.
     control: ControlLoop
     navigator: Navigator | None
-    motion: MotionLimits
-    patience: Patience | None
+    drives: DriveSetup
     site: SimulatedSite | None
     pose: Pose
     post_message: Callable[[Message], bool]
@@ -89,15 +88,7 @@ class NavigationCommands:
         """Plan (PlanningError if there is no way) and let the control loop drive; `go
         dock` drives onto the dock square on."""
         control = self.control
-        site = self.site
-
-        def notify(text: str) -> None:  # the mission's callback returns nothing
-            self.post_message(StatusNote(text))
-
-        mission = go_mission(navigator, room, lambda: control.pose,
-                             tick=control.period, limits=self.motion, patience=self.patience,
-                             sense=site.range_finder.readings if site is not None else None,
-                             notify=notify, estimate=control.estimate)  # fmt: skip
+        mission = self.drives.go(room)
         planned = navigator.state.planned
         if planned is not None:
             route = planned.route

@@ -25,6 +25,7 @@ from giraff_console.missions.undock import Undock
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.protocol.charger import ChargeStatus
 from giraff_console.robot.battery import Battery
+from giraff_console.robot.mission import DRIVING, Progress
 from giraff_console.robot.odometry import Pose
 from giraff_console.sim.drive import TruePose
 from tests.missions.site import LIMITS, PLAN, TICK, Site
@@ -106,7 +107,8 @@ class _Leg:
     """A mission that arrives after `steps` steps."""
 
     def __init__(self, name: str, steps: int = 3) -> None:
-        self.name, self.steps, self.problem, self.progress = name, steps, None, name
+        self.name, self.steps, self.problem = name, steps, None
+        self.progress = Progress(name, DRIVING)
 
     def step(self, now, state):
         self.steps -= 1
@@ -156,7 +158,8 @@ def test_the_detour_docks_charges_backs_out_and_returns_where_it_left_off():
         battery["now"] = Battery(ChargeStatus.FAST_CHARGING, level)
         now += 600
         assert detour.step(now, None) == []
-        assert "charging at the dock" in detour.progress
+        assert detour.progress == Progress("charging at the dock", f"{level:.0f} % of 90 %")
+        assert detour.progress.line() == f"charging at the dock: {level:.0f} % of 90 %"
     assert made == ["dock"]
     battery["now"] = Battery(ChargeStatus.TRICKLE_CHARGING, 90.0)
     detour.step(now, None)

@@ -7,12 +7,14 @@ never reads.
 from __future__ import annotations
 
 import copy
+import itertools
 import math
 
 import pytest
 
 from giraff_console.missions.navigation import Navigator
 from giraff_console.planning.route_planner import walls_of
+from giraff_console.robot.mission import ARRIVED, DRIVING, PAUSED, Progress
 from giraff_console.robot.odometry import Pose
 from tests.missions.site import LIMITS, PLAN, TICK, Site
 
@@ -180,3 +182,37 @@ def test_with_imperfections_it_arrives_close_or_says_why_not(seed, shared_naviga
     else:
         assert why.startswith("stopped: stalled") or why == "stopped by ESTOP"
         assert not report["arrived"]
+
+
+def test_go_publishes_its_progress_as_data_the_metres_left_falling_to_arrival(shared_navigator):
+    site = Site(shared_navigator)
+    shown: list[Progress | None] = []
+    site.control.telemetry_observers.append(lambda telemetry: shown.append(telemetry.mission))
+    mission = site.go("kitchen")
+    site.run(10)
+    site.control.pause_mission(True)
+    site.run(2, until_ended=False)
+    paused = mission.progress
+    site.control.pause_mission(False)
+    site.run(400)
+    assert site.ended == ["done"]
+    driving = [p for p in shown if p is not None and p.state == DRIVING]
+    assert len(driving) > 100 and all(p.name == "go kitchen" for p in driving)
+    # The whole plan at the start, nothing of it at the end, never more left than before
+    # within one plan (pausing plans again, from where the robot stopped).
+    first, last = driving[0], driving[-1]
+    assert first.left_m == pytest.approx(first.total_m) and first.total_m > 5
+    assert last.left_m is not None and last.left_m < 0.1
+    for before, after in itertools.pairwise(driving):
+        if after.total_m == before.total_m:
+            assert after.left_m <= before.left_m + 1e-9
+    # An ETA while driving, never sooner than the metres left at full speed.
+    assert all(p.eta_s is not None and p.eta_s >= p.left_m / LIMITS.v_max for p in driving)
+    assert driving[len(driving) // 2].eta_s < first.eta_s
+    # Paused: the metres left, and no ETA.
+    assert paused.state == PAUSED and paused.eta_s is None and 0 < paused.left_m < first.left_m
+    assert paused.line().startswith("go kitchen ") and paused.line().endswith(
+        f"paused, {paused.left_m:.1f} m left"
+    )
+    assert mission.progress == Progress("go kitchen", ARRIVED)
+    assert shown[-1] is None  # ended: the telemetry carries no mission

@@ -27,6 +27,7 @@ from giraff_console.planning.landmarks import marker_poses
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.planning.walls import wall_segments
 from giraff_console.robot.localisation import Estimate
+from giraff_console.robot.mission import DRIVING, Progress
 from giraff_console.robot.odometry import Pose
 from giraff_console.sim.drive import TruePose
 from tests.missions.site import LIMITS, PLAN, TICK, Site
@@ -137,6 +138,36 @@ def test_a_robot_lost_on_the_way_stops_and_says_where(navigator):
     assert 0.3 < pose.y - start.y < 2.0  # it had set off, and stopped soon after
 
 
+def test_while_a_lost_robot_stops_and_looks_its_progress_gives_no_metres_nor_eta(navigator):
+    site = LocalisingSite(navigator, seed=3, eye=False)
+    clock = site.clock
+
+    def estimate() -> Estimate:
+        # Found on its dock, then nothing seen for too long after 3 s.
+        known = replace(site.control.estimate(), found=True, corrected_at=0.0)
+        return replace(known, sigma_m=0.3) if clock.now() > 3.0 else known
+
+    shown: list[tuple[float, Progress]] = []
+    site.control.telemetry_observers.append(
+        lambda telemetry: (
+            shown.append((clock.now(), telemetry.mission)) if telemetry.mission else None
+        )
+    )
+    site.go_with("room-101", estimate)
+    site.run(20)
+    before = [p for t, p in shown if t <= 3.0]
+    assert before and all(p.state == DRIVING and p.eta_s is not None for p in before)
+    assert before[-1].left_m < before[0].left_m
+    lost = [p for t, p in shown if t > 3.0]
+    assert lost[0].state == "stopping to plan a new way (looking for a marker)"
+    looking = [p for p in lost if ": looking for a marker (" in p.state]
+    assert looking and looking[0].state.startswith("no marker seen for too long")
+    assert all(p.state != DRIVING for p in lost)
+    assert all(p.left_m is None and p.eta_s is None and p.total_m for p in lost)
+    assert looking[-1].line().startswith(f"go room-101 {'░' * 16} no marker seen")
+    assert looking[0].line().endswith("(0 of 3 directions), no ETA")
+
+
 def test_a_robot_unsure_of_where_it_is_sets_off_slowly(navigator):
     def first_stretch(sigma_m: float) -> float:
         """The fastest it went over the first SLOW_STRETCH_M of room-101, straight ahead."""
@@ -238,15 +269,19 @@ def go_with_markers_moving_it_aside(navigator: Navigator, aside: float) -> tuple
     goal = PLAN.rooms["room-101"]
     side = math.radians(goal.heading or 0.0) + math.pi / 2
     shift = [0.0]
+    shifted_at = [math.nan]
     missions: list[PathMission] = []
 
     def pose() -> Pose:
         here = site.pose()
-        x = here.x + shift[0] * math.cos(side)
-        y = here.y + shift[0] * math.sin(side)
+        x, y = here.x + shift[0] * math.cos(side), here.y + shift[0] * math.sin(side)
         ending = missions and missions[0].executor.remaining() < 0.002
-        if ending and math.dist((x, y), goal.at) < 0.005:
-            shift[0] += aside  # a marker seen as it stops moves the estimate aside
+        if ending and math.dist((x, y), goal.at) < 0.005 and shifted_at[0] != site.clock.now():
+            # A marker seen as it stops moves the estimate aside: once in a tick, and
+            # every caller that tick sees the same pose.
+            shift[0] += aside
+            shifted_at[0] = site.clock.now()
+            x, y = x + aside * math.cos(side), y + aside * math.sin(side)
         return Pose(x, y, here.heading)
 
     def estimate() -> Estimate:
@@ -270,6 +305,15 @@ def test_a_robot_that_comes_in_again_as_far_off_settles_within_the_p95_bound(nav
     again = [note for note in site.notes if "coming in again" in note]
     assert len(again) == 1, site.notes
     assert not any("as near as it could" in note for note in site.notes)
+
+
+def test_a_robot_put_further_off_than_that_comes_in_again_and_then_settles_near_enough(
+    navigator,
+):
+    site, aside = go_with_markers_moving_it_aside(navigator, 0.07)
+    assert site.ended == ["done"]
+    assert aside == pytest.approx(0.07 * (ARRIVAL_TRIES + 1))
+    assert any("arrived as near as it could, 0.07 m off" in note for note in site.notes)
 
 
 def test_a_robot_that_cannot_get_near_enough_says_so_rather_than_arrive(navigator):

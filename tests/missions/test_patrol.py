@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import re
-
 import pytest
 import yaml
 
@@ -170,31 +168,46 @@ def test_a_patrol_finishes_only_when_the_last_dwell_is_over(tmp_path):
     assert again.next_due() == pytest.approx(last_stop + 5.0)
 
 
-def seconds_left(progress: str) -> int:
-    match = re.search(r"(?:(\d+) min )?(\d+) s left", progress)
-    assert match, progress
-    return int(match[1] or 0) * 60 + int(match[2])
-
-
 def test_patrol_progress_names_round_and_stop_and_counts_down(tmp_path):
     run = PatrolRun(rounds(tmp_path), ROUTES)
-    assert run.progress == "patrol rounds: round 1/2, stop 1/2 (hall-to-kitchen), 44 s left"
+    first = run.progress
+    assert (first.name, first.state, first.eta_s) == (
+        "patrol rounds", "round 1/2, stop 1/2 (hall-to-kitchen)", 44.0,
+    )  # fmt: skip
     robot = Robot(run)
-    seen = [run.progress]
+    seen = [first]
     while not run.finished:
         robot.tick()
         seen.append(run.progress)
-    assert "patrol rounds: round 2/2, stop 2/2 (kitchen-to-hall), 5 s left" in seen
-    left = [seconds_left(text) for text in seen[:-1]]
+    lines = [progress.line() for progress in seen]
+    assert lines[0] == "patrol rounds: round 1/2, stop 1/2 (hall-to-kitchen), 44 s left"
+    assert "patrol rounds: round 2/2, stop 2/2 (kitchen-to-hall), 5 s left" in lines
+    left = [progress.eta_s for progress in seen[:-1]]
     assert left == sorted(left, reverse=True)
-    assert left[-1] == 0
-    assert seen[-1] == "patrol rounds: done, 2 rounds"
+    assert 0 <= left[-1] <= TICK + 1e-9  # the last tick of the last dwell
+    assert lines[-1] == "patrol rounds: done, 2 rounds" and seen[-1].eta_s is None
+
+
+def test_a_patrols_progress_carries_its_stops_until_it_has_arrived(tmp_path):
+    run = PatrolRun(rounds(tmp_path), ROUTES, lambda stop: None)
+    robot = Robot(run)
+    robot.tick()
+    robot.tick()
+    stop = run.progress.detail
+    assert stop is not None and stop.name == "route hall-to-kitchen"
+    assert stop.eta_s == pytest.approx(4.0 - TICK)
+    # The stop's own line is not the patrol's: logs read that as it has always been.
+    assert run.progress.line().endswith("(hall-to-kitchen), 44 s left")
+    while run.next_due() is None or run.next_due() - robot.now < 5.0:
+        robot.tick()  # until the first dwell has begun
+    assert run.progress.detail is None
 
 
 def test_long_patrols_count_in_minutes(tmp_path):
     patrol = load_patrol(write(tmp_path, {"rounds": 1, "stops": [
         {"route": "hall-to-kitchen", "dwell": 61}]}))  # fmt: skip
-    assert PatrolRun(patrol, ROUTES).progress.endswith("(hall-to-kitchen), 1 min 05 s left")
+    line = PatrolRun(patrol, ROUTES).progress.line()
+    assert line.endswith("(hall-to-kitchen), 1 min 05 s left")
 
 
 def test_a_paused_patrol_freezes_its_dwell(tmp_path):
@@ -203,12 +216,13 @@ def test_a_paused_patrol_freezes_its_dwell(tmp_path):
     while run.next_due() is None or run.next_due() - robot.now < 5.0:
         robot.tick()  # until the first dwell has begun
         assert robot.now < 20.0
-    dwell_end, left = run.next_due(), seconds_left(run.progress)
+    dwell_end = run.next_due()
     run.pause(robot.now)
+    left = run.progress.eta_s
     for _ in range(600):
         assert robot.tick() == []
     assert run.next_due() is None
-    assert seconds_left(run.progress) == left
+    assert run.progress.eta_s == left
     run.resume(robot.now)
     assert run.next_due() == pytest.approx(dwell_end + 60.0)
 

@@ -154,12 +154,14 @@ def test_while_replanning_the_progress_says_so_and_shows_no_braking_metres(navig
         site.run(TICK)
         seen.append(mission.progress)
     mission.hemmed = False
-    stopping = [line for line in seen if "stopping to plan a new way" in line]
-    assert stopping and all("m left" not in line and "no ETA" in line for line in stopping)
-    # Whatever shows metres left shows the plan under way's, never the brake's 0.1 m.
+    stopping = [p for p in seen if p.state == "stopping to plan a new way (something in the way)"]
+    assert stopping and all(p.left_m is None and p.eta_s is None for p in stopping)
+    assert all("m left" not in p.line() and "no ETA" in p.line() for p in stopping)
+    # Whatever gives metres left gives the plan under way's, never the brake's 0.1 m.
     site.run(TICK)
     left = mission.executor.remaining()
-    assert f"{left:.1f} m left" in mission.progress and left > 20
+    assert mission.progress.left_m == left and left > 20
+    assert f"{left:.1f} m left" in mission.progress.line()
 
 
 def test_a_box_put_down_beside_the_robot_does_not_hold_it_for_ever(navigator):

@@ -267,11 +267,12 @@ def test_a_pause_shifts_the_rest_of_the_route_and_restores_the_settings():
 
 def test_replay_progress_counts_whole_seconds_without_the_pause():
     replay = RouteReplay(route((0.0, "set p 0.2"), duration=30.0))
-    assert replay.progress == "route hall: 0 s of 30 s"
+    assert replay.progress.line() == "route hall: 0 s of 30 s, 30 s left"
     replay.step(100.0, None)
     replay.step(108.0, None)
     replay.pause(108.0)
     replay.resume(120.0)
     replay.step(124.4, None)
-    assert replay.progress == "route hall: 12 s of 30 s"
+    assert replay.progress.line() == "route hall: 12 s of 30 s, 18 s left"
+    assert replay.progress.eta_s == pytest.approx(30.0 - 12.4)
     assert replay.name == "hall"

@@ -14,6 +14,7 @@ from giraff_console.recording.control_log import LogEntry, LogRead
 from giraff_console.recording.playback import Playback
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
+from giraff_console.robot.mission import DRIVING, Progress
 from giraff_console.robot.safety import stop_robot
 from giraff_console.robot.teleop import Teleop
 from giraff_console.settings import Settings
@@ -57,8 +58,8 @@ class Ahead:
         return False
 
     @property
-    def progress(self) -> str:
-        return "ahead"
+    def progress(self) -> Progress:
+        return Progress("ahead", DRIVING)
 
 
 class Loop:

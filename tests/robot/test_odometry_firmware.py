@@ -23,6 +23,7 @@ from giraff_console.protocol.codec import Command
 from giraff_console.robot import control_loop
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
+from giraff_console.robot.mission import DRIVING, Progress
 from giraff_console.robot.odometry import Odometry
 from giraff_console.robot.teleop import Teleop
 from giraff_console.robot.wheel_odometers import Reading
@@ -240,7 +241,7 @@ class Straight:
     name = "straight"
     finished = False
     problem = None
-    progress = "driving straight"
+    progress = Progress(name, DRIVING)
 
     def step(self, now: float, state: MotorState | None) -> list[Command]:
         return [Command("set", "p", 0.2)]

@@ -1,0 +1,65 @@
+"""The main view's second line: the keys, or a mission's progress drawn with a bar."""
+
+from __future__ import annotations
+
+from textual.app import App, ComposeResult
+from textual.widgets import Label, ProgressBar, Static
+
+from giraff_console.robot.mission import DRIVING, Progress
+from giraff_console.robot.odometry import Pose
+from giraff_console.robot.telemetry import LinkState, Telemetry
+from giraff_console.tui.main_view import MainView
+
+
+class OneView(App[None]):
+    def compose(self) -> ComposeResult:
+        yield MainView(id="main")
+
+
+def telemetry(mission: Progress | None) -> Telemetry:
+    return Telemetry(LinkState.CONNECTED, None, Pose(0.0, 0.0, 0.0), None, 0.3, None, True,
+                     20.0, 0.0, mission=mission)  # fmt: skip
+
+
+def shown(view: MainView) -> list[str]:
+    return [str(label.content) for label in view.query(Label) if label.display]
+
+
+def bars(view: MainView) -> list[tuple[float | None, float]]:
+    return [(bar.total, bar.progress) for bar in view.query(ProgressBar) if bar.display]
+
+
+def keys(view: MainView) -> Static:
+    return view.query_children(Static)[1]
+
+
+async def test_a_mission_takes_the_keys_place_its_bar_measuring_the_plan_under_way():
+    app = OneView()
+    async with app.run_test(size=(100, 4)) as pilot:
+        view = app.query_one(MainView)
+        view.show(telemetry(None))
+        await pilot.pause()
+        assert keys(view).display and "keys - 0.30 m/s" in str(keys(view).content)
+        view.show(telemetry(Progress("go kitchen", DRIVING, 5.0, 20.0, 12.0)))
+        await pilot.pause()
+        assert not keys(view).display
+        assert shown(view) == ["go kitchen", "5.0 m left, ETA 0:12"]
+        assert bars(view) == [(20.0, 15.0)]
+        view.show(telemetry(None))  # ended
+        await pilot.pause()
+        assert keys(view).display
+
+
+async def test_a_patrol_shows_its_round_and_its_stop_with_the_stops_bar():
+    leg = Progress("go room-110", DRIVING, left_m=3.0, total_m=9.0, eta_s=7.0)
+    patrol = Progress("patrol tour3", "round 3/3, stop 4/32 (room-110)", eta_s=20.0, detail=leg)
+    app = OneView()
+    async with app.run_test(size=(120, 4)) as pilot:
+        view = app.query_one(MainView)
+        view.show(telemetry(patrol))
+        await pilot.pause()
+        assert shown(view) == [
+            "patrol tour3:", "round 3/3, stop 4/32 (room-110), 20 s left",
+            "· go room-110", "3.0 m left, ETA 0:07",
+        ]  # fmt: skip
+        assert bars(view) == [(9.0, 6.0)]
