@@ -45,6 +45,16 @@ def test_the_code_passes_ruff():
     assert result.returncode == 0, result.stdout + result.stderr
 
 
+def test_the_code_passes_mypy():
+    # mypy comes with the test extra; the libraries without type information are named in
+    # pyproject.toml.
+    result = subprocess.run(
+        [sys.executable, "-m", "mypy", "giraff_console"],
+        cwd=ROOT, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
 def test_the_installed_package_carries_the_console_stylesheet(wheel):
     # A plain install from a clean checkout is what the README's run command does.
     assert "giraff_console/tui/app.tcss" in zipfile.ZipFile(wheel).namelist()
