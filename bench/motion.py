@@ -59,6 +59,7 @@ from giraff_console.planning.floorplan import FloorPlan, load_floorplan
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
+from giraff_console.robot.loop_events import LoopEvent
 from giraff_console.robot.mission import Mission
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.safety import rotation_wheel_speed
@@ -123,16 +124,15 @@ def drive(plan: FloorPlan, room: str, make: MakeMission, url: str) -> Run:
     speeds: list[tuple[float, float]] = []
     gears: list[float] = []
 
-    def watch(telemetry: Telemetry) -> None:
-        state = telemetry.state
-        if state is None:
+    def watch(event: LoopEvent) -> None:
+        if not isinstance(event, Telemetry) or event.state is None:
             return
-        r = telemetry.board_r
+        state, r = event.state, event.board_r
         speed = rotation_wheel_speed(state, r) if r is not None and r <= 0 else state.speed
         speeds.append((state.received_at, abs(speed or 0.0)))
         gears.append(state.cvg)
 
-    control.telemetry_observers.append(watch)
+    control.subscribe(watch)
     ended: list[str] = []
     started = clock.now()
     control.run_mission(mission, ended.append)

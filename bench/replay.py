@@ -4,7 +4,7 @@
    driving, stopping and turning, with the `set p`/`set v` a console sends between them)
    is written to disk, read back with `read_log` and played on a real `ControlLoop` on
    the real clock, with no board. Every played-back exchange is stamped on arrival at
-   the loop's observers. Its lateness is the arrival time minus the time the entry was
+   the loop's listeners. Its lateness is the arrival time minus the time the entry was
    due: the playback's start plus its offset into the log, divided by the speed. The
    drift is the mean lateness over the last 10 s of log time minus that over the first
    10 s: the playback clock must not wander (target <= 10 ms over 10 minutes at 1x).
@@ -46,6 +46,8 @@ from giraff_console.recording.playback import Playback
 from giraff_console.recording.session import CONTROL_LOG, RecordingSetup, SessionRecorder
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
+from giraff_console.robot.loop_events import LoopEvent, Note
+from giraff_console.robot.telemetry import Telemetry
 from giraff_console.robot.teleop import Teleop
 
 POLL_S = 0.050  # the control loop's period at 20 Hz
@@ -148,12 +150,18 @@ def play(log: LogRead, speed: float) -> Played:
         else:
             gc_pauses.append((gc_began[0], time.monotonic(), info["generation"]))
 
-    control = ControlLoop(no_board, teleop=Teleop(), deadman=Deadman(clock), clock=clock,
-                          report=reports.append)  # fmt: skip
-    # On the loop's thread, with the tick's own time as the exchange's sent_at.
-    control.observers.append(lambda e: arrivals.append((time.monotonic(), e.sent_at)))
-    # The last thing a tick does: when the loop goes back to waiting.
-    control.telemetry_observers.append(lambda t: published.append(time.monotonic()))
+    def heard(event: LoopEvent) -> None:
+        if isinstance(event, Exchange):
+            # On the loop's thread, with the tick's own time as the exchange's sent_at.
+            arrivals.append((time.monotonic(), event.sent_at))
+        elif isinstance(event, Telemetry):
+            # The last thing a tick does: when the loop goes back to waiting.
+            published.append(time.monotonic())
+        elif isinstance(event, Note):
+            reports.append(event.text)
+
+    control = ControlLoop(no_board, teleop=Teleop(), deadman=Deadman(clock), clock=clock)
+    control.subscribe(heard)
     control.start()
     time.sleep(0.2)  # past the first connection attempt
     gc.callbacks.append(note_gc)

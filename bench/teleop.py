@@ -37,6 +37,8 @@ from giraff_console.clock import RealClock
 from giraff_console.link import BoardLink
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
+from giraff_console.robot.loop_events import ExchangeTap, LoopEvent
+from giraff_console.robot.telemetry import Telemetry
 from giraff_console.robot.teleop import Teleop
 from giraff_console.tui.app import GiraffConsole
 from tests.conftest import start_sim_process, stop_sim_process
@@ -61,7 +63,7 @@ def console_on(path: str) -> tuple[GiraffConsole, ControlLoop, list[tuple[float,
         lambda: BoardLink.open(path), teleop=Teleop(), deadman=Deadman(clock), clock=clock
     )
     wire: list[tuple[float, str]] = []
-    control.observers.append(lambda e: wire.append((e.sent_at, e.command)))
+    control.subscribe(ExchangeTap(lambda e: wire.append((e.sent_at, e.command))))
     return GiraffConsole(control, simulator=False), control, wire
 
 
@@ -115,7 +117,10 @@ async def latencies(path: str, trials: int) -> dict[str, list[float]]:
 async def jitter(path: str, seconds: float) -> list[float]:
     app, control, _ = console_on(path)
     late: list[float] = []
-    publish = control.publish
+
+    def lateness(event: LoopEvent) -> None:
+        if isinstance(event, Telemetry):
+            late.append(event.late_ms)
 
     def busy() -> None:
         end = time.perf_counter() + 0.030
@@ -123,7 +128,7 @@ async def jitter(path: str, seconds: float) -> list[float]:
             pass
 
     async with app.run_test(size=(100, 30)):
-        control.publish = lambda t: (late.append(t.late_ms), publish(t))
+        control.subscribe(lateness)
         app.set_interval(0.05, busy)
         await asyncio.sleep(seconds)
     return late[20:]

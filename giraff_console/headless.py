@@ -42,6 +42,7 @@ from giraff_console.planning.route_planner import walls_of
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.last_stop import LastStop
+from giraff_console.robot.loop_events import LoopEvent, Note
 from giraff_console.robot.marker_eye import EYE_FPS, EYE_SIZE, MarkerEye
 from giraff_console.robot.mission import TEXT_BAR, Mission
 from giraff_console.robot.odometry import Pose
@@ -203,15 +204,15 @@ class HeadlessRobot:
             # The console cannot know where the robot was put down: it assumes the dock,
             # and the markers correct that (robot/localisation.py, "No starting guess").
             control.place(self.start)
-        control.report = lambda text: print(f"giraff-console: {text}", file=sys.stderr)
+        control.subscribe(_print_note)
         # The markers find the robot only through a camera, which `go` and `patrol` have
         # with the simulator alone (its synthetic one); on a real robot they drive by
         # the odometry, as the console does with a camera that has no calibration.
         self.eye: MarkerEye | None = None
         if self.plan.landmarks is not None and not args.no_landmarks:
             if self.site is None:
-                control.report("markers: not used without a camera (go and patrol have the "
-                               "simulator's only): driving by the odometry")  # fmt: skip
+                control.note("markers: not used without a camera (go and patrol have the "
+                             "simulator's only): driving by the odometry")  # fmt: skip
             else:
                 self.eye = self.site.eye(control.localisation, clock, fps=eye_fps, size=eye_size)
         self.landmarks = self.eye is not None
@@ -222,9 +223,14 @@ class HeadlessRobot:
         if self.eye is not None:
             control.localisation.use_markers(marker_poses(self.plan))
             eye = self.eye
+
+            def look(event: LoopEvent) -> None:
+                if isinstance(event, Telemetry):
+                    eye.look()
+
             # The simulator is always on a stepped virtual clock: the eye looks on the
             # loop's thread, between ticks (robot/marker_eye.py).
-            control.telemetry_observers.append(lambda telemetry: eye.look())
+            control.subscribe(look)
 
     @property
     def sense(self) -> Sense | None:
@@ -250,15 +256,16 @@ class HeadlessRobot:
             finally:
                 done.set()  # whatever the report did: the command must end
 
-        def start(telemetry: Telemetry) -> None:
+        def start(event: LoopEvent) -> None:
             # On the loop's thread, at the first tick that has the board: the mission
             # starts at the same virtual time however fast the clock runs, before any
             # frame the eye takes meanwhile could make a run differ from the next.
-            if telemetry.link is LinkState.CONNECTED and not connected.is_set():
+            connected_now = isinstance(event, Telemetry) and event.link is LinkState.CONNECTED
+            if connected_now and not connected.is_set():
                 connected.set()
                 control.run_mission(mission, finish)
 
-        control.telemetry_observers.append(start)
+        control.subscribe(start)
         # Before the loop's thread starts: SIGHUP (the SSH connection dropped), SIGTERM
         # and SIGINT stop the robot from the loop's own thread and end the mission.
         last_stop = LastStop(control)
@@ -272,6 +279,12 @@ class HeadlessRobot:
         finally:
             control.stop()
             last_stop.uninstall()
+
+
+def _print_note(event: LoopEvent) -> None:
+    """The loop's notes on standard error, where `go` and `patrol` say everything."""
+    if isinstance(event, Note):
+        print(f"giraff-console: {event.text}", file=sys.stderr)
 
 
 def _show_progress(mission: Mission, done: threading.Event,

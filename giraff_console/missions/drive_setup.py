@@ -50,10 +50,9 @@ class DriveSetup:
                 patience: Patience | None = None,
                 notify: Callable[[str], None] | None = None) -> DriveSetup:  # fmt: skip
         """For missions the loop `control` runs: its pose, tick and estimate, and, unless
-        `notify`, its report, looked up at each note (the console sets it once its
-        screen is up)."""
+        `notify`, its notes, which reach whoever listens to the loop when they are made."""
         return cls(navigator, lambda: control.pose, control.period, limits=limits,
-                   sense=sense, notify=notify or (lambda text: control.report(text)),
+                   sense=sense, notify=notify or control.note,
                    patience=patience, estimate=control.estimate)  # fmt: skip
 
     def go(self, room: str) -> GoTo | GoToPose:

@@ -37,6 +37,7 @@ from giraff_console.planning.room_graph import PlanningError
 from giraff_console.recording.session import SessionRecorder
 from giraff_console.robot.battery import Battery
 from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.robot.loop_events import ExchangeTap, LoopEvent
 from giraff_console.robot.telemetry import LinkState, Telemetry
 
 
@@ -79,7 +80,7 @@ class RouteBook:
         # Recordings start and stop on the UI thread and, when a patrol ends, on another.
         self._lock = threading.Lock()
         self._link = LinkState.LOST
-        control.telemetry_observers.append(self._telemetry)
+        control.subscribe(self._telemetry)
 
     # -- teaching -----------------------------------------------------------------------
 
@@ -103,7 +104,7 @@ class RouteBook:
         session = self._record(owner=self._teaching)
         self.teacher = RouteTeacher(name, self.control.clock.now(), self.control.pose,
                                     settings, str(session) if session else None)  # fmt: skip
-        self.control.observers.append(self.teacher.observe_exchange)
+        self.control.subscribe(ExchangeTap(self.teacher.observe_exchange))
         # A playback now would feed recorded commands to the route being taught.
         self.sessions.busy = f"teaching route {name}: `done` first"
         self.report(f"teaching route {name}: drive it, `mark PLACE` names a place, `done` saves")
@@ -126,7 +127,7 @@ class RouteBook:
         if teacher is None:
             self.report("not teaching: nothing to save")
             return None
-        self.control.observers.remove(teacher.observe_exchange)
+        self.control.unsubscribe(ExchangeTap(teacher.observe_exchange))
         self.sessions.busy = None
         self._stop_recording(owner=self._teaching)
         route = teacher.finish(self.control.clock.now(), self.control.pose)
@@ -285,12 +286,15 @@ class RouteBook:
 
         _in_background(snapshot)
 
-    def _telemetry(self, telemetry: Telemetry) -> None:
-        self._link = telemetry.link
-        self._battery = telemetry.battery
+    def _telemetry(self, event: LoopEvent) -> None:
+        """After each tick: the link and the battery, and the pose of a route being taught."""
+        if not isinstance(event, Telemetry):
+            return
+        self._link = event.link
+        self._battery = event.battery
         teacher = self.teacher
         if teacher is not None:
-            teacher.observe_pose(self.control.clock.now(), telemetry.pose)
+            teacher.observe_pose(self.control.clock.now(), event.pose)
 
 
 def _ignore(stop: StopReached) -> None:

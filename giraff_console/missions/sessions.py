@@ -32,6 +32,7 @@ from giraff_console.recording.session import (
     read_meta,
 )
 from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.robot.loop_events import ExchangeTap, LoopEvent
 from giraff_console.robot.replay import recorded_estimate, session_start
 from giraff_console.robot.telemetry import Telemetry
 
@@ -58,7 +59,7 @@ class Sessions:
         self._live_camera: CameraSource | None = None
         self._live_size = (0, 0)
         self._playing: Playback | None = None
-        control.telemetry_observers.append(self._telemetry)
+        control.subscribe(self._telemetry)
 
     # -- recording ----------------------------------------------------------------------
 
@@ -91,7 +92,7 @@ class Sessions:
             recorder.begin(session_start(self.control.odometry, recorder.started_at))
             with self._lock:
                 if self.recorder is recorder:
-                    self.control.observers.append(recorder.exchange)
+                    self.control.subscribe(ExchangeTap(recorder.exchange))
 
         self.control.between_ticks(begin)
         if self.camera is not None:
@@ -142,8 +143,8 @@ class Sessions:
             threading.Thread(target=recorder.close, name="recording-close", daemon=True).start()
 
     def _detach(self, recorder: SessionRecorder) -> None:
-        with contextlib.suppress(ValueError):  # never attached: stopped before it began
-            self.control.observers.remove(recorder.exchange)
+        # Nothing to undo if it was stopped before it began.
+        self.control.unsubscribe(ExchangeTap(recorder.exchange))
         if self.camera is not None:
             with contextlib.suppress(ValueError):
                 self.camera.taps.remove(self._frame)
@@ -211,16 +212,17 @@ class Sessions:
         """Back to live; the camera follows when the loop has let go of the playback."""
         self.control.stop_playback()
 
-    def _telemetry(self, telemetry: Telemetry) -> None:
+    def _telemetry(self, event: LoopEvent) -> None:
+        """After each tick, while recording: the pose steered by, and its estimate."""
         recorder = self.recorder
-        if recorder is not None:
+        if recorder is not None and isinstance(event, Telemetry):
             now = self.control.clock.now()
             # The pose the console steers by and shows: the filter's estimate.
-            pose = telemetry.pose
+            pose = event.pose
             self._history.add(now, (pose.x, pose.y, pose.heading))
-            if telemetry.estimate is not None:
+            if event.estimate is not None:
                 origin = recorder.started_at
-                recorder.estimate(recorded_estimate(telemetry.estimate, now - origin, origin))
+                recorder.estimate(recorded_estimate(event.estimate, now - origin, origin))
 
     def _ended(self, playback: Playback) -> None:
         """A playback is over; unless another has taken its place, the camera is live."""

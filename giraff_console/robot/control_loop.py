@@ -1,9 +1,11 @@
 """The control loop: the one owner of the link (design.md).
 
 At a fixed rate, off the UI thread, it polls `bulk_data`, updates the odometry, runs
-teleop and publishes an immutable `Telemetry` snapshot. Anything else that must talk to
-the board, such as a typed command, is queued to it and runs between ticks. A key
-press wakes the loop at once, so the first motion command does not wait for a tick.
+teleop and publishes an immutable `Telemetry` snapshot. That snapshot, every exchange
+with the board and every note for the operator go out as one stream of events
+(loop_events.py) to whoever has subscribed. Anything else that must talk to the board,
+such as a typed command, is queued to it and runs between ticks. A key press wakes the
+loop at once, so the first motion command does not wait for a tick.
 
 When the board stops answering the loop reports LINK LOST and reconnects with
 back-off; the first thing it sends to a reconnected board is a stop. Then it probes
@@ -40,7 +42,6 @@ from giraff_console.link import (
     Exchange,
     LinkError,
     MotorState,
-    Observer,
     probe,
 )
 from giraff_console.protocol.errors import (
@@ -56,6 +57,7 @@ from giraff_console.robot.board_gauges import BoardGauges
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.localisation import Estimate, Localisation
+from giraff_console.robot.loop_events import Listener, LoopEvent, Note
 from giraff_console.robot.mission import Mission
 from giraff_console.robot.odometry import Odometry, Pose
 from giraff_console.robot.odometry_feed import OdometryFeed
@@ -81,8 +83,6 @@ class ControlLoop:
 
     def __init__(self, connect: Connect, *, teleop: Teleop, deadman: Deadman,
                  rate_hz: float = DEFAULT_RATE_HZ, clock: Clock,
-                 publish: Callable[[Telemetry], None] = lambda t: None,
-                 report: Callable[[str], None] = lambda m: None,
                  wheel_base: float = WHEEL_BASE_M, odometers: str = AUTO,
                  twm: str = AUTO) -> None:  # fmt: skip
         """`wheel_base`, `odometers` and `twm` are the `[board]` settings: the robot's
@@ -93,23 +93,19 @@ class ControlLoop:
         self.deadman = deadman
         self.period = 1.0 / rate_hz
         self.clock = clock
-        self.publish = publish
-        self.report = report
+        # Whoever listens to the loop (loop_events.py): replaced whole, never changed in
+        # place, so the loop's thread reads it without a lock; the lock keeps two
+        # subscriptions at once from losing one.
+        self._listeners: tuple[Listener, ...] = ()
+        self._listeners_lock = threading.Lock()
         initial = Reading.TOTALS if odometers == AUTO else Reading(odometers)
         self.odometry = Odometry(wheel_base=wheel_base, reading=initial)
-        # `report` may be replaced after construction: they look it up when they speak.
-        self.feed = OdometryFeed(self.odometry, odometers, lambda text: self.report(text), twm)
-        self.gauges = BoardGauges(lambda text: self.report(text))
+        self.feed = OdometryFeed(self.odometry, odometers, self.note, twm)
+        self.gauges = BoardGauges(self.note)
         # Where the robot is: the odometry, corrected by the markers the camera sees
         # once the plan's markers are given to it (localisation.use_markers).
-        self.localisation = Localisation(self.odometry, now=clock.now,
-                                         report=lambda text: self.report(text))  # fmt: skip
+        self.localisation = Localisation(self.odometry, now=clock.now, report=self.note)
         self.autopoll = True
-        # Every exchange on whatever link is open, and every recorded one played back:
-        # the transcript, a recording, a route being taught. Safe to change at any time.
-        self.observers: list[Observer] = []
-        # Every snapshot, on the loop's thread, as it is published.
-        self.telemetry_observers: list[Callable[[Telemetry], None]] = []
         self.link: BoardLink | None = None
         self._jobs: queue.SimpleQueue[tuple[BoardJob, JobDone, bool]] = queue.SimpleQueue()
         self._wake = threading.Event()
@@ -164,6 +160,27 @@ class ControlLoop:
         # The loop is not running (or is stuck): stop the robot from here.
         self.shutdown()
         return thread is None or not thread.is_alive()
+
+    def subscribe(self, listener: Listener) -> None:
+        """From now on `listener` gets every snapshot and every exchange, on whatever
+        link is open or played back, on the loop's thread, and every note, on the thread
+        that made it (mostly the loop's). One that raises is logged and the loop carries
+        on."""
+        with self._listeners_lock:
+            self._listeners = (*self._listeners, listener)
+
+    def unsubscribe(self, listener: Listener) -> None:
+        """`listener` (or one equal to it) gets nothing more, but for an event the loop
+        is handing out as this is called; nothing happens if it was not subscribed."""
+        with self._listeners_lock:
+            listeners = list(self._listeners)
+            if listener in listeners:
+                listeners.remove(listener)
+                self._listeners = tuple(listeners)
+
+    def note(self, text: str) -> None:
+        """Tell every listener `text`, a line for the operator."""
+        self._tell(Note(text))
 
     def emergency_stop(self, why: str, close: bool = False) -> None:
         """Stop the robot now, from any thread: nothing more but the stop goes to the
@@ -258,7 +275,7 @@ class ControlLoop:
                 self._stop_robot()
             else:
                 self._mission.resume(self.clock.now())
-            self.report(f"{self._mission.name} {'paused' if paused else 'resumed'}")
+            self.note(f"{self._mission.name} {'paused' if paused else 'resumed'}")
 
         self.between_ticks(pause)
 
@@ -405,12 +422,12 @@ class ControlLoop:
             if polling and self._halt is None:  # stopping now: nothing more goes out
                 self.gauges.poll(self.link, self.clock.now())
         except LinkError as error:
-            self.report(f"LINK LOST: {error}")
+            self.note(f"LINK LOST: {error}")
             self._end_mission("stopped: the link to the board was lost", stop=False)
             self._drop_link()
         except BoardRebootedError as error:
             # Its odometers restarted from zero: keep the pose, take new references.
-            self.report(f"{error}; its settings are back at power-up")
+            self.note(f"{error}; its settings are back at power-up")
             self._end_mission("stopped: the board restarted", stop=False)
             self.feed.rebooted()
             self.teleop.forget_board()
@@ -418,7 +435,7 @@ class ControlLoop:
         except GiraffError as error:
             # A poll the board refuses, say: a mission must not go on blind, nor be
             # tried again twenty times a second.
-            self.report(str(error))
+            self.note(str(error))
             self._end_mission(f"stopped: {error}")
         self._publish()
 
@@ -436,7 +453,7 @@ class ControlLoop:
                 link.send(command)
             except (CommandError, BoardError) as error:
                 self.deadman.release()
-                self.report(f"driving stopped: {command} refused: {error}")
+                self.note(f"driving stopped: {command} refused: {error}")
                 self._stop_robot()
                 return
 
@@ -493,7 +510,7 @@ class ControlLoop:
             # driving blind among people, and the way out is a metre driven by hand.
             why = self.feed.untrusted
         if why is not None:
-            self.report(f"{mission.name} not started: {why}")
+            self.note(f"{mission.name} not started: {why}")
             ended("not started")
             return
         # A pose that jumped before this mission is the pose it starts from: a flag left
@@ -502,7 +519,7 @@ class ControlLoop:
         self._end_mission("replaced")
         self.deadman.release()
         self._mission, self._mission_ended = mission, ended
-        self.report(f"{mission.name} started")
+        self.note(f"{mission.name} started")
 
     def _end_mission(self, why: str, stop: bool = True) -> None:
         mission, self._mission = self._mission, None
@@ -510,14 +527,14 @@ class ControlLoop:
             return
         if stop:
             self._stop_robot()
-        self.report(f"{mission.name} {why}")
+        self.note(f"{mission.name} {why}")
         # Dropped as it is called: a callback holds its mission, which must not outlive it.
         ended, self._mission_ended = self._mission_ended, lambda why: None
         ended(why)
 
     def _stop_robot(self) -> None:
         if self.link is not None and not stop_robot(self.link, self.teleop.board_settings):
-            self.report("could not command a stop: check the robot")
+            self.note("could not command a stop: check the robot")
 
     def _start_playback(self, playback: Playback, ended: Callable[[], None]) -> None:
         self._end_playback("playback replaced")
@@ -528,7 +545,7 @@ class ControlLoop:
         self.teleop.halt()
         self._replayer = Replayer(playback)
         self._playback_ended = ended
-        self.report(f"playing back {playback.name} ({playback.duration:.1f} s); nothing is sent "
+        self.note(f"playing back {playback.name} ({playback.duration:.1f} s); nothing is sent "
                     "to the robot")  # fmt: skip
 
     def _end_playback(self, why: str) -> None:
@@ -536,7 +553,7 @@ class ControlLoop:
             self._replayer = None
             # The robot may have been moved meanwhile: take a fresh poll before acting.
             self._state = None
-            self.report(why)
+            self.note(why)
             self._playback_ended()
 
     def _play(self, now: float) -> None:
@@ -546,7 +563,7 @@ class ControlLoop:
             try:
                 self._run_jobs(self.link, stops_only=True)
             except LinkError as error:
-                self.report(f"LINK LOST: {error}")
+                self.note(f"LINK LOST: {error}")
                 self._drop_link()
         else:
             self._fail_jobs()
@@ -554,7 +571,7 @@ class ControlLoop:
             # Only once the last entries have been shown, on an earlier tick.
             self._end_playback("playback finished; live again")
         else:
-            self._replayer.advance(now, self._notify)
+            self._replayer.advance(now, self._tell)
 
     def _run_requests(self) -> None:
         while True:
@@ -564,18 +581,20 @@ class ControlLoop:
                 return
             change()
 
-    def _notify(self, exchange: Exchange) -> None:
-        for observer in list(self.observers):
+    def _tell(self, event: LoopEvent) -> None:
+        # A listener that fails must not stop the robot being driven, nor the others
+        # hearing of it.
+        for listener in self._listeners:
             try:
-                observer(exchange)
+                listener(event)
             except Exception:
-                log.exception("exchange observer failed")
+                log.exception("control loop listener failed on %s", type(event).__name__)
 
     def _note_estop(self, state: MotorState) -> None:
         """Report ESTOP when it rises and when it clears, not on every tick."""
         if state.estop != self._estop:
             self._estop = state.estop
-            self.report(
+            self.note(
                 "ESTOP raised by the board: driving stopped" if state.estop else "ESTOP cleared"
             )
 
@@ -598,7 +617,7 @@ class ControlLoop:
         self._end_mission(f"stopped: {why}", stop=False)
         self._end_playback(f"playback stopped: {why}")
         self._fail_jobs()
-        self.report(f"{why}: {outcome}")
+        self.note(f"{why}: {outcome}")
         with self._halt_lock:
             # A close asked for while this stop went out is not lost: done next tick.
             if self._halt is halt or (close and self._halt is not None):
@@ -617,7 +636,7 @@ class ControlLoop:
         """A bug in a tick: stop the robot, then start again from a fresh connection."""
         self._crashes += 1
         if self._crashes == 1 or self._crashes % 20 == 0:
-            self.report("internal error in the control loop; robot commanded to stop")
+            self.note("internal error in the control loop; robot commanded to stop")
         if self.link is not None:
             stop_robot(self.link)
         # Whatever was driving is over: nothing starts moving again by itself.
@@ -645,7 +664,7 @@ class ControlLoop:
     def _watch(self, exchange: Exchange) -> None:
         """Keep teleop's picture of the board's settings true, whoever sends them, and
         the odometry told of every move and fed every read of bulk_data (on later boards
-        a read resets imdl/imdr); then tell the observers."""
+        a read resets imdl/imdr); then tell the listeners."""
         if exchange.kind == "set":
             # A twm carries several values: `set twm vg cdp vgr v p 0`.
             _, name, text = exchange.command.split(None, 2)
@@ -653,7 +672,7 @@ class ControlLoop:
             self.teleop.board_set(name, text if exchange.error is None else None)
         # After teleop's picture: the feed asks it what the move just sent was.
         self.feed.watch(exchange, self.teleop.board_settings)
-        self._notify(exchange)
+        self._tell(exchange)
 
     def _reconnect(self) -> bool:
         now = self.clock.now()
@@ -680,16 +699,16 @@ class ControlLoop:
             self._failures += 1
             self._retry_at = now + delay
             if self._failures == 1 or self._failures % 10 == 0:
-                self.report(f"cannot reach the board ({error}); retrying every {delay:g} s")
+                self.note(f"cannot reach the board ({error}); retrying every {delay:g} s")
             return False
         # A board that greeted was powered up just now: its counters started again.
         self.feed.connected(features, powered_up=link.version is not None)
         self.gauges.connected(features)
         board = self.feed.describe()
         if self._failures:
-            self.report(f"link restored; robot commanded to stop; {board}")
+            self.note(f"link restored; robot commanded to stop; {board}")
         else:
-            self.report(f"connected to {link.port.port}, {board}")
+            self.note(f"connected to {link.port.port}, {board}")
         self._failures = 0
         self.link = link
         self._state = None
@@ -735,9 +754,4 @@ class ControlLoop:
             board=self.feed.features,
             estimate=replayer.estimate if replayer else self.localisation.estimate(),
         )
-        for observer in list(self.telemetry_observers):
-            try:
-                observer(telemetry)
-            except Exception:
-                log.exception("telemetry observer failed")
-        self.publish(telemetry)
+        self._tell(telemetry)

@@ -1,12 +1,12 @@
 """Interpreting a played-back session as the live console interprets the board.
 
-The recorded replies go to the same observers as live exchanges (the transcript) and
-the recorded `bulk_data` replies to an odometry of their own, so that the pose on screen
-is the pose that was seen when recording (§3.2.1.1). The live odometry is left alone,
-and carries on when playback ends. The recorded reads are taken as the live console
-took them (`RecordedReads`): with the wheel reading and the wheel base the session
-started with, every read of bulk_data for a board whose reads reset imdl/imdr, and the
-encoders' counts that followed the poll when they were the reading.
+The recorded replies go to the control loop's listeners as live exchanges do (the
+transcript), and the recorded `bulk_data` replies to an odometry of their own, so that
+the pose on screen is the pose that was seen when recording (§3.2.1.1). The live
+odometry is left alone, and carries on when playback ends. The recorded reads are taken
+as the live console took them (`RecordedReads`): with the wheel reading and the wheel
+base the session started with, every read of bulk_data for a board whose reads reset
+imdl/imdr, and the encoders' counts that followed the poll when they were the reading.
 
 A session recorded with the pose filter (issue 14) also has its estimates, written a
 few times a second (recording/estimates.py). Between two, the live filter only carried

@@ -20,6 +20,7 @@ from textual.widgets import Footer
 
 from giraff_console.camera.feed import CameraFeed
 from giraff_console.camera.source import RESOLUTIONS as CAMERA_RESOLUTIONS
+from giraff_console.link import Exchange
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import NavigationState, Navigator
 from giraff_console.missions.route_book import RouteBook
@@ -28,6 +29,7 @@ from giraff_console.protocol import Command, CommandError, GiraffError, parse_co
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.control_loop import BoardJob, ControlLoop
 from giraff_console.robot.deadman import Intent
+from giraff_console.robot.loop_events import LoopEvent, Note
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.safety import stop_robot
 from giraff_console.robot.telemetry import Telemetry
@@ -268,9 +270,7 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
             self._show_map()
         else:
             self.map_view.display = False  # nothing to draw: the camera has the room
-        self.control.publish = lambda t: self._post(TelemetryUpdated(t))
-        self.control.report = lambda text: self._post(StatusNote(text))
-        self.control.observers.append(lambda e: self._post(ExchangeSeen(e)))
+        self.control.subscribe(self._from_loop)
         for service in (self.sessions, self.routes):
             if service is not None:
                 service.report = lambda text: self._post(StatusNote(text))
@@ -356,6 +356,15 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
 
     def note(self, text: str) -> None:
         self.status_log.note(f"{self.timestamp()} {text}")
+
+    def _from_loop(self, event: LoopEvent) -> None:
+        """Whatever the loop says, as a message from its thread to the screen."""
+        if isinstance(event, Telemetry):
+            self.post_message(TelemetryUpdated(event))
+        elif isinstance(event, Note):
+            self.post_message(StatusNote(event.text))
+        elif isinstance(event, Exchange):
+            self.post_message(ExchangeSeen(event))
 
     def _post(self, message: Message) -> None:
         """`post_message` for the callbacks the services make, which return nothing."""

@@ -14,6 +14,7 @@ from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.teleop import Teleop
 from giraff_console.sim_site import SimulatedSite
+from tests.listening import notes_into
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "giraff_console/floorplans/care-home.yaml"
 PLAN = load_floorplan(EXAMPLE)
@@ -40,7 +41,7 @@ class Site:
         self.control.localisation.casters_turn_up_to(self.site.caster_drift)
         self.control.odometry.reset(start)
         self.notes: list[str] = []
-        self.control.report = self.notes.append
+        self.control.subscribe(notes_into(self.notes))
         self.ended: list[str] = []
         self.control.tick()
 

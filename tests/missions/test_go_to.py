@@ -16,6 +16,8 @@ from giraff_console.missions.navigation import Navigator
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.robot.mission import ARRIVED, DRIVING, PAUSED, Progress
 from giraff_console.robot.odometry import Pose
+from giraff_console.robot.telemetry import Telemetry
+from tests.listening import only
 from tests.missions.site import LIMITS, PLAN, TICK, Site
 
 
@@ -187,7 +189,7 @@ def test_with_imperfections_it_arrives_close_or_says_why_not(seed, shared_naviga
 def test_go_publishes_its_progress_as_data_the_metres_left_falling_to_arrival(shared_navigator):
     site = Site(shared_navigator)
     shown: list[Progress | None] = []
-    site.control.telemetry_observers.append(lambda telemetry: shown.append(telemetry.mission))
+    site.control.subscribe(only(Telemetry, lambda telemetry: shown.append(telemetry.mission)))
     mission = site.go("kitchen")
     site.run(10)
     site.control.pause_mission(True)

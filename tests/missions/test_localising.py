@@ -29,7 +29,9 @@ from giraff_console.planning.walls import wall_segments
 from giraff_console.robot.localisation import Estimate
 from giraff_console.robot.mission import DRIVING, Progress
 from giraff_console.robot.odometry import Pose
+from giraff_console.robot.telemetry import Telemetry
 from giraff_console.sim.drive import TruePose
+from tests.listening import only
 from tests.missions.site import LIMITS, PLAN, TICK, Site
 
 MARKERS = marker_poses(PLAN)
@@ -59,7 +61,7 @@ class LocalisingSite(Site):
         if eye:
             camera = self.site.eye(self.control.localisation, self.clock, size=EYE_SIZE)
             assert camera is not None
-            self.control.telemetry_observers.append(lambda telemetry: camera.look())
+            self.control.subscribe(only(Telemetry, lambda telemetry: camera.look()))
 
     def pose(self) -> Pose:
         return self.control.pose
@@ -100,7 +102,7 @@ def test_a_robot_that_sees_no_marker_turns_a_full_circle_then_stops_and_says_it_
 ):
     site = LocalisingSite(navigator, seed=3, eye=False)
     headings: list[float] = []
-    site.control.telemetry_observers.append(lambda t: headings.append(site.true_pose().heading))
+    site.control.subscribe(only(Telemetry, lambda t: headings.append(site.true_pose().heading)))
     mission = site.go_with("room-101", site.control.estimate)
     site.run(120)
     assert site.ended and site.ended[0].startswith(LOST)
@@ -148,9 +150,12 @@ def test_while_a_lost_robot_stops_and_looks_its_progress_gives_no_metres_nor_eta
         return replace(known, sigma_m=0.3) if clock.now() > 3.0 else known
 
     shown: list[tuple[float, Progress]] = []
-    site.control.telemetry_observers.append(
-        lambda telemetry: (
-            shown.append((clock.now(), telemetry.mission)) if telemetry.mission else None
+    site.control.subscribe(
+        only(
+            Telemetry,
+            lambda telemetry: (
+                shown.append((clock.now(), telemetry.mission)) if telemetry.mission else None
+            ),
         )
     )
     site.go_with("room-101", estimate)
@@ -189,7 +194,7 @@ def test_a_robot_unsure_of_where_it_is_sets_off_slowly(navigator):
                 state = telemetry.state
                 fastest = max(fastest, abs(state.speed or 0.0) if state is not None else 0.0)
 
-        site.control.telemetry_observers.append(watch)
+        site.control.subscribe(only(Telemetry, watch))
         site.go_with("room-101", estimate)
         site.run(120)
         assert site.ended == ["done"]

@@ -27,6 +27,7 @@ from giraff_console.robot.localisation import Estimate
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.robot.teleop import Teleop
+from tests.listening import notes_into, only
 
 TICK = 0.05
 SAMPLE = Path(__file__).resolve().parents[2] / "recordings" / "sample"
@@ -44,12 +45,12 @@ class Console:
         self.control = ControlLoop(lambda: self.link, teleop=Teleop(),
                                    deadman=Deadman(self.clock), clock=self.clock)  # fmt: skip
         self.notes: list[str] = []
-        self.control.report = self.notes.append
+        self.control.subscribe(notes_into(self.notes))
         setup = RecordingSetup(port="giraff-sim://?clock=virtual")
         self.sessions = Sessions(self.control, None, root, setup, self.notes.append)
         self.published: list[tuple[float, Telemetry]] = []
-        self.control.telemetry_observers.append(
-            lambda telemetry: self.published.append((self.clock.now(), telemetry))
+        self.control.subscribe(
+            only(Telemetry, lambda telemetry: self.published.append((self.clock.now(), telemetry)))
         )
 
     def tick(self) -> None:

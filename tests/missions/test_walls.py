@@ -17,10 +17,12 @@ from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.planning.route_planner import ROBOT_RADIUS_M, walls_of
 from giraff_console.robot.deadman import Intent
 from giraff_console.robot.odometry import Pose
+from giraff_console.robot.telemetry import Telemetry
 from giraff_console.sim.board import GiraffBoard
 from giraff_console.sim.move import TruePose
 from giraff_console.sim.world import demo_world
 from giraff_console.sim_site import SimulatedSite
+from tests.listening import only
 from tests.missions.site import LIMITS, PLAN, TICK, Site
 
 MOVING = 128
@@ -75,7 +77,7 @@ def test_teleop_into_a_wall_stalls_the_wheels_and_backing_off_works(shared_navig
     site.board.place(TruePose(start.x, start.y, start.heading))
     site.control.odometry.reset(start)
     seen = []
-    site.control.telemetry_observers.append(lambda telemetry: seen.append(telemetry.state))
+    site.control.subscribe(only(Telemetry, lambda telemetry: seen.append(telemetry.state)))
 
     def hold(intent: Intent, seconds: float) -> None:
         for _ in range(round(seconds / TICK)):

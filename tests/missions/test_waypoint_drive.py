@@ -9,6 +9,7 @@ from giraff_console.missions.waypoint_drive import WaypointDrive
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
+from giraff_console.robot.loop_events import ExchangeTap
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.safety import REACH_M
 from giraff_console.robot.teleop import Teleop
@@ -36,7 +37,7 @@ class Run:
         self.reaches: list[float] = []
         self.poses: dict[float, TruePose] = {}
         self._style = 1.0
-        self.control.observers.append(self._watch)
+        self.control.subscribe(ExchangeTap(self._watch))
 
     def _watch(self, exchange: Exchange) -> None:
         if exchange.kind != "set" or exchange.error is not None:

@@ -12,6 +12,7 @@ from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.robot.teleop import Teleop
+from tests.listening import notes_into, only
 
 TICK = 0.05
 
@@ -26,8 +27,9 @@ class Console:
         self.reports: list[str] = []
         self.published: list[Telemetry] = []
         self.loop = ControlLoop(lambda: self.link, teleop=Teleop(), deadman=Deadman(self.clock),
-                                clock=self.clock, report=self.reports.append,
-                                publish=self.published.append)  # fmt: skip
+                                clock=self.clock)  # fmt: skip
+        self.loop.subscribe(notes_into(self.reports))
+        self.loop.subscribe(only(Telemetry, self.published.append))
 
     def run(self, seconds: float, intent: Intent | None = None) -> None:
         end = self.clock.now() + seconds

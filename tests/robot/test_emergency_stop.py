@@ -13,6 +13,7 @@ from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M
 from giraff_console.robot.board_gauges import READ_EVERY_S
 from giraff_console.robot.deadman import Intent
 from giraff_console.robot.last_stop import LastStop
+from giraff_console.robot.loop_events import ExchangeTap
 from giraff_console.robot.safety import REACH_M
 from tests.robot.test_missions import Ahead, Loop
 from tests.robot.test_odometry_firmware import TICK, Console, Straight
@@ -26,7 +27,7 @@ def sent_after(loop: Loop, action) -> list[str]:
         if exchange.kind == "set":
             sent.append(exchange.command)
 
-    loop.control.observers.append(watch)
+    loop.control.subscribe(ExchangeTap(watch))
     action()
     return sent
 

@@ -18,6 +18,7 @@ from giraff_console.robot.mission import DRIVING, Progress
 from giraff_console.robot.safety import stop_robot
 from giraff_console.robot.teleop import Teleop
 from giraff_console.settings import Settings
+from tests.listening import notes_into
 
 TICK = 0.05
 
@@ -70,8 +71,8 @@ class Loop:
         self.notes: list[str] = []
         # As the console connects: again, on the same board, after the loop let go of it.
         self.control = ControlLoop(board_connector(None, Settings(), self.port), teleop=Teleop(),
-                                   deadman=Deadman(self.clock), clock=self.clock,
-                                   report=self.notes.append)  # fmt: skip
+                                   deadman=Deadman(self.clock), clock=self.clock)  # fmt: skip
+        self.control.subscribe(notes_into(self.notes))
 
     def run(self, seconds: float) -> None:
         for _ in range(round(seconds / TICK)):

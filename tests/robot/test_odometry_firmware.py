@@ -28,6 +28,7 @@ from giraff_console.robot.odometry import Odometry
 from giraff_console.robot.teleop import Teleop
 from giraff_console.robot.wheel_odometers import Reading
 from giraff_console.sim_site import SimulatedSite
+from tests.listening import notes_into
 from tests.missions.site import LIMITS, PLAN
 
 TICK = 0.05
@@ -106,8 +107,8 @@ class Console:
         self.board = self.link.port.board
         self.reports: list[str] = []
         self.loop = ControlLoop(lambda: self.link, teleop=Teleop(), deadman=Deadman(self.clock),
-                                clock=self.clock, report=self.reports.append,
-                                odometers=odometers, twm=twm)  # fmt: skip
+                                clock=self.clock, odometers=odometers, twm=twm)  # fmt: skip
+        self.loop.subscribe(notes_into(self.reports))
 
     def run(self, seconds: float) -> None:
         end = self.clock.now() + seconds

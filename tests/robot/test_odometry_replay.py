@@ -18,6 +18,7 @@ from giraff_console.recording.session import (
     read_meta,
 )
 from giraff_console.robot.deadman import Intent
+from giraff_console.robot.loop_events import ExchangeTap
 from giraff_console.robot.odometry import Odometry, Pose
 from giraff_console.robot.replay import Replayer, replay_poses, session_start, starting_odometry
 from giraff_console.robot.wheel_odometers import COUNTS_PER_METRE, Reading
@@ -127,7 +128,7 @@ def test_a_session_recorded_on_each_board_replays_to_the_live_pose(tmp_path, fir
 
     def begin() -> None:
         recorder.begin(session_start(console.loop.odometry, recorder.started_at))
-        console.loop.observers.append(recorder.exchange)
+        console.loop.subscribe(ExchangeTap(recorder.exchange))
 
     console.loop.between_ticks(begin)
     for tick in range(40):

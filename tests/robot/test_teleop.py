@@ -9,10 +9,11 @@ import pytest
 from giraff_console.link import BoardLink, LinkDisconnected
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
-from giraff_console.robot.telemetry import LinkState
+from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.robot.teleop import DriveLimits, Teleop
 from giraff_console.sim.collision import Solids
 from giraff_console.sim.surroundings import Surroundings
+from tests.listening import notes_into, only
 
 TICK = 0.05
 
@@ -29,8 +30,9 @@ class Console:
         self.reports: list[str] = []
         self.loop = ControlLoop(
             lambda: self.link, teleop=Teleop(), deadman=Deadman(self.clock),
-            clock=self.clock, report=self.reports.append,
+            clock=self.clock,
         )  # fmt: skip
+        self.loop.subscribe(notes_into(self.reports))
 
     def run(self, seconds: float) -> None:
         end = self.clock.now() + seconds
@@ -138,7 +140,7 @@ def test_estop_stops_teleop_and_is_reported(console):
 
 def test_a_lost_link_is_reported_then_reconnected_with_a_stop_first(console):
     telemetry = []
-    console.loop.publish = telemetry.append
+    console.loop.subscribe(only(Telemetry, telemetry.append))
     port = console.link.port
     cable = {"plugged": True}
 

@@ -12,6 +12,8 @@ from textual.widgets import Label
 
 from giraff_console.missions.route import load_route
 from giraff_console.recording.control_log import read_log
+from giraff_console.robot.telemetry import Telemetry
+from tests.listening import only
 from tests.tui.conftest import Rig
 
 SIZE = (120, 36)
@@ -27,8 +29,9 @@ def collect_poses(rig: Rig, into: list, playback: bool = False):
         if state is not None and (not into or into[-1][0] != state.received_at):
             into.append((state.received_at, telemetry.pose))
 
-    rig.control.telemetry_observers.append(seen)
-    return seen
+    listener = only(Telemetry, seen)
+    rig.control.subscribe(listener)
+    return listener
 
 
 async def record_a_drive(rig: Rig, pilot) -> tuple[list, list[str]]:
@@ -50,7 +53,7 @@ async def record_a_drive(rig: Rig, pilot) -> tuple[list, list[str]]:
     await rig.run(pilot, 1.0)
     await pilot.press("enter", *"get v", "enter")  # a typed command is in the transcript too
     await rig.run(pilot, 0.2)
-    rig.control.telemetry_observers.remove(collecting)
+    rig.control.unsubscribe(collecting)
     await pilot.press("r")
     return poses, rig.app.transcript.texts[first_line:]
 
