@@ -204,7 +204,7 @@ class HeadlessRobot:
             # The console cannot know where the robot was put down: it assumes the dock,
             # and the markers correct that (robot/localisation.py, "No starting guess").
             control.place(self.start)
-        control.subscribe(_print_note)
+        control.subscribe(_print_note, vital=True)
         # The markers find the robot only through a camera, which `go` and `patrol` have
         # with the simulator alone (its synthetic one); on a real robot they drive by
         # the odometry, as the console does with a camera that has no calibration.
@@ -263,7 +263,11 @@ class HeadlessRobot:
             connected_now = isinstance(event, Telemetry) and event.link is LinkState.CONNECTED
             if connected_now and not connected.is_set():
                 connected.set()
-                control.run_mission(mission, finish)
+                try:
+                    control.run_mission(mission, finish)
+                except Exception:
+                    finish("stopped: internal error")  # the command must not wait on it
+                    raise
 
         control.subscribe(start)
         # Before the loop's thread starts: SIGHUP (the SSH connection dropped), SIGTERM

@@ -96,8 +96,10 @@ class ControlLoop:
         # Whoever listens to the loop (loop_events.py): replaced whole, never changed in
         # place, so the loop's thread reads it without a lock; the lock keeps two
         # subscriptions at once from losing one.
-        self._listeners: tuple[Listener, ...] = ()
+        # Each with whether it is vital: the operator's only way of being told.
+        self._listeners: tuple[tuple[Listener, bool], ...] = ()
         self._listeners_lock = threading.Lock()
+        self._listener_failures: collections.Counter[Listener] = collections.Counter()
         initial = Reading.TOTALS if odometers == AUTO else Reading(odometers)
         self.odometry = Odometry(wheel_base=wheel_base, reading=initial)
         self.feed = OdometryFeed(self.odometry, odometers, self.note, twm)
@@ -161,22 +163,28 @@ class ControlLoop:
         self.shutdown()
         return thread is None or not thread.is_alive()
 
-    def subscribe(self, listener: Listener) -> None:
+    def subscribe(self, listener: Listener, *, vital: bool = False) -> None:
         """From now on `listener` gets every snapshot and every exchange, on whatever
-        link is open or played back, on the loop's thread, and every note, on the thread
-        that made it (mostly the loop's). One that raises is logged and the loop carries
-        on."""
+        link is open or played back, and every note, on the thread that made them: the
+        loop's, but for notes made elsewhere and the last stop sent by `stop` when the
+        loop is not running. One that raises is logged and the others still hear; a
+        `vital` one (the screen, or standard error without it: the operator's only way
+        of being told) that raises stops the robot, since whatever it drives from then
+        on the operator would not see (design.md: every error reaches the loop as "stop
+        now")."""
         with self._listeners_lock:
-            self._listeners = (*self._listeners, listener)
+            self._listeners = (*self._listeners, (listener, vital))
 
     def unsubscribe(self, listener: Listener) -> None:
         """`listener` (or one equal to it) gets nothing more, but for an event the loop
         is handing out as this is called; nothing happens if it was not subscribed."""
         with self._listeners_lock:
             listeners = list(self._listeners)
-            if listener in listeners:
-                listeners.remove(listener)
-                self._listeners = tuple(listeners)
+            for index, (subscribed, _) in enumerate(listeners):
+                if subscribed == listener:
+                    del listeners[index]
+                    self._listeners = tuple(listeners)
+                    break
 
     def note(self, text: str) -> None:
         """Tell every listener `text`, a line for the operator."""
@@ -582,13 +590,20 @@ class ControlLoop:
             change()
 
     def _tell(self, event: LoopEvent) -> None:
-        # A listener that fails must not stop the robot being driven, nor the others
-        # hearing of it.
-        for listener in self._listeners:
+        # A listener that fails must not keep the others from hearing; one the operator
+        # depends on stops the robot (subscribe). Logged the first time and every 20th,
+        # not twenty times a second.
+        for listener, vital in self._listeners:
             try:
                 listener(event)
-            except Exception:
-                log.exception("control loop listener failed on %s", type(event).__name__)
+            except Exception as error:
+                failures = self._listener_failures[listener] = self._listener_failures[listener] + 1
+                if failures % 20 == 1:
+                    log.exception("control loop listener failed on %s (%d times)",
+                                  type(event).__name__, failures)  # fmt: skip
+                if vital:
+                    self.emergency_stop(f"the operator can no longer be told what the "
+                                        f"robot does ({type(error).__name__})")  # fmt: skip
 
     def _note_estop(self, state: MotorState) -> None:
         """Report ESTOP when it rises and when it clears, not on every tick."""

@@ -270,7 +270,7 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
             self._show_map()
         else:
             self.map_view.display = False  # nothing to draw: the camera has the room
-        self.control.subscribe(self._from_loop)
+        self.control.subscribe(self._from_loop, vital=True)
         for service in (self.sessions, self.routes):
             if service is not None:
                 service.report = lambda text: self._post(StatusNote(text))
@@ -299,6 +299,7 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
 
     def on_unmount(self) -> None:
         self.control.stop()
+        self.control.unsubscribe(self._from_loop)
         if self.sessions is not None:
             self.sessions.stop_recording()
         if self.camera is not None:

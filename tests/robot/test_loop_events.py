@@ -145,6 +145,39 @@ def test_a_listener_that_fails_stops_neither_the_loop_nor_the_others(loop, caplo
     assert not [note for note in heard.of(Note) if "internal error" in note.text]
 
 
+def test_a_vital_listener_that_fails_stops_the_robot(loop, caplog):
+    # The screen, or standard error without it: once the operator cannot be told what
+    # the robot does, it must not go on driving.
+    heard = Heard()
+    failing = [False]
+
+    def screen(event: LoopEvent) -> None:
+        if failing[0]:
+            raise RuntimeError("the screen is gone")
+
+    loop.control.subscribe(screen, vital=True)
+    loop.control.subscribe(heard)
+    for _ in range(20):
+        loop.control.press(Intent.FORWARD)
+        loop.run(1)
+    assert loop.board.true_pose.x > 0.05  # driving
+    failing[0] = True
+    with caplog.at_level(logging.ERROR, logger="giraff_console.robot.control_loop"):
+        for _ in range(40):  # the key still held
+            loop.control.press(Intent.FORWARD)
+            loop.run(1)
+        stopped_at = loop.board.true_pose.x
+        for _ in range(20):
+            loop.control.press(Intent.FORWARD)
+            loop.run(1)
+    assert loop.board.true_pose.x == pytest.approx(stopped_at, abs=1e-6)
+    assert any("can no longer be told" in note.text for note in heard.of(Note))
+    # Logged the first time and every 20th, not at every event (the screen fails on
+    # every one the other listener heard after it began to).
+    logged = caplog.text.count("listener failed")
+    assert 1 <= logged <= len(heard.events) // 20 + 1 < len(heard.events) // 2
+
+
 @pytest.fixture
 def running(loop) -> Iterator[Loop]:
     """The loop on its own thread, moving its virtual clock on as fast as it can."""
