@@ -65,13 +65,12 @@ class Progress:
         bar: metres left and an ETA for a path; time left for what has no metres; "no
         ETA" for a path whose metres left are not known."""
         said = [] if self.state == DRIVING else [self.state]
+        minutes, seconds = divmod(round(self.eta_s or 0.0), 60)
         if self.left_m is not None:
             said.append(f"{self.left_m:.1f} m left")
             if self.eta_s is not None:
-                minutes, seconds = divmod(round(self.eta_s), 60)
                 said.append(f"ETA {minutes}:{seconds:02d}")
         elif self.eta_s is not None:
-            minutes, seconds = divmod(round(self.eta_s), 60)
             said.append(f"{minutes} min {seconds:02d} s left" if minutes else f"{seconds} s left")
         elif self.total_m is not None:
             said.append("no ETA")
