@@ -35,11 +35,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from giraff_console.clock import RealClock
 from giraff_console.link import BoardLink
+from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.loop_events import ExchangeTap, LoopEvent
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.robot.teleop import Teleop
+from giraff_console.service.robot_service import RobotService
 from giraff_console.tui.app import GiraffConsole
 from tests.conftest import start_sim_process, stop_sim_process
 from tests.console.support import (
@@ -64,7 +66,8 @@ def console_on(path: str) -> tuple[GiraffConsole, ControlLoop, list[tuple[float,
     )
     wire: list[tuple[float, str]] = []
     control.subscribe(ExchangeTap(lambda e: wire.append((e.sent_at, e.command))))
-    return GiraffConsole(control, simulator=False), control, wire
+    robot = RobotService(control, DriveSetup.on_loop(control, None))
+    return GiraffConsole(robot, clock=clock, control=control, simulator=False), control, wire
 
 
 def motion(command: str) -> bool:

@@ -15,6 +15,14 @@ from pathlib import Path
 import serial
 
 from giraff_console import __version__
+from giraff_console.attach_commands import (
+    add_daemon_parsers,
+    daemon_robot,
+    run_mission,
+    run_patrols,
+    run_status,
+    run_stop,
+)
 from giraff_console.camera.feed import DEFAULT_FPS, CameraFeed
 from giraff_console.camera.halfblock import HalfBlockRenderer
 from giraff_console.camera.markers import MarkerDetector
@@ -36,10 +44,9 @@ from giraff_console.data_folders import (
     example_floorplan,
 )
 from giraff_console.go_command import add_go_parser, run_go
-from giraff_console.link import BoardLink
+from giraff_console.headless import add_board_options, add_folder_options
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import Navigator
-from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
 from giraff_console.patrol_command import add_patrol_parser, run_patrol
 from giraff_console.planning.floorplan import (
@@ -69,12 +76,17 @@ from giraff_console.recording.session import (
     read_meta,
 )
 from giraff_console.robot.control_loop import ControlLoop
-from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.last_stop import SIGNALS, LastStop
 from giraff_console.robot.marker_eye import hand_on
 from giraff_console.robot.replay import replay_poses
-from giraff_console.robot.teleop import Teleop
+from giraff_console.robot_setup import board_connector, control_loop, route_book
 from giraff_console.send_command import add_send_parser, run_send
+from giraff_console.serve_command import add_serve_parser, run_serve
+from giraff_console.service import commands as c
+from giraff_console.service.remote import RemoteRobot
+from giraff_console.service.robot_service import RobotService
+from giraff_console.service.runtime_folder import socket_path
+from giraff_console.service.transport import TransportError
 from giraff_console.settings import Settings, SettingsError, config_path, load_settings
 from giraff_console.sim import BoardConfig, GiraffBoard, Imperfections, PtyServer
 from giraff_console.sim.camera import WorldCamera
@@ -109,18 +121,7 @@ def build_parser() -> argparse.ArgumentParser:
         "arrow keys to drive, Enter for the command line, ? for help, Esc to stop and quit.",
     )
     parser.add_argument("--version", action="version", version=f"giraff-console {__version__}")
-    parser.add_argument(
-        "--port", metavar="PORT|URL",
-        help="the motor board's serial device or pyserial URL (default: from the settings "
-        "file; without one, the built-in simulator)",
-    )  # fmt: skip
-    parser.add_argument("--sim", action="store_true", help="use the built-in simulator")
-    add_firmware_option(parser)
-    parser.add_argument(
-        "--sim-speed", type=float, default=1.0, metavar="K",
-        help="run the built-in simulator's clock K times faster than real time "
-        "(default: %(default)s)",
-    )  # fmt: skip
+    add_board_options(parser, EXAMPLE_FLOORPLAN, after_command=False)
     parser.add_argument(
         "--fast-threshold", type=int, default=FAST_THRESHOLD, metavar="N",
         help="FAST corner threshold (default: %(default)s, as in the thesis)",
@@ -139,22 +140,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="camera index, device path or video file (default: the synthetic camera with "
         "the simulator, else camera 0; a test pattern if it is missing)",
     )  # fmt: skip
-    parser.add_argument(
-        "--recordings", metavar="DIR", type=Path,
-        help="where sessions are recorded and looked for (default: the settings file's "
-        f"`recordings`, else {default_recordings()})",
-    )  # fmt: skip
-    parser.add_argument(
-        "--routes", metavar="DIR", type=Path,
-        help="where taught routes and patrols are kept (default: the settings file's "
-        f"`routes`, else {default_routes()})",
-    )  # fmt: skip
-    parser.add_argument(
-        "--floorplan", metavar="FILE", type=Path,
-        help=f"the building to plan and show routes on (default: the example care home, "
-        f"{EXAMPLE_FLOORPLAN}); the robot starts in its start room; floorplans/README.md has "
-        "the format",
-    )  # fmt: skip
+    add_folder_options(parser, after_command=False)
     parser.add_argument(
         "--config", metavar="FILE", type=Path,
         help=f"settings file (default: {config_path()}); see the README for its keys",
@@ -327,6 +313,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_go_parser(commands, EXAMPLE_FLOORPLAN)
     add_patrol_parser(commands, EXAMPLE_FLOORPLAN)
+    add_serve_parser(commands, EXAMPLE_FLOORPLAN)
+    add_daemon_parsers(commands)
 
     add_send_parser(commands)
     return parser
@@ -343,7 +331,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """The command `args` names."""
-    if args.command not in (None, "replay", "go", "patrol"):
+    if args.command not in (None, "replay", "go", "patrol", "serve"):
         # Nothing here drives by itself: signals end the command as usual. The program's
         # entry point blocked them for the console's own watcher (launch.py).
         signal.pthread_sigmask(signal.SIG_UNBLOCK, SIGNALS)
@@ -355,12 +343,26 @@ def run(args: argparse.Namespace) -> int:
         return run_export(args)
     if args.command == "plan":
         return run_plan(args)
-    if args.command in ("go", "patrol"):
+    if args.command == "status":
+        return run_status(args)
+    if args.command == "stop":
+        return run_stop(args)
+    if args.command == "patrols":
+        return run_patrols(args)
+    if args.command in ("go", "patrol", "serve"):
         try:
             settings, port = settings_and_port(args)
         except SettingsError as error:
             print(f"giraff-console: {error}", file=sys.stderr)
             return EXIT_USAGE
+        if args.command == "serve":
+            return run_serve(args, settings, port, EXAMPLE_FLOORPLAN)
+        attached = attach_if_running(args, "go" if args.command == "go" else "patrol")
+        if isinstance(attached, int):
+            return attached
+        if attached is not None:
+            request = c.Go(args.room) if args.command == "go" else c.RunPatrol(args.name)
+            return run_mission(attached, request, args.json)
         command = run_go if args.command == "go" else run_patrol
         return command(args, settings, port, EXAMPLE_FLOORPLAN)
     if args.command == "floorplan" and args.floorplan_command == "show":
@@ -372,6 +374,32 @@ def run(args: argparse.Namespace) -> int:
     if args.command == "floorplan":
         return run_floorplan_check(args)
     return run_console(args)
+
+
+def attach_if_running(args: argparse.Namespace, kind: str,
+                      take: bool = False) -> RemoteRobot | int | None:  # fmt: skip
+    """The running daemon's robot for a command that drives, unless it asks for a
+    simulator of its own (--sim); None when no daemon runs; an exit code when one does
+    but the command names a board of its own (the daemon has it) or it cannot be used.
+    The command's signals are its own again: the daemon stops the robot, not it."""
+    if getattr(args, "sim", False):
+        return None
+    try:
+        robot = daemon_robot(kind, take=take)
+    except TransportError as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    if robot is None:
+        return None
+    if getattr(args, "port", None) is not None:
+        robot.close()
+        print(f"giraff-console: the daemon at {socket_path()} has the robot; leave out "
+              "--port to ask it, or stop it (giraff-console stop --daemon)",
+              file=sys.stderr)  # fmt: skip
+        return EXIT_USAGE
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, SIGNALS)
+    print(f"giraff-console: asking the daemon at {socket_path()}", file=sys.stderr)
+    return robot
 
 
 def settings_and_port(args: argparse.Namespace) -> tuple[Settings, str | None]:
@@ -399,6 +427,11 @@ def run_console(args: argparse.Namespace) -> int:
     if args.fast_threshold < 1 or args.camera_fps <= 0:
         print("giraff-console: --fast-threshold and --camera-fps must be positive", file=sys.stderr)
         return EXIT_USAGE
+    attached = attach_if_running(args, "console", take=True)
+    if isinstance(attached, int):
+        return attached
+    if attached is not None:
+        return run_attached_console(attached, args, settings)
     try:
         plan, plan_note = console_floorplan(args.floorplan)
         navigator = Navigator(plan, walls_of(plan), settings.robot_radius)
@@ -431,16 +464,7 @@ def run_console(args: argparse.Namespace) -> int:
         if not log.entries:
             print(f"giraff-console: nothing to play in {log_path}", file=sys.stderr)
             return EXIT_USAGE
-    control = ControlLoop(
-        board_connector(port, settings, simulator),
-        teleop=Teleop(settings.teleop.limits()),
-        deadman=Deadman(clock, settings.teleop.grace, settings.teleop.repeat_timeout),
-        rate_hz=settings.control_rate,
-        clock=clock,
-        wheel_base=settings.board.wheel_base,
-        odometers=settings.board.odometers,
-        twm=settings.board.twm,
-    )
+    control = control_loop(board_connector(port, settings, simulator), settings, clock)
     start = navigator.start_pose
     if start is not None:
         # The console has no way to find the robot on the plan by itself (§2.3): it
@@ -466,33 +490,28 @@ def run_console(args: argparse.Namespace) -> int:
         },
     )  # fmt: skip
     recordings = data_folder(args.recordings, settings.recordings, default_recordings())
-    sessions = Sessions(control, camera, recordings, setup, lambda text: None)
+    sessions = Sessions(control, camera, recordings, setup, control.note)
     drives = DriveSetup.on_loop(control, navigator, limits=settings.motion.limits(),
                                 sense=site.range_finder.readings if site else None,
                                 patience=settings.motion.patience())  # fmt: skip
+    routes = route_book(control, sessions,
+                        data_folder(args.routes, settings.routes, default_routes()), drives,
+                        settings)  # fmt: skip
+    robot = RobotService(control, drives, building=site, routes=routes, sessions=sessions,
+                         undock_distance=settings.teleop.undock_distance)  # fmt: skip
     # Signals and crashes stop the robot from the loop's own thread, then the console
     # leaves; installed below, before any thread starts (the loop's, the camera's).
     last_stop = LastStop(control, leave=lambda why: app.exit(return_code=1))
     app = GiraffConsole(
-        control,
+        robot,
+        clock=clock,
+        control=control,
         simulator=simulator is not None,
         camera=camera,
-        sessions=sessions,
-        routes=RouteBook(
-            control,
-            sessions,
-            data_folder(args.routes, settings.routes, default_routes()),
-            lambda text: None,
-            drives,
-            settings.battery.levels(),
-            settings.teleop.undock_distance,
-        ),
         undock_distance=settings.teleop.undock_distance,
         battery_low=settings.battery.low,
         play=args.session if args.command == "replay" else None,
         navigator=navigator,
-        site=site,
-        drives=drives,
         stepped=stepped,
         crashed=last_stop.crashed,
     )
@@ -509,6 +528,49 @@ def run_console(args: argparse.Namespace) -> int:
     if last_stop.signalled is not None:
         return 128 + last_stop.signalled
     # Non-zero if the console itself failed; the robot was stopped all the same.
+    return app.return_code or 0
+
+
+def run_attached_console(robot: RemoteRobot, args: argparse.Namespace,
+                         settings: Settings) -> int:  # fmt: skip
+    """The console on a running daemon's robot: the map from the daemon's floor plan,
+    no camera (the daemon has it). Quitting, or the terminal going, leaves the daemon's
+    missions running; a key held is let go of by the daemon (service/daemon.py)."""
+    from giraff_console.tui.app import GiraffConsole
+
+    welcome = robot.welcome
+    navigator = None
+    note = "floor plan: none"
+    try:
+        plan, note = console_floorplan(welcome.floorplan)
+        navigator = Navigator(plan, walls_of(plan), settings.robot_radius)
+    except (FloorPlanError, OSError) as error:
+        note = f"no map: {error}"
+    app = GiraffConsole(
+        robot,
+        clock=RealClock(),
+        simulator=welcome.simulator,
+        attached=str(socket_path()),
+        undock_distance=settings.teleop.undock_distance,
+        battery_low=settings.battery.low,
+        play=args.session if args.command == "replay" else None,
+        navigator=navigator,
+    )
+    app.notes_at_start.append(note)
+    situation = welcome.situation
+    if situation.last_mission is not None:
+        last = situation.last_mission
+        app.notes_at_start.append(f"the last mission, {last.name}, ended: {last.why}")
+    if situation.mission is not None:
+        app.notes_at_start.append(f"running now: {situation.mission}")
+    holder = welcome.controls.holder
+    app.notes_at_start.append("you hold the controls" if holder == robot.console else
+                              f"watching: {holder or 'nobody'} holds the controls "
+                              "(Ctrl+T takes them)")  # fmt: skip
+    try:
+        app.run()
+    finally:
+        robot.close()
     return app.return_code or 0
 
 
@@ -712,25 +774,6 @@ def find_the_robot(control: ControlLoop, camera: CameraFeed, plan: FloorPlan) ->
 
     camera.listeners.append(listener)
     return f"markers: finding the robot by the plan's {len(markers)} markers"
-
-
-def board_connector(port: str | None, settings: Settings, simulator: serial.SerialBase | None):
-    """How the control loop (re)connects: a real port by name, or the one simulator."""
-    if port is not None:
-        return lambda: BoardLink.open(
-            port, timeout=settings.timeout, power_line=settings.power_line
-        )
-    assert simulator is not None
-
-    def connect() -> BoardLink:
-        if not simulator.is_open:
-            simulator.open()
-        # On the simulator's clock: a virtual one, under --sim-speed, is the loop's too.
-        link = BoardLink(simulator, timeout=settings.timeout, clock=simulator.clock)
-        link.handshake(power_line="none")
-        return link
-
-    return connect
 
 
 def run_sim(args: argparse.Namespace) -> int:

@@ -39,6 +39,12 @@ def data_home() -> Path:
     return Path(base) / APP
 
 
+def patrol_runs() -> Path:
+    """Where each patrol's run is logged (missions/patrol_log.py): the data home's
+    `patrol-runs`, which `giraff-console patrols` lists."""
+    return data_home() / "patrol-runs"
+
+
 def default_recordings() -> Path:
     return data_home() / "recordings"
 

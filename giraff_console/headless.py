@@ -32,22 +32,20 @@ import serial
 from rich.console import Console
 
 from giraff_console.clock import Clock, RealClock
-from giraff_console.link import BoardLink
+from giraff_console.data_folders import default_recordings, default_routes
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.path_mission import Sense
 from giraff_console.planning.floorplan import FloorPlan, FloorPlanError, load_floorplan
 from giraff_console.planning.landmarks import fit_on_walls, marker_poses, marker_walls
 from giraff_console.planning.route_planner import walls_of
-from giraff_console.robot.control_loop import ControlLoop
-from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.last_stop import LastStop
 from giraff_console.robot.loop_events import LoopEvent, Note
 from giraff_console.robot.marker_eye import EYE_FPS, EYE_SIZE, MarkerEye
 from giraff_console.robot.mission import TEXT_BAR, Mission
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.telemetry import LinkState, Telemetry
-from giraff_console.robot.teleop import Teleop
+from giraff_console.robot_setup import board_connector, control_loop
 from giraff_console.settings import Settings
 from giraff_console.sim import GiraffBoard
 from giraff_console.sim.drive import TruePose
@@ -65,27 +63,62 @@ class UsageError(Exception):
     """A mistake in the command: an option, the floor plan, a room; exit code 2."""
 
 
-def add_robot_options(parser: argparse.ArgumentParser, example: Path) -> None:
-    """The options of every command that drives without the screen."""
+def add_board_options(parser: argparse.ArgumentParser, example: Path, *,
+                      after_command: bool) -> None:  # fmt: skip
+    """The options that say which robot and building: the console's before any command,
+    and every command's that drives `after_command` (given there or before it, so their
+    defaults are the console's: SUPPRESS keeps one from hiding the other)."""
+
+    def default(value: object) -> object:
+        return argparse.SUPPRESS if after_command else value
+
     parser.add_argument(
-        "--floorplan", type=Path, default=argparse.SUPPRESS, metavar="FILE",
-        help=f"floor plan YAML (default: the example care home, {example})",
+        "--floorplan", type=Path, default=default(None), metavar="FILE",
+        help=f"the building to plan and show routes on (default: the example care home, "
+        f"{example}); the robot starts in its start room; floorplans/README.md has the "
+        "format",
     )  # fmt: skip
     parser.add_argument(
-        "--port", metavar="PORT|URL", default=argparse.SUPPRESS,
+        "--port", metavar="PORT|URL", default=default(None),
         help="the motor board's serial device or pyserial URL (default: from the settings "
         "file; without one, the built-in simulator)",
     )  # fmt: skip
     parser.add_argument(
-        "--sim", action="store_true", default=argparse.SUPPRESS,
+        "--sim", action="store_true", default=default(False),
         help="use the built-in simulator, in the floor plan's building",
     )  # fmt: skip
-    parser.add_argument("--json", action="store_true", help="print how it went as JSON")
     parser.add_argument(
-        "--sim-speed", type=float, default=argparse.SUPPRESS, metavar="K",
+        "--sim-speed", type=float, default=default(1.0), metavar="K",
         help="run the simulator's clock K times faster than real time; inf for as fast as "
         "it can (default: 1)",
     )  # fmt: skip
+    add_firmware_option(parser, after_command=after_command)
+
+
+def add_folder_options(parser: argparse.ArgumentParser, *, after_command: bool,
+                       recordings: bool = True) -> None:  # fmt: skip
+    """Where routes, patrols and (with `recordings`) sessions are kept."""
+    default = argparse.SUPPRESS if after_command else None
+    if recordings:
+        parser.add_argument(
+            "--recordings", type=Path, default=default, metavar="DIR",
+            help="where sessions are recorded and looked for (default: the settings "
+            f"file's `recordings`, else {default_recordings()})",
+        )  # fmt: skip
+    parser.add_argument(
+        "--routes", type=Path, default=default, metavar="DIR",
+        help="where taught routes and patrols are kept (default: the settings file's "
+        f"`routes`, else {default_routes()})",
+    )  # fmt: skip
+
+
+def add_robot_options(parser: argparse.ArgumentParser, example: Path, *,
+                      json: bool = True) -> None:  # fmt: skip
+    """The options of every command that drives without the screen; `json` for one that
+    ends and says how it went (`go`, `patrol`)."""
+    add_board_options(parser, example, after_command=True)
+    if json:
+        parser.add_argument("--json", action="store_true", help="print how it went as JSON")
     parser.add_argument(
         "--imperfect", action="store_true",
         help="simulate a real robot's errors: distances, caster drift, stalls, ESTOP",
@@ -96,7 +129,6 @@ def add_robot_options(parser: argparse.ArgumentParser, example: Path) -> None:
         help="with --imperfect, off keeps the distance errors and caster drift but makes "
         "no random stalls or ESTOPs, which end missions by design (default: %(default)s)",
     )  # fmt: skip
-    add_firmware_option(parser, after_command=True)
     parser.add_argument(
         "--no-landmarks", action="store_true",
         help="dead reckoning only: ignore the floor plan's markers (the estimate is then "
@@ -132,7 +164,10 @@ class HeadlessRobot:
     until `run`."""
 
     def __init__(self, args: argparse.Namespace, settings: Settings, port: str | None,
-                 example: Path) -> None:  # fmt: skip
+                 example: Path, *, notes_vital: bool = True) -> None:  # fmt: skip
+        """`notes_vital`: standard error is the operator's only way of being told (`go`,
+        `patrol`), so that the robot stops if it fails; not the daemon's, whose consoles
+        are told, and whose terminal may be gone long before the night's patrol is."""
         if port is not None:
             given = [f"--{name.replace('_', '-')}" for name in SIM_ONLY if getattr(args, name)]
             if given:
@@ -172,30 +207,11 @@ class HeadlessRobot:
             if args.sim_start is not None:
                 room = self.plan.rooms[args.sim_start]
                 site.board.place(TruePose(*room.at, math.radians(room.heading or 0.0)))
-
-            def connect() -> BoardLink:
-                if not simulator.is_open:
-                    simulator.open()
-                link = BoardLink(simulator, timeout=settings.timeout, clock=simulator.clock)
-                link.handshake(power_line="none")
-                return link
         else:
             clock = RealClock()
-
-            def connect() -> BoardLink:
-                return BoardLink.open(port, timeout=settings.timeout,
-                                      power_line=settings.power_line)  # fmt: skip
-
-        control = self.control = ControlLoop(
-            connect,
-            teleop=Teleop(settings.teleop.limits()),
-            deadman=Deadman(clock, settings.teleop.grace, settings.teleop.repeat_timeout),
-            rate_hz=settings.control_rate,
-            clock=clock,
-            wheel_base=settings.board.wheel_base,
-            odometers=settings.board.odometers,
-            twm=settings.board.twm,
-        )
+            simulator = None
+        control = self.control = control_loop(board_connector(port, settings, simulator),
+                                              settings, clock)  # fmt: skip
         if self.site is not None:
             # The simulated robot's casters are the simulator's to say: the thesis's with
             # --imperfect, none on the ideal board (robot/localisation.py).
@@ -204,7 +220,7 @@ class HeadlessRobot:
             # The console cannot know where the robot was put down: it assumes the dock,
             # and the markers correct that (robot/localisation.py, "No starting guess").
             control.place(self.start)
-        control.subscribe(_print_note, vital=True)
+        control.subscribe(_print_note, vital=notes_vital)
         # The markers find the robot only through a camera, which `go` and `patrol` have
         # with the simulator alone (its synthetic one); on a real robot they drive by
         # the odometry, as the console does with a camera that has no calibration.

@@ -31,6 +31,7 @@ from giraff_console.headless import (
     EXIT_USAGE,
     HeadlessRobot,
     UsageError,
+    add_folder_options,
     add_robot_options,
     fail,
 )
@@ -66,11 +67,7 @@ def add_patrol_parser(commands: argparse._SubParsersAction, example: Path) -> No
         "name", metavar="NAME",
         help=f"a patrol in the routes folder (NAME{PATROL_SUFFIX}), or a patrol file's path",
     )  # fmt: skip
-    patrol.add_argument(
-        "--routes", type=Path, default=argparse.SUPPRESS, metavar="DIR",
-        help="where patrols and taught routes are kept (default: the settings file's "
-        f"`routes`, else {default_routes()})",
-    )  # fmt: skip
+    add_folder_options(patrol, after_command=True, recordings=False)
     add_robot_options(patrol, example)
 
 

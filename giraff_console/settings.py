@@ -61,11 +61,25 @@ The [board] and [battery] tables, for real boards (docs/simulator.md lists the f
     [battery]                  # later boards, which report their charger
     low = 25                   # percent: below it a patrol goes to the dock to charge
     charged = 90               # percent: at or above it, it carries on
+
+Scheduled patrols, which `giraff-console serve` runs (docs/daemon.md); one [[schedule]]
+table each, as many as wanted:
+
+    [[schedule]]
+    patrol = "night"           # a patrol in the routes folder (night.patrol.yaml)
+    every = "2h"               # also "90m", "1h30m"; at least 10m, at most 24h
+    from = "22:00"             # local time; without from and to: all day
+    to = "06:00"               # the window may wrap midnight; from = to: all day
+
+It runs at `from`, then every `every` after it while in the window, `to` included when
+it falls on that grid: 22:00, 00:00, 02:00, 04:00 and 06:00 here (missions/schedule.py).
+A run due while the last one of the same patrol is still going is skipped, and logged.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -73,6 +87,7 @@ from pathlib import Path
 from giraff_console.link import DEFAULT_TIMEOUT_S
 from giraff_console.missions.docking import ChargeLevels
 from giraff_console.missions.progress_watch import Patience
+from giraff_console.missions.schedule import ScheduledPatrol, ScheduleEntryError, scheduled_patrol
 from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.planning.route_planner import ROBOT_RADIUS_M
 from giraff_console.protocol.errors import GiraffError
@@ -91,6 +106,9 @@ FOLDER_KEYS = ("recordings", "routes")
 TEXT_KEYS = ("port", "power_line", "odometers", "twm", *FOLDER_KEYS)
 # Tables within the file, each its own dataclass below.
 TABLES = ("teleop", "motion", "board", "battery")
+# The array of tables of scheduled patrols, and the keys of each.
+SCHEDULE = "schedule"
+SCHEDULE_KEYS = ("patrol", "every", "from", "to")
 
 
 # No dock needs a longer way out than this.
@@ -199,6 +217,7 @@ class Settings:
     motion: MotionSettings = field(default_factory=MotionSettings)
     board: BoardSettings = field(default_factory=BoardSettings)
     battery: BatterySettings = field(default_factory=BatterySettings)
+    schedule: tuple[ScheduledPatrol, ...] = ()
     source: str = "built-in defaults"
 
 
@@ -213,10 +232,12 @@ def load_settings(path: Path | None = None) -> Settings:
     if not path.exists():
         return Settings()
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        text = path.read_text(encoding="utf-8")
+        data = tomllib.loads(text)
     except (OSError, ValueError) as error:
         # ValueError: TOMLDecodeError, UnicodeDecodeError, and an int of 5,000 digits.
         raise SettingsError(f"{path}: {str(error)[:200]}") from None
+    schedule = _schedule(path, text, data.pop(SCHEDULE, []))
     tables = {table: data.pop(table, {}) for table in TABLES}
     for table, value in tables.items():
         if not isinstance(value, dict):
@@ -227,7 +248,8 @@ def load_settings(path: Path | None = None) -> Settings:
         board = BoardSettings(**_checked(path, "board.", BoardSettings, tables["board"]))
         battery = BatterySettings(**_checked(path, "battery.", BatterySettings, tables["battery"]))
         settings = Settings(**_checked(path, "", Settings, data), teleop=teleop, motion=motion,
-                            board=board, battery=battery, source=str(path))  # fmt: skip
+                            board=board, battery=battery, schedule=schedule,
+                            source=str(path))  # fmt: skip
         if settings.power_line not in ("dtr", "rts", "both", "none"):
             raise ValueError("power_line must be dtr, rts, both or none")
         if settings.timeout <= 0 or settings.control_rate <= 0 or settings.robot_radius <= 0:
@@ -259,7 +281,7 @@ def load_settings(path: Path | None = None) -> Settings:
 
 
 def _checked(path: Path, prefix: str, kind: type, data: dict) -> dict:
-    allowed = {f.name: f for f in fields(kind) if f.name not in (*TABLES, "source")}
+    allowed = {f.name: f for f in fields(kind) if f.name not in (*TABLES, SCHEDULE, "source")}
     for key, value in data.items():
         if key not in allowed:
             raise SettingsError(f"{path}: unknown key {prefix}{key}")
@@ -277,3 +299,61 @@ def _checked(path: Path, prefix: str, kind: type, data: dict) -> dict:
             # Relative to the settings file, not to wherever the console is started.
             data[key] = str(path.parent / Path(value).expanduser())
     return data
+
+
+def _schedule(path: Path, text: str, tables: object) -> tuple[ScheduledPatrol, ...]:
+    """The [[schedule]] tables; SettingsError as `file:line: message` for a bad one."""
+    lines = _table_lines(text, SCHEDULE)
+    if not isinstance(tables, list) or not all(isinstance(t, dict) for t in tables):
+        line = _key_line(text, SCHEDULE) or (lines[0][0] if lines else None)
+        raise SettingsError(_at(path, line, "schedule must be tables, each one [[schedule]]"))
+    entries = []
+    for index, table in enumerate(tables):
+        header, keys = lines[index] if index < len(lines) else (_key_line(text, SCHEDULE), {})
+        where = f"schedule[{index}]"
+        for key in table:
+            if key not in SCHEDULE_KEYS:
+                raise SettingsError(_at(path, keys.get(key, header), f"unknown key {where}.{key}"))
+        try:
+            entries.append(scheduled_patrol(table))
+        except ScheduleEntryError as error:
+            line = keys.get(error.key, header)
+            raise SettingsError(_at(path, line, f"{where}.{error}")) from None
+    return tuple(entries)
+
+
+def _at(path: Path, line: int | None, message: str) -> str:
+    """`file:line: message`, as the route and patrol files' complaints are
+    (missions/yaml_file.py); `file: message` where the line is not known."""
+    return f"{path}:{line}: {message}" if line else f"{path}: {message}"
+
+
+def _table_lines(text: str, name: str) -> list[tuple[int, dict[str, int]]]:
+    """For each `[[name]]` header in the file, its line and the lines of its keys.
+
+    tomllib keeps no lines, so they are found in the text: a good guess for the files
+    people write, though a multi-line string that looks like a header would fool it.
+    """
+    header = re.compile(rf"\s*\[\[\s*{re.escape(name)}\s*\]\]\s*(#.*)?\Z")
+    key = re.compile(r"""\s*(?:"([^"]*)"|'([^']*)'|([A-Za-z0-9_-]+))\s*=""")
+    found: list[tuple[int, dict[str, int]]] = []
+    keys: dict[str, int] | None = None
+    for number, line in enumerate(text.split("\n"), start=1):
+        if header.match(line):
+            keys = {}
+            found.append((number, keys))
+        elif line.lstrip().startswith("["):
+            keys = None
+        elif keys is not None and (match := key.match(line)):
+            keys.setdefault(next(part for part in match.groups() if part is not None), number)
+    return found
+
+
+def _key_line(text: str, name: str) -> int | None:
+    """The line of a top-level `name = ...` (before the first table), if there is one."""
+    for number, line in enumerate(text.split("\n"), start=1):
+        if line.lstrip().startswith("["):
+            return None
+        if re.match(rf"\s*{re.escape(name)}\s*=", line):
+            return number
+    return None

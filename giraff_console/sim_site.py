@@ -130,6 +130,14 @@ class SimulatedSite:
     def open_door(self, door_id: str) -> None:
         self.surroundings.open_door(door_id)
 
+    def block(self, x: float, y: float) -> str:
+        """A 0.5 m box in the robot's way at (x, y) metres; its id."""
+        return self.surroundings.block(x, y)
+
+    def unblock(self, x: float, y: float) -> list[str]:
+        """Take away the box at (x, y), or the nearest within 0.5 m; the ids taken."""
+        return self.surroundings.unblock(x, y)
+
 
 def plan_world(plan: FloorPlan) -> World:
     """The building as the synthetic camera sees it: the plan's walls, door frames dark,

@@ -8,6 +8,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -17,6 +18,22 @@ import pytest
 from giraff_console.clock import VirtualClock
 from giraff_console.protocol import parse_reply
 from giraff_console.sim import BoardConfig, GiraffBoard
+
+
+@pytest.fixture(autouse=True, scope="session")
+def private_runtime_folder() -> Iterator[Path]:
+    """A runtime folder of the tests' own: no console or command under test attaches to
+    a daemon the machine runs, and a daemon a test starts is found by the others it
+    starts (service/runtime_folder.py). Short, for a Unix socket's path."""
+    folder = Path(tempfile.mkdtemp(prefix="xdg-", dir="/tmp"))
+    before = os.environ.get("XDG_RUNTIME_DIR")
+    os.environ["XDG_RUNTIME_DIR"] = str(folder)
+    yield folder
+    if before is None:
+        del os.environ["XDG_RUNTIME_DIR"]
+    else:
+        os.environ["XDG_RUNTIME_DIR"] = before
+    shutil.rmtree(folder, ignore_errors=True)
 
 
 class SimBench:

@@ -96,7 +96,34 @@ ALLOWED_IMPORTS = {
         "clock",
         "yaml_source",
     },
+    "service": {
+        "service",
+        "missions",
+        "planning",
+        "motion",
+        "robot",
+        "recording",
+        "camera",
+        "link",
+        "protocol",
+        "clock",
+        "yaml_source",
+    },
 }
+# Issue 15: the screen asks the robot service and builds nothing itself. What it may
+# still take from below: the data it draws (telemetry, poses, the plan for the map, the
+# camera's pictures), never the parts that act on the robot.
+TUI_MAY_NOT_IMPORT = (
+    "giraff_console.missions.drive_setup",
+    "giraff_console.missions.route_book",
+    "giraff_console.missions.sessions",
+    "giraff_console.missions.go_to",
+    "giraff_console.missions.patrol",
+    "giraff_console.robot.command_guard",
+    "giraff_console.robot.safety",
+    "giraff_console.sim_site",
+    "giraff_console.sim",
+)
 
 
 def test_each_layer_imports_only_the_layers_below_it():
@@ -118,6 +145,26 @@ def test_each_layer_imports_only_the_layers_below_it():
                     layer = name.split(".")[1]
                     if layer not in ALLOWED_IMPORTS[part] | {"__init__"}:
                         wrong.append(f"{path.relative_to(ROOT)} imports {name}")
+    assert wrong == []
+
+
+def test_the_screen_acts_on_the_robot_only_through_the_service():
+    wrong = []
+    for path in (ROOT / "giraff_console" / "tui").rglob("*.py"):
+        source = path.read_text()
+        for node in ast.walk(ast.parse(source)):
+            module = node.module if isinstance(node, ast.ImportFrom) else None
+            if module is not None and module.startswith(TUI_MAY_NOT_IMPORT):
+                wrong.append(f"{path.relative_to(ROOT)} imports {module}")
+            # The loop is started and stopped by the screen that runs it in its own
+            # process, and nothing else: every other call on it is a request.
+            if (
+                isinstance(node, ast.Attribute)
+                and isinstance(node.value, ast.Attribute)
+                and node.value.attr == "control"
+                and node.attr not in ("start", "stop")
+            ):
+                wrong.append(f"{path.relative_to(ROOT)}:{node.lineno} uses control.{node.attr}")
     assert wrong == []
 
 

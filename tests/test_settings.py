@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from datetime import time
 
 import pytest
 
+from giraff_console.missions.schedule import ScheduledPatrol
 from giraff_console.settings import Settings, SettingsError, load_settings
 
 
@@ -101,3 +103,46 @@ def test_the_console_refuses_a_bad_file_without_a_traceback(tmp_path):
     assert result.returncode == 2
     assert "speed must be positive" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+NIGHT_TABLE = '[[schedule]]\npatrol = "night"\nevery = "2h"\nfrom = "22:00"\nto = "06:00"\n'
+
+
+def test_scheduled_patrols_are_read_in_order(tmp_path):
+    path = write(tmp_path, 'port = "/dev/ttyS0"\n' + NIGHT_TABLE
+                           + '[[schedule]]\npatrol = "garden"\nevery = "1h30m"\n')  # fmt: skip
+    settings = load_settings(path)
+    assert settings.port == "/dev/ttyS0"
+    assert settings.schedule == (
+        ScheduledPatrol("night", 7200.0, time(22, 0), time(6, 0)),
+        ScheduledPatrol("garden", 5400.0, time(0, 0), time(0, 0)),
+    )
+    assert Settings().schedule == ()
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        (NIGHT_TABLE.replace('every = "2h"', 'every = "2 hours"'),
+         ':3: schedule[0].every should be a duration such as "2h"'),
+        (NIGHT_TABLE.replace('"2h"', '"5m"'),
+         ":3: schedule[0].every is 5m: it must be at least 10m, since a patrol of a care home "
+         "takes longer than that"),
+        (NIGHT_TABLE.replace('"2h"', '"0m"'), ":3: schedule[0].every must be a positive time"),
+        (NIGHT_TABLE.replace('"22:00"', '"22h"'),
+         ':4: schedule[0].from should be a local time of day such as "22:00"'),
+        (NIGHT_TABLE.replace('"06:00"', '"24:00"'), ":5: schedule[0].to should be"),
+        (NIGHT_TABLE.replace('patrol = "night"\n', ""),
+         ":1: schedule[0].patrol is missing: name a patrol in the routes folder"),
+        (NIGHT_TABLE + "evry = 3\n", ":6: unknown key schedule[0].evry"),
+        ("[teleop]\nspeed = 0.3\n\n" + NIGHT_TABLE + NIGHT_TABLE.replace('"night"', '"a b"'),
+         ":10: schedule[1].patrol name 'a b' may use only"),
+        ("schedule = 3\n", ":1: schedule must be tables, each one [[schedule]]"),
+    ],
+)  # fmt: skip
+def test_a_bad_schedule_is_refused_with_its_line(tmp_path, text, message):
+    path = write(tmp_path, text)
+    with pytest.raises(SettingsError) as caught:
+        load_settings(path)
+    assert str(caught.value).startswith(f"{path}:")
+    assert f"{path}{message}" in str(caught.value)

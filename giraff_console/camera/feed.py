@@ -57,6 +57,10 @@ class CameraFeed:
         # thread: marker sightings for localisation ("markers" in the data).
         self.listeners: list[Callable[[Frame, dict[str, object]], None]] = []
         self.last_frame: Frame | None = None
+        # Whether the picture is on screen: hidden, it is neither drawn nor published,
+        # and no frame is taken at all unless a tap or a listener wants it (issue 15: the
+        # half-block drawing is the camera's largest cost on the robot's small PC).
+        self.shown = True
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="camera", daemon=True)
         self._times: list[float] = []
@@ -86,8 +90,14 @@ class CameraFeed:
         self._next_source = source
         return previous
 
+    @property
+    def wanted(self) -> bool:
+        """Whether anything needs frames now: the screen, a recording, the localisation."""
+        return self.shown or bool(self.taps) or bool(self.listeners)
+
     def picture(self) -> CameraPicture | None:
-        """Capture, process and render one frame; None if the camera gave none."""
+        """Capture, process and render one frame; None if the camera gave none, or if the
+        picture is not shown (the frame still goes to the taps and listeners)."""
         if self._next_source is not None:
             self.source.close()
             self.source, self._next_source = self._next_source, None
@@ -107,6 +117,8 @@ class CameraFeed:
             listener(frame, processed.data)
         now = time.monotonic()
         self._times = [t for t in self._times if now - t < 1.0] + [now]
+        if not self.shown:
+            return None
         keypoints = processed.data.get("keypoints")
         markers = processed.data.get("marker_ids")
         return CameraPicture(
@@ -121,7 +133,7 @@ class CameraFeed:
     def _run(self) -> None:
         next_frame = time.monotonic()
         while not self._stop.is_set():
-            picture = self.picture()
+            picture = self.picture() if self.wanted else None
             if picture is not None:
                 self.publish(picture)
             # Keep to the cap on average: the next frame is due a period after the last

@@ -7,6 +7,7 @@ camera snapshot into it at each stop when its file asks for snapshots.
 
 from __future__ import annotations
 
+import math
 import threading
 from collections.abc import Callable
 from pathlib import Path
@@ -21,6 +22,7 @@ from giraff_console.missions.patrol import (
     list_patrols,
     load_patrol,
 )
+from giraff_console.missions.patrol_log import PatrolRunLog
 from giraff_console.missions.route import (
     Route,
     RouteError,
@@ -38,6 +40,7 @@ from giraff_console.recording.session import SessionRecorder
 from giraff_console.robot.battery import Battery
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.loop_events import ExchangeTap, LoopEvent
+from giraff_console.robot.odometry import Pose
 from giraff_console.robot.telemetry import LinkState, Telemetry
 
 
@@ -53,11 +56,13 @@ class RouteBook:
         drives: DriveSetup | None = None,
         charge: ChargeLevels | None = None,
         undock_distance: float = 0.3,
+        runs: Path | None = None,
     ) -> None:
         """`drives` builds the routes followed closed-loop and, with a floor plan, the
         patrols' ways to rooms and the dock (without it: no plan, the loop's own pose and
         estimate, the default limits); `charge` says when a patrol goes to charge, and
-        `undock_distance` how far it backs out after."""
+        `undock_distance` how far it backs out after. `runs` is the folder where each
+        patrol's run is logged (missions/patrol_log.py); None logs none."""
         self.control = control
         if drives is None:
             drives = DriveSetup.on_loop(control, None, notify=lambda text: self.report(text))
@@ -69,6 +74,7 @@ class RouteBook:
         self._battery: Battery | None = None
         self.sessions = sessions
         self.directory = directory
+        self.runs = runs
         self.report = report
         self.teacher: RouteTeacher | None = None
         # The recording this book started, for teaching or a patrol; it stops it, and
@@ -195,8 +201,8 @@ class RouteBook:
             back_to=lambda pose: self.drives.arrive("where it left off", back_to(pose)),
         )
 
-    def patrol(self, name: str) -> bool:
-        """Run patrol `name` from `<name>.patrol.yaml`."""
+    def patrol(self, name: str, *, by: str = "a console", scheduled: bool = False) -> bool:
+        """Run patrol `name` from `<name>.patrol.yaml`; `by` who asked, for its log."""
         if not self._free():
             return False
         try:
@@ -213,9 +219,10 @@ class RouteBook:
                 return False
             routes[stop.route] = route
         go = self.drives.go if self.navigator is not None else None
+        log = _RunLog(self.runs, self.report, self.sessions if patrol.snapshots else None)
         try:
             control = self.control
-            run = PatrolRun(patrol, routes, self._stop_reached if patrol.snapshots else _ignore,
+            run = PatrolRun(patrol, routes, lambda stop: log.reached(stop, control.pose),
                             go=go, follow=self.drives.follow, recharge=self._recharge(),
                             pose=lambda: control.pose, notify=self.report)  # fmt: skip
         except PatrolError as error:
@@ -223,8 +230,10 @@ class RouteBook:
             return False
         if patrol.snapshots:
             self._record(owner=run)
+        log.start(patrol.name, scheduled=scheduled, by=by)
 
         def ended(why: str) -> None:
+            log.end(why, len(patrol.stops) * patrol.rounds)
             # On the loop's thread: closing the files may take a while on a slow disk.
             _in_background(lambda: self._stop_recording(owner=run))
 
@@ -274,18 +283,6 @@ class RouteBook:
             self._recording = self._owner = None
         self.sessions.stop_recording(only=recorder)
 
-    def _stop_reached(self, stop: StopReached) -> None:
-        """On the loop's thread, as the robot comes to rest: the snapshot is encoded and
-        written on another."""
-        label = f"round{stop.round}-stop{stop.stop_index}-{stop.route_name}"
-
-        def snapshot() -> None:
-            path = self.sessions.snapshot(label)
-            if path is not None:
-                self.report(f"snapshot {path.name}")
-
-        _in_background(snapshot)
-
     def _telemetry(self, event: LoopEvent) -> None:
         """After each tick: the link and the battery, and the pose of a route being taught."""
         if not isinstance(event, Telemetry):
@@ -297,8 +294,54 @@ class RouteBook:
             teacher.observe_pose(self.control.clock.now(), event.pose)
 
 
-def _ignore(stop: StopReached) -> None:
-    """A patrol without snapshots."""
+class _RunLog:
+    """A patrol run as it goes, in its log (when the book has a folder for them), with a
+    snapshot at each stop (when the patrol takes them) and a note of each problem."""
+
+    def __init__(self, folder: Path | None, report: Callable[[str], None],
+                 sessions: Sessions | None) -> None:  # fmt: skip
+        self.log = PatrolRunLog(folder) if folder is not None else None
+        self.report = report
+        self.sessions = sessions
+        self.reached_count = 0
+
+    def start(self, patrol: str, *, scheduled: bool, by: str) -> None:
+        if self.log is not None:
+            self._told(self.log.start(patrol, scheduled=scheduled, by=by))
+
+    def reached(self, stop: StopReached, pose: Pose) -> None:
+        """On the loop's thread, as the robot comes to rest: the snapshot is encoded and
+        written on another."""
+        self.reached_count += 1
+        if self.log is not None:
+            self._told(self.log.stop({
+                "round": stop.round, "stop": stop.stop_index, "place": stop.route_name,
+                "pose_estimate": [round(pose.x, 3), round(pose.y, 3),
+                                  round(math.degrees(pose.heading), 1)],
+            }))  # fmt: skip
+        sessions = self.sessions
+        if sessions is None:
+            return
+        label = f"round{stop.round}-stop{stop.stop_index}-{stop.route_name}"
+
+        def snapshot() -> None:
+            path = sessions.snapshot(label)
+            if path is None:
+                return
+            self.report(f"snapshot {path.name}")
+            if self.log is not None:
+                self._told(self.log.snapshot(path))
+
+        _in_background(snapshot)
+
+    def end(self, why: str, stops: int) -> None:
+        if self.log is not None:
+            self._told(self.log.end(why, arrived=why == "done", stops=stops))
+
+    def _told(self, problem: str | None) -> None:
+        # The first problem only: a full disk would otherwise say so at every stop.
+        if problem is not None and self.log is not None and problem == self.log.problem:
+            self.report(f"patrol log: {problem}; the patrol carries on")
 
 
 def _in_background(work: Callable[[], None]) -> None:

@@ -57,7 +57,7 @@ from giraff_console.robot.board_gauges import BoardGauges
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.localisation import Estimate, Localisation
-from giraff_console.robot.loop_events import Listener, LoopEvent, Note
+from giraff_console.robot.loop_events import Listener, LoopEvent, MissionChanged, Note
 from giraff_console.robot.mission import Mission
 from giraff_console.robot.odometry import Odometry, Pose
 from giraff_console.robot.odometry_feed import OdometryFeed
@@ -519,6 +519,7 @@ class ControlLoop:
             why = self.feed.untrusted
         if why is not None:
             self.note(f"{mission.name} not started: {why}")
+            self._tell(MissionChanged(mission.name, running=False, why=f"not started: {why}"))
             ended("not started")
             return
         # A pose that jumped before this mission is the pose it starts from: a flag left
@@ -528,6 +529,7 @@ class ControlLoop:
         self.deadman.release()
         self._mission, self._mission_ended = mission, ended
         self.note(f"{mission.name} started")
+        self._tell(MissionChanged(mission.name, running=True))
 
     def _end_mission(self, why: str, stop: bool = True) -> None:
         mission, self._mission = self._mission, None
@@ -536,6 +538,7 @@ class ControlLoop:
         if stop:
             self._stop_robot()
         self.note(f"{mission.name} {why}")
+        self._tell(MissionChanged(mission.name, running=False, why=why))
         # Dropped as it is called: a callback holds its mission, which must not outlive it.
         ended, self._mission_ended = self._mission_ended, lambda why: None
         ended(why)

@@ -51,10 +51,13 @@ class LastStop:
     """
 
     def __init__(self, control: ControlLoop, leave: Callable[[str], None] = lambda why: None,
-                 exit: Callable[[int], None] = os._exit) -> None:  # fmt: skip
+                 exit: Callable[[int], None] = os._exit,
+                 signals: frozenset[signal.Signals] = SIGNALS) -> None:  # fmt: skip
         """`leave(why)` asks the front end to close (from the watcher's thread); `exit`
-        ends the process if it has not left in time."""
+        ends the process if it has not left in time. `signals` are those that stop the
+        robot: the daemon, which has no terminal to lose, leaves SIGHUP out."""
         self.control = control
+        self.signals = signals
         self.leave = leave
         self.exit = exit
         self.signalled: signal.Signals | None = None
@@ -66,7 +69,7 @@ class LastStop:
         mask = signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
         self._watcher = threading.Thread(target=self._watch, name="last-stop", daemon=True)
         self._watcher.start()
-        handlers = {signum: signal.signal(signum, self._hand_on) for signum in SIGNALS}
+        handlers = {signum: signal.signal(signum, self._hand_on) for signum in self.signals}
         hooks = threading.excepthook, sys.excepthook
         threading.excepthook = self._thread_crashed
         sys.excepthook = self._main_crashed
@@ -96,7 +99,7 @@ class LastStop:
     # -- inside -------------------------------------------------------------------------
 
     def _watch(self) -> None:
-        signum = signal.Signals(signal.sigwait(SIGNALS))
+        signum = signal.Signals(signal.sigwait(self.signals))
         if self._disarmed:
             return
         self.signalled = signum

@@ -1,11 +1,12 @@
 """What the control loop says, as one stream of events (issue 15).
 
-Everything that comes back from the loop is one of three things: a `Telemetry`
+Everything that comes back from the loop is one of four things: a `Telemetry`
 snapshot after each tick, an `Exchange` with the board (live, or recorded and played
-back), or a `Note` for the operator. A `Listener` subscribed to the loop gets every one
-of them (on the loop's thread, but a note on the thread that made it) and keeps those it
-wants, by type; one stream, rather than a callback per kind, is what can later be
-carried to another process unchanged.
+back), a `Note` for the operator, or a `MissionChanged` as a mission starts or ends.
+A `Listener` subscribed to the loop gets every one of them (on the loop's thread, but a
+note on the thread that made it) and keeps those it wants, by type; one stream, rather
+than a callback per kind, is what the daemon carries to other processes unchanged
+(service/daemon.py).
 """
 
 from __future__ import annotations
@@ -25,7 +26,18 @@ class Note:
     text: str
 
 
-LoopEvent: TypeAlias = Telemetry | Exchange | Note
+@dataclass(frozen=True)
+class MissionChanged:
+    """A mission started (`why` empty) or ended, and why: "done", "stopped by the
+    operator", "not started: no link to the board". The daemon keeps the last one, so
+    that a console attached later can say how the night's patrol went."""
+
+    name: str
+    running: bool
+    why: str = ""
+
+
+LoopEvent: TypeAlias = Telemetry | Exchange | Note | MissionChanged
 Listener: TypeAlias = Callable[[LoopEvent], None]
 
 

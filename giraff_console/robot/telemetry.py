@@ -47,3 +47,6 @@ class Telemetry:
     stalk: int | None = None
     board: BoardFeatures | None = None
     estimate: Estimate | None = None
+    # Whether a session is being recorded: the robot service's to say (the loop does
+    # not know its listeners), filled in as the snapshot goes out to the front ends.
+    recording: bool = False

@@ -12,6 +12,7 @@ from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
+from textual import work
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal, Vertical
@@ -20,20 +21,20 @@ from textual.widgets import Footer
 
 from giraff_console.camera.feed import CameraFeed
 from giraff_console.camera.source import RESOLUTIONS as CAMERA_RESOLUTIONS
+from giraff_console.clock import Clock
 from giraff_console.link import Exchange
-from giraff_console.missions.drive_setup import DriveSetup
-from giraff_console.missions.navigation import NavigationState, Navigator
-from giraff_console.missions.route_book import RouteBook
-from giraff_console.missions.sessions import Sessions
-from giraff_console.protocol import Command, CommandError, GiraffError, parse_command, parse_number
-from giraff_console.robot.command_guard import check_command
-from giraff_console.robot.control_loop import BoardJob, ControlLoop
-from giraff_console.robot.deadman import Intent
-from giraff_console.robot.loop_events import LoopEvent, Note
+from giraff_console.missions.navigation import Navigator
+from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.robot.loop_events import Note
 from giraff_console.robot.odometry import Pose
-from giraff_console.robot.safety import stop_robot
 from giraff_console.robot.telemetry import Telemetry
-from giraff_console.sim_site import SimulatedSite
+from giraff_console.service import commands as c
+from giraff_console.service.robot_service import (
+    Controls,
+    Robot,
+    RouteShown,
+    ServiceEvent,
+)
 from giraff_console.tui.camera_view import CameraView
 from giraff_console.tui.command_line import CommandLine
 from giraff_console.tui.help_screen import HelpScreen
@@ -42,55 +43,38 @@ from giraff_console.tui.main_view import MainView
 from giraff_console.tui.map_scene import MapScene, located, plan_scene
 from giraff_console.tui.map_view import MapView
 from giraff_console.tui.messages import (
+    Answer,
     CameraPictureUpdated,
+    ControlsChanged,
     ExchangeSeen,
     NavigationChanged,
     StatusNote,
     TelemetryUpdated,
 )
-from giraff_console.tui.navigation_commands import NAVIGATION_COMMANDS, NavigationCommands
+from giraff_console.tui.robot_keys import RobotKeys
 from giraff_console.tui.room_palette import RoomCommands
-from giraff_console.tui.session_commands import ROUTE_COMMANDS, SESSION_COMMANDS, SessionCommands
-from giraff_console.tui.stalk_commands import STALK_COMMANDS, StalkCommands
 from giraff_console.tui.status_log import StatusLog
 from giraff_console.tui.top_bar import TopBar
 from giraff_console.tui.transcript import Transcript
 
 # Keys 1-5 of the thesis (B.7 SetResolution).
 RESOLUTIONS = dict(enumerate(CAMERA_RESOLUTIONS, start=1))
-# T tilts the head up: the thesis's SetTilt(1), radians from home (B.7).
-TILT_UP = 1.0
-
+# What the command line takes beside the robot's commands (service/commands.py).
 CONSOLE_COMMANDS = [
     ("help", "show this screen"),
-    ("stop", "let go of the keys and stop the robot now"),
-    ("speed X", "set the driving speed in m/s, within the configured cap"),
-    ("quit", "stop the robot and leave"),
+    ("quit", "leave (the console in its own process stops the robot first)"),
+    ("fast, canny, markers", "switch a camera processor on or off (markers: outlines, ids)"),
+    *c.HELP_LINES,
     ("set NAME VALUE", "send a controller command, e.g. set v 0.3 (checked against the limits)"),
     ("get NAME", "read a parameter, e.g. get bulk_data"),
     ("home", "any other bare controller command"),
-    ("stalk up|down|N", "raise or lower the head's stalk a step, or set it 0-1000 (g, v)"),
-    ("fast, canny, markers", "switch a camera processor on or off (markers: outlines, ids)"),
-    ("record, record stop", "record a session into recordings/ (also r)"),
-    ("play [DIR], play stop", "play the newest session, or DIR, back; stop it (also p)"),
-    ("pause, resume, seek S, rate X", "control a playback: seconds in, speed 0.25 to 16"),
-    ("teach NAME, mark PLACE, done", "teach a route by driving it; name places on the way"),
-    ("routes", "list the taught routes and the patrols"),
-    ("replay-route NAME", "drive a taught route again, open-loop (keys or Space stop it)"),
-    ("follow-route NAME", "drive a taught route's path closed-loop, like go (from its start)"),
-    ("patrol NAME, patrol pause|resume|stop", "run routes/NAME.patrol.yaml; hold or end it"),
-    ("undock", "back out of the dock and turn round (also u, twice)"),
-    ("go ROOM", "drive to ROOM: the route is planned, shown on the map and driven"),
-    ("pause, resume", "hold the robot where it is on its way, and go on (also playbacks)"),
-    ("close DOOR, open DOOR", "shut or open a door (in the simulator too); routes go round"),
-    ("block X Y, unblock X Y", "simulator: put a box in the way at X, Y metres, or take it"),
 ]
 # The layouts of the centre that M steps through: camera and map, the map, the camera.
 LAYOUTS = ("both", "map", "camera")
 
 
-class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard):
-    """The operator's screen; `control` runs the robot."""
+class GiraffConsole(RobotKeys, KeyGuard):
+    """The operator's screen on the robot service, in this process or the daemon's."""
 
     CSS_PATH = "app.tcss"
     TITLE = "giraff-console"
@@ -172,6 +156,8 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
                 tooltip="move the map view down"),
         Binding("c", "follow", "Follow", show=False, id="follow",
                 tooltip="keep the robot in view on the map again"),
+        Binding("ctrl+t", "take", "Take", show=False, id="take",
+                tooltip="take the controls from the console that holds them (then y)"),
         Binding("question_mark", "help", "Help", id="help", tooltip="this screen"),
     ]  # fmt: skip
     # Priority: the app takes each key as it arrives, in the order typed. Otherwise a key
@@ -182,16 +168,15 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
 
     def __init__(
         self,
-        control: ControlLoop,
+        robot: Robot,
         *,
+        clock: Clock,
         simulator: bool,
+        control: ControlLoop | None = None,
+        attached: str | None = None,
         camera: CameraFeed | None = None,
-        sessions: Sessions | None = None,
-        routes: RouteBook | None = None,
         play: Path | None = None,
         navigator: Navigator | None = None,
-        site: SimulatedSite | None = None,
-        drives: DriveSetup | None = None,
         stepped: float | None = None,
         undock_distance: float = 0.3,
         battery_low: float = 25.0,
@@ -200,26 +185,22 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
         cursor_blink: bool = True,
         crashed: Callable[[BaseException], None] = lambda error: None,
     ) -> None:
-        """`drives` builds the missions `go` drives; `run_loop` False leaves ticking the
-        loop to the caller (tests on a virtual clock); `battery_low` is the percent below
-        which the top line shows the battery LOW."""
+        """`robot` is what the console asks; `control` the loop it runs in its own process
+        (None when `attached` to a daemon, whose address that is). `navigator` has the
+        floor plan the map draws; `run_loop` False leaves ticking the loop to the caller
+        (tests on a virtual clock); `battery_low` is the percent below which the top line
+        shows the battery LOW."""
         super().__init__()
+        self.robot = robot
+        self.clock = clock
         self.control = control
+        self.attached = attached
         self.camera = camera
-        self.sessions = sessions
-        self.routes = routes
         self.play_at_start = play
         self.navigator = navigator
-        self.site = site
-        if drives is None:
-            # The default limits, and the simulated building's range finder if any.
-            sense = site.range_finder.readings if site is not None else None
-            drives = DriveSetup.on_loop(control, navigator, sense=sense)
-        # One navigator: the map shows the state of the one `go` plans with.
-        assert drives.navigator is navigator, "drives must plan with the console's navigator"
-        self.drives = drives
         self.stepped = stepped
-        self._shown_state: NavigationState | None = None
+        self.route: RouteShown | None = None
+        self._shown_route: RouteShown | None = None
         start = navigator.start_pose if navigator is not None else None
         self.pose = start or Pose()
         # Lines for the status log once it is on screen (how the console was set up).
@@ -231,6 +212,7 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
         self.battery_low = battery_low
         # The latest snapshot: the stalk keys step from the height it reports.
         self.telemetry: Telemetry | None = None
+        self.controls: Controls | None = None
         self.run_loop = run_loop
         self.timestamp = timestamp
         self.cursor_blink = cursor_blink
@@ -270,10 +252,10 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
             self._show_map()
         else:
             self.map_view.display = False  # nothing to draw: the camera has the room
-        self.control.subscribe(self._from_loop, vital=True)
-        for service in (self.sessions, self.routes):
-            if service is not None:
-                service.report = lambda text: self._post(StatusNote(text))
+        self.robot.subscribe(self._from_robot, vital=True)
+        if self.attached is not None:
+            self.note(f"attached to the robot's daemon at {self.attached}: quitting leaves "
+                      "its missions running")  # fmt: skip
         if self.simulator:
             self.note("SIMULATOR: no robot is connected; the built-in simulated board answers")
         for text in self.notes_at_start:
@@ -286,10 +268,12 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
             self.note(f"camera: {camera.note}")
             if self.run_loop:
                 camera.start()
-        if self.run_loop:
+        elif self.attached is not None:
+            self.camera_view.display = False  # the camera is the daemon's
+        if self.run_loop and self.control is not None:
             self.control.start(stepped=self.stepped)
         if self.play_at_start is not None:
-            self._play(self.play_at_start)
+            self.order(c.Play(self.play_at_start))
 
     def _handle_exception(self, error: Exception) -> None:
         # An exception in a handler or a worker: the robot is stopped before anything
@@ -298,10 +282,10 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
         super()._handle_exception(error)
 
     def on_unmount(self) -> None:
-        self.control.stop()
-        self.control.unsubscribe(self._from_loop)
-        if self.sessions is not None:
-            self.sessions.stop_recording()
+        if self.control is not None:
+            self.control.stop()
+        self.robot.unsubscribe(self._from_robot)
+        self.robot.close()
         if self.camera is not None:
             self.camera.stop()
 
@@ -315,14 +299,14 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
         self.top_bar.show_camera(text)
         self.camera_view.show(picture)
 
-    # -- from the control loop ----------------------------------------------------------
+    # -- from the robot -----------------------------------------------------------------
 
     def on_telemetry_updated(self, message: TelemetryUpdated) -> None:
-        now = self.control.clock.now()
+        now = self.clock.now()
         self._frames = [t for t in self._frames if now - t < 1.0] + [now]
         self.top_bar.ui_fps = float(len(self._frames))
-        self.top_bar.recording = self.sessions is not None and self.sessions.recording
         telemetry = self.telemetry = message.telemetry
+        self.top_bar.recording = telemetry.recording
         self._moving = telemetry.intent is not None or (
             telemetry.state is not None and telemetry.state.moving
         )
@@ -330,21 +314,38 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
         self.main_view.show(message.telemetry)
         # Every snapshot: the map view draws again only if what it shows has changed.
         self.pose = message.telemetry.pose
-        self._show_map(self.navigator.state if self.navigator is not None else None)
+        self._show_map()
 
     def on_navigation_changed(self, message: NavigationChanged) -> None:
-        self._show_map(message.state)
+        self.route = message.route
+        self._show_map()
 
-    def _show_map(self, state: NavigationState | None = None) -> None:
+    def on_controls_changed(self, message: ControlsChanged) -> None:
+        controls = self.controls = message.controls
+        if self.attached is None:
+            return  # alone in its process: it always holds them
+        holder = controls.holder
+        mine = self.robot_console()
+        if holder == mine:
+            self.note("you hold the controls")
+        else:
+            self.note(f"watching: {holder or 'nobody'} holds the controls (Ctrl+T takes them)")
+
+    def robot_console(self) -> str | None:
+        """This console's name as the daemon knows it (None in its own process)."""
+        return getattr(self.robot, "console", None)
+
+    def _show_map(self) -> None:
         """Draw the robot where it is, with the route and the doors as they are now."""
-        if self._scene is None or self.navigator is None:
+        if self._scene is None:
             return
-        if state is not None and state is not self._shown_state:
-            self._shown_state = state
-            closed = state.closed
+        route = self.route
+        if route is not None and route is not self._shown_route:
+            self._shown_route = route
+            closed = set(route.closed)
             doors = tuple(replace(door, open=door.id not in closed) for door in self._scene.doors)
-            path = tuple(state.planned.path) if state.planned is not None else ()
-            self._scene = replace(self._scene, doors=doors, path=path, obstacles=state.obstacles)
+            self._scene = replace(self._scene, doors=doors, path=route.path,
+                                  obstacles=route.obstacles)  # fmt: skip
         estimate = self.telemetry.estimate if self.telemetry is not None else None
         self._scene = located(self._scene, self.pose, estimate)
         self.map_view.show(self._scene)
@@ -355,42 +356,52 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
     def on_status_note(self, message: StatusNote) -> None:
         self.note(message.text)
 
+    def on_answer(self, message: Answer) -> None:
+        reply = message.reply
+        if reply.text:
+            self.note(reply.text)
+        for line in reply.lines:
+            self.note(line)
+        request = message.request
+        if reply.ok and isinstance(request, c.Play) and not request.stop:
+            self.transcript.separator("playback")
+
     def note(self, text: str) -> None:
         self.status_log.note(f"{self.timestamp()} {text}")
 
-    def _from_loop(self, event: LoopEvent) -> None:
-        """Whatever the loop says, as a message from its thread to the screen."""
+    def _from_robot(self, event: ServiceEvent) -> None:
+        """Whatever the robot says, as a message from its thread to the screen."""
         if isinstance(event, Telemetry):
             self.post_message(TelemetryUpdated(event))
         elif isinstance(event, Note):
             self.post_message(StatusNote(event.text))
         elif isinstance(event, Exchange):
             self.post_message(ExchangeSeen(event))
+        elif isinstance(event, RouteShown):
+            self.post_message(NavigationChanged(event))
+        elif isinstance(event, Controls):
+            self.post_message(ControlsChanged(event))
 
     def _post(self, message: Message) -> None:
         """`post_message` for the callbacks the services make, which return nothing."""
         self.post_message(message)
 
+    # -- requests -----------------------------------------------------------------------
+
+    def order(self, request: c.Request) -> None:
+        """Ask the robot; the answer goes to the status log. A key, a stop, is asked on
+        this thread, in the order typed; the others (planning a route takes a few hundred
+        milliseconds) in a worker, so that the keys are answered meanwhile."""
+        if request.quick:
+            self.robot.post(request, lambda reply: self._post(Answer(request, reply)))
+        else:
+            self._order_slowly(request)
+
+    @work(thread=True, group="orders")
+    def _order_slowly(self, request: c.Request) -> None:
+        self.robot.post(request, lambda reply: self._post(Answer(request, reply)))
+
     # -- keys ---------------------------------------------------------------------------
-
-    def action_drive(self, intent: str) -> None:
-        if self.command_line.has_focus:
-            return
-        if self.control.playback is not None:
-            self.note("playing back: the driving keys are off; p returns to live")
-            return
-        self.control.press(Intent[intent])
-
-    def action_halt(self) -> None:
-        """Stop now: let go of the keys, and stop any move, typed or undocking, as well."""
-        self.control.halt()
-        self.control.stop_mission("stopped by the operator")
-        self.control.submit(stop_robot, stop=True)
-        self.note("stop")
-
-    def action_speed(self, step: int) -> None:
-        speed = self.control.teleop.set_speed(round(self.control.teleop.speed + 0.05 * step, 2))
-        self.note(f"driving speed {speed:.2f} m/s")
 
     def action_resolution(self, key: int) -> None:
         width, height = RESOLUTIONS[key]
@@ -413,52 +424,14 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
     def action_command_line(self) -> None:
         self.open_command_line()
 
-    def action_toggle_poll(self) -> None:
-        self.control.autopoll = not self.control.autopoll
-        self.note(f"automatic odometry poll {'on' if self.control.autopoll else 'off'}")
-
-    def action_bulk(self) -> None:
-        self._board_command(Command("get", "bulk_data"))
-
-    # h, t and u move the robot's head or the robot without being held: one stray key
-    # must not do it (issue 12), so each asks, and only y does it: the same key again
-    # would be a held key's own auto-repeat.
-
-    def action_home_head(self) -> None:
-        def home() -> None:
-            self._board_command(Command("command", "home"))
-
-        if self._live():
-            self.ask("home the head? y homes it, any other key does not", {"y"}, home)
-
-    def action_tilt(self) -> None:
-        def tilt() -> None:
-            self._board_command(Command("set", "tilt_angle_from_home", TILT_UP))
-
-        if self._live():
-            self.ask("tilt the head up? y tilts it, any other key does not", {"y"}, tilt)
-
-    def action_undock(self) -> None:
-        if self._live() and self.routes is not None:
-            self.ask(f"undock: back out {self.undock_distance:g} m and turn round? "
-                     "y goes, any other key does not", {"y"}, self._undock)  # fmt: skip
-        elif self.routes is None:
-            self.note("undock is not available (no route book)")
-
-    def _undock(self) -> None:
-        """Back out and turn round, streamed by the console in bounded steps: never the
-        board's own `set undock`, which a dead console cannot stop (issue 12)."""
-        if self.routes is None:
-            self.note("undock is not available (no route book)")
-        elif self.routes.undock(self.undock_distance):
-            self.note(f"undocking: backing out {self.undock_distance:g} m; Space stops")
-
-    def _live(self) -> bool:
-        """Whether commands may go to the robot: not while a session plays back."""
-        if self.control.playback is not None:
-            self.note("not sent: playing back, nothing goes to the robot (p returns to live)")
-            return False
-        return True
+    def action_take(self) -> None:
+        controls = self.controls
+        holder = controls.holder if controls is not None else None
+        if self.attached is None or holder == self.robot_console():
+            self.note("you hold the controls")
+            return
+        self.ask(f"take the controls from {holder or 'nobody'}? y takes them, any other key "
+                 "does not", {"y"}, lambda: self.order(c.TakeControls()))  # fmt: skip
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         """No key of the app's works while the command line is open (the keys are the
@@ -478,6 +451,9 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
         centre = self.query_one("#centre")
         for layout in LAYOUTS:
             centre.set_class(layout == LAYOUTS[self._layout], f"-{layout}")
+        if self.camera is not None:
+            # Hidden, the camera is not drawn (camera/feed.py).
+            self.camera.shown = LAYOUTS[self._layout] != "map"
 
     def action_zoom(self, factor: float) -> None:
         self.map_view.zoom(factor)
@@ -500,26 +476,31 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
         busy = self._busy()
         if busy or ask:
             why = f"{busy}: " if busy else ""
-            self.ask(f"quit? {why}y stops the robot and leaves, any other key stays", {"y"},
-                     self._leave)  # fmt: skip
+            leave = "leaves" if self.attached is not None else "stops the robot and leaves"
+            self.ask(f"quit? {why}y {leave}, any other key stays", {"y"}, self._leave)
         else:
             self._leave()
 
     def _busy(self) -> str:
-        """What would be cut short by quitting now, or ''."""
-        mission = self.control.mission
-        if mission is not None:
-            return f"{mission.name} is running"
-        if self.sessions is not None and self.sessions.recording:
+        """What would be cut short by quitting now, or ''. Attached, only the keys held:
+        the daemon carries on with the rest."""
+        telemetry = self.telemetry
+        if self.attached is not None:
+            held = telemetry is not None and telemetry.intent is not None
+            return "the robot is moving" if held else ""
+        if telemetry is not None and telemetry.mission is not None:
+            return f"{telemetry.mission.name} is running"
+        if telemetry is not None and telemetry.recording:
             return "recording"
         if self._moving:
             return "the robot is moving"
         return ""
 
     def _leave(self) -> None:
-        self.note("stopping the robot and leaving")
-        # Stop first: the app takes a while to close its screens after exit().
-        self.control.stop()
+        if self.control is not None:
+            self.note("stopping the robot and leaving")
+            # Stop first: the app takes a while to close its screens after exit().
+            self.control.stop()
         self.exit()
 
     def _navigation_words(self) -> list[str]:
@@ -530,69 +511,30 @@ class GiraffConsole(NavigationCommands, SessionCommands, StalkCommands, KeyGuard
         doors = self.navigator.door_ids()
         return rooms + [f"close {door}" for door in doors] + [f"open {door}" for door in doors]
 
-    def _board_job(self, job: BoardJob) -> None:
-        if self.control.playback is not None:
-            self.note("not sent: playing back, nothing goes to the robot (p returns to live)")
-            return
-
-        def done(result: object) -> None:
-            if isinstance(result, CommandError):
-                self.post_message(StatusNote(f"refused: {result}"))
-            elif isinstance(result, GiraffError):
-                self.post_message(StatusNote(str(result)))
-
-        self.control.submit(job, done)
-
-    def _board_command(self, command: Command) -> None:
-        """Check a command against the limits on the loop's thread, then send it.
-
-        The check runs where the board's settings are known for sure: nothing can change
-        them between the check and the command.
-        """
-        teleop = self.control.teleop
-
-        def job(link):
-            check_command(command, teleop.limits, teleop.board_settings)
-            return link.send(command)
-
-        self._board_job(job)
+    def closed_doors(self) -> frozenset[str]:
+        """The doors shut now, as the robot last said."""
+        if self.route is not None:
+            return frozenset(self.route.closed)
+        return self.navigator.state.closed if self.navigator is not None else frozenset()
 
     # -- the command line ---------------------------------------------------------------
 
     def run_command(self, text: str) -> None:
-        """A console command, or a controller command checked against the limits."""
-        word, _, rest = text.partition(" ")
+        """A console command, a robot's (service/commands.py), or a controller command
+        checked against the limits."""
+        word = text.split(maxsplit=1)[0] if text.strip() else ""
         if word == "help":
             self.action_help()
         elif word == "quit":
             self._quit(ask=False)  # typed in full: asks only while something runs
-        elif word == "stop":
-            self.action_halt()
-        elif word == "undock":
-            if self._live():
-                self._undock()  # typed in full and sent with Enter: that is the confirmation
-        elif word == "speed":
-            try:
-                wanted = float(parse_number(rest))
-            except CommandError:
-                self.note("refused: usage: speed 0.3")
-                return
-            speed = self.control.teleop.set_speed(wanted)
-            self.note(f"driving speed {speed:.2f} m/s")
         elif word in ("fast", "canny", "markers"):
             self.action_processor(word)
-        elif word in SESSION_COMMANDS:
-            self._session_command(word, rest.strip())
-        elif word in ROUTE_COMMANDS:
-            self._route_command(word, rest.strip())
-        elif word in NAVIGATION_COMMANDS:
-            self._navigation_command(word, rest.strip())
-        elif word in STALK_COMMANDS:
-            self._stalk_command(rest.strip())
+        elif word == "take":
+            self.action_take()
         else:
             try:
-                command = parse_command(text)
-            except CommandError as error:
+                request = c.parse(text)
+            except c.Usage as error:
                 self.note(f"refused: {error}")
                 return
-            self._board_command(command)
+            self.order(request if request is not None else c.Send(text))

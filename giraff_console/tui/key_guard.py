@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from textual import events
 from textual.app import App
 
-from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.clock import Clock
 from giraff_console.tui.command_line import CommandLine
 
 # An answer later than this is stale: the operator has moved on, so it is a no.
@@ -38,9 +38,9 @@ class Question:
 
 
 class KeyGuard(App[None]):
-    """The app's key routing; the app sets `control` and `command_line` up."""
+    """The app's key routing; the app sets `clock` and `command_line` up."""
 
-    control: ControlLoop
+    clock: Clock
     command_line: CommandLine
     _question: Question | None = None
     _line_closed_at = -math.inf
@@ -63,7 +63,7 @@ class KeyGuard(App[None]):
             if self.command_line.is_open:
                 text = await self.command_line.take_key(event)
                 if not self.command_line.is_open:
-                    self._line_closed_at = self.control.clock.now()
+                    self._line_closed_at = self.clock.now()
                     self.refresh_bindings()
                 if text:
                     self.run_command(text)
@@ -77,20 +77,20 @@ class KeyGuard(App[None]):
 
     def ask(self, text: str, yes: set[str], then: Callable[[], None]) -> None:
         """Ask `text`; a key in `yes` within ANSWER_WITHIN_S seconds does `then`."""
-        self._question = Question(text, frozenset(yes), self.control.clock.now(), then)
+        self._question = Question(text, frozenset(yes), self.clock.now(), then)
         self.note(text)
         self.notify(text, title="confirm", timeout=ANSWER_WITHIN_S)
 
     def quit_is_hasty(self) -> bool:
         """Whether a quit key came so soon after closing the command line that it may
         be a second Esc meant for the line."""
-        return self.control.clock.now() - self._line_closed_at < HASTY_QUIT_S
+        return self.clock.now() - self._line_closed_at < HASTY_QUIT_S
 
     def _answer(self, key: events.Key) -> None:
         question, self._question = self._question, None
         assert question is not None
         self.clear_notifications()
-        late = self.control.clock.now() - question.asked_at > ANSWER_WITHIN_S
+        late = self.clock.now() - question.asked_at > ANSWER_WITHIN_S
         if lower_case(key).key in question.yes and not late:
             question.then()
         else:

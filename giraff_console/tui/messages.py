@@ -1,4 +1,4 @@
-"""Messages from the control loop's thread to the UI."""
+"""Messages from the robot's threads (the control loop's, the daemon's reader) to the UI."""
 
 from __future__ import annotations
 
@@ -6,8 +6,9 @@ from textual.message import Message
 
 from giraff_console.camera.feed import CameraPicture
 from giraff_console.link import Exchange
-from giraff_console.missions.navigation import NavigationState
 from giraff_console.robot.telemetry import Telemetry
+from giraff_console.service import commands as c
+from giraff_console.service.robot_service import Controls, Reply, RouteShown
 
 
 class TelemetryUpdated(Message):
@@ -51,6 +52,23 @@ class CameraPictureUpdated(Message):
 class NavigationChanged(Message):
     """The route shown on the map, or the doors, changed."""
 
-    def __init__(self, state: NavigationState) -> None:
+    def __init__(self, route: RouteShown) -> None:
         super().__init__()
-        self.state = state
+        self.route = route
+
+
+class ControlsChanged(Message):
+    """Another console took the controls, or let them go."""
+
+    def __init__(self, controls: Controls) -> None:
+        super().__init__()
+        self.controls = controls
+
+
+class Answer(Message):
+    """The robot's answer to a request this console made."""
+
+    def __init__(self, request: c.Request, reply: Reply) -> None:
+        super().__init__()
+        self.request = request
+        self.reply = reply

@@ -27,7 +27,7 @@ class RoomCommands(Provider):
             (f"go {room.id}", f"plan a route to {room.label}")
             for room in sorted(navigator.plan.rooms.values(), key=lambda room: room.label)
         ]
-        closed = navigator.state.closed
+        closed = self._console().closed_doors()
         for door_id in navigator.door_ids():
             verb = "open" if door_id in closed else "close"
             entries.append((f"{verb} {door_id}", f"{verb} the door {door_id} and plan again"))

@@ -253,3 +253,23 @@ def test_looking_for_the_plan_s_markers_alone_finds_the_same_sightings():
             assert np.array_equal(a.corners, b.corners) and a.distance_m == b.distance_m
         found += len(seen)
     assert found >= 6
+
+
+def test_a_hidden_feed_still_hands_frames_to_the_localisation_but_draws_nothing():
+    source = SyntheticCamera(lambda width, height: CAMERA.render(POSE, width, height),
+                             clock=lambda: 99.0)  # fmt: skip
+    pipeline = Pipeline([MarkerDetector(FAMILY, SIZE, synthetic)])
+    pipeline.require("markers")
+    drawn, heard = [], []
+    renderer = HalfBlockRenderer()
+    render = renderer.render
+    renderer.render = lambda *args: drawn.append(1) or render(*args)  # type: ignore[method-assign]
+    feed = CameraFeed(source, (800, 600), pipeline, renderer, lambda picture: None)
+    feed.shown = False
+    assert not feed.wanted  # nothing needs a frame: the camera's thread takes none
+    feed.listeners.append(lambda captured, data: heard.append(data["marker_ids"]))
+    assert feed.wanted
+    assert feed.picture() is None
+    assert heard == [[7]] and drawn == []
+    feed.shown = True
+    assert feed.picture().markers == (7,) and drawn == [1]

@@ -9,6 +9,7 @@ from textual import events
 
 from giraff_console.cli import camera_feed, find_the_robot
 from giraff_console.link import BoardLink
+from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
@@ -18,6 +19,7 @@ from giraff_console.recording.session import RecordingSetup
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.teleop import Teleop
+from giraff_console.service.robot_service import RobotService
 from giraff_console.sim.drive import TruePose
 from giraff_console.sim_site import SimulatedSite
 from giraff_console.tui.app import GiraffConsole
@@ -72,18 +74,21 @@ class Rig:
             # Frames are stamped on the virtual clock, like the log, so that they line up.
             self.camera.source.clock = self.clock.now
         self.sessions = self.routes = None
+        drives = DriveSetup.on_loop(self.control, self.navigator)
         if recordings is not None:
             setup = RecordingSetup(port="giraff-sim://?clock=virtual")
             self.sessions = Sessions(self.control, self.camera, recordings, setup, print)
             routes = recordings.parent / "routes"
-            self.routes = RouteBook(self.control, self.sessions, routes, print)
+            self.routes = RouteBook(self.control, self.sessions, routes, print, drives)
+        self.robot = RobotService(self.control, drives, routes=self.routes,
+                                  sessions=self.sessions)  # fmt: skip
         self.app = GiraffConsole(
-            self.control,
+            self.robot,
+            clock=self.clock,
+            control=self.control,
             navigator=self.navigator,
             simulator=True,
             camera=self.camera,
-            sessions=self.sessions,
-            routes=self.routes,
             run_loop=False,
             timestamp=lambda: f"{self.clock.now():.2f}s",
             cursor_blink=False,

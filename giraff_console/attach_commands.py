@@ -1,0 +1,201 @@
+"""The commands that talk to a running daemon: `status`, `stop`, and `go` and `patrol`
+when one runs (issue 15).
+
+Each attaches as a console that does not ask for the controls: `status` and `stop`
+never need them (anyone may stop the robot), and `go` and `patrol` take them only if
+nobody holds them, like any console that moves the robot (service/robot_service.py).
+A mission started here belongs to the daemon: if this command's terminal goes (an SSH
+session dropped), the mission carries on; Ctrl-C stops it, as it does `go` on its own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import queue
+import sys
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+from giraff_console.data_folders import patrol_runs
+from giraff_console.missions.patrol_log import list_runs
+from giraff_console.robot.loop_events import MissionChanged, Note
+from giraff_console.robot.telemetry import Telemetry
+from giraff_console.service import commands as c
+from giraff_console.service.remote import DaemonGone, RemoteRobot, console_name
+from giraff_console.service.robot_service import ServiceEvent
+from giraff_console.service.runtime_folder import socket_path
+from giraff_console.service.transport import NoDaemon, TransportError
+
+EXIT_DONE, EXIT_FAILED, EXIT_NO_DAEMON = 0, 1, 3
+# Seconds between lines of progress when standard error is not a terminal.
+PROGRESS_EVERY_S = 5.0
+
+
+def add_daemon_parsers(commands: argparse._SubParsersAction) -> None:
+    status = commands.add_parser(
+        "status",
+        help="what the robot's daemon is doing",
+        description="Ask the running daemon (giraff-console serve) what runs, who holds "
+        "the controls, which consoles are attached, and how the last mission ended. "
+        "Exits 3 when no daemon runs.",
+    )
+    status.add_argument("--json", action="store_true", help="print it as JSON")
+    stop = commands.add_parser(
+        "stop",
+        help="stop the robot now (and, with --daemon, the daemon)",
+        description="Stop the robot the daemon runs: let go of the keys, end the mission, "
+        "stop the wheels. Anyone may, whoever holds the controls. Exits 3 when no daemon "
+        "runs.",
+    )
+    stop.add_argument(
+        "--daemon", action="store_true",
+        help="then end the daemon too (as systemctl --user stop does)",
+    )  # fmt: skip
+    patrols = commands.add_parser(
+        "patrols",
+        help="the log of patrol runs, newest first",
+        description=f"List the patrol runs logged in {patrol_runs()}, newest first: who "
+        "started each (a console or the schedule), when, how many stops it reached and why "
+        "it ended; a scheduled slot that was skipped, and why. A run without an end is "
+        "`running` while the daemon has it under way, else `unfinished`.",
+    )
+    patrols.add_argument("--json", action="store_true", help="one JSON object a line")
+    patrols.add_argument("--last", type=int, metavar="N", help="only the N newest")
+
+
+def daemon_robot(kind: str, take: bool = False) -> RemoteRobot | None:
+    """The running daemon's robot, attached as a console of `kind` that asks for the
+    controls only if `take`; None when no daemon runs. TransportError for a daemon that
+    is there but cannot be used."""
+    try:
+        return RemoteRobot(socket_path(), console_name(kind), take=take)
+    except NoDaemon:
+        return None
+    except DaemonGone as error:
+        raise TransportError(str(error)) from None
+
+
+def run_status(args: argparse.Namespace) -> int:
+    robot = _attach("status")
+    if robot is None:
+        return EXIT_NO_DAEMON
+    robot.close()
+    situation = robot.welcome.situation
+    # The console asking is attached too; it is not one of those it reports.
+    consoles = [name for name in situation.consoles if name != robot.console]
+    if args.json:
+        data = asdict(situation) | {"consoles": consoles, "socket": str(socket_path())}
+        print(json.dumps(data))
+        return EXIT_DONE
+    last = situation.last_mission
+    print(f"mission: {situation.mission or 'none'}")
+    print(f"controls: {situation.holder or 'free'}; consoles: {', '.join(consoles) or 'none'}")
+    print(f"last mission: {f'{last.name}: {last.why}' if last is not None else 'none'}")
+    if situation.recording or situation.playing:
+        print("recording" if situation.recording else "playing back")
+    return EXIT_DONE
+
+
+def run_stop(args: argparse.Namespace) -> int:
+    robot = _attach("stop")
+    if robot is None:
+        return EXIT_NO_DAEMON
+    try:
+        reply = robot.execute(c.Shutdown() if args.daemon else c.Halt())
+    finally:
+        robot.close()
+    print(f"giraff-console: {reply.text or 'stopped'}", file=sys.stderr)
+    return EXIT_DONE if reply.ok else EXIT_FAILED
+
+
+def run_patrols(args: argparse.Namespace) -> int:
+    folder = patrol_runs()
+    running = None
+    robot = daemon_robot("patrols") if socket_path().exists() else None
+    if robot is not None:
+        robot.close()
+        mission = robot.welcome.situation.mission
+        unfinished = [run for run in list_runs(folder) if run.state == "unfinished"]
+        running = next((Path(run.file) for run in unfinished if run.patrol == mission), None)
+    runs = list_runs(folder, args.last, running)
+    if args.json:
+        for run in runs:
+            print(json.dumps(run.to_json()))
+        return EXIT_DONE
+    if not runs:
+        print(f"no patrol runs logged in {folder}")
+    for run in runs:
+        data = run.to_json()
+        print(
+            f"{data['started'] or '?'}  {data['patrol']}  by {data['by'] or '?'}: "
+            f"{data['state']}, {data['stops']} stops ({data['arrived']}); {data['why']}"
+        )
+    return EXIT_DONE
+
+
+def run_mission(robot: RemoteRobot, request: c.Go | c.RunPatrol, as_json: bool) -> int:
+    """Start `request` on the daemon and follow it to its end: its notes and progress on
+    standard error, how it ended on standard output; 0 when it was done."""
+    events: queue.Queue[ServiceEvent] = queue.Queue()
+    robot.subscribe(events.put)
+    try:
+        reply = robot.execute(request)
+        if not reply.ok:
+            print(f"giraff-console: {reply.text}", file=sys.stderr)
+            return EXIT_FAILED
+        if reply.text:
+            print(f"giraff-console: {reply.text}", file=sys.stderr)
+        ended = _follow(events, robot)
+    except KeyboardInterrupt:
+        robot.execute(c.StopMission(), timeout=2.0)
+        print("giraff-console: stopped (Ctrl-C)", file=sys.stderr)
+        return 130
+    finally:
+        robot.close()
+    if ended is None:
+        print("giraff-console: the daemon has gone before the mission ended", file=sys.stderr)
+        return EXIT_FAILED
+    if as_json:
+        print(json.dumps({"mission": ended.name, "why": ended.why}))
+    else:
+        print(f"{ended.name}: {ended.why}")
+    return EXIT_DONE if ended.why == "done" else EXIT_FAILED
+
+
+def _follow(events: queue.Queue[ServiceEvent], robot: RemoteRobot) -> MissionChanged | None:
+    """The end of the mission that starts next, or None if the daemon goes first."""
+    mine: str | None = None
+    shown_at = time.monotonic()
+    while robot.gone is None:
+        try:
+            event = events.get(timeout=1.0)
+        except queue.Empty:
+            continue
+        if isinstance(event, Note):
+            print(f"giraff-console: {event.text}", file=sys.stderr)
+        elif isinstance(event, MissionChanged):
+            if event.running and mine is None:
+                mine = event.name
+            elif not event.running and (mine is None or event.name == mine):
+                return event
+        elif (isinstance(event, Telemetry) and event.mission is not None
+              and time.monotonic() - shown_at >= PROGRESS_EVERY_S):  # fmt: skip
+            shown_at = time.monotonic()
+            progress = event.mission
+            left = f", {progress.left_m:.1f} m left" if progress.left_m is not None else ""
+            print(f"giraff-console: {progress.name}: {progress.state}{left}", file=sys.stderr)
+    return None
+
+
+def _attach(kind: str) -> RemoteRobot | None:
+    try:
+        robot = daemon_robot(kind)
+    except TransportError as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return None
+    if robot is None:
+        print(f"giraff-console: no daemon runs (no socket at {socket_path()}); "
+              "`giraff-console serve` starts one", file=sys.stderr)  # fmt: skip
+    return robot

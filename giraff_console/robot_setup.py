@@ -1,0 +1,68 @@
+"""The robot's parts as every front end puts them together, written once (issue 15).
+
+The console in its own process, `go`, `patrol` and the daemon all connect to a board
+(a real port, or the one built-in simulator), run the same control loop on the settings
+file's rates and limits, and keep routes and recordings in the same folders. What
+differs between them is only what they add: the console a camera, `go` a progress
+bar, the daemon a socket.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import serial
+
+from giraff_console.clock import Clock
+from giraff_console.data_folders import patrol_runs
+from giraff_console.link import BoardLink
+from giraff_console.missions.drive_setup import DriveSetup
+from giraff_console.missions.route_book import RouteBook
+from giraff_console.missions.sessions import Sessions
+from giraff_console.robot.control_loop import Connect, ControlLoop
+from giraff_console.robot.deadman import Deadman
+from giraff_console.robot.teleop import Teleop
+from giraff_console.settings import Settings
+
+
+def board_connector(port: str | None, settings: Settings,
+                    simulator: serial.SerialBase | None) -> Connect:  # fmt: skip
+    """How the control loop (re)connects: a real port by name, or the one simulator."""
+    if port is not None:
+        return lambda: BoardLink.open(
+            port, timeout=settings.timeout, power_line=settings.power_line
+        )
+    assert simulator is not None
+
+    def connect() -> BoardLink:
+        if not simulator.is_open:
+            simulator.open()
+        # On the simulator's clock: a virtual one, under --sim-speed, is the loop's too.
+        link = BoardLink(simulator, timeout=settings.timeout, clock=simulator.clock)
+        link.handshake(power_line="none")
+        return link
+
+    return connect
+
+
+def control_loop(connect: Connect, settings: Settings, clock: Clock) -> ControlLoop:
+    """The control loop on the settings' rate, teleop limits, deadman and board."""
+    return ControlLoop(
+        connect,
+        teleop=Teleop(settings.teleop.limits()),
+        deadman=Deadman(clock, settings.teleop.grace, settings.teleop.repeat_timeout),
+        rate_hz=settings.control_rate,
+        clock=clock,
+        wheel_base=settings.board.wheel_base,
+        odometers=settings.board.odometers,
+        twm=settings.board.twm,
+    )
+
+
+def route_book(control: ControlLoop, sessions: Sessions, routes: Path, drives: DriveSetup,
+               settings: Settings) -> RouteBook:  # fmt: skip
+    """The routes and patrols in `routes`, their runs logged where `patrols` lists them,
+    what they say told to whoever listens to the loop."""
+    return RouteBook(control, sessions, routes, control.note, drives,
+                     settings.battery.levels(), settings.teleop.undock_distance,
+                     runs=patrol_runs())  # fmt: skip

@@ -1,0 +1,127 @@
+"""`giraff-console serve`: the daemon that owns the robot (issue 15).
+
+It sets the robot up as `go` and `patrol` do (headless.py: the floor plan, the board or
+the simulator in the plan's building, the control loop, the markers), adds the route
+book and the recordings, and serves them as one RobotService on a Unix socket in the
+user's runtime folder. Consoles attach and leave; the robot, its missions and its
+patrols stay with the daemon, so closing an SSH session no longer ends the night's
+patrol.
+
+SIGTERM and SIGINT stop the robot from the loop's own thread before the daemon ends
+(robot/last_stop.py), as they do for the console. SIGHUP does not: the daemon has no
+terminal, and one started by hand from an SSH session is there to outlive it. Its notes
+go to standard error, where systemd's journal keeps them (docs/daemon.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+from pathlib import Path
+
+from giraff_console.data_folders import (
+    data_folder,
+    default_recordings,
+    default_routes,
+)
+from giraff_console.headless import (
+    EXIT_USAGE,
+    HeadlessRobot,
+    UsageError,
+    add_folder_options,
+    add_robot_options,
+    fail,
+)
+from giraff_console.missions.sessions import Sessions
+from giraff_console.recording.session import RecordingSetup
+from giraff_console.robot.last_stop import SIGNALS, LastStop
+from giraff_console.robot_setup import route_book
+from giraff_console.service.daemon import Daemon
+from giraff_console.service.patrol_schedule import PatrolSchedule
+from giraff_console.service.robot_service import RobotService
+from giraff_console.service.runtime_folder import runtime_folder, socket_path
+from giraff_console.service.transport import TransportError
+from giraff_console.service.virtual_port import VirtualPort
+from giraff_console.settings import Settings
+
+
+def add_serve_parser(commands: argparse._SubParsersAction, example: Path) -> None:
+    serve = commands.add_parser(
+        "serve",
+        help="run the robot as a daemon that consoles attach to",
+        description="Own the board and run the control loop, missions, patrols and "
+        "recordings as a daemon. Consoles attach over a Unix socket in the runtime folder "
+        "($XDG_RUNTIME_DIR/giraff-console/robot.sock, owner only; nothing listens on the "
+        "network): `giraff-console` with a daemon running attaches to it, and `status`, "
+        "`stop`, `go` and `patrol` ask it. A patrol started from a console carries on "
+        "when the console's SSH session ends. SIGTERM stops the robot and the daemon.",
+    )
+    add_robot_options(serve, example, json=False)
+    serve.add_argument(
+        "--virtual-port", action="store_true",
+        help="also give another program a pseudo-terminal that speaks the board's protocol "
+        "(its path is printed): it may read while a mission runs, but not move the robot "
+        "(§4.5)",
+    )  # fmt: skip
+    add_folder_options(serve, after_command=True)
+
+
+def run_serve(args: argparse.Namespace, settings: Settings, port: str | None,
+              example: Path) -> int:  # fmt: skip
+    """Serve the robot until a signal ends the daemon."""
+    try:
+        robot = HeadlessRobot(args, settings, port, example, notes_vital=False)
+    except UsageError as error:
+        return fail(str(error), EXIT_USAGE)
+    control = robot.control
+    recordings = data_folder(getattr(args, "recordings", None), settings.recordings,
+                             default_recordings())  # fmt: skip
+    sessions = Sessions(control, None, recordings, RecordingSetup(port=port or "simulator",
+                        camera={}), control.note)  # fmt: skip
+    routes = route_book(control, sessions,
+                        data_folder(getattr(args, "routes", None), settings.routes,
+                                    default_routes()), robot.drives, settings)  # fmt: skip
+    service = RobotService(control, robot.drives, building=robot.site, routes=routes,
+                           sessions=sessions,
+                           undock_distance=settings.teleop.undock_distance)  # fmt: skip
+    try:
+        path = socket_path(runtime_folder())
+        daemon = Daemon(service, path, (args.floorplan or example).resolve(),
+                        simulator=robot.site is not None)  # fmt: skip
+    except TransportError as error:
+        return fail(str(error), EXIT_USAGE)
+    schedule = PatrolSchedule(service, settings.schedule, routes.runs)
+    port_for_others = None
+    if args.virtual_port:
+        try:
+            port_for_others = VirtualPort(control, link_timeout=settings.timeout)
+        except OSError as error:
+            return fail(f"--virtual-port: no pseudo-terminal: {error}", EXIT_USAGE)
+    # Before any thread starts: a signal stops the robot from the loop's own thread,
+    # then the daemon stops taking consoles and ends.
+    signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    last_stop = LastStop(control, leave=lambda why: daemon.stop(),
+                         signals=SIGNALS - {signal.SIGHUP})  # fmt: skip
+    last_stop.install()
+    control.start(stepped=robot.stepped)
+    print(f"giraff-console: serving the robot at {path}", file=sys.stderr, flush=True)
+    if port_for_others is not None:
+        port_for_others.start()
+        # On standard output, alone, for a script to read.
+        print(port_for_others.path, flush=True)
+        print(f"giraff-console: virtual motor port at {port_for_others.path}", file=sys.stderr,
+              flush=True)  # fmt: skip
+    schedule.start()
+    try:
+        daemon.serve_forever()
+        daemon.join(2.0)  # the consoles hear that it ends
+    finally:
+        daemon.stop()
+        schedule.stop()
+        if port_for_others is not None:
+            port_for_others.close()
+        service.close()
+        control.stop()
+        last_stop.uninstall()
+    return 128 + last_stop.signalled if last_stop.signalled is not None else 0

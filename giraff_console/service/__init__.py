@@ -1,0 +1,1 @@
+"""The robot as one typed surface: commands in, one event stream out (issue 15)."""

@@ -1,0 +1,435 @@
+"""What a front end may ask of the robot: commands as frozen dataclasses (issue 15).
+
+A front end hands the robot data, never a function to run (design.md), so that the same
+request works in-process and from another process, across the daemon's socket. The
+table `TYPED` says, once, how each command is typed on a command line, what it does
+for the help screen, and how its text becomes the command; the console's command line,
+its help screen and the CLI's `giraff-console do …` all read it.
+
+`moves` says whether a command can move the robot: only the console holding the
+controls may send one. A stop of any kind is open to everyone.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import ClassVar
+
+from giraff_console.protocol import CommandError, parse_number
+from giraff_console.robot.deadman import Intent
+
+
+class Usage(ValueError):
+    """Text that does not make a command; says how to type it."""
+
+
+@dataclass(frozen=True)
+class Request:
+    """A command to the robot service."""
+
+    # Whether it may move the robot (the controls' holder alone may send it).
+    moves: ClassVar[bool] = False
+    # Whether it is answered at once: a key must not wait behind a route being planned.
+    quick: ClassVar[bool] = False
+
+
+# -- driving by hand ------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Press(Request):
+    """An arrow key, pressed or repeated: teleop's deadman drives while they come."""
+
+    intent: Intent
+    moves: ClassVar[bool] = True
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Halt(Request):
+    """Stop now: let go of the keys, end the mission, stop the wheels. Anyone may."""
+
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Speed(Request):
+    """Teleop's driving speed: `to` m/s, or `step` 0.05 m/s steps from where it is."""
+
+    to: float | None = None
+    step: int = 0
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Send(Request):
+    """A controller command as typed (`set v 0.3`, `get bulk_data`), checked against the
+    limits on the loop's thread before it goes."""
+
+    text: str
+    moves: ClassVar[bool] = True
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Stalk(Request):
+    """The head's height stalk: `to` 0..1000, or `step` steps from its last height."""
+
+    to: int | None = None
+    step: int = 0
+    moves: ClassVar[bool] = True
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Poll(Request):
+    """The automatic odometry poll on or off (None: the other way)."""
+
+    on: bool | None = None
+    quick: ClassVar[bool] = True
+
+
+# -- missions -------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Go(Request):
+    """Plan a route to a room of the floor plan (or the dock) and drive it."""
+
+    room: str
+    moves: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class RunPatrol(Request):
+    """Run the patrol `name` from the routes folder."""
+
+    name: str
+    moves: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Follow(Request):
+    """Drive a taught route's path closed-loop, from its start."""
+
+    name: str
+    moves: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Replay(Request):
+    """Drive a taught route again, open-loop, with its original timing."""
+
+    name: str
+    moves: ClassVar[bool] = True
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Undock(Request):
+    """Back out of the dock and turn round, in steps the console streams."""
+
+    moves: ClassVar[bool] = True
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Pause(Request):
+    """Hold the mission (or the playback) where it is."""
+
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Resume(Request):
+    """Go on with the mission (or the playback)."""
+
+    moves: ClassVar[bool] = True
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class StopMission(Request):
+    """End the mission; the robot stops where it is."""
+
+    quick: ClassVar[bool] = True
+
+
+# -- the building ---------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Door(Request):
+    """Shut or open a door of the plan (and of the simulated building); routes go round."""
+
+    door: str
+    open: bool
+
+
+@dataclass(frozen=True)
+class Block(Request):
+    """Simulator: put a box in the way at x, y metres, or take it away."""
+
+    x: float
+    y: float
+    on: bool = True
+    quick: ClassVar[bool] = True
+
+
+# -- sessions and routes --------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Record(Request):
+    """Start (or, `on` False, stop) recording a session."""
+
+    on: bool = True
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Play(Request):
+    """Play a session back (the newest without `session`), or stop the playback."""
+
+    session: Path | None = None
+    stop: bool = False
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Seek(Request):
+    """Move the playback to `to` seconds in, or `by` seconds on (negative: back)."""
+
+    to: float | None = None
+    by: float = 0.0
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Rate(Request):
+    """Play back at `to` times real speed, or `times` the present speed."""
+
+    to: float | None = None
+    times: float = 1.0
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Step(Request):
+    """Pause the playback and step to its next line."""
+
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Teach(Request):
+    """Start teaching route `name`: the operator drives, `mark` names places."""
+
+    name: str
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Mark(Request):
+    """Name the place where the robot stands, on the route being taught."""
+
+    place: str
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Done(Request):
+    """Finish teaching and save the route."""
+
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Routes(Request):
+    """List the taught routes and the patrols."""
+
+    quick: ClassVar[bool] = True
+
+
+# -- who drives -----------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class TakeControls(Request):
+    """Take the controls from whoever holds them (the console asks its operator first)."""
+
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Heartbeat(Request):
+    """A console is still there: the holder's keep the controls theirs."""
+
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Status(Request):
+    """What runs: the mission, who holds the controls, the last mission's end."""
+
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Shutdown(Request):
+    """Stop the robot, then end the daemon (`giraff-console stop --daemon`)."""
+
+    quick: ClassVar[bool] = True
+
+
+REQUESTS: tuple[type[Request], ...] = (
+    Press, Halt, Speed, Send, Stalk, Poll, Go, RunPatrol, Follow, Replay, Undock,
+    Pause, Resume, StopMission, Door, Block, Record, Play, Seek, Rate, Step, Teach, Mark,
+    Done, Routes, TakeControls, Heartbeat, Status, Shutdown,
+)  # fmt: skip
+
+
+# -- typed ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Typed:
+    """One command as it is typed: its first word, how to type it, what it does, and
+    how the rest of the line becomes the command (Usage if it does not)."""
+
+    word: str
+    usage: str
+    help: str
+    parse: Callable[[str], Request]
+
+
+def _name(what: str) -> Callable[[str], str]:
+    def name(rest: str) -> str:
+        if not rest:
+            raise Usage(f"usage: {what}")
+        return rest
+
+    return name
+
+
+def _number(rest: str, usage: str) -> float:
+    try:
+        value = float(parse_number(rest))
+    except CommandError:
+        raise Usage(f"usage: {usage}") from None
+    if not math.isfinite(value):
+        raise Usage(f"usage: {usage}")
+    return value
+
+
+def _point(rest: str, usage: str) -> tuple[float, float]:
+    parts = rest.split()
+    if len(parts) != 2:
+        raise Usage(f"usage: {usage} (metres, map frame)")
+    return _number(parts[0], usage), _number(parts[1], usage)
+
+
+def _stalk(rest: str) -> Stalk:
+    usage = "stalk up, stalk down or stalk N (0 to 1000)"
+    if rest in ("up", "down"):
+        return Stalk(step=1 if rest == "up" else -1)
+    value = _number(rest, usage)
+    if value != int(value) or not 0 <= value <= 1000:
+        raise Usage(f"usage: {usage}")
+    return Stalk(to=int(value))
+
+
+def _record(rest: str) -> Record:
+    if rest not in ("", "stop"):
+        raise Usage("usage: record, or record stop")
+    return Record(on=rest != "stop")
+
+
+def _play(rest: str) -> Play:
+    if rest == "stop":
+        return Play(stop=True)
+    try:
+        return Play(session=Path(rest).expanduser() if rest else None)
+    except RuntimeError as error:  # ~nosuchuser
+        raise Usage(f"not playing: {error}") from None
+
+
+def _patrol(rest: str) -> Request:
+    verbs: dict[str, Request] = {"pause": Pause(), "resume": Resume(), "stop": StopMission()}
+    return verbs.get(rest) or RunPatrol(_name("patrol NAME, or patrol pause|resume|stop")(rest))
+
+
+def _bare(request: Request, word: str) -> Callable[[str], Request]:
+    def parse(rest: str) -> Request:
+        if rest:
+            raise Usage(f"usage: {word} (nothing after it)")
+        return request
+
+    return parse
+
+
+TYPED: tuple[Typed, ...] = (
+    Typed("stop", "stop", "let go of the keys and stop the robot now", _bare(Halt(), "stop")),
+    Typed("speed", "speed X", "set the driving speed in m/s, within the configured cap",
+          lambda rest: Speed(to=_number(rest, "speed 0.3"))),
+    Typed("stalk", "stalk up|down|N", "raise or lower the head's stalk a step, or set it "
+          "0-1000 (g, v)", _stalk),
+    Typed("poll", "poll [on|off]", "the automatic odometry poll on or off (also a)",
+          lambda rest: Poll(on={"on": True, "off": False}.get(rest))),
+    Typed("record", "record, record stop", "record a session into recordings/ (also r)",
+          _record),
+    Typed("play", "play [DIR], play stop", "play the newest session, or DIR, back; stop it "
+          "(also p)", _play),
+    Typed("pause", "pause, resume", "hold the robot where it is on its way, and go on (also "
+          "playbacks)", _bare(Pause(), "pause")),
+    Typed("resume", "resume", "go on after a pause", _bare(Resume(), "resume")),
+    Typed("seek", "seek S", "move the playback to S seconds in",
+          lambda rest: Seek(to=_number(rest, "seek 12.5"))),
+    Typed("rate", "rate X", "play back at X times real speed, 0.25 to 16",
+          lambda rest: Rate(to=_number(rest, "rate 4"))),
+    Typed("teach", "teach NAME", "teach a route by driving it; `mark PLACE` names places",
+          lambda rest: Teach(_name("teach NAME")(rest))),
+    Typed("mark", "mark PLACE", "name the place where the robot stands on the route taught",
+          lambda rest: Mark(_name("mark PLACE")(rest))),
+    Typed("done", "done", "save the route being taught", _bare(Done(), "done")),
+    Typed("routes", "routes", "list the taught routes and the patrols", _bare(Routes(), "routes")),
+    Typed("replay-route", "replay-route NAME", "drive a taught route again, open-loop (keys "
+          "or Space stop it)", lambda rest: Replay(_name("replay-route NAME")(rest))),
+    Typed("follow-route", "follow-route NAME", "drive a taught route's path closed-loop, like "
+          "go (from its start)", lambda rest: Follow(_name("follow-route NAME")(rest))),
+    Typed("patrol", "patrol NAME, patrol pause|resume|stop", "run routes/NAME.patrol.yaml; "
+          "hold or end it", _patrol),
+    Typed("undock", "undock", "back out of the dock and turn round (also u, twice)",
+          _bare(Undock(), "undock")),
+    Typed("go", "go ROOM", "drive to ROOM: the route is planned, shown on the map and driven",
+          lambda rest: Go(_name("go ROOM")(rest))),
+    Typed("close", "close DOOR, open DOOR", "shut or open a door (in the simulator too); "
+          "routes go round", lambda rest: Door(_name("close DOOR")(rest), open=False)),
+    Typed("open", "open DOOR", "open a door again", lambda rest: Door(_name("open DOOR")(rest),
+                                                                        open=True)),
+    Typed("block", "block X Y, unblock X Y", "simulator: put a box in the way at X, Y "
+          "metres, or take it", lambda rest: Block(*_point(rest, "block X Y"))),
+    Typed("unblock", "unblock X Y", "simulator: take a box away",
+          lambda rest: Block(*_point(rest, "unblock X Y"), on=False)),
+    Typed("take", "take", "take the controls from the console that holds them (asks first)",
+          _bare(TakeControls(), "take")),
+    Typed("status", "status", "what runs, who holds the controls, how the last mission ended",
+          _bare(Status(), "status")),
+)  # fmt: skip
+BY_WORD = {typed.word: typed for typed in TYPED}
+# What the help screen lists: one line for a pair typed alike (close/open, pause/resume).
+HELP_LINES = [(t.usage, t.help) for t in TYPED if t.word not in ("open", "resume", "unblock")]
+
+
+def parse(text: str) -> Request | None:
+    """The command `text` types, or None when its first word is none of the table's
+    (a controller command, for the caller to send as such); Usage if it is one typed
+    wrongly."""
+    word, _, rest = text.strip().partition(" ")
+    typed = BY_WORD.get(word)
+    if typed is None:
+        return None
+    return typed.parse(rest.strip())

@@ -1,0 +1,266 @@
+"""The daemon's side of the socket: consoles attach to the robot service (issue 15).
+
+`giraff-console serve` owns the board and runs the control loop; consoles (the screen,
+`status`, `go`, `stop` …) attach over a Unix socket in the user's runtime folder, owner
+only, and nothing listens on the network (service/transport.py).
+
+A console says who it is (`Hello`), and is then told everything the service says, and
+answers to its requests, on the one connection. Each console has a thread that reads
+its requests and one that writes to it: the control loop only drops events into the
+console's outbox and never waits on a socket, so that a console that stops reading
+cannot delay a tick (issue 15, item 6). Quick requests (a key, a stop) are answered on
+the reading thread, in the order typed; the others (planning a route, a controller
+command waiting for its reply) in a thread of their own, so a stop is never queued
+behind them.
+
+A console that hangs up, or whose connection dies, is detached: if it held the
+controls its keys are let go of at once, and a mission it started carries on.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import queue
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+
+from giraff_console.link import Exchange
+from giraff_console.link.board_probe import BoardFeatures
+from giraff_console.link.errors import LinkDisconnected, LinkError, LinkTimeout
+from giraff_console.link.motor_state import MotorState
+from giraff_console.protocol.charger import ChargeStatus
+from giraff_console.protocol.errors import (
+    ArgumentError,
+    BoardError,
+    BoardRebootedError,
+    CommandError,
+    GiraffError,
+    ProtocolError,
+    QueueRolloverError,
+    UnknownNameError,
+)
+from giraff_console.robot.battery import Battery
+from giraff_console.robot.deadman import Intent
+from giraff_console.robot.localisation import Estimate
+from giraff_console.robot.loop_events import MissionChanged, Note
+from giraff_console.robot.mission import Progress
+from giraff_console.robot.odometry import Pose
+from giraff_console.robot.replay import PlaybackStatus
+from giraff_console.robot.telemetry import LinkState, Telemetry
+from giraff_console.service import commands as c
+from giraff_console.service import wire
+from giraff_console.service.robot_service import (
+    Controls,
+    Reply,
+    RobotService,
+    RouteShown,
+    ServiceEvent,
+    Situation,
+)
+from giraff_console.service.transport import Connection, ConnectionClosed, accept, listen
+from giraff_console.service.wire import WireError
+
+log = logging.getLogger(__name__)
+
+# Seconds between looks at the exit event while waiting for a console or a request.
+POLL_S = 0.2
+# Events a console may fall behind by before the oldest are dropped: twenty seconds of
+# telemetry. A console that far behind sees the latest, not the history.
+OUTBOX = 400
+# Seconds the first line (Hello) may take to come.
+HELLO_TIMEOUT_S = 5.0
+
+
+@dataclass(frozen=True)
+class Hello:
+    """A console's first message: who it is, and whether it wants the controls."""
+
+    console: str
+    take: bool = True
+
+
+@dataclass(frozen=True)
+class Welcome:
+    """The daemon's first answer: the console's name as the others see it, the floor
+    plan the robot drives by (for the map) and how things stand."""
+
+    console: str
+    floorplan: Path | None
+    simulator: bool
+    controls: Controls
+    situation: Situation
+
+
+@dataclass(frozen=True)
+class Asked:
+    """A request, numbered so that its answer can be told apart."""
+
+    number: int
+    request: c.Request
+
+
+@dataclass(frozen=True)
+class Answered:
+    number: int
+    reply: Reply
+
+
+class Daemon:
+    """Serves `service` on a Unix socket at `path` until `stop`."""
+
+    def __init__(self, service: RobotService, path: Path, floorplan: Path | None, *,
+                 simulator: bool) -> None:  # fmt: skip
+        """`floorplan` and `simulator` are what the consoles are told of the robot."""
+        self.service = service
+        self.path = path
+        self.floorplan = floorplan
+        self.simulator = simulator
+        self._exit = threading.Event()
+        self._listener = listen(path)
+        self._threads: list[threading.Thread] = []
+        self._names: set[str] = set()
+        self._names_lock = threading.Lock()
+
+    def serve_forever(self) -> None:
+        """Take consoles as they come, until `stop`."""
+        try:
+            while not self._exit.is_set():
+                connection = accept(self._listener, POLL_S)
+                if connection is None:
+                    continue
+                thread = threading.Thread(target=self._console, args=(connection,),
+                                          name="daemon-console", daemon=True)  # fmt: skip
+                self._threads = [t for t in self._threads if t.is_alive()] + [thread]
+                thread.start()
+        finally:
+            self._close_listener()
+
+    def stop(self) -> None:
+        """Stop taking consoles and let the attached ones go (each is detached)."""
+        self._exit.set()
+
+    def join(self, timeout: float) -> None:
+        for thread in self._threads:
+            thread.join(timeout)
+
+    def _close_listener(self) -> None:
+        self._listener.close()
+        with contextlib.suppress(FileNotFoundError):
+            self.path.unlink()
+
+    # -- one console --------------------------------------------------------------------
+
+    def _console(self, connection: Connection) -> None:
+        try:
+            hello = connection.receive(HELLO_TIMEOUT_S)
+        except (ConnectionClosed, WireError):
+            connection.close()
+            return
+        if not isinstance(hello, Hello):
+            connection.close()
+            return
+        pid = connection.peer_pid()
+        where = "this process" if pid == os.getpid() else f"pid {pid}"
+        name = self._unique(f"{hello.console} ({where})")
+        outbox: queue.Queue[object] = queue.Queue(OUTBOX)
+        writer = threading.Thread(target=self._write, args=(connection, outbox),
+                                  name="daemon-writer", daemon=True)  # fmt: skip
+
+        def hear(event: ServiceEvent) -> None:
+            # On the loop's thread: never waits (see the module's note).
+            _post(outbox, event)
+
+        service = self.service
+        # The welcome first, with this console among the attached: what the service says
+        # from then on follows it.
+        service.attach(name, take=hello.take)
+        outbox.put(Welcome(name, self.floorplan, self.simulator, service.controls(),
+                           service.situation()))  # fmt: skip
+        service.subscribe(hear)
+        writer.start()
+        try:
+            self._read(connection, name, outbox)
+        finally:
+            service.unsubscribe(hear)
+            service.detach(name)
+            _post(outbox, None)
+            writer.join(2.0)
+            connection.close()
+            with self._names_lock:
+                self._names.discard(name)
+
+    def _read(self, connection: Connection, name: str, outbox: queue.Queue[object]) -> None:
+        """The console's requests, until it hangs up or the daemon stops."""
+        while not self._exit.is_set():
+            try:
+                message = connection.receive(POLL_S)
+            except ConnectionClosed:
+                return
+            except WireError as error:
+                _post(outbox, Answered(-1, Reply(False, f"not understood: {error}")))
+                continue
+            if message is None:
+                continue
+            if not isinstance(message, Asked) or not isinstance(message.request, c.Request):
+                _post(outbox, Answered(-1, Reply(False, "not understood: not a request")))
+                continue
+            if message.request.quick:
+                self._answer(message, name, outbox)
+            else:
+                threading.Thread(target=self._answer, args=(message, name, outbox),
+                                 name="daemon-request", daemon=True).start()  # fmt: skip
+
+    def _answer(self, asked: Asked, name: str, outbox: queue.Queue[object]) -> None:
+        try:
+            reply = self.service.execute(asked.request, name)
+        except Exception as error:  # a bug must not end the console's connection
+            log.exception("request %r failed", asked.request)
+            reply = Reply(False, f"failed: {type(error).__name__}: {error}")
+        _post(outbox, Answered(asked.number, reply))
+        if isinstance(asked.request, c.Shutdown):
+            self.stop()
+
+    def _write(self, connection: Connection, outbox: queue.Queue[object]) -> None:
+        while True:
+            message = outbox.get()
+            if message is None:
+                return
+            try:
+                connection.send(message)
+            except ConnectionClosed:
+                # The reading thread sees the hang-up too and detaches the console.
+                return
+
+    def _unique(self, name: str) -> str:
+        with self._names_lock:
+            unique, n = name, 2
+            while unique in self._names:
+                unique, n = f"{name} #{n}", n + 1
+            self._names.add(unique)
+            return unique
+
+
+def _post(outbox: queue.Queue[object], message: object) -> None:
+    """Into a console's outbox without waiting; a full one loses its oldest first."""
+    while True:
+        try:
+            outbox.put_nowait(message)
+            return
+        except queue.Full:
+            with contextlib.suppress(queue.Empty):
+                outbox.get_nowait()
+
+
+# What crosses the socket: the daemon's own messages, the requests, and everything the
+# robot says (a snapshot and all it holds, an exchange with its errors, notes).
+wire.register(
+    Hello, Welcome, Asked, Answered, Reply, Controls, RouteShown, Situation, *c.REQUESTS,
+    Telemetry, LinkState, MotorState, Pose, Intent, PlaybackStatus, Progress, Battery,
+    ChargeStatus, BoardFeatures, Estimate, Exchange, Note, MissionChanged,
+    GiraffError, CommandError, ProtocolError, BoardRebootedError, BoardError,
+    UnknownNameError, QueueRolloverError, ArgumentError, LinkError, LinkTimeout,
+    LinkDisconnected,
+)  # fmt: skip

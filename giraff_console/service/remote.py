@@ -1,0 +1,170 @@
+"""A console's side of the socket: the robot service of a running daemon (issue 15).
+
+`RemoteRobot` offers what the in-process RobotService offers a front end, `execute`
+and `subscribe`, across the daemon's socket, so that the screen and the commands work
+the same on either. A reading thread hands each event to the listeners and each answer
+to the request waiting for it; a heartbeat tells the daemon the console is still there
+between keys. When the daemon goes, the listeners are told so in a note, and every
+request is answered "the daemon has gone" rather than waited on.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+import threading
+from pathlib import Path
+
+from giraff_console.robot.loop_events import Note
+from giraff_console.service import commands as c
+from giraff_console.service.daemon import Answered, Asked, Hello, Welcome
+from giraff_console.service.robot_service import Answered as Callback
+from giraff_console.service.robot_service import Reply, ServiceEvent, ServiceListener
+from giraff_console.service.transport import Connection, ConnectionClosed, connect
+from giraff_console.service.wire import WireError
+
+# Seconds to wait for the daemon's welcome, and for the answer to a request: planning a
+# route on a large plan takes a few hundred milliseconds, a controller command up to 3 s.
+WELCOME_TIMEOUT_S = 5.0
+ANSWER_TIMEOUT_S = 10.0
+# Seconds between heartbeats while nothing else is sent.
+HEARTBEAT_S = 0.5
+
+
+class DaemonGone(Exception):
+    """The daemon did not answer as a daemon should (or is not there)."""
+
+
+class RemoteRobot:
+    """The daemon's robot, attached as `console`; `take` asks for the controls if free."""
+
+    def __init__(self, path: Path, console: str, *, take: bool = True) -> None:
+        self._connection: Connection = connect(path)
+        self._listeners: tuple[ServiceListener, ...] = ()
+        self._lock = threading.Lock()
+        self._waiting: dict[int, Callback] = {}
+        self._numbers = itertools.count(1)
+        self._gone: str | None = None
+        self._exit = threading.Event()
+        try:
+            self._connection.send(Hello(console, take))
+            welcome = self._connection.receive(WELCOME_TIMEOUT_S)
+        except (ConnectionClosed, WireError) as error:
+            self._connection.close()
+            raise DaemonGone(f"the daemon at {path} did not welcome us: {error}") from None
+        if not isinstance(welcome, Welcome):
+            self._connection.close()
+            raise DaemonGone(f"the daemon at {path} did not welcome us")
+        self.welcome = welcome
+        self.console = welcome.console
+        self._reader = threading.Thread(target=self._read, name="remote-reader", daemon=True)
+        self._heart = threading.Thread(target=self._beat, name="remote-heartbeat", daemon=True)
+        self._reader.start()
+        self._heart.start()
+
+    def subscribe(self, listener: ServiceListener, *, vital: bool = False) -> None:
+        """Hear the daemon's events, on the reading thread. `vital` is the in-process
+        service's (a failing screen stops the robot); here, a screen that fails hangs up,
+        which lets go of the keys (the daemon's deadman)."""
+        with self._lock:
+            self._listeners += (listener,)
+
+    def unsubscribe(self, listener: ServiceListener) -> None:
+        with self._lock:
+            self._listeners = tuple(other for other in self._listeners if other != listener)
+
+    def post(self, request: c.Request, answered: Callback = lambda reply: None) -> None:
+        """Ask the daemon without waiting: requests go in the order posted, and the
+        daemon answers keys and stops at once, in that order; `answered` gets the reply
+        on the reading thread."""
+        if self._gone is not None:
+            answered(Reply(False, self._gone))
+            return
+        number = next(self._numbers)
+        with self._lock:
+            self._waiting[number] = answered
+        try:
+            self._connection.send(Asked(number, request))
+        except ConnectionClosed as error:
+            self._hung_up(f"the daemon has gone ({error})")
+
+    def execute(self, request: c.Request, timeout: float = ANSWER_TIMEOUT_S) -> Reply:
+        """Ask the daemon and wait for its answer, at most `timeout` seconds."""
+        done = threading.Event()
+        replies: list[Reply] = []
+
+        def answered(reply: Reply) -> None:
+            replies.append(reply)
+            done.set()
+
+        self.post(request, answered)
+        if not done.wait(timeout):
+            return Reply(False, self._gone or f"no answer from the daemon in {timeout:g} s")
+        return replies[0]
+
+    def close(self) -> None:
+        """Hang up: the daemon lets go of the keys this console held."""
+        self._exit.set()
+        self._connection.close()
+        for thread in (self._reader, self._heart):
+            if thread is not threading.current_thread():
+                thread.join(2.0)
+
+    @property
+    def gone(self) -> str | None:
+        """Why the daemon is no longer there, or None while it is."""
+        return self._gone
+
+    def _read(self) -> None:
+        while not self._exit.is_set():
+            try:
+                message = self._connection.receive(0.2)
+            except ConnectionClosed:
+                self._hung_up("the daemon has gone: the robot is stopped if it was driving")
+                return
+            except WireError:
+                continue  # one line garbled; the next may be whole
+            if isinstance(message, Answered):
+                with self._lock:
+                    answered = self._waiting.pop(message.number, None)
+                if answered is not None:
+                    answered(message.reply)
+            elif message is not None:
+                self._tell(message)  # type: ignore[arg-type]
+
+    def _tell(self, event: ServiceEvent) -> None:
+        for listener in self._listeners:
+            listener(event)
+
+    def _hung_up(self, why: str) -> None:
+        if self._gone is not None or self._exit.is_set():
+            return
+        self._gone = why
+        with self._lock:
+            waiting, self._waiting = self._waiting, {}
+        for answered in waiting.values():
+            answered(Reply(False, why))
+        self._tell(Note(why))
+
+    def _beat(self) -> None:
+        while not self._exit.wait(HEARTBEAT_S):
+            if self._gone is not None:
+                return
+            try:
+                self._connection.send(Asked(0, c.Heartbeat()))
+            except ConnectionClosed:
+                return
+
+
+def console_name(kind: str) -> str:
+    """How other consoles see this one: what it is and where it runs (the SSH client's
+    address, or the terminal)."""
+    where = os.environ.get("SSH_CLIENT", "").split(" ")[0] or _terminal()
+    return f"{kind} {where}".strip()
+
+
+def _terminal() -> str:
+    try:
+        return os.ttyname(0).removeprefix("/dev/")
+    except OSError:
+        return ""

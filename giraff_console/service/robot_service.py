@@ -1,0 +1,547 @@
+"""The robot as one service: requests in, one stream of events out (issue 15).
+
+Whoever runs the control loop (the console on its own, or the daemon `serve`) puts the
+robot's parts together once and wraps them in a RobotService; the front ends then only
+`execute` requests (service/commands.py) and listen. Every request is answered with a
+Reply for whoever asked; what everyone should see (notes, telemetry, missions starting
+and ending, who holds the controls, the route on the map) goes out as events.
+
+Who may drive (issue 15, item 3): several consoles may be attached, and one holds the
+controls; a request that can move the robot from another is refused, but anyone may
+stop it. A console that hangs up while holding the controls lets go of the keys at once
+(the deadman would within its repeat timeout anyway); a mission it started carries on.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Protocol, TypeAlias
+
+from giraff_console.link import BoardLink
+from giraff_console.missions.drive_setup import DriveSetup
+from giraff_console.missions.navigation import NavigationState
+from giraff_console.missions.route_book import RouteBook
+from giraff_console.missions.sessions import Sessions
+from giraff_console.planning.room_graph import PlanningError
+from giraff_console.protocol import CommandError, GiraffError, parse_command
+from giraff_console.recording.playback import Playback
+from giraff_console.robot.command_guard import check_command
+from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.robot.loop_events import LoopEvent, MissionChanged
+from giraff_console.robot.safety import stop_robot
+from giraff_console.robot.stalk import head_height, stepped
+from giraff_console.robot.telemetry import Telemetry
+from giraff_console.service import commands as c
+
+# The console that runs the robot in its own process: it holds the controls alone.
+HERE = "this console"
+
+
+@dataclass(frozen=True)
+class Reply:
+    """The answer to one request, for whoever asked: done or refused, and what to say."""
+
+    ok: bool
+    text: str = ""
+    lines: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Controls:
+    """Who holds the controls, and who else is attached to watch."""
+
+    holder: str | None
+    consoles: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class RouteShown:
+    """What the map shows of navigation: the goal, the route, the shut doors, and what
+    the range finder has found in the way (the map frame)."""
+
+    goal: str | None
+    path: tuple[tuple[float, float], ...]
+    closed: tuple[str, ...]
+    obstacles: tuple[tuple[float, float], ...]
+
+    @classmethod
+    def of(cls, state: NavigationState) -> RouteShown:
+        path = tuple(state.planned.path) if state.planned is not None else ()
+        return cls(state.goal, path, tuple(sorted(state.closed)), state.obstacles)
+
+
+@dataclass(frozen=True)
+class Situation:
+    """The answer to `status`: what runs, who drives, how the last mission ended."""
+
+    mission: str | None
+    holder: str | None
+    consoles: tuple[str, ...]
+    last_mission: MissionChanged | None
+    recording: bool
+    playing: bool
+
+
+ServiceEvent: TypeAlias = LoopEvent | Controls | RouteShown
+ServiceListener: TypeAlias = Callable[[ServiceEvent], None]
+Answered: TypeAlias = Callable[[Reply], None]
+
+
+class Robot(Protocol):
+    """What a front end holds: the robot service in its own process (RobotService), or
+    a daemon's across its socket (service/remote.py)."""
+
+    def post(self, request: c.Request, answered: Answered) -> None:
+        """Ask, in order; `answered` gets the reply (on another thread, perhaps)."""
+
+    def subscribe(self, listener: ServiceListener, *, vital: bool = False) -> None: ...
+    def unsubscribe(self, listener: ServiceListener) -> None: ...
+    def close(self) -> None: ...
+
+
+class Building(Protocol):
+    """The simulated building: its doors and the boxes put in the robot's way."""
+
+    def close_door(self, door_id: str) -> None: ...
+    def open_door(self, door_id: str) -> None: ...
+    def block(self, x: float, y: float) -> str: ...
+    def unblock(self, x: float, y: float) -> list[str]: ...
+
+
+class RobotService:
+    """The robot's parts behind one surface; all methods are safe from any thread."""
+
+    def __init__(self, control: ControlLoop, drives: DriveSetup, *,
+                 building: Building | None = None, routes: RouteBook | None = None,
+                 sessions: Sessions | None = None,
+                 undock_distance: float = 0.3) -> None:  # fmt: skip
+        self.control = control
+        self.drives = drives
+        self.navigator = drives.navigator
+        self.building = building
+        self.routes = routes
+        self.sessions = sessions
+        self.undock_distance = undock_distance
+        # What the services say goes out to every listener, as the loop's own notes do.
+        for part in (routes, sessions):
+            if part is not None:
+                part.report = control.note
+        self._lock = threading.Lock()
+        self._consoles: list[str] = []
+        self._holder: str | None = None
+        self._listeners: tuple[ServiceListener, ...] = ()
+        # Each listener as the loop knows it: with the recording filled in.
+        self._on_loop: dict[ServiceListener, Callable[[LoopEvent], None]] = {}
+        self.telemetry: Telemetry | None = None
+        self.last_mission: MissionChanged | None = None
+        control.subscribe(self._heard)
+
+    def post(self, request: c.Request, answered: Answered = lambda reply: None) -> None:
+        """Ask for this console, on this thread: a front end runs the requests that are
+        not `quick` (planning a route takes a few hundred milliseconds) off its own."""
+        answered(self.execute(request))
+
+    def close(self) -> None:
+        """The front end is closing: a recording it left running is closed whole."""
+        if self.sessions is not None:
+            self.sessions.stop_recording()
+
+    # -- listening ----------------------------------------------------------------------
+
+    def subscribe(self, listener: ServiceListener, *, vital: bool = False) -> None:
+        """Hear everything: the loop's events (a vital listener that fails stops the
+        robot, ControlLoop.subscribe) and the service's own."""
+        sessions = self.sessions
+
+        def on_loop(event: LoopEvent) -> None:
+            if isinstance(event, Telemetry) and sessions is not None and sessions.recording:
+                event = replace(event, recording=True)
+            listener(event)
+
+        with self._lock:
+            self._listeners += (listener,)
+            self._on_loop[listener] = on_loop
+        self.control.subscribe(on_loop, vital=vital)
+
+    def unsubscribe(self, listener: ServiceListener) -> None:
+        with self._lock:
+            self._listeners = tuple(other for other in self._listeners if other != listener)
+            on_loop = self._on_loop.pop(listener, None)
+        if on_loop is not None:
+            self.control.unsubscribe(on_loop)
+
+    def _tell(self, event: Controls | RouteShown) -> None:
+        for listener in self._listeners:
+            listener(event)
+
+    def _heard(self, event: LoopEvent) -> None:
+        if isinstance(event, Telemetry):
+            self.telemetry = event
+        elif isinstance(event, MissionChanged) and not event.running:
+            self.last_mission = event
+
+    # -- consoles and the controls ------------------------------------------------------
+
+    def attach(self, console: str, *, take: bool = True) -> None:
+        """A console comes; it holds the controls if nobody does and `take`."""
+        with self._lock:
+            self._consoles.append(console)
+            if take and self._holder is None:
+                self._holder = console
+        self._tell(self.controls())
+
+    def detach(self, console: str) -> None:
+        """A console goes (hung up, or its connection died): if it held the controls,
+        the keys it held are let go of now, and nobody holds them until one takes them.
+        A mission it started carries on."""
+        with self._lock:
+            if console in self._consoles:
+                self._consoles.remove(console)
+            held = self._holder == console
+            if held:
+                self._holder = None
+        if held:
+            self.control.halt()
+            self.control.note(f"{console} left; its keys let go; the controls are free")
+        self._tell(self.controls())
+
+    def controls(self) -> Controls:
+        with self._lock:
+            return Controls(self._holder, tuple(self._consoles))
+
+    def _may_move(self, console: str) -> str | None:
+        """Why `console` may not move the robot now, or None. Nobody holding the controls
+        (a console left, or a command from the shell) lets the first to move take them."""
+        with self._lock:
+            if self._holder is None:
+                self._holder = console
+            elif self._holder != console:
+                return f"refused: {self._holder} holds the controls (`take` asks for them)"
+            else:
+                return None
+        self._tell(self.controls())
+        return None
+
+    # -- requests -----------------------------------------------------------------------
+
+    def execute(self, request: c.Request, console: str = HERE) -> Reply:
+        """Do what `request` asks, for `console`; the reply says whether it was done."""
+        if request.moves:
+            refused = self._may_move(console)
+            if refused is not None:
+                return Reply(False, refused)
+        handler = getattr(self, f"_do_{type(request).__name__.lower()}")
+        # Those that need to know who asks say so with a second parameter.
+        with_console = isinstance(request, c.TakeControls | c.RunPatrol)
+        reply: Reply = handler(request, console) if with_console else handler(request)
+        return reply
+
+    def _do_press(self, request: c.Press) -> Reply:
+        if self.control.playback is not None:
+            return Reply(False, "playing back: the driving keys are off; p returns to live")
+        self.control.press(request.intent)
+        return Reply(True)
+
+    def _do_halt(self, request: c.Halt) -> Reply:
+        """Let go of the keys, and stop any move, typed or undocking, as well."""
+        self.control.halt()
+        self.control.stop_mission("stopped by the operator")
+        self.control.submit(stop_robot, stop=True)
+        return Reply(True, "stop")
+
+    def _do_speed(self, request: c.Speed) -> Reply:
+        teleop = self.control.teleop
+        wanted = request.to if request.to is not None else teleop.speed + 0.05 * request.step
+        return Reply(True, f"driving speed {teleop.set_speed(round(wanted, 2)):.2f} m/s")
+
+    def _do_poll(self, request: c.Poll) -> Reply:
+        control = self.control
+        control.autopoll = not control.autopoll if request.on is None else request.on
+        return Reply(True, f"automatic odometry poll {'on' if control.autopoll else 'off'}")
+
+    def _do_send(self, request: c.Send) -> Reply:
+        try:
+            command = parse_command(request.text)
+        except CommandError as error:
+            return Reply(False, f"refused: {error}")
+        if self.control.playback is not None:
+            return Reply(False, "not sent: playing back, nothing goes to the robot "
+                                "(p returns to live)")  # fmt: skip
+        teleop = self.control.teleop
+        note = self.control.note
+
+        def job(link: BoardLink) -> object:
+            # On the loop's thread, where the board's settings are known for sure:
+            # nothing can change them between the check and the command.
+            check_command(command, teleop.limits, teleop.board_settings)
+            return link.send(command)
+
+        def done(outcome: object) -> None:
+            # Told to every console, as the exchange itself is shown to every one: the
+            # request is answered as soon as it is queued, so that a key never waits
+            # for the loop.
+            if isinstance(outcome, CommandError):
+                note(f"refused: {outcome}")
+            elif isinstance(outcome, GiraffError):
+                note(str(outcome))
+
+        self.control.submit(job, done)
+        return Reply(True)
+
+    def _do_stalk(self, request: c.Stalk) -> Reply:
+        telemetry = self.telemetry
+        board = telemetry.board if telemetry is not None else None
+        if board is not None and not board.stalk:
+            # A board not yet probed is asked anyway: it answers `Unknown name: h`.
+            return Reply(False, "this board has no height stalk (its firmware does not know h)")
+        target = request.to
+        if target is None:
+            height = telemetry.stalk if telemetry is not None else None
+            if height is None:
+                return Reply(False, "the stalk's height is not known yet: stalk N sets it")
+            target = stepped(height, request.step)
+            if target == height:
+                return Reply(False, f"the stalk is already at its "
+                                    f"{'top' if request.step > 0 else 'bottom'}")  # fmt: skip
+        sent = self._do_send(c.Send(f"set h {target}"))
+        if not sent.ok:
+            return sent
+        return Reply(True, f"stalk to {target} (head at {head_height(target):.2f} m)")
+
+    # -- missions -----------------------------------------------------------------------
+
+    def _do_go(self, request: c.Go) -> Reply:
+        """Plan (a few hundred milliseconds on a large plan) and let the loop drive."""
+        navigator = self.navigator
+        if navigator is None:
+            return Reply(False, "go: no floor plan (start the console with --floorplan FILE)")
+        if self.control.playback is not None:
+            return Reply(False, "go: playing back; p returns to live first")
+        try:
+            mission = self.drives.go(request.room)
+        except PlanningError as error:
+            return Reply(False, f"go: {error}")
+        planned = navigator.state.planned
+        text = f"going to {request.room}"
+        if planned is not None:
+            through = ", ".join(planned.route.doors) or "no door"
+            text = (f"route to {request.room}: {planned.length_m:.1f} m through {through}; "
+                    f"{mission.time_optimal:.0f} s at best; Space stops, pause and resume "
+                    "hold it")  # fmt: skip
+        self._tell(RouteShown.of(navigator.state))
+
+        def ended(why: str) -> None:
+            if why == "done":
+                navigator.forget()
+            self._tell(RouteShown.of(navigator.state))
+
+        self.control.run_mission(mission, ended)
+        return Reply(True, text)
+
+    def _book(self, act: Callable[[RouteBook], object]) -> Reply:
+        """A request the route book answers (it says what happened in notes)."""
+        if self.routes is None:
+            return Reply(False, "routes are not available")
+        return Reply(act(self.routes) is not False)
+
+    def _do_runpatrol(self, request: c.RunPatrol, console: str) -> Reply:
+        return self._book(lambda book: book.patrol(request.name, by=console))
+
+    def run_scheduled(self, patrol: str) -> Reply:
+        """Start a scheduled patrol, unless the robot is busy: with a mission, or being
+        driven by the keys. The controls' holder does not matter: the patrol is the
+        daemon's own, and an operator who only watches must not keep it from the night."""
+        mission = self.control.mission
+        if mission is not None:
+            return Reply(False, f"{mission.name} is running")
+        telemetry = self.telemetry
+        if telemetry is not None and telemetry.intent is not None:
+            return Reply(False, "the robot is being driven by the keys")
+        if self.routes is None:
+            return Reply(False, "routes are not available")
+        return Reply(self.routes.patrol(patrol, by="schedule", scheduled=True))
+
+    def _do_follow(self, request: c.Follow) -> Reply:
+        return self._book(lambda book: book.follow(request.name))
+
+    def _do_replay(self, request: c.Replay) -> Reply:
+        return self._book(lambda book: book.replay(request.name))
+
+    def _do_undock(self, request: c.Undock) -> Reply:
+        if self.control.playback is not None:
+            return Reply(False, "not sent: playing back, nothing goes to the robot")
+        reply = self._book(lambda book: book.undock(self.undock_distance))
+        if not reply.ok:
+            return reply
+        return Reply(True, f"undocking: backing out {self.undock_distance:g} m; Space stops")
+
+    def _do_teach(self, request: c.Teach) -> Reply:
+        return self._book(lambda book: book.teach(request.name))
+
+    def _do_mark(self, request: c.Mark) -> Reply:
+        return self._book(lambda book: book.mark(request.place))
+
+    def _do_done(self, request: c.Done) -> Reply:
+        return self._book(lambda book: book.done() is not None)
+
+    def _do_routes(self, request: c.Routes) -> Reply:
+        if self.routes is None:
+            return Reply(False, "routes are not available")
+        return Reply(True, lines=tuple(self.routes.listing()))
+
+    def _do_pause(self, request: c.Pause) -> Reply:
+        return self._hold(paused=True)
+
+    def _do_resume(self, request: c.Resume) -> Reply:
+        return self._hold(paused=False)
+
+    def _hold(self, paused: bool) -> Reply:
+        """Pause or resume the playback, else the mission."""
+        playback = self.control.playback
+        if playback is not None:
+            now = self.control.clock.now()
+            (playback.pause if paused else playback.resume)(now)
+            return Reply(True, f"playback {'paused' if paused else 'resumed'}")
+        if self.control.mission is None:
+            return Reply(False, f"nothing to {'pause' if paused else 'resume'}")
+        self.control.pause_mission(paused)  # the loop says it did
+        return Reply(True)
+
+    def _do_stopmission(self, request: c.StopMission) -> Reply:
+        if self.control.mission is None:
+            return Reply(False, "no mission is running")
+        self.control.stop_mission()
+        return Reply(True)
+
+    # -- the building -------------------------------------------------------------------
+
+    def _do_door(self, request: c.Door) -> Reply:
+        navigator = self.navigator
+        word = "open" if request.open else "close"
+        if navigator is None:
+            return Reply(False, f"{word}: no floor plan (start the console with --floorplan FILE)")
+        if request.door not in navigator.door_ids():
+            return Reply(False, f"{word}: no door {request.door!r}; doors: "
+                                f"{', '.join(navigator.door_ids())}")  # fmt: skip
+        if self.building is not None:
+            # The simulated building's door too: the range finder will see it.
+            (self.building.open_door if request.open else self.building.close_door)(request.door)
+        change = navigator.open if request.open else navigator.close
+        try:
+            state = change(request.door, self.control.pose)
+        except PlanningError as error:
+            return Reply(False, f"{word}: {error}")
+        self._tell(RouteShown.of(navigator.state))
+        text = f"door {request.door} {'open' if request.open else 'closed'}"
+        if state.goal is not None and state.planned is None:
+            text += f"; {state.problem}"
+        elif state.goal is not None and state.planned is not None:
+            text += f"; route to {state.goal} now {state.planned.length_m:.1f} m"
+        return Reply(True, text)
+
+    def _do_block(self, request: c.Block) -> Reply:
+        word = "block" if request.on else "unblock"
+        if self.building is None:
+            return Reply(False, f"{word}: only in the simulator (there is no building to change)")
+        x, y = request.x, request.y
+        if request.on:
+            return Reply(True, f"{self.building.block(x, y)} put at ({x:g}, {y:g})")
+        removed = self.building.unblock(x, y)
+        return Reply(
+            True, f"removed {', '.join(removed)}" if removed else f"nothing at ({x:g}, {y:g})"
+        )
+
+    # -- sessions -----------------------------------------------------------------------
+
+    def _do_record(self, request: c.Record) -> Reply:
+        sessions = self.sessions
+        if sessions is None:
+            return Reply(False, "recording is not available")
+        if not request.on:
+            return Reply(sessions.stop_recording() is not None)
+        if sessions.recording:
+            return Reply(False, "already recording")
+        return Reply(sessions.start_recording() is not None)
+
+    def _do_play(self, request: c.Play) -> Reply:
+        sessions = self.sessions
+        if sessions is None:
+            return Reply(False, "playback is not available")
+        if request.stop:
+            sessions.stop_playback()
+            return Reply(True)
+        return Reply(sessions.start_playback(request.session) is not None)
+
+    def _playback(self) -> Playback | None:
+        return self.control.playback
+
+    def _do_seek(self, request: c.Seek) -> Reply:
+        playback = self._playback()
+        if playback is None:
+            return Reply(False, "no playback running: p plays the newest session")
+        now = self.control.clock.now()
+        to = request.to if request.to is not None else playback.position(now) + request.by
+        self.control.seek(to)
+        return Reply(True)
+
+    def _do_rate(self, request: c.Rate) -> Reply:
+        playback = self._playback()
+        if playback is None:
+            return Reply(False, "no playback running: p plays the newest session")
+        wanted = request.to if request.to is not None else playback.speed * request.times
+        return Reply(True, f"playback at {playback.set_speed(self.control.clock.now(), wanted):g}x")
+
+    def _do_step(self, request: c.Step) -> Reply:
+        playback = self._playback()
+        if playback is None:
+            return Reply(False, "no playback running: p plays the newest session")
+        playback.step(self.control.clock.now())
+        return Reply(True)
+
+    # -- who drives ---------------------------------------------------------------------
+
+    def _do_takecontrols(self, request: c.TakeControls, console: str) -> Reply:
+        with self._lock:
+            before, self._holder = self._holder, console
+        if before not in (None, console):
+            # The keys the other held go with them.
+            self.control.halt()
+            self.control.note(f"{console} took the controls from {before}")
+        self._tell(self.controls())
+        return Reply(True, "you hold the controls")
+
+    def _do_heartbeat(self, request: c.Heartbeat) -> Reply:
+        return Reply(True)
+
+    def _do_shutdown(self, request: c.Shutdown) -> Reply:
+        """Stop the robot; ending the process is the daemon's (service/daemon.py)."""
+        self._do_halt(c.Halt())
+        return Reply(True, "robot stopped; the daemon is ending")
+
+    def _do_status(self, request: c.Status) -> Reply:
+        situation = self.situation()
+        last = situation.last_mission
+        return Reply(True, lines=(
+            f"mission: {situation.mission or 'none'}",
+            f"controls: {situation.holder or 'free'}; consoles: "
+            f"{', '.join(situation.consoles) or 'none'}",
+            f"last mission: {f'{last.name}: {last.why}' if last is not None else 'none'}",
+        ))  # fmt: skip
+
+    def situation(self) -> Situation:
+        mission = self.control.mission
+        controls = self.controls()
+        return Situation(
+            mission=mission.name if mission is not None else None,
+            holder=controls.holder,
+            consoles=controls.consoles,
+            last_mission=self.last_mission,
+            recording=self.sessions is not None and self.sessions.recording,
+            playing=self.control.playback is not None,
+        )
+
+    def note(self, text: str) -> None:
+        """A line for every console."""
+        self.control.note(text)

@@ -1,0 +1,451 @@
+"""A virtual motor port: another program drives the board through the daemon (§4.5).
+
+The thesis's remote control software held the motor port alone, and §4.5 suggests "a
+virtual motor controller port that both pieces of software can connect to", with the
+software behind it routing commands and replies. `serve --virtual-port` gives another
+program a pseudo-terminal that speaks the board's protocol (Appendix A.3): it greets
+when the program opens it, as a board greets when the host raises its power line, and
+answers each command line with the reply lines and the `OK >` prompt. Our own
+`BoardLink` connects to it as to a board.
+
+Every command goes through the control loop, the one owner of the link (design.md): a
+read is forwarded to the board as a job on the loop's thread and the board's reply is
+relayed; anything else first passes the same guard as a typed command
+(robot/command_guard.py), on that thread, where the board's settings are known for
+sure. What is refused gets an error line in the board's own style (`Error: ...`), so a
+driver sees a board error rather than silence:
+
+- While a mission runs, or the operator drives with the keys, the program may read but
+  nothing else: `Error: refused: a mission is running; the virtual port may only read`.
+  This is checked on the loop's thread just before the command would go out, so a
+  mission that started meanwhile is not raced.
+- A stop from the program (`set p 0`, and the drivers' `set a 0` and `set v 0`,
+  wire-facts "Stopping") is always taken, and stops the robot as the operator's stop
+  does: the keys let go, a mission ended, and the console's own braking stop
+  (robot/safety.py) rather than a `set p 0` the board would brake through and come back
+  from (B.2). The board keeps its `v` and `a` (a = 0 is undocumented, and v = 0 the guard
+  refuses), so the program's next move is refused until it sets both again.
+- The operator's stop always wins: it ends a mission and lets go of the keys, and from
+  then on the program cannot start a move while a mission or the keys drive; the stop
+  goes out as a job after the program's one command in flight, and the loop's
+  emergency stop is taken before any job, whose queue it empties. A front end that
+  wants the program kept still after a stop says so with `hold`.
+- A program that hangs up after a move of its own has the robot stopped: its last
+  `set p` would otherwise carry on (wire-facts).
+
+Readings that later boards reset on each read are shared out between the daemon and the
+program (shared_readings.py). Every reply comes within `reply_timeout`: a loop that does
+not run the job, or a lost link, gives the program an error line, and the job, if it
+has not started by then, is dropped rather than sent late.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import select
+import termios
+import threading
+import time
+import tty
+from collections.abc import Callable
+
+from giraff_console.link import DEFAULT_TIMEOUT_S, BoardLink, LinkError
+from giraff_console.protocol.codec import TWM, Command, encode_float, parse_command
+from giraff_console.protocol.errors import BoardError, CommandError, GiraffError
+from giraff_console.protocol.framing import BANNER_PREFIX, COMMAND_END, LINE_END, PROMPT
+from giraff_console.robot.command_guard import BARE_COMMANDS, READINGS, SETTINGS, check_command
+from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.robot.safety import stop_robot
+from giraff_console.robot.wheel_odometers import Reading, firmware_reading
+from giraff_console.service.shared_readings import SharedReadings
+
+log = logging.getLogger(__name__)
+
+# Time from the port being opened to the greeting: the opening program configures and
+# flushes the port first (pyserial flushes its input when it opens), as for the
+# simulator's pty (sim/pty_server.py).
+BOOT_DELAY_S = 0.05
+# The longest wait in one select, so that the exit event and the greeting are seen.
+POLL_S = 0.05
+# With no program on the port its leader side reports a hang-up on every poll; looked
+# at this often instead.
+IDLE_POLL_S = 0.02
+# More than a job may need on the loop beyond the link's own timeouts: a tick to start.
+REPLY_MARGIN_S = 0.5
+# A board's line buffer: a longer line is refused whole, not run in part (as
+# sim/line.py assumes; the guard refuses anything over 64 characters anyway).
+MAX_LINE_BYTES = 256
+
+# What the program's stop sends to the board (wire-facts "Stopping"): any of them
+# stops the robot.
+STOPS = frozenset({"p", "v", "a"})
+ONLY_READS = "the virtual port may only read"
+MISSION_RUNNING = f"refused: a mission is running; {ONLY_READS}"
+OPERATOR_DRIVING = f"refused: the operator is driving; {ONLY_READS}"
+ZEROED = "refused: {names} set to 0 to stop the robot; set {them} again before a move"
+# The board's own answers to lines it cannot run (sim/board.py, wire-facts "Errors").
+NOT_OPTIONAL = "Error: Argument wasn't optional"
+UNKNOWN_ARGUMENT = "Error: Unknown argument"
+LINE_TOO_LONG = "Error: Line too long"
+
+Lines = list[str]
+
+
+class VirtualPort:
+    """A board-like pseudo-terminal for one program at a time, served through `control`.
+
+    `link_timeout` is the `[link] timeout` the loop's link waits for each reply; a reply
+    to the program comes within twice that and REPLY_MARGIN_S (a resync and the
+    command), or an error line does.
+    """
+
+    def __init__(self, control: ControlLoop, *, link_timeout: float = DEFAULT_TIMEOUT_S) -> None:
+        self.control = control
+        self.reply_timeout = 2 * link_timeout + REPLY_MARGIN_S
+        self.shared = SharedReadings(self._increments)
+        self._leader, follower = os.openpty()
+        # Raw mode, set once on our side: no echo and no CR/LF translation for whoever
+        # opens the port, even a program that does not configure it.
+        tty.setraw(follower)
+        self.path = os.ttyname(follower)
+        os.close(follower)
+        # Never block on a program that stops reading; hold its bytes back instead.
+        os.set_blocking(self._leader, False)
+        self._exit = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._held: str | None = None
+        self._connected = False
+        self._greet_at: float | None = None
+        self._partial = bytearray()
+        self._overflow = False
+        self._unsent = bytearray()
+        # Settings the program zeroed to stop (STOPS) that the board still holds.
+        self._zeroed: set[str] = set()
+        # Whether a move of the program's is under way: stopped if it hangs up.
+        self._moved = False
+
+    # -- from other threads -------------------------------------------------------------
+
+    def start(self) -> None:
+        """Tap the loop's exchanges and serve the port on a thread of its own."""
+        self.control.subscribe(self.shared.tap)
+        self._thread = threading.Thread(target=self._run, name="virtual-port", daemon=True)
+        self._thread.start()
+
+    def close(self, timeout: float = 5.0) -> bool:
+        """Stop serving and close the port: the program then reads EOF or EIO. True if
+        the thread ended within `timeout` seconds."""
+        self._exit.set()
+        thread = self._thread
+        if thread is not None:
+            thread.join(timeout)
+        self.control.unsubscribe(self.shared.tap)
+        ended = thread is None or not thread.is_alive()
+        if ended and self._leader >= 0:
+            leader, self._leader = self._leader, -1
+            with contextlib.suppress(OSError):
+                os.close(leader)
+        elif not ended:
+            log.error("the virtual port's thread did not end within %g s", timeout)
+        return ended
+
+    def hold(self, why: str | None) -> None:
+        """Refuse the program's moves with `why` from now on (the operator stopped the
+        robot, say), or, with None, no longer. Reads and stops are always taken."""
+        self._held = None if why is None else f"refused: {why}"
+
+    def __enter__(self) -> VirtualPort:
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- the port's thread --------------------------------------------------------------
+
+    def _run(self) -> None:
+        hangup = select.poll()
+        hangup.register(self._leader, select.POLLIN)
+        while not self._exit.is_set():
+            timeout = POLL_S
+            if self._greet_at is not None:
+                timeout = max(0.0, min(timeout, self._greet_at - time.monotonic()))
+            writing = [self._leader] if self._unsent else []
+            try:
+                readable, _, _ = select.select([self._leader], writing, [], timeout)
+            except OSError:
+                return  # the port was closed under us
+            events = hangup.poll(0)
+            if events and events[0][1] & select.POLLHUP and not events[0][1] & select.POLLIN:
+                self._hang_up()
+                self._exit.wait(IDLE_POLL_S)
+                continue
+            if not self._connected:
+                self._connected = True
+                self._greet_at = time.monotonic() + BOOT_DELAY_S
+            if readable:
+                try:
+                    data = os.read(self._leader, 4096)
+                except (BlockingIOError, InterruptedError):
+                    data = b""
+                except OSError:
+                    self._hang_up()
+                    continue
+                if data and self._greet_at is not None:
+                    self._greet()  # a program that did not wait: greeted first
+                self._receive(data)
+            if self._greet_at is not None and time.monotonic() >= self._greet_at:
+                self._greet()
+            if self._unsent:
+                self._send()
+
+    def _greet(self) -> None:
+        """What a board prints as it powers up (A.3): its banner and the prompt. The
+        banner is the real board's, when it greeted the console."""
+        self._greet_at = None
+        link = self.control.link
+        version = link.version if link is not None else None
+        self._unsent += _line(f"{BANNER_PREFIX} {version or 'version unknown (virtual port)'}")
+        self._unsent += _line(PROMPT)
+        # To the program the board just powered up: its odometers start from zero.
+        self.shared.forget()
+        self._zeroed.clear()
+
+    def _receive(self, data: bytes) -> None:
+        """Bytes from the program: every line its CR ends is answered in turn."""
+        for byte in data:
+            if byte == COMMAND_END[0]:
+                line, overflow = self._partial.decode("ascii", "replace"), self._overflow
+                self._partial.clear()
+                self._overflow = False
+                replies = [LINE_TOO_LONG] if overflow else self._answer(line)
+                for reply in [*replies, PROMPT]:
+                    self._unsent += _line(reply)
+                self._send()
+                if self._exit.is_set():
+                    return
+            elif byte == LINE_END[-1]:
+                continue  # a stray LF (a program sending CR LF) is no command
+            elif len(self._partial) < MAX_LINE_BYTES:
+                self._partial.append(byte)
+            else:
+                self._overflow = True
+
+    def _send(self) -> None:
+        try:
+            written = os.write(self._leader, self._unsent)
+        except (BlockingIOError, InterruptedError):
+            return
+        except OSError:
+            self._hang_up()
+            return
+        del self._unsent[:written]
+
+    def _hang_up(self) -> None:
+        """The program went away: forget its traffic; stop a move it left running."""
+        if not self._connected:
+            return
+        self._connected = False
+        self._greet_at = None
+        self._unsent.clear()
+        self._partial.clear()
+        self._overflow = False
+        with contextlib.suppress(termios.error):
+            termios.tcflush(self._leader, termios.TCIOFLUSH)
+        if self._moved:
+            self._moved = False
+            self.control.submit(self._stop_left_move, _log_failure, stop=True)
+
+    # -- answering ----------------------------------------------------------------------
+
+    def _answer(self, text: str) -> Lines:
+        """The reply lines, the prompt not included, to one line from the program."""
+        words = text.split()
+        if not words:
+            return []  # the board answers an empty line with its prompt alone
+        try:
+            command = parse_command(text.strip())
+        except CommandError:
+            return [_malformed(words)]
+        if command.kind == "get":
+            try:
+                check_command(command, self.control.teleop.limits, {})
+            except CommandError as error:
+                if command.name not in READINGS:
+                    # The board's own answer, which drivers rely on: our link's resync
+                    # asks for a name that cannot exist and waits for exactly this.
+                    return [f"Unknown name: {command.name}"]
+                return [_error(f"refused: {error}")]
+            return self._run_job(self._read(command))
+        if command.kind == "set" and command.name in STOPS and command.values == (0,):
+            return self._stop(command)
+        known = SETTINGS if command.kind == "set" else BARE_COMMANDS
+        if command.name not in known:
+            return [f"Unknown name: {command.name}"]  # as the board answers (sim/board.py)
+        return self._run_job(self._drive(command))
+
+    def _read(self, command: Command) -> Callable[[BoardLink], Lines]:
+        def read(link: BoardLink) -> Lines:
+            with self.shared.own_read():
+                exchange = link.send(command)
+            return list(self.shared.share(exchange))
+
+        return read
+
+    def _drive(self, command: Command) -> Callable[[BoardLink], Lines]:
+        """A set or a bare command: on the loop's thread, what may not go out is refused
+        there, where nothing can change between the check and the command."""
+
+        def drive(link: BoardLink) -> Lines:
+            refused = self._only_reads()
+            moves = command.kind == "set" and command.name in ("p", TWM)
+            if refused is None and moves:
+                refused = self._held or _zeroed_message(self._zeroed)
+            if refused is not None:
+                return [_error(refused)]
+            teleop = self.control.teleop
+            try:
+                check_command(command, teleop.limits, teleop.board_settings)
+            except CommandError as error:
+                return [_error(f"refused: {error}")]
+            exchange = link.send(command)
+            self._zeroed -= set(command.settings)
+            self._moved = self._moved or moves
+            return list(exchange.lines)
+
+        return drive
+
+    def _only_reads(self) -> str | None:
+        """Why the program may only read now, if it may (the loop's thread)."""
+        control = self.control
+        if control.mission is not None:
+            return MISSION_RUNNING
+        if control.deadman.held() is not None or control.teleop.active:
+            return OPERATOR_DRIVING
+        return None
+
+    def _stop(self, command: Command) -> Lines:
+        """The program's stop, taken as the operator's is (service's halt): the keys
+        let go, a mission ended, and the console's braking stop."""
+        self.control.halt()
+        self.control.stop_mission("stopped by the program on the virtual port")
+        teleop = self.control.teleop
+
+        def stop(link: BoardLink) -> Lines:
+            self._zeroed |= {command.name} - {"p"}
+            self._moved = False
+            if not stop_robot(link, teleop.board_settings):
+                return [_error("could not command a stop: check the robot")]
+            # What a board echoes for the value set (the link takes a set answered
+            # with or without it, wire-facts).
+            return [encode_float(0.0)]
+
+        return self._run_job(stop, stop=True)
+
+    def _stop_left_move(self, link: BoardLink) -> None:
+        """The program hung up after a move of its own: stop it, unless the operator or
+        a mission drives now."""
+        if self._only_reads() is None:
+            stop_robot(link, self.control.teleop.board_settings)
+
+    def _run_job(self, job: Callable[[BoardLink], Lines], stop: bool = False) -> Lines:
+        """Run `job` on the loop's thread and wait for its lines, within reply_timeout."""
+        request = _Request()
+
+        def claimed(link: BoardLink) -> Lines | None:
+            if not request.claim():
+                return None  # given up on: nothing goes out late
+            try:
+                return job(link)
+            except LinkError as error:
+                # The loop drops the link and never calls `done` for this job.
+                request.finish(error)
+                raise
+
+        self.control.submit(claimed, request.finish, stop=stop)
+        return request.wait(self.reply_timeout, self._exit)
+
+    def _increments(self) -> bool:
+        """Whether the board's `imdl`/`imdr` are increments now (the loop's thread): as
+        the odometry reads them once its check against cdis decided, or as the firmware
+        gives them while the odometry reads the encoders."""
+        reading = self.control.odometry.reading
+        if reading is Reading.ENCODERS:
+            board = self.control.board
+            return board is not None and firmware_reading(board) is Reading.INCREMENTS
+        return reading is Reading.INCREMENTS
+
+
+class _Request:
+    """One command's way through the loop: claimed by the job as it starts, or given
+    up on by the port when the reply is late; never both."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._state = "waiting"
+        self._done = threading.Event()
+        self._result: object = None
+
+    def claim(self) -> bool:
+        with self._lock:
+            if self._state != "waiting":
+                return False
+            self._state = "running"
+            return True
+
+    def finish(self, result: object) -> None:
+        """The job's lines, or the GiraffError it (or the loop, failing it) gave."""
+        if self._done.is_set():
+            return
+        self._result = result
+        self._done.set()
+
+    def wait(self, timeout: float, exit_event: threading.Event) -> Lines:
+        deadline = time.monotonic() + timeout
+        while not self._done.wait(min(POLL_S, max(0.0, deadline - time.monotonic()))):
+            if exit_event.is_set() or time.monotonic() >= deadline:
+                with self._lock:
+                    running = self._state == "running"
+                    self._state = "abandoned"
+                if running:  # it went out, or is going: its outcome is not known
+                    return [_error(f"no answer from the board within {timeout:g} s")]
+                return [_error(f"no answer from the control loop within {timeout:g} s; "
+                               "nothing was sent")]  # fmt: skip
+        result = self._result
+        if isinstance(result, BoardError):
+            return [result.line]  # the board's own error line, relayed
+        if isinstance(result, GiraffError):
+            return [_error(str(result))]
+        if isinstance(result, list):
+            return [str(line) for line in result]
+        return [_error("no answer from the control loop")]
+
+
+def _malformed(words: list[str]) -> str:
+    """The board's own answer to a line that is no command it takes (sim/board.py)."""
+    if words[0].lower() in ("set", "get") and len(words) < 2:
+        return NOT_OPTIONAL
+    return UNKNOWN_ARGUMENT
+
+
+def _zeroed_message(zeroed: set[str]) -> str | None:
+    if not zeroed:
+        return None
+    names = " and ".join(sorted(zeroed))
+    return ZEROED.format(names=f"{names} {'were' if len(zeroed) > 1 else 'was'}", them=names)
+
+
+def _error(text: str) -> str:
+    """An error line in the board's style: a driver takes it as a board error."""
+    return f"Error: {text}"
+
+
+def _line(text: str) -> bytes:
+    return text.encode("ascii", "replace") + LINE_END
+
+
+def _log_failure(result: object) -> None:
+    if isinstance(result, GiraffError):
+        log.warning("virtual port: could not stop the move the program left: %s", result)
