@@ -23,8 +23,8 @@ from giraff_console.missions.patrol_log import list_runs
 from giraff_console.robot.loop_events import MissionChanged, Note
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
+from giraff_console.service.events import ServiceEvent
 from giraff_console.service.remote import DaemonGone, RemoteRobot, console_name
-from giraff_console.service.robot_service import ServiceEvent
 from giraff_console.service.runtime_folder import socket_path
 from giraff_console.service.transport import NoDaemon, TransportError
 
@@ -65,14 +65,12 @@ def add_daemon_parsers(commands: argparse._SubParsersAction) -> None:
     patrols.add_argument("--last", type=int, metavar="N", help="only the N newest")
 
 
-def daemon_robot(kind: str, take: bool = False) -> RemoteRobot | None:
+def daemon_robot(kind: str, take: bool = False) -> RemoteRobot:
     """The running daemon's robot, attached as a console of `kind` that asks for the
-    controls only if `take`; None when no daemon runs. TransportError for a daemon that
-    is there but cannot be used."""
+    controls only if `take`. NoDaemon when none answers (no socket, or one left by a
+    daemon that died); TransportError for one that is there but cannot be used."""
     try:
         return RemoteRobot(socket_path(), console_name(kind), take=take)
-    except NoDaemon:
-        return None
     except DaemonGone as error:
         raise TransportError(str(error)) from None
 
@@ -113,7 +111,10 @@ def run_stop(args: argparse.Namespace) -> int:
 def run_patrols(args: argparse.Namespace) -> int:
     folder = patrol_runs()
     running = None
-    robot = daemon_robot("patrols") if socket_path().exists() else None
+    try:
+        robot: RemoteRobot | None = daemon_robot("patrols")
+    except TransportError:  # NoDaemon too: the log is read all the same
+        robot = None
     if robot is not None:
         robot.close()
         mission = robot.welcome.situation.mission
@@ -158,7 +159,10 @@ def run_mission(robot: RemoteRobot, request: c.Go | c.RunPatrol, as_json: bool) 
         print("giraff-console: the daemon has gone before the mission ended", file=sys.stderr)
         return EXIT_FAILED
     if as_json:
-        print(json.dumps({"mission": ended.name, "why": ended.why}))
+        # What the daemon tells of a mission: not the poses and errors `go` measures on
+        # its own (docs/daemon.md).
+        print(json.dumps({"mission": ended.name, "arrived": ended.why == "done",
+                          "why": ended.why}))  # fmt: skip
     else:
         print(f"{ended.name}: {ended.why}")
     return EXIT_DONE if ended.why == "done" else EXIT_FAILED
@@ -191,11 +195,9 @@ def _follow(events: queue.Queue[ServiceEvent], robot: RemoteRobot) -> MissionCha
 
 def _attach(kind: str) -> RemoteRobot | None:
     try:
-        robot = daemon_robot(kind)
+        return daemon_robot(kind)
+    except NoDaemon as error:
+        print(f"giraff-console: {error}; `giraff-console serve` starts one", file=sys.stderr)
     except TransportError as error:
         print(f"giraff-console: {error}", file=sys.stderr)
-        return None
-    if robot is None:
-        print(f"giraff-console: no daemon runs (no socket at {socket_path()}); "
-              "`giraff-console serve` starts one", file=sys.stderr)  # fmt: skip
-    return robot
+    return None

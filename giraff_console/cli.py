@@ -86,7 +86,7 @@ from giraff_console.service import commands as c
 from giraff_console.service.remote import RemoteRobot
 from giraff_console.service.robot_service import RobotService
 from giraff_console.service.runtime_folder import socket_path
-from giraff_console.service.transport import TransportError
+from giraff_console.service.transport import NoDaemon, TransportError
 from giraff_console.settings import Settings, SettingsError, config_path, load_settings
 from giraff_console.sim import BoardConfig, GiraffBoard, Imperfections, PtyServer
 from giraff_console.sim.camera import WorldCamera
@@ -386,11 +386,11 @@ def attach_if_running(args: argparse.Namespace, kind: str,
         return None
     try:
         robot = daemon_robot(kind, take=take)
+    except NoDaemon:
+        return None
     except TransportError as error:
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_USAGE
-    if robot is None:
-        return None
     if getattr(args, "port", None) is not None:
         robot.close()
         print(f"giraff-console: the daemon at {socket_path()} has the robot; leave out "

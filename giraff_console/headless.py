@@ -304,7 +304,10 @@ class HeadlessRobot:
 def _print_note(event: LoopEvent) -> None:
     """The loop's notes on standard error, where `go` and `patrol` say everything."""
     if isinstance(event, Note):
-        print(f"giraff-console: {event.text}", file=sys.stderr)
+        # One write for the line and its end: notes come from several threads, and
+        # print's two writes would let another's run into this one.
+        sys.stderr.write(f"giraff-console: {event.text}\n")
+        sys.stderr.flush()
 
 
 def _show_progress(mission: Mission, done: threading.Event,

@@ -105,13 +105,14 @@ def run_serve(args: argparse.Namespace, settings: Settings, port: str | None,
                          signals=SIGNALS - {signal.SIGHUP})  # fmt: skip
     last_stop.install()
     control.start(stepped=robot.stepped)
-    print(f"giraff-console: serving the robot at {path}", file=sys.stderr, flush=True)
+    sys.stderr.write(f"giraff-console: serving the robot at {path}\n")
+    sys.stderr.flush()
     if port_for_others is not None:
         port_for_others.start()
         # On standard output, alone, for a script to read.
         print(port_for_others.path, flush=True)
-        print(f"giraff-console: virtual motor port at {port_for_others.path}", file=sys.stderr,
-              flush=True)  # fmt: skip
+        sys.stderr.write(f"giraff-console: virtual motor port at {port_for_others.path}\n")
+        sys.stderr.flush()
     schedule.start()
     try:
         daemon.serve_forever()

@@ -528,17 +528,19 @@ class ControlLoop:
         self._end_mission("replaced")
         self.deadman.release()
         self._mission, self._mission_ended = mission, ended
-        self.note(f"{mission.name} started")
         self._tell(MissionChanged(mission.name, running=True))
+        self.note(f"{mission.name} started")
 
     def _end_mission(self, why: str, stop: bool = True) -> None:
         mission, self._mission = self._mission, None
         if mission is None:
             return
+        # Told first: whoever says what runs must not see it gone and its end not yet
+        # known while the stop is being sent.
+        self._tell(MissionChanged(mission.name, running=False, why=why))
         if stop:
             self._stop_robot()
         self.note(f"{mission.name} {why}")
-        self._tell(MissionChanged(mission.name, running=False, why=why))
         # Dropped as it is called: a callback holds its mission, which must not outlive it.
         ended, self._mission_ended = self._mission_ended, lambda why: None
         ended(why)

@@ -52,14 +52,8 @@ from giraff_console.robot.replay import PlaybackStatus
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.service import commands as c
 from giraff_console.service import wire
-from giraff_console.service.robot_service import (
-    Controls,
-    Reply,
-    RobotService,
-    RouteShown,
-    ServiceEvent,
-    Situation,
-)
+from giraff_console.service.events import Controls, Reply, RouteShown, ServiceEvent, Situation
+from giraff_console.service.robot_service import RobotService
 from giraff_console.service.transport import Connection, ConnectionClosed, accept, listen
 from giraff_console.service.wire import WireError
 

@@ -18,8 +18,8 @@ from pathlib import Path
 from giraff_console.robot.loop_events import Note
 from giraff_console.service import commands as c
 from giraff_console.service.daemon import Answered, Asked, Hello, Welcome
-from giraff_console.service.robot_service import Answered as Callback
-from giraff_console.service.robot_service import Reply, ServiceEvent, ServiceListener
+from giraff_console.service.events import Answered as Callback
+from giraff_console.service.events import Reply, ServiceEvent, ServiceListener
 from giraff_console.service.transport import Connection, ConnectionClosed, connect
 from giraff_console.service.wire import WireError
 

@@ -16,12 +16,11 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass, replace
-from typing import Protocol, TypeAlias
+from dataclasses import replace
+from typing import Protocol
 
 from giraff_console.link import BoardLink
 from giraff_console.missions.drive_setup import DriveSetup
-from giraff_console.missions.navigation import NavigationState
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
 from giraff_console.planning.room_graph import PlanningError
@@ -34,71 +33,17 @@ from giraff_console.robot.safety import stop_robot
 from giraff_console.robot.stalk import head_height, stepped
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
+from giraff_console.service.events import (
+    Answered,
+    Controls,
+    Reply,
+    RouteShown,
+    ServiceListener,
+    Situation,
+)
 
 # The console that runs the robot in its own process: it holds the controls alone.
 HERE = "this console"
-
-
-@dataclass(frozen=True)
-class Reply:
-    """The answer to one request, for whoever asked: done or refused, and what to say."""
-
-    ok: bool
-    text: str = ""
-    lines: tuple[str, ...] = ()
-
-
-@dataclass(frozen=True)
-class Controls:
-    """Who holds the controls, and who else is attached to watch."""
-
-    holder: str | None
-    consoles: tuple[str, ...]
-
-
-@dataclass(frozen=True)
-class RouteShown:
-    """What the map shows of navigation: the goal, the route, the shut doors, and what
-    the range finder has found in the way (the map frame)."""
-
-    goal: str | None
-    path: tuple[tuple[float, float], ...]
-    closed: tuple[str, ...]
-    obstacles: tuple[tuple[float, float], ...]
-
-    @classmethod
-    def of(cls, state: NavigationState) -> RouteShown:
-        path = tuple(state.planned.path) if state.planned is not None else ()
-        return cls(state.goal, path, tuple(sorted(state.closed)), state.obstacles)
-
-
-@dataclass(frozen=True)
-class Situation:
-    """The answer to `status`: what runs, who drives, how the last mission ended."""
-
-    mission: str | None
-    holder: str | None
-    consoles: tuple[str, ...]
-    last_mission: MissionChanged | None
-    recording: bool
-    playing: bool
-
-
-ServiceEvent: TypeAlias = LoopEvent | Controls | RouteShown
-ServiceListener: TypeAlias = Callable[[ServiceEvent], None]
-Answered: TypeAlias = Callable[[Reply], None]
-
-
-class Robot(Protocol):
-    """What a front end holds: the robot service in its own process (RobotService), or
-    a daemon's across its socket (service/remote.py)."""
-
-    def post(self, request: c.Request, answered: Answered) -> None:
-        """Ask, in order; `answered` gets the reply (on another thread, perhaps)."""
-
-    def subscribe(self, listener: ServiceListener, *, vital: bool = False) -> None: ...
-    def unsubscribe(self, listener: ServiceListener) -> None: ...
-    def close(self) -> None: ...
 
 
 class Building(Protocol):
@@ -135,7 +80,9 @@ class RobotService:
         # Each listener as the loop knows it: with the recording filled in.
         self._on_loop: dict[ServiceListener, Callable[[LoopEvent], None]] = {}
         self.telemetry: Telemetry | None = None
-        self.last_mission: MissionChanged | None = None
+        # The mission under way and the last one to end, as the loop told them: changed
+        # together, so that `status` never sees one gone and its end not yet known.
+        self._missions: tuple[str | None, MissionChanged | None] = (None, None)
         control.subscribe(self._heard)
 
     def post(self, request: c.Request, answered: Answered = lambda reply: None) -> None:
@@ -179,8 +126,9 @@ class RobotService:
     def _heard(self, event: LoopEvent) -> None:
         if isinstance(event, Telemetry):
             self.telemetry = event
-        elif isinstance(event, MissionChanged) and not event.running:
-            self.last_mission = event
+        elif isinstance(event, MissionChanged):
+            last = self._missions[1]
+            self._missions = (event.name, last) if event.running else (None, event)
 
     # -- consoles and the controls ------------------------------------------------------
 
@@ -218,7 +166,8 @@ class RobotService:
             if self._holder is None:
                 self._holder = console
             elif self._holder != console:
-                return f"refused: {self._holder} holds the controls (`take` asks for them)"
+                return (f"refused: {self._holder} holds the controls (Ctrl+T or `take` "
+                        "asks for them)")  # fmt: skip
             else:
                 return None
         self._tell(self.controls())
@@ -531,13 +480,13 @@ class RobotService:
         ))  # fmt: skip
 
     def situation(self) -> Situation:
-        mission = self.control.mission
+        running, last = self._missions
         controls = self.controls()
         return Situation(
-            mission=mission.name if mission is not None else None,
+            mission=running,
             holder=controls.holder,
             consoles=controls.consoles,
-            last_mission=self.last_mission,
+            last_mission=last,
             recording=self.sessions is not None and self.sessions.recording,
             playing=self.control.playback is not None,
         )

@@ -29,12 +29,7 @@ from giraff_console.robot.loop_events import Note
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
-from giraff_console.service.robot_service import (
-    Controls,
-    Robot,
-    RouteShown,
-    ServiceEvent,
-)
+from giraff_console.service.events import Controls, Robot, RouteShown, ServiceEvent
 from giraff_console.tui.camera_view import CameraView
 from giraff_console.tui.command_line import CommandLine
 from giraff_console.tui.help_screen import HelpScreen

@@ -8,7 +8,7 @@ from giraff_console.camera.feed import CameraPicture
 from giraff_console.link import Exchange
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
-from giraff_console.service.robot_service import Controls, Reply, RouteShown
+from giraff_console.service.events import Controls, Reply, RouteShown
 
 
 class TelemetryUpdated(Message):

@@ -1,0 +1,78 @@
+"""What the robot service says: answers to requests, and the events beside the loop's.
+
+The same types on both sides of the daemon's socket (design.md, "Dolphie"): the
+console in its own process and one attached to the daemon hold a `Robot`, and hear
+these from it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Protocol, TypeAlias
+
+from giraff_console.missions.navigation import NavigationState
+from giraff_console.robot.loop_events import LoopEvent, MissionChanged
+from giraff_console.service import commands as c
+
+
+@dataclass(frozen=True)
+class Reply:
+    """The answer to one request, for whoever asked: done or refused, and what to say."""
+
+    ok: bool
+    text: str = ""
+    lines: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Controls:
+    """Who holds the controls, and who else is attached to watch."""
+
+    holder: str | None
+    consoles: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class RouteShown:
+    """What the map shows of navigation: the goal, the route, the shut doors, and what
+    the range finder has found in the way (the map frame)."""
+
+    goal: str | None
+    path: tuple[tuple[float, float], ...]
+    closed: tuple[str, ...]
+    obstacles: tuple[tuple[float, float], ...]
+
+    @classmethod
+    def of(cls, state: NavigationState) -> RouteShown:
+        path = tuple(state.planned.path) if state.planned is not None else ()
+        return cls(state.goal, path, tuple(sorted(state.closed)), state.obstacles)
+
+
+@dataclass(frozen=True)
+class Situation:
+    """The answer to `status`: what runs, who drives, how the last mission ended."""
+
+    mission: str | None
+    holder: str | None
+    consoles: tuple[str, ...]
+    last_mission: MissionChanged | None
+    recording: bool
+    playing: bool
+
+
+ServiceEvent: TypeAlias = LoopEvent | Controls | RouteShown
+ServiceListener: TypeAlias = Callable[[ServiceEvent], None]
+Answered: TypeAlias = Callable[[Reply], None]
+
+
+class Robot(Protocol):
+    """What a front end holds: the robot service in its own process (RobotService), or
+    a daemon's across its socket (service/remote.py)."""
+
+    def post(self, request: c.Request, answered: Answered) -> None:
+        """Ask, in order; `answered` gets the reply (on another thread, perhaps)."""
+
+    def subscribe(self, listener: ServiceListener, *, vital: bool = False) -> None: ...
+    def unsubscribe(self, listener: ServiceListener) -> None: ...
+    def close(self) -> None: ...
