@@ -144,14 +144,18 @@ def run_mission(robot: RemoteRobot, request: c.Go | c.RunPatrol, as_json: bool) 
     try:
         reply = robot.execute(request)
         if not reply.ok:
+            _print_notes(events)  # why, if the daemon said it in a note
             print(f"giraff-console: {reply.text}", file=sys.stderr)
             return EXIT_FAILED
         if reply.text:
             print(f"giraff-console: {reply.text}", file=sys.stderr)
-        ended = _follow(events, robot)
+        name = f"go {request.room}" if isinstance(request, c.Go) else request.name
+        ended = _follow(events, robot, name)
     except KeyboardInterrupt:
-        robot.execute(c.StopMission(), timeout=2.0)
-        print("giraff-console: stopped (Ctrl-C)", file=sys.stderr)
+        # A stop, which also ends a mission still being planned (RobotService).
+        stopped = robot.execute(c.Halt(), timeout=2.0)
+        print(f"giraff-console: {'stopped' if stopped.ok else stopped.text} (Ctrl-C)",
+              file=sys.stderr)  # fmt: skip
         return 130
     finally:
         robot.close()
@@ -168,9 +172,18 @@ def run_mission(robot: RemoteRobot, request: c.Go | c.RunPatrol, as_json: bool) 
     return EXIT_DONE if ended.why == "done" else EXIT_FAILED
 
 
-def _follow(events: queue.Queue[ServiceEvent], robot: RemoteRobot) -> MissionChanged | None:
-    """The end of the mission that starts next, or None if the daemon goes first."""
-    mine: str | None = None
+def _print_notes(events: queue.Queue[ServiceEvent]) -> None:
+    while not events.empty():
+        event = events.get_nowait()
+        if isinstance(event, Note):
+            print(f"giraff-console: {event.text}", file=sys.stderr)
+
+
+def _follow(events: queue.Queue[ServiceEvent], robot: RemoteRobot,
+            name: str) -> MissionChanged | None:  # fmt: skip
+    """The end of the mission `name` once it has started, or None if the daemon goes
+    first; another mission's end (one this one replaced) is not it."""
+    started = False
     shown_at = time.monotonic()
     while robot.gone is None:
         try:
@@ -179,10 +192,10 @@ def _follow(events: queue.Queue[ServiceEvent], robot: RemoteRobot) -> MissionCha
             continue
         if isinstance(event, Note):
             print(f"giraff-console: {event.text}", file=sys.stderr)
-        elif isinstance(event, MissionChanged):
-            if event.running and mine is None:
-                mine = event.name
-            elif not event.running and (mine is None or event.name == mine):
+        elif isinstance(event, MissionChanged) and event.name == name:
+            if event.running:
+                started = True
+            elif started or event.why.startswith("not started"):
                 return event
         elif (isinstance(event, Telemetry) and event.mission is not None
               and time.monotonic() - shown_at >= PROGRESS_EVERY_S):  # fmt: skip

@@ -399,6 +399,11 @@ def attach_if_running(args: argparse.Namespace, kind: str,
         return EXIT_USAGE
     signal.pthread_sigmask(signal.SIG_UNBLOCK, SIGNALS)
     print(f"giraff-console: asking the daemon at {socket_path()}", file=sys.stderr)
+    ignored = [f"--{name}" for name in ("floorplan", "routes", "recordings")
+               if getattr(args, name, None) is not None]  # fmt: skip
+    if ignored:
+        print(f"giraff-console: {', '.join(ignored)} ignored: the daemon's are used",
+              file=sys.stderr)  # fmt: skip
     return robot
 
 
@@ -557,6 +562,8 @@ def run_attached_console(robot: RemoteRobot, args: argparse.Namespace,
         navigator=navigator,
     )
     app.notes_at_start.append(note)
+    app.controls = welcome.controls
+    app.route = welcome.route
     situation = welcome.situation
     if situation.last_mission is not None:
         last = situation.last_mission

@@ -164,10 +164,10 @@ class HeadlessRobot:
     until `run`."""
 
     def __init__(self, args: argparse.Namespace, settings: Settings, port: str | None,
-                 example: Path, *, notes_vital: bool = True) -> None:  # fmt: skip
-        """`notes_vital`: standard error is the operator's only way of being told (`go`,
-        `patrol`), so that the robot stops if it fails; not the daemon's, whose consoles
-        are told, and whose terminal may be gone long before the night's patrol is."""
+                 example: Path, *, print_notes: bool = True) -> None:  # fmt: skip
+        """`print_notes`: the loop's notes on standard error, as the operator's only way
+        of being told (`go`, `patrol`), so that the robot stops if that fails. The daemon
+        says them otherwise (serve_command.py)."""
         if port is not None:
             given = [f"--{name.replace('_', '-')}" for name in SIM_ONLY if getattr(args, name)]
             if given:
@@ -220,7 +220,8 @@ class HeadlessRobot:
             # The console cannot know where the robot was put down: it assumes the dock,
             # and the markers correct that (robot/localisation.py, "No starting guess").
             control.place(self.start)
-        control.subscribe(_print_note, vital=notes_vital)
+        if print_notes:
+            control.subscribe(_print_note, vital=True)
         # The markers find the robot only through a camera, which `go` and `patrol` have
         # with the simulator alone (its synthetic one); on a real robot they drive by
         # the odometry, as the console does with a camera that has no calibration.

@@ -16,8 +16,11 @@ go to standard error, where systemd's journal keeps them (docs/daemon.md).
 from __future__ import annotations
 
 import argparse
+import contextlib
+import queue
 import signal
 import sys
+import threading
 from pathlib import Path
 
 from giraff_console.data_folders import (
@@ -36,6 +39,7 @@ from giraff_console.headless import (
 from giraff_console.missions.sessions import Sessions
 from giraff_console.recording.session import RecordingSetup
 from giraff_console.robot.last_stop import SIGNALS, LastStop
+from giraff_console.robot.loop_events import LoopEvent, Note
 from giraff_console.robot_setup import route_book
 from giraff_console.service.daemon import Daemon
 from giraff_console.service.patrol_schedule import PatrolSchedule
@@ -44,6 +48,33 @@ from giraff_console.service.runtime_folder import runtime_folder, socket_path
 from giraff_console.service.transport import TransportError
 from giraff_console.service.virtual_port import VirtualPort
 from giraff_console.settings import Settings
+
+
+class Journal:
+    """The loop's notes on standard error (systemd's journal), written by a thread of
+    their own: the loop only queues them, since a journal that stalls, or a pipe that
+    nobody reads, must not stop the loop. A note that finds the queue full is lost."""
+
+    def __init__(self, size: int = 1000) -> None:
+        self._notes: queue.Queue[str | None] = queue.Queue(size)
+        self._thread = threading.Thread(target=self._write, name="journal", daemon=True)
+        self._thread.start()
+
+    def hear(self, event: LoopEvent) -> None:
+        if isinstance(event, Note):
+            with contextlib.suppress(queue.Full):
+                self._notes.put_nowait(f"giraff-console: {event.text}\n")
+
+    def close(self, timeout: float = 1.0) -> None:
+        with contextlib.suppress(queue.Full):
+            self._notes.put(None, timeout=timeout)
+        self._thread.join(timeout)
+
+    def _write(self) -> None:
+        while (line := self._notes.get()) is not None:
+            with contextlib.suppress(OSError, ValueError):  # a terminal gone: go on
+                sys.stderr.write(line)
+                sys.stderr.flush()
 
 
 def add_serve_parser(commands: argparse._SubParsersAction, example: Path) -> None:
@@ -71,10 +102,12 @@ def run_serve(args: argparse.Namespace, settings: Settings, port: str | None,
               example: Path) -> int:  # fmt: skip
     """Serve the robot until a signal ends the daemon."""
     try:
-        robot = HeadlessRobot(args, settings, port, example, notes_vital=False)
+        robot = HeadlessRobot(args, settings, port, example, print_notes=False)
     except UsageError as error:
         return fail(str(error), EXIT_USAGE)
     control = robot.control
+    journal = Journal()
+    control.subscribe(journal.hear)
     recordings = data_folder(getattr(args, "recordings", None), settings.recordings,
                              default_recordings())  # fmt: skip
     sessions = Sessions(control, None, recordings, RecordingSetup(port=port or "simulator",
@@ -98,6 +131,12 @@ def run_serve(args: argparse.Namespace, settings: Settings, port: str | None,
             port_for_others = VirtualPort(control, link_timeout=settings.timeout)
         except OSError as error:
             return fail(f"--virtual-port: no pseudo-terminal: {error}", EXIT_USAGE)
+        # The operator's stop wins (§4.5): the program may not move the robot again
+        # until a console says `release`.
+        held = port_for_others.hold
+        service.on_stop.append(lambda: held("the operator stopped the robot; `release` in "
+                                            "a console lets the program move it again"))
+        service.on_release.append(lambda: held(None))
     # Before any thread starts: a signal stops the robot from the loop's own thread,
     # then the daemon stops taking consoles and ends.
     signal.signal(signal.SIGHUP, signal.SIG_IGN)
@@ -124,5 +163,6 @@ def run_serve(args: argparse.Namespace, settings: Settings, port: str | None,
             port_for_others.close()
         service.close()
         control.stop()
+        journal.close()
         last_stop.uninstall()
     return 128 + last_stop.signalled if last_stop.signalled is not None else 0

@@ -233,8 +233,8 @@ class RouteBook:
         log.start(patrol.name, scheduled=scheduled, by=by)
 
         def ended(why: str) -> None:
-            log.end(why, len(patrol.stops) * patrol.rounds)
             # On the loop's thread: closing the files may take a while on a slow disk.
+            _in_background(lambda: log.end(why, log.reached_count))
             _in_background(lambda: self._stop_recording(owner=run))
 
         self.control.run_mission(run, ended)

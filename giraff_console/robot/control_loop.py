@@ -33,6 +33,7 @@ import math
 import queue
 import sys
 import threading
+import time
 from collections.abc import Callable
 
 from giraff_console.clock import Clock, VirtualClock
@@ -340,21 +341,32 @@ class ControlLoop:
 
     def _run_stepped(self, speed: float) -> None:
         """The loop on a virtual clock (a simulator's `--sim-speed`): tick, move the
-        clock on to the next tick or to what a mission asks for, and wait that long
+        clock on to the next tick or to what a mission asks for, and keep to that step
         divided by `speed` in real time. The ticks fall at the same virtual times
-        whatever the speed, so a faster clock changes nothing but the wall time."""
+        whatever the speed, so a faster clock changes nothing but the wall time.
+
+        The real schedule is kept from one tick to the next, not a step after each
+        tick's work: the simulated camera looks for markers inside the tick, and a full
+        step after it made a 20 Hz loop tick 10 to 14 times a second (issue 15). How late
+        a tick starts against that schedule is its lateness, as on the real clock."""
         clock = self.clock
         assert isinstance(clock, VirtualClock), "a stepped loop needs a VirtualClock"
         next_tick = clock.now()
+        real_next = time.monotonic()
         while self._running:
             now = clock.now()
             early = now < next_tick
             if not early:
                 next_tick += self.period
+                if speed != math.inf:
+                    self._late = max(0.0, time.monotonic() - real_next)
             self.tick(early=early)
             step = max(0.0, min(next_tick, self.next_due()) - clock.now())
             if speed != math.inf:
-                self._wake.wait(step / speed)
+                # Behind by more than a tick (a busy machine): go on from now, rather
+                # than run ticks back to back to catch up.
+                real_next = max(real_next + step / speed, time.monotonic() - self.period)
+                self._wake.wait(max(0.0, real_next - time.monotonic()))
                 self._wake.clear()
             clock.advance(step)
 

@@ -61,6 +61,7 @@ class Speed(Request):
 
     to: float | None = None
     step: int = 0
+    moves: ClassVar[bool] = True
     quick: ClassVar[bool] = True
 
 
@@ -167,6 +168,8 @@ class Door(Request):
 
     door: str
     open: bool
+    # It plans the mission under way again.
+    moves: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)
@@ -196,6 +199,8 @@ class Play(Request):
 
     session: Path | None = None
     stop: bool = False
+    # A playback ends the mission and takes the keys: the robot's, not a watcher's.
+    moves: ClassVar[bool] = True
     quick: ClassVar[bool] = True
 
 
@@ -229,6 +234,7 @@ class Teach(Request):
     """Start teaching route `name`: the operator drives, `mark` names places."""
 
     name: str
+    moves: ClassVar[bool] = True
     quick: ClassVar[bool] = True
 
 
@@ -279,6 +285,14 @@ class Status(Request):
 
 
 @dataclass(frozen=True)
+class Release(Request):
+    """Let a program on the virtual port move the robot again after an operator's stop."""
+
+    moves: ClassVar[bool] = True
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
 class Shutdown(Request):
     """Stop the robot, then end the daemon (`giraff-console stop --daemon`)."""
 
@@ -288,7 +302,7 @@ class Shutdown(Request):
 REQUESTS: tuple[type[Request], ...] = (
     Press, Halt, Speed, Send, Stalk, Poll, Go, RunPatrol, Follow, Replay, Undock,
     Pause, Resume, StopMission, Door, Block, Record, Play, Seek, Rate, Step, Teach, Mark,
-    Done, Routes, TakeControls, Heartbeat, Status, Shutdown,
+    Done, Routes, TakeControls, Heartbeat, Status, Release, Shutdown,
 )  # fmt: skip
 
 
@@ -352,7 +366,8 @@ def _play(rest: str) -> Play:
     if rest == "stop":
         return Play(stop=True)
     try:
-        return Play(session=Path(rest).expanduser() if rest else None)
+        # Resolved here, where it was typed: a daemon has a folder of its own.
+        return Play(session=Path(rest).expanduser().resolve() if rest else None)
     except RuntimeError as error:  # ~nosuchuser
         raise Usage(f"not playing: {error}") from None
 
@@ -418,6 +433,8 @@ TYPED: tuple[Typed, ...] = (
           _bare(TakeControls(), "take")),
     Typed("status", "status", "what runs, who holds the controls, how the last mission ended",
           _bare(Status(), "status")),
+    Typed("release", "release", "let the program on the virtual port move the robot again "
+          "after a stop", _bare(Release(), "release")),
 )  # fmt: skip
 BY_WORD = {typed.word: typed for typed in TYPED}
 # What the help screen lists: one line for a pair typed alike (close/open, pause/resume).

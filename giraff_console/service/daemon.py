@@ -15,11 +15,15 @@ behind them.
 
 A console that hangs up, or whose connection dies, is detached: if it held the
 controls its keys are let go of at once, and a mission it started carries on.
+
+Only one daemon runs for a user: it holds a lock on a file beside its socket for as long
+as it runs, so that two started at once cannot both take the socket (and the board).
 """
 
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import logging
 import os
 import queue
@@ -52,18 +56,27 @@ from giraff_console.robot.replay import PlaybackStatus
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.service import commands as c
 from giraff_console.service import wire
-from giraff_console.service.events import Controls, Reply, RouteShown, ServiceEvent, Situation
+from giraff_console.service.events import Controls, Reply, RouteShown, Situation
+from giraff_console.service.outbox import Outbox
 from giraff_console.service.robot_service import RobotService
-from giraff_console.service.transport import Connection, ConnectionClosed, accept, listen
+from giraff_console.service.transport import (
+    Connection,
+    ConnectionClosed,
+    DaemonRunning,
+    TransportError,
+    accept,
+    listen,
+)
 from giraff_console.service.wire import WireError
 
 log = logging.getLogger(__name__)
 
 # Seconds between looks at the exit event while waiting for a console or a request.
 POLL_S = 0.2
-# Events a console may fall behind by before the oldest are dropped: twenty seconds of
-# telemetry. A console that far behind sees the latest, not the history.
-OUTBOX = 400
+# Answered on the reading thread at once, in the order typed: the keys, the stops and
+# what waits on nothing.
+URGENT = (c.Press, c.Halt, c.StopMission, c.Pause, c.Resume, c.Speed, c.Heartbeat,
+          c.TakeControls, c.Status, c.Release, c.Shutdown)  # fmt: skip
 # Seconds the first line (Hello) may take to come.
 HELLO_TIMEOUT_S = 5.0
 
@@ -86,6 +99,7 @@ class Welcome:
     simulator: bool
     controls: Controls
     situation: Situation
+    route: RouteShown | None
 
 
 @dataclass(frozen=True)
@@ -113,7 +127,12 @@ class Daemon:
         self.floorplan = floorplan
         self.simulator = simulator
         self._exit = threading.Event()
-        self._listener = listen(path)
+        self._lock = _lock_beside(path)
+        try:
+            self._listener = listen(path)
+        except TransportError:
+            os.close(self._lock)
+            raise
         self._threads: list[threading.Thread] = []
         self._names: set[str] = set()
         self._names_lock = threading.Lock()
@@ -144,6 +163,7 @@ class Daemon:
         self._listener.close()
         with contextlib.suppress(FileNotFoundError):
             self.path.unlink()
+        os.close(self._lock)
 
     # -- one console --------------------------------------------------------------------
 
@@ -159,74 +179,85 @@ class Daemon:
         pid = connection.peer_pid()
         where = "this process" if pid == os.getpid() else f"pid {pid}"
         name = self._unique(f"{hello.console} ({where})")
-        outbox: queue.Queue[object] = queue.Queue(OUTBOX)
+        outbox = Outbox()
         writer = threading.Thread(target=self._write, args=(connection, outbox),
                                   name="daemon-writer", daemon=True)  # fmt: skip
-
-        def hear(event: ServiceEvent) -> None:
-            # On the loop's thread: never waits (see the module's note).
-            _post(outbox, event)
-
+        asked: queue.SimpleQueue[Asked | None] = queue.SimpleQueue()
+        worker = threading.Thread(target=self._work, args=(asked, name, outbox),
+                                  name="daemon-requests", daemon=True)  # fmt: skip
         service = self.service
         # The welcome first, with this console among the attached: what the service says
-        # from then on follows it.
+        # from then on follows it. `outbox.put` never waits (see the module's note).
         service.attach(name, take=hello.take)
         outbox.put(Welcome(name, self.floorplan, self.simulator, service.controls(),
-                           service.situation()))  # fmt: skip
-        service.subscribe(hear)
+                           service.situation(), service.route()))  # fmt: skip
+        service.subscribe(outbox.put)
         writer.start()
+        worker.start()
         try:
-            self._read(connection, name, outbox)
+            self._read(connection, name, outbox, asked)
         finally:
-            service.unsubscribe(hear)
+            service.unsubscribe(outbox.put)
             service.detach(name)
-            _post(outbox, None)
+            asked.put(None)
+            worker.join(2.0)
+            outbox.close()
             writer.join(2.0)
             connection.close()
             with self._names_lock:
                 self._names.discard(name)
 
-    def _read(self, connection: Connection, name: str, outbox: queue.Queue[object]) -> None:
-        """The console's requests, until it hangs up or the daemon stops."""
-        while not self._exit.is_set():
+    def _read(self, connection: Connection, name: str, outbox: Outbox,
+              asked: queue.SimpleQueue[Asked | None]) -> None:  # fmt: skip
+        """The console's requests, until it hangs up, falls too far behind, or the
+        daemon stops."""
+        while not self._exit.is_set() and not outbox.closed:
             try:
                 message = connection.receive(POLL_S)
             except ConnectionClosed:
                 return
             except WireError as error:
-                _post(outbox, Answered(-1, Reply(False, f"not understood: {error}")))
+                outbox.put(Answered(-1, Reply(False, f"not understood: {error}")))
                 continue
             if message is None:
                 continue
             if not isinstance(message, Asked) or not isinstance(message.request, c.Request):
-                _post(outbox, Answered(-1, Reply(False, "not understood: not a request")))
+                outbox.put(Answered(-1, Reply(False, "not understood: not a request")))
                 continue
-            if message.request.quick:
+            if isinstance(message.request, URGENT):
                 self._answer(message, name, outbox)
             else:
-                threading.Thread(target=self._answer, args=(message, name, outbox),
-                                 name="daemon-request", daemon=True).start()  # fmt: skip
+                asked.put(message)
 
-    def _answer(self, asked: Asked, name: str, outbox: queue.Queue[object]) -> None:
+    def _work(self, asked: queue.SimpleQueue[Asked | None], name: str, outbox: Outbox) -> None:
+        while (message := asked.get()) is not None:
+            self._answer(message, name, outbox)
+
+    def _answer(self, asked: Asked, name: str, outbox: Outbox) -> None:
         try:
             reply = self.service.execute(asked.request, name)
         except Exception as error:  # a bug must not end the console's connection
             log.exception("request %r failed", asked.request)
             reply = Reply(False, f"failed: {type(error).__name__}: {error}")
-        _post(outbox, Answered(asked.number, reply))
+        outbox.put(Answered(asked.number, reply))
         if isinstance(asked.request, c.Shutdown):
             self.stop()
 
-    def _write(self, connection: Connection, outbox: queue.Queue[object]) -> None:
-        while True:
-            message = outbox.get()
-            if message is None:
-                return
-            try:
-                connection.send(message)
-            except ConnectionClosed:
-                # The reading thread sees the hang-up too and detaches the console.
-                return
+    def _write(self, connection: Connection, outbox: Outbox) -> None:
+        try:
+            while (message := outbox.take(POLL_S)) is not None or not outbox.closed:
+                if message is not None:
+                    connection.send(message)
+        except ConnectionClosed:
+            pass  # the reading thread sees the hang-up too and detaches the console
+        except Exception:
+            # A console that can no longer be told what the robot does is hung up on,
+            # so that its keys are let go of, rather than left driving blind.
+            log.exception("writing to a console failed; hanging up on it")
+        finally:
+            if outbox.overflowed:
+                log.error("a console fell too far behind; hanging up on it")
+            connection.close()
 
     def _unique(self, name: str) -> str:
         with self._names_lock:
@@ -237,15 +268,15 @@ class Daemon:
             return unique
 
 
-def _post(outbox: queue.Queue[object], message: object) -> None:
-    """Into a console's outbox without waiting; a full one loses its oldest first."""
-    while True:
-        try:
-            outbox.put_nowait(message)
-            return
-        except queue.Full:
-            with contextlib.suppress(queue.Empty):
-                outbox.get_nowait()
+def _lock_beside(path: Path) -> int:
+    """A lock held for the daemon's lifetime; DaemonRunning if another holds it."""
+    lock = os.open(path.with_suffix(".lock"), os.O_RDWR | os.O_CREAT, 0o600)
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        os.close(lock)
+        raise DaemonRunning(path) from None
+    return lock
 
 
 # What crosses the socket: the daemon's own messages, the requests, and everything the

@@ -11,13 +11,16 @@ beside the runs, so that `giraff-console patrols` shows it with its reason.
 from __future__ import annotations
 
 import datetime as dt
+import logging
 import threading
 from collections.abc import Callable
 from pathlib import Path
 
 from giraff_console.missions.patrol_log import PatrolRunLog
-from giraff_console.missions.schedule import ScheduledPatrol, Scheduler
+from giraff_console.missions.schedule import Decision, ScheduledPatrol, Scheduler
 from giraff_console.service.robot_service import RobotService
+
+log = logging.getLogger(__name__)
 
 # Seconds between looks at the clock: a slot starts at most this late.
 LOOK_EVERY_S = 10.0
@@ -56,19 +59,28 @@ class PatrolSchedule:
     def look(self) -> None:
         """Start or skip the slots that have come since the last look."""
         for decision in self.scheduler.tick(self.now(), self._running):
-            patrol = decision.entry.patrol
-            why = decision.why
-            if decision.start:
-                reply = self.service.run_scheduled(patrol)
-                if reply.ok:
-                    self.service.note(f"scheduled patrol {patrol} started ({why})")
-                    continue
-                why = reply.text
-            self.service.note(f"scheduled patrol {patrol} skipped: {why}")
-            if self.runs is not None:
-                problem = PatrolRunLog(self.runs).skipped(patrol, why)
-                if problem is not None:
-                    self.service.note(f"patrol log: {problem}")
+            try:
+                self._decided(decision)
+            except Exception:
+                # One slot that fails must not end the schedule for every night after.
+                log.exception("scheduled patrol %s failed", decision.entry.patrol)
+                self.service.note(f"scheduled patrol {decision.entry.patrol} failed to "
+                                  "start: an internal error (see the log)")  # fmt: skip
+
+    def _decided(self, decision: Decision) -> None:
+        patrol = decision.entry.patrol
+        why = decision.why
+        if decision.start:
+            reply = self.service.run_scheduled(patrol)
+            if reply.ok:
+                self.service.note(f"scheduled patrol {patrol} started ({why})")
+                return
+            why = reply.text
+        self.service.note(f"scheduled patrol {patrol} skipped: {why}")
+        if self.runs is not None:
+            problem = PatrolRunLog(self.runs).skipped(patrol, why)
+            if problem is not None:
+                self.service.note(f"patrol log: {problem}")
 
     def _running(self, patrol: str) -> bool:
         mission = self.service.control.mission

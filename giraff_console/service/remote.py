@@ -10,7 +10,9 @@ request is answered "the daemon has gone" rather than waited on.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
+import logging
 import os
 import threading
 from pathlib import Path
@@ -22,6 +24,8 @@ from giraff_console.service.events import Answered as Callback
 from giraff_console.service.events import Reply, ServiceEvent, ServiceListener
 from giraff_console.service.transport import Connection, ConnectionClosed, connect
 from giraff_console.service.wire import WireError
+
+log = logging.getLogger(__name__)
 
 # Seconds to wait for the daemon's welcome, and for the answer to a request: planning a
 # route on a large plan takes a few hundred milliseconds, a controller command up to 3 s.
@@ -116,6 +120,16 @@ class RemoteRobot:
         return self._gone
 
     def _read(self) -> None:
+        try:
+            self._take_messages()
+        except Exception:
+            # A screen that cannot take what the daemon says hangs up, so that the
+            # daemon lets go of the keys it held, rather than leave it driving blind.
+            log.exception("a console's listener failed; hanging up")
+            self._hung_up("this console failed; it has hung up")
+            self._connection.close()
+
+    def _take_messages(self) -> None:
         while not self._exit.is_set():
             try:
                 message = self._connection.receive(0.2)
@@ -144,7 +158,8 @@ class RemoteRobot:
             waiting, self._waiting = self._waiting, {}
         for answered in waiting.values():
             answered(Reply(False, why))
-        self._tell(Note(why))
+        with contextlib.suppress(Exception):  # the screen may be what failed
+            self._tell(Note(why))
 
     def _beat(self) -> None:
         while not self._exit.wait(HEARTBEAT_S):

@@ -14,13 +14,16 @@ stop it. A console that hangs up while holding the controls lets go of the keys 
 
 from __future__ import annotations
 
+import math
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import replace
 from typing import Protocol
 
 from giraff_console.link import BoardLink
 from giraff_console.missions.drive_setup import DriveSetup
+from giraff_console.missions.navigation import NavigationState
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
 from giraff_console.planning.room_graph import PlanningError
@@ -44,6 +47,24 @@ from giraff_console.service.events import (
 
 # The console that runs the robot in its own process: it holds the controls alone.
 HERE = "this console"
+# Seconds after an operator last moved the robot during which a scheduled patrol waits.
+IN_USE_S = 300.0
+# What starts a mission, which a stop while it is being planned must cancel.
+STARTS_MISSION = (c.Go, c.RunPatrol, c.Follow, c.Replay, c.Undock)
+
+
+def _moves(request: c.Request) -> bool:
+    """Whether `request` may move the robot: a controller command that only reads does
+    not, so that a watcher may ask for bulk_data."""
+    if isinstance(request, c.Send):
+        return request.text.split()[:1] != ["get"]
+    return request.moves
+
+
+def _finite(request: c.Request) -> bool:
+    """No NaN or infinity in a request's numbers (one from another process could)."""
+    return all(math.isfinite(value) for value in vars(request).values()
+               if isinstance(value, float))  # fmt: skip
 
 
 class Building(Protocol):
@@ -80,6 +101,16 @@ class RobotService:
         # Each listener as the loop knows it: with the recording filled in.
         self._on_loop: dict[ServiceListener, Callable[[LoopEvent], None]] = {}
         self.telemetry: Telemetry | None = None
+        # Every stop counts: a mission planned meanwhile does not start (execute).
+        self._stops = 0
+        # Called at each operator's stop: what else may move the robot is held; and at
+        # `release`, when the operator lets it go again.
+        self.on_stop: list[Callable[[], None]] = []
+        self.on_release: list[Callable[[], None]] = []
+        # When the controls' holder last moved the robot (time.monotonic): the schedule
+        # does not take the robot from an operator who is using it.
+        self._moved_at = -math.inf
+        self._route_shown: NavigationState | None = None
         # The mission under way and the last one to end, as the loop told them: changed
         # together, so that `status` never sees one gone and its end not yet known.
         self._missions: tuple[str | None, MissionChanged | None] = (None, None)
@@ -126,6 +157,11 @@ class RobotService:
     def _heard(self, event: LoopEvent) -> None:
         if isinstance(event, Telemetry):
             self.telemetry = event
+            navigator = self.navigator
+            # Patrols' legs, replans and obstacles change the route without a request.
+            if navigator is not None and navigator.state is not self._route_shown:
+                self._route_shown = navigator.state
+                self._tell(RouteShown.of(navigator.state))
         elif isinstance(event, MissionChanged):
             last = self._missions[1]
             self._missions = (event.name, last) if event.running else (None, event)
@@ -163,28 +199,52 @@ class RobotService:
         """Why `console` may not move the robot now, or None. Nobody holding the controls
         (a console left, or a command from the shell) lets the first to move take them."""
         with self._lock:
+            if console != HERE and console not in self._consoles:
+                return "refused: not attached (hung up)"
+            self._moved_at = time.monotonic()
             if self._holder is None:
                 self._holder = console
             elif self._holder != console:
-                return (f"refused: {self._holder} holds the controls (Ctrl+T or `take` "
-                        "asks for them)")  # fmt: skip
+                return (f"refused: {self._holder} holds the controls (a console's Ctrl+T or "
+                        "`take` asks for them)")  # fmt: skip
             else:
                 return None
         self._tell(self.controls())
+        return None
+
+    def in_use(self) -> str | None:
+        """Why the robot is busy for a scheduled patrol, or None: a mission, keys held, or
+        an operator who moved it in the last IN_USE_S seconds."""
+        mission = self.control.mission
+        if mission is not None:
+            return f"{mission.name} is running"
+        if self.control.deadman.held() is not None:
+            return "the robot is being driven by the keys"
+        if time.monotonic() - self._moved_at < IN_USE_S:
+            return f"an operator used the robot in the last {IN_USE_S / 60:.0f} minutes"
         return None
 
     # -- requests -----------------------------------------------------------------------
 
     def execute(self, request: c.Request, console: str = HERE) -> Reply:
         """Do what `request` asks, for `console`; the reply says whether it was done."""
-        if request.moves:
+        if not _finite(request):
+            return Reply(False, "refused: a number that is not a number")
+        if _moves(request):
             refused = self._may_move(console)
             if refused is not None:
                 return Reply(False, refused)
         handler = getattr(self, f"_do_{type(request).__name__.lower()}")
         # Those that need to know who asks say so with a second parameter.
         with_console = isinstance(request, c.TakeControls | c.RunPatrol)
+        stops = self._stops
         reply: Reply = handler(request, console) if with_console else handler(request)
+        if isinstance(request, STARTS_MISSION) and reply.ok and self._stops != stops:
+            # A stop came while the mission was being planned, before the loop had it: the
+            # stop must win. Queued after the start, so the mission ends before its first
+            # tick; a later stop queues after it anyway.
+            self.control.stop_mission("stopped before it started")
+            return Reply(False, "stopped before it started")
         return reply
 
     def _do_press(self, request: c.Press) -> Reply:
@@ -194,11 +254,19 @@ class RobotService:
         return Reply(True)
 
     def _do_halt(self, request: c.Halt) -> Reply:
-        """Let go of the keys, and stop any move, typed or undocking, as well."""
+        """Let go of the keys, and stop any move, typed or undocking, as well, and hold
+        whatever else may move the robot (a program on the virtual port) until the
+        operator lets it go again."""
+        self._stopped()
         self.control.halt()
         self.control.stop_mission("stopped by the operator")
         self.control.submit(stop_robot, stop=True)
         return Reply(True, "stop")
+
+    def _stopped(self) -> None:
+        self._stops += 1
+        for hold in self.on_stop:
+            hold()
 
     def _do_speed(self, request: c.Speed) -> Reply:
         teleop = self.control.teleop
@@ -270,7 +338,7 @@ class RobotService:
             return Reply(False, "go: playing back; p returns to live first")
         try:
             mission = self.drives.go(request.room)
-        except PlanningError as error:
+        except (PlanningError, ValueError) as error:  # ValueError: a pose off the map
             return Reply(False, f"go: {error}")
         planned = navigator.state.planned
         text = f"going to {request.room}"
@@ -290,24 +358,26 @@ class RobotService:
         return Reply(True, text)
 
     def _book(self, act: Callable[[RouteBook], object]) -> Reply:
-        """A request the route book answers (it says what happened in notes)."""
+        """A request the route book answers (it says what happened, or why not, in a
+        note to every console)."""
         if self.routes is None:
             return Reply(False, "routes are not available")
-        return Reply(act(self.routes) is not False)
+        try:
+            done = act(self.routes) is not False
+        except ValueError as error:  # a pose off the map, planning a patrol's first leg
+            return Reply(False, str(error))
+        return Reply(done, "" if done else "not done: the note above says why")
 
     def _do_runpatrol(self, request: c.RunPatrol, console: str) -> Reply:
         return self._book(lambda book: book.patrol(request.name, by=console))
 
     def run_scheduled(self, patrol: str) -> Reply:
-        """Start a scheduled patrol, unless the robot is busy: with a mission, or being
-        driven by the keys. The controls' holder does not matter: the patrol is the
-        daemon's own, and an operator who only watches must not keep it from the night."""
-        mission = self.control.mission
-        if mission is not None:
-            return Reply(False, f"{mission.name} is running")
-        telemetry = self.telemetry
-        if telemetry is not None and telemetry.intent is not None:
-            return Reply(False, "the robot is being driven by the keys")
+        """Start a scheduled patrol, unless the robot is in use (`in_use`). The controls'
+        holder does not matter: the patrol is the daemon's own, and an operator who only
+        watches must not keep it from the night."""
+        busy = self.in_use()
+        if busy is not None:
+            return Reply(False, busy)
         if self.routes is None:
             return Reply(False, "routes are not available")
         return Reply(self.routes.patrol(patrol, by="schedule", scheduled=True))
@@ -359,8 +429,8 @@ class RobotService:
         return Reply(True)
 
     def _do_stopmission(self, request: c.StopMission) -> Reply:
-        if self.control.mission is None:
-            return Reply(False, "no mission is running")
+        """End the mission, or the one about to start (the loop may not have it yet)."""
+        self._stopped()
         self.control.stop_mission()
         return Reply(True)
 
@@ -464,6 +534,13 @@ class RobotService:
     def _do_heartbeat(self, request: c.Heartbeat) -> Reply:
         return Reply(True)
 
+    def _do_release(self, request: c.Release) -> Reply:
+        if not self.on_release:
+            return Reply(False, "nothing to release: no virtual port")
+        for release in self.on_release:
+            release()
+        return Reply(True, "the program on the virtual port may move the robot again")
+
     def _do_shutdown(self, request: c.Shutdown) -> Reply:
         """Stop the robot; ending the process is the daemon's (service/daemon.py)."""
         self._do_halt(c.Halt())
@@ -478,6 +555,10 @@ class RobotService:
             f"{', '.join(situation.consoles) or 'none'}",
             f"last mission: {f'{last.name}: {last.why}' if last is not None else 'none'}",
         ))  # fmt: skip
+
+    def route(self) -> RouteShown | None:
+        """The route on the map now, for a console that attaches mid-mission."""
+        return RouteShown.of(self.navigator.state) if self.navigator is not None else None
 
     def situation(self) -> Situation:
         running, last = self._missions

@@ -316,9 +316,10 @@ class GiraffConsole(RobotKeys, KeyGuard):
         self._show_map()
 
     def on_controls_changed(self, message: ControlsChanged) -> None:
-        controls = self.controls = message.controls
-        if self.attached is None:
-            return  # alone in its process: it always holds them
+        before, controls = self.controls, message.controls
+        self.controls = controls
+        if self.attached is None or (before is not None and before.holder == controls.holder):
+            return  # alone in its process it always holds them; a console came or went
         holder = controls.holder
         mine = self.robot_console()
         if holder == mine:
@@ -530,6 +531,17 @@ class GiraffConsole(RobotKeys, KeyGuard):
             try:
                 request = c.parse(text)
             except c.Usage as error:
-                self.note(f"refused: {error}")
+                self.note(f"refused: {error}{self._choices(word)}")
                 return
+            if isinstance(request, c.Go):
+                self.note(f"planning a route to {request.room} ...")
             self.order(request if request is not None else c.Send(text))
+
+    def _choices(self, word: str) -> str:
+        """What there is to choose from, for a command typed without it."""
+        navigator = self.navigator
+        if navigator is None or word not in ("go", "close", "open"):
+            return ""
+        if word == "go":
+            return f"; rooms: {', '.join(navigator.room_ids())}"
+        return f"; doors: {', '.join(navigator.door_ids())}"

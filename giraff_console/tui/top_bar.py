@@ -35,7 +35,7 @@ class TopBar(Static):
     """One line, like the thesis's SetCameraInfo / SetPositionInfo / SetPerformanceInfo."""
 
     DEFAULT_CSS = """
-    TopBar { height: 1; background: $panel; }
+    TopBar { height: 1; width: 1fr; background: $panel; }
     """
 
     def __init__(self, simulator: bool, *, battery_low: float = 25.0, **kwargs) -> None:
@@ -68,7 +68,9 @@ class TopBar(Static):
             text.append(" │ ", style="dim")
             text.append(stalk_text(telemetry.stalk))
         text.append(f" │ loop {telemetry.loop_hz:.0f} Hz · UI {self.ui_fps:.0f} fps", style="dim")
-        self.update(text)
+        # One line across the screen whatever it says: no new layout of the whole screen
+        # twenty times a second (issue 15: most of an idle console's time went to it).
+        self.update(text, layout=False)
 
     def _badges(self, telemetry: Telemetry) -> list[tuple[str, str]]:
         badges = []

@@ -1,0 +1,69 @@
+"""What the daemon has yet to tell one console, waiting for that console's writer.
+
+The control loop and the service drop events in here and never wait (a console that
+stops reading must not delay a tick, issue 15). Telemetry comes twenty times a second
+and only the newest matters, so a console that falls behind gets the latest snapshot,
+not the history. Everything else (answers, notes, who holds the controls, a mission's
+end) matters each time: none of it is dropped, and a console so far behind that LIMIT
+of those wait is hung up on instead, which lets go of its keys like any hang-up.
+"""
+
+from __future__ import annotations
+
+import collections
+import threading
+
+from giraff_console.robot.telemetry import Telemetry
+
+# Messages other than telemetry a console may fall behind by before it is hung up on.
+LIMIT = 2000
+
+
+class Outbox:
+    """Safe from any thread; `take` is for the one writer."""
+
+    def __init__(self, limit: int = LIMIT) -> None:
+        self.limit = limit
+        self._ready = threading.Condition()
+        self._messages: collections.deque[object] = collections.deque()
+        self._latest: Telemetry | None = None
+        self._closed = False
+        self.overflowed = False
+
+    def put(self, message: object) -> None:
+        """Never waits."""
+        with self._ready:
+            if self._closed:
+                return
+            if isinstance(message, Telemetry):
+                self._latest = message
+            elif len(self._messages) >= self.limit:
+                self.overflowed = self._closed = True
+            else:
+                self._messages.append(message)
+            self._ready.notify()
+
+    def close(self) -> None:
+        """No more: `take` returns None once what is queued has been taken."""
+        with self._ready:
+            self._closed = True
+            self._ready.notify()
+
+    def take(self, timeout: float) -> object | None:
+        """The next message, in order, the newest telemetry after the others; None when
+        closed and empty, or after `timeout` seconds with nothing."""
+        with self._ready:
+            self._ready.wait_for(
+                lambda: self._messages or self._latest is not None or self._closed, timeout
+            )
+            if self._messages:
+                return self._messages.popleft()
+            if self.overflowed:
+                return None
+            latest, self._latest = self._latest, None
+            return latest
+
+    @property
+    def closed(self) -> bool:
+        with self._ready:
+            return self._closed and not self._messages
