@@ -20,16 +20,16 @@ from giraff_console.camera.processors import CameraIntrinsics
 from giraff_console.camera.source import SyntheticCamera
 from giraff_console.clock import Clock
 from giraff_console.planning.floorplan import FloorPlan
-from giraff_console.planning.grid import OCCUPIED
+from giraff_console.planning.grid import OCCUPIED, OccupancyGrid
 from giraff_console.planning.landmarks import aruco_dictionary, marker_detector
 from giraff_console.planning.route_planner import ROBOT_RADIUS_M, walls_of
-from giraff_console.planning.walls import doorway, wall_segments
+from giraff_console.planning.walls import WallSegment, doorway, wall_segments
 from giraff_console.robot.localisation import Localisation
 from giraff_console.robot.marker_eye import EYE_FPS, EYE_SIZE, MarkerEye
 from giraff_console.robot.odometry import Pose
 from giraff_console.sim.board import GiraffBoard
 from giraff_console.sim.camera import WorldCamera
-from giraff_console.sim.collision import Solids
+from giraff_console.sim.collision import Solids, grid_edges
 from giraff_console.sim.drive import TruePose
 from giraff_console.sim.range_finder import SimRangeFinder
 from giraff_console.sim.surroundings import Surroundings
@@ -62,25 +62,23 @@ class SimulatedSite:
             board.dock = TruePose(start.x, start.y, start.heading)
             board.place(board.dock)
         self.surroundings = Surroundings()
+        # The plan's own grid, if it has one: where a plan without outlines has its walls.
+        self._grid = walls_of(plan) if plan.grid is not None else None
         for door in plan.doors:
             if not door.open:
-                self.surroundings.close_door(door.id, *doorway(plan, door))
+                self.surroundings.close_door(door.id, *doorway(plan, door, self._grid))
         # The building is solid: a robot of `robot_radius` that drives into a wall stops
-        # against it, wheels stalled (sim/collision.py). The walls are the outlines' (the
-        # camera's), doorways open; a plan without outlines has its grid's occupied cells.
-        # Closed doors and boxes are the surroundings', which open and move.
-        if any(room.outline for room in plan.rooms.values()) or plan.grid is None:
-            walls = [(wall.a, wall.b) for wall in wall_segments(plan) if wall.kind != "door"]
-            board.make_solid(Solids(walls, robot_radius, self.surroundings))
-        else:
-            grid = walls_of(plan)
-            assert grid is not None
-            occupied = grid.cells == OCCUPIED
-            board.make_solid(Solids.from_grid(occupied, grid.resolution, grid.origin,
-                                              robot_radius, self.surroundings))  # fmt: skip
+        # against it, wheels stalled (sim/collision.py). The walls are the ones the
+        # camera sees (building_walls). Closed doors and boxes are the surroundings',
+        # which open and move.
+        walls = building_walls(plan, self._grid)
+        board.make_solid(Solids([(wall.a, wall.b) for wall in walls], robot_radius,
+                                self.surroundings))  # fmt: skip
         self.range_finder = SimRangeFinder(
             lambda: board.true_pose, self.surroundings, sensing_range, SENSING_FOV_DEG
         )
+        # The camera's world from the plan itself, as headless.py draws a building whose
+        # markers moved: a plan without outlines has its grid read a second time, once.
         self.world = plan_world(plan)
         self._doors = {door.id: door for door in plan.doors}
 
@@ -125,7 +123,8 @@ class SimulatedSite:
 
     def close_door(self, door_id: str) -> None:
         """Shut a door of the plan in the simulated building (KeyError if none)."""
-        self.surroundings.close_door(door_id, *doorway(self.plan, self._doors[door_id]))
+        door = self._doors[door_id]
+        self.surroundings.close_door(door_id, *doorway(self.plan, door, self._grid))
 
     def open_door(self, door_id: str) -> None:
         self.surroundings.open_door(door_id)
@@ -139,18 +138,39 @@ class SimulatedSite:
         return self.surroundings.unblock(x, y)
 
 
+def building_walls(plan: FloorPlan, grid: OccupancyGrid | None = None) -> list[WallSegment]:
+    """The building's fixed walls, which the simulated robot stops against and the
+    synthetic camera sees: the edges of the rooms' outlines, cut at the doorways (shut
+    doors are the surroundings', which can open them).
+
+    A plan without outlines (an RMF import, or points and doors over a scan) has its
+    walls in its grid, where the robot plans: the edges round the grid's occupied cells,
+    runs merged (sim/collision.py's grid_edges). The camera then shows the scanned walls
+    where the robot finds them, rather than an empty floor through which it bumps into
+    things it cannot see. Unknown cells stay open here, as unmapped space does to a real
+    robot; the planner keeps out of them. A plan with neither outlines nor a grid is an
+    open floor, with no walls. `grid` is the plan's, if it has been read already."""
+    if any(room.outline for room in plan.rooms.values()) or plan.grid is None:
+        return [wall for wall in wall_segments(plan) if wall.kind != "door"]
+    grid = grid if grid is not None else walls_of(plan)
+    assert grid is not None
+    edges = grid_edges(grid.cells == OCCUPIED, grid.resolution, grid.origin)
+    return [WallSegment(a, b) for a, b in edges]
+
+
 def plan_world(plan: FloorPlan) -> World:
-    """The building as the synthetic camera sees it: the plan's walls, door frames dark,
-    a poster half-way along every wall long enough to hang one, and the plan's markers
-    where it says they hang, each with its true pattern from cv2.aruco (issue 14)."""
+    """The building as the synthetic camera sees it: its walls (building_walls), door
+    frames dark, a poster half-way along every wall long enough to hang one, and the
+    plan's markers where it says they hang, each with its true pattern from cv2.aruco
+    (issue 14)."""
     kinds = {"wall": WALL, "frame": DOOR_FRAME, "door": DOOR_FRAME}
-    walls = []
-    for segment in wall_segments(plan):
+    seen = []
+    for segment in building_walls(plan):
         if segment.kind == "door":
             continue  # shut doors are the surroundings', which can open them
         (ax, ay), (bx, by) = segment.a, segment.b
         poster = (segment.length - POSTER_WIDTH) / 2 if segment.length > 2.0 else math.nan
-        walls.append(Wall(ax, ay, bx, by, kinds[segment.kind], poster))
+        seen.append(Wall(ax, ay, bx, by, kinds[segment.kind], poster))
     markers = []
     landmarks = plan.landmarks
     if landmarks is not None:
@@ -163,4 +183,4 @@ def plan_world(plan: FloorPlan) -> World:
                     marker_pattern(dictionary, marker.id),
                 )
             )  # fmt: skip
-    return World(walls, markers)
+    return World(seen, markers)

@@ -421,7 +421,7 @@ def _read(path: Path) -> tuple[FloorPlan | None, list[Problem]]:
     if not reader.problems:  # a broken door would make rooms look unreachable
         _check_reachable(reader, list(rooms), good_doors, start)
     if grid is not None:
-        _check_grid(reader, grid, rooms)
+        _check_grid(reader, grid, rooms, doors)
     landmarks = None
     if top.get("landmarks") is not None:
         landmarks = _landmarks(reader, top["landmarks"], name, rooms, good_doors, len(raw_rooms))
@@ -504,10 +504,28 @@ def _check_reachable(reader: _Reader, rooms: list[str], doors: list[Door], start
             )
 
 
-def _check_grid(reader: _Reader, grid: GridSpec, rooms: dict[str, Room]) -> None:
-    """The grid image must load, and every room's `at` must be a free cell of it, read by
-    ROS map_server's rules: row 0 is the top, `origin` the lower-left pixel's corner."""
-    pixels = cv2.imread(str(grid.image), cv2.IMREAD_UNCHANGED) if grid.image.is_file() else None
+def _check_grid(
+    reader: _Reader, grid: GridSpec, rooms: dict[str, Room], doors: list[Door | None]
+) -> None:
+    """The grid image must load and fill the size its header says, every room's `at`
+    must be a free cell of it, and no door's `at` an occupied one (the robot could never
+    pass it, open or not). Read by ROS map_server's rules: row 0 is the top, `origin`
+    the lower-left pixel's corner."""
+    # Imported here: ros_map.py imports this module. The check read_grid_image makes,
+    # reported here at the grid key's line.
+    from giraff_console.planning.ros_map import netpbm_mismatch
+
+    pixels = None
+    if grid.image.is_file():
+        try:
+            data = grid.image.read_bytes()
+        except OSError:
+            data = b""
+        mismatch = netpbm_mismatch(data)
+        if mismatch is not None:
+            reader.add(("grid", "image"), f"grid image {str(grid.image)!r}: {mismatch}")
+            return
+        pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
     if pixels is None:
         state = "unreadable" if grid.image.is_file() else "missing"
         reader.add(("grid", "image"), f"grid image {str(grid.image)!r} is {state}")
@@ -518,18 +536,37 @@ def _check_grid(reader: _Reader, grid: GridSpec, rooms: dict[str, Room]) -> None
     value = pixels.astype(np.float64) / scale
     occupancy = value if grid.negate else 1.0 - value
     rows, cols = occupancy.shape
-    for room in rooms.values():
+
+    def cell(point: Point) -> tuple[int, int] | None:
         # Cells as floats first: a far origin over a tiny resolution may not be finite.
-        x_cells = (room.at[0] - grid.origin[0]) / grid.resolution
-        y_cells = (room.at[1] - grid.origin[1]) / grid.resolution
-        where = ("rooms", room.id, "at")
+        x_cells = (point[0] - grid.origin[0]) / grid.resolution
+        y_cells = (point[1] - grid.origin[1]) / grid.resolution
         if not (0 <= x_cells < cols and 0 <= y_cells < rows):
+            return None
+        return rows - 1 - math.floor(y_cells), math.floor(x_cells)
+
+    for room in rooms.values():
+        where: Where = ("rooms", room.id, "at")
+        found = cell(room.at)
+        if found is None:
             reader.add(where, f"room {room.id!r} at {list(room.at)} is off the grid")
-            continue
-        col, row = math.floor(x_cells), rows - 1 - math.floor(y_cells)
-        if occupancy[row, col] > grid.occupied_thresh:
+        elif occupancy[found] > grid.occupied_thresh:
             reader.add(
                 where,
                 f"room {room.id!r} at {list(room.at)} is on an occupied cell "
-                f"(row {row}, column {col} of {grid.image.name})",
+                f"(row {found[0]}, column {found[1]} of {grid.image.name})",
+            )
+    for i, door in enumerate(doors):
+        if door is None:
+            continue
+        where = ("doors", i, "at")
+        found = cell(door.at)
+        if found is None:
+            reader.add(where, f"door {door.id!r} at {list(door.at)} is off the grid")
+        elif occupancy[found] > grid.occupied_thresh:
+            reader.add(
+                where,
+                f"door {door.id!r} at {list(door.at)} is on an occupied cell (row "
+                f"{found[0]}, column {found[1]} of {grid.image.name}): the robot could "
+                f"never pass it; open the doorway in the grid image, as wide as the door",
             )

@@ -13,10 +13,12 @@ YAML and report mistakes the way `load_floorplan` does, as `FloorPlanError` prob
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any, TypeGuard
 
 import cv2
+import numpy as np
 
 from giraff_console.planning.floorplan import (
     FloorPlanError,
@@ -32,6 +34,99 @@ from giraff_console.planning.floorplan import (
 
 # The keys nav2's map_server refuses a map without; `mode` is optional there too.
 _REQUIRED = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh")
+# Netpbm's kinds (PBM, PGM, PPM, plain and raw): whether the pixels are text, how
+# many samples a pixel has, and whether the header gives a largest value.
+_NETPBM = {
+    b"P1": (True, 1, False), b"P2": (True, 1, True), b"P3": (True, 3, True),
+    b"P4": (False, 1, False), b"P5": (False, 1, True), b"P6": (False, 3, True),
+}  # fmt: skip
+_WHITESPACE = b" \t\r\n\v\f"
+
+
+class GridImageError(OSError):
+    """A grid image that cannot be read as a grid; the message names the file and why.
+    An OSError, as a missing image is, so that whoever reports one reports the other."""
+
+
+def read_grid_image(path: Path) -> np.ndarray:
+    """The pixels of a grid image (a PGM or a PNG), as OpenCV reads them, unchanged.
+
+    GridImageError if it cannot be read, or if it is a Netpbm file (PGM, PPM, PBM) whose
+    pixels do not fill the size its header says exactly: OpenCV reads a header narrower
+    than its image as a garbled grid, each row starting where the last one's pixels
+    ended (issue 16), and a header wider than its image not at all."""
+    try:
+        data = path.read_bytes()
+    except OSError as error:
+        raise GridImageError(f"{path}: cannot read it: {error.strerror or error}") from None
+    mismatch = netpbm_mismatch(data)
+    if mismatch is not None:
+        raise GridImageError(f"{path}: {mismatch}")
+    pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
+    if pixels is None:
+        raise GridImageError(f"{path}: not an image OpenCV can read")
+    return pixels
+
+
+def netpbm_mismatch(data: bytes) -> str | None:
+    """What is wrong with a Netpbm image's header, or between it and its pixels; None
+    when it is right, or when `data` is not a Netpbm image at all (a PNG checks itself).
+    A few whitespace bytes after the pixels, fewer than a row, are allowed: some writers
+    end the file with a newline."""
+    kind = data[:2]
+    if kind not in _NETPBM:
+        return None
+    plain, samples, has_largest = _NETPBM[kind]
+    fields: list[int] = []
+    at = 2
+    while len(fields) < (3 if has_largest else 2):
+        while at < len(data) and (data[at] in _WHITESPACE or data[at] == ord("#")):
+            if data[at] == ord("#"):  # a comment, to the end of its line
+                while at < len(data) and data[at] not in b"\r\n":
+                    at += 1
+            else:
+                at += 1
+        start = at
+        while at < len(data) and 48 <= data[at] <= 57:
+            at += 1
+        if at == start:
+            return "its header should give the width, the height" + (
+                " and the largest value, as whole numbers" if has_largest else ", as whole numbers"
+            )
+        fields.append(int(data[start:at]))
+    width, height = fields[0], fields[1]
+    largest = fields[2] if has_largest else 1
+    if width < 1 or height < 1:
+        return f"its header says {width} x {height} pixels: an image needs at least one"
+    if not 1 <= largest <= 65535:
+        return f"its header gives {largest} as the largest value, not 1 to 65535"
+    if at >= len(data) or data[at] not in _WHITESPACE:
+        return "its header should end with a space or a newline before the pixels"
+    pixels = data[at + 1 :]
+    size = f"its header says {width} x {height} pixels"
+    if plain:
+        # Plain PBM digits need no space between them; the others are numbers.
+        found = pixels.count(b"0") + pixels.count(b"1") if kind == b"P1" else len(pixels.split())
+        wanted = width * height * samples
+        unit, extra = "values", 0
+    else:
+        row = math.ceil(width / 8) if kind == b"P4" else width * samples * (1 + (largest > 255))
+        wanted, found = row * height, len(pixels)
+        unit = "bytes"
+        tail = pixels[wanted:]
+        extra = len(tail) if len(tail) < row and not tail.strip(_WHITESPACE) else 0
+    if found - extra > wanted:
+        return (
+            f"{size} ({wanted} {unit}) but it holds {found} {unit} of pixels: the header "
+            f"is narrower or shorter than the image, which would read as a garbled grid; "
+            f"write the image's true width and height in it"
+        )
+    if found < wanted:
+        return (
+            f"{size} ({wanted} {unit}) but it holds only {found} {unit} of pixels: the "
+            f"file is cut short, or the header is wider or taller than the image"
+        )
+    return None
 
 
 def read_yaml(path: Path) -> tuple[dict[Any, Any], dict[Where, int]]:
@@ -112,8 +207,11 @@ def read_ros_map(path: str | Path) -> GridSpec:
         image_path = path.parent / image  # ROS: relative to the map.yaml, or absolute
         if not image_path.is_file():
             add("image", f"image {image!r} is missing (looked for {image_path})")
-        elif cv2.imread(str(image_path), cv2.IMREAD_UNCHANGED) is None:
-            add("image", f"image {image!r} is not an image OpenCV can read")
+        else:
+            try:
+                read_grid_image(image_path)
+            except GridImageError as error:
+                add("image", f"image {image!r} cannot be used: {error}")
     if problems:
         raise FloorPlanError(sorted(problems, key=lambda problem: problem.line or 0))
     assert image_path is not None

@@ -22,6 +22,8 @@ from giraff_console.planning.grid import OccupancyGrid
 from giraff_console.planning.legs import GridLegs, polyline_length
 from giraff_console.planning.rasterise import rasterise
 from giraff_console.planning.room_graph import NoRouteError, RoomGraph, Route
+from giraff_console.planning.ros_map import read_grid_image
+from giraff_console.planning.walls import grid_jambs, wall_edge
 
 # The Giraff's base is about 0.6 m across.
 ROBOT_RADIUS_M = 0.3
@@ -30,7 +32,10 @@ ROBOT_RADIUS_M = 0.3
 CLEARANCE_M = 0.05
 # A doorway is driven straight through, square to its wall, from this far before it to
 # this far after it (shorter where that is blocked): the turns into and out of it then
-# happen in the rooms, where they have room, rather than across the door frame.
+# happen in the rooms, where they have room, rather than across the door frame. Only a
+# door in a wall is: one in open floor (an import's door half-way along a lane) is
+# driven through as the grid's ways go, or "square" to a wall that is not there would
+# add a sideways hop out and back (issue 16: 6.28 m became 9.87 m).
 APPROACH_M = (0.9, 0.7, 0.5)
 
 
@@ -83,15 +88,14 @@ class PlannedPath:
 
 def walls_of(plan: FloorPlan) -> OccupancyGrid | None:
     """The plan's grid: its own image, else one drawn from its outlines, else (a plan of
-    points and doors alone) none. OSError if the image cannot be read."""
+    points and doors alone) none. OSError (GridImageError) if the image cannot be read,
+    or does not fill the size its header says."""
     spec = plan.grid
     if spec is None:
         if not any(room.outline for room in plan.rooms.values()):
             return None
         return rasterise(plan)
-    pixels = cv2.imread(str(spec.image), cv2.IMREAD_UNCHANGED)
-    if pixels is None:
-        raise OSError(f"cannot read the grid image {spec.image}")
+    pixels = read_grid_image(spec.image)
     return OccupancyGrid.from_image(pixels, spec.resolution, spec.origin[:2], spec.negate,
                                     spec.occupied_thresh, spec.free_thresh)  # fmt: skip
 
@@ -118,6 +122,7 @@ class RoutePlanner:
             if room.outline
         }
         self._doors_at = {door.at: door for door in plan.doors}
+        self._walls_at: dict[str, tuple[Point, Point, str | None] | None] = {}
 
     def close(self, door_id: str) -> None:
         self.graph.close(door_id)
@@ -198,7 +203,7 @@ class RoutePlanner:
         for i, point in enumerate(route.path[1:-1], start=1):
             before, after = route.leg_rooms[i - 1], route.leg_rooms[i]
             door = self._doors_at.get(point)
-            ends = self._approach(door.at, before, after) if door and before != after else None
+            ends = self._approach(door, before, after) if door and before != after else None
             if ends is None:
                 waypoints.append((point, before))
             elif i == 1 and door is not None and self._within_crossing(route.path[0], door, ends):
@@ -240,14 +245,15 @@ class RoutePlanner:
             )
         return [arrival.approach, arrival.point]
 
-    def _approach(self, at: Point, before: str, after: str) -> tuple[Point, Point] | None:
-        """Where to start and end a straight crossing of the door at `at`, square to its
-        wall, from room `before` to room `after`; None without an outline to take the
-        wall from, or when no crossing is clear."""
+    def _approach(self, door: Door, before: str, after: str) -> tuple[Point, Point] | None:
+        """Where to start and end a straight crossing of `door`, square to its wall, from
+        room `before` to room `after`; None when it is in no wall, or when no crossing is
+        clear."""
         assert self.legs is not None
-        normal = self._door_normal(at, before, after)
+        normal = self._door_normal(door, before, after)
         if normal is None:
             return None
+        at = door.at
         for reach in APPROACH_M:
             entry = (at[0] - normal[0] * reach, at[1] - normal[1] * reach)
             exit_ = (at[0] + normal[0] * reach, at[1] + normal[1] * reach)
@@ -281,28 +287,46 @@ class RoutePlanner:
             return False
         return self.legs.clear(start, exit_)
 
-    def _door_normal(self, at: Point, before: str, after: str) -> Point | None:
-        """The unit vector square to the wall the door is in, from `before` to `after`."""
-        for room_id, way in ((before, 1.0), (after, -1.0)):
-            room = self.plan.rooms[room_id]
-            if not room.outline:
-                continue
-            corners = [*room.outline, room.outline[0]]
-            a, b = min(pairwise(corners), key=lambda edge: _distance_to_edge(at, *edge))
-            length = math.dist(a, b)
-            if length == 0:
-                continue
-            normal = ((b[1] - a[1]) / length, -(b[0] - a[0]) / length)
+    def _door_normal(self, door: Door, before: str, after: str) -> Point | None:
+        """The unit vector square to the wall `door` is in, from `before` to `after`; None
+        when there is no wall at the door to cross."""
+        wall = self._wall_at(door)
+        if wall is None:
+            return None
+        (ax, ay), (bx, by), room_id = wall
+        length = math.hypot(bx - ax, by - ay)
+        normal = ((by - ay) / length, -(bx - ax) / length)
+        at = door.at
+        if room_id is not None:
             # Outward from `before` (or inward to `after`): away from the room's inside.
             probe = (at[0] - normal[0] * 0.05, at[1] - normal[1] * 0.05)
             inside = cv2.pointPolygonTest(self._outlines[room_id], probe, False) >= 0
+            way = 1.0 if room_id == before else -1.0
             sign = way if inside else -way
             return normal[0] * sign, normal[1] * sign
-        return None
+        # A wall on the grid alone: towards the side `after`'s point is on, from the side
+        # `before`'s is. Only how far each lies across the wall counts, so a long room
+        # whose point is far along the wall still tells its side.
+        (px, py), (qx, qy) = self.plan.rooms[before].at, self.plan.rooms[after].at
+        across = (qx - px) * normal[0] + (qy - py) * normal[1]
+        if across == 0:
+            return None
+        sign = 1.0 if across > 0 else -1.0
+        return normal[0] * sign, normal[1] * sign
 
-
-def _distance_to_edge(p: Point, a: Point, b: Point) -> float:
-    dx, dy = b[0] - a[0], b[1] - a[1]
-    span = dx * dx + dy * dy
-    t = 0.0 if span == 0 else max(0.0, min(1.0, ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / span))
-    return math.hypot(p[0] - a[0] - t * dx, p[1] - a[1] - t * dy)
+    def _wall_at(self, door: Door) -> tuple[Point, Point, str | None] | None:
+        """Two points along the wall `door` is in, and the room whose outline it is an
+        edge of (None for a wall on the grid); None when the door is in no wall: neither
+        room's outline passes through it, and the grid has no occupied cells on both
+        sides of it. The plan's walls never change, so each door's is found once."""
+        if door.id not in self._walls_at:
+            edge = wall_edge(self.plan, door)
+            wall: tuple[Point, Point, str | None] | None = None
+            if edge is not None:
+                wall = (edge[1], edge[2], edge[0])
+            elif self.walls is not None:
+                jambs = grid_jambs(self.walls, door)
+                if jambs is not None:
+                    wall = (jambs[0], jambs[1], None)
+            self._walls_at[door.id] = wall
+        return self._walls_at[door.id]

@@ -3,6 +3,11 @@
 The synthetic camera and the simulated range finder see the building through these,
 so that what the robot sees matches the plan it is driven on. A closed door is a
 segment of its own across its doorway.
+
+A plan without outlines (an RMF import, or room points and doors over a scan) has its
+walls only in its grid: there a door's wall is found from the occupied cells on either
+side of it (`grid_jambs`), and a door with none is in no wall at all (a door an import
+put half-way along a lane in open floor).
 """
 
 from __future__ import annotations
@@ -11,10 +16,18 @@ import math
 from dataclasses import dataclass
 from itertools import pairwise
 
+import numpy as np
+
 from giraff_console.planning.floorplan import DOOR_TOLERANCE_M, Door, FloorPlan, Point
+from giraff_console.planning.grid import OCCUPIED, OccupancyGrid
 
 # How far along the wall a door frame reaches on each side of the doorway.
 FRAME_M = 0.08
+# How far beyond half its width a door's jambs may stand on a grid: a door's width is
+# written by hand (0.9 m when it is not), and real doorways are 0.8 to 1.2 m or more.
+# Far enough too that a door in a narrow corridor, with no wall of its own, finds the
+# corridor's walls: it is then crossed along the corridor, which the robot does anyway.
+JAMB_SLACK_M = 0.5
 
 
 @dataclass(frozen=True)
@@ -42,21 +55,68 @@ def wall_segments(plan: FloorPlan, closed: frozenset[str] = frozenset()) -> list
     return segments
 
 
-def doorway(plan: FloorPlan, door: Door) -> tuple[Point, Point]:
+def doorway(plan: FloorPlan, door: Door, grid: OccupancyGrid | None = None) -> tuple[Point, Point]:
     """The two ends of a door's doorway, its jambs: along the wall it is in, the outline
-    edge of one of its rooms, or, without one, square to the line between their points."""
+    edge of one of its rooms; else, on `grid`, the occupied cells either side of it (a
+    plan without outlines); else square to the line between their points."""
+    edge = wall_edge(plan, door)
+    if edge is not None:
+        _, a, b = edge
+        length = math.dist(a, b)
+        return _jambs(door, (b[0] - a[0]) / length, (b[1] - a[1]) / length)
+    jambs = grid_jambs(grid, door) if grid is not None else None
+    if jambs is not None:
+        return jambs
+    (ax, ay), (bx, by) = (plan.rooms[room_id].at for room_id in door.between)
+    length = math.hypot(bx - ax, by - ay) or 1.0
+    return _jambs(door, -(by - ay) / length, (bx - ax) / length)
+
+
+def wall_edge(plan: FloorPlan, door: Door) -> tuple[str, Point, Point] | None:
+    """The outline edge a door is in, as (room id, one corner, the next), from the first
+    of its rooms whose outline has one within DOOR_TOLERANCE_M of the door's centre;
+    None when neither has (no outlines, or a door drawn away from them)."""
     for room_id in door.between:
         outline = plan.rooms[room_id].outline
         if not outline:
             continue
         for a, b in pairwise([*outline, outline[0]]):
-            if _on_edge(door, a, b):
-                length = math.dist(a, b)
-                ux, uy = (b[0] - a[0]) / length, (b[1] - a[1]) / length
-                return _jambs(door, ux, uy)
-    (ax, ay), (bx, by) = (plan.rooms[room_id].at for room_id in door.between)
-    length = math.hypot(bx - ax, by - ay) or 1.0
-    return _jambs(door, -(by - ay) / length, (bx - ax) / length)
+            if _on_edge(door, a, b) and math.dist(a, b) > 0:
+                return room_id, a, b
+    return None
+
+
+def grid_jambs(grid: OccupancyGrid, door: Door) -> tuple[Point, Point] | None:
+    """The centres of the occupied cells either side of a door on `grid`: the one
+    nearest its centre, and the nearest on the far side of the centre from that one,
+    each within half its width and JAMB_SLACK_M. The wall the door is in runs from one
+    to the other. None when there are not occupied cells on both sides: there is no
+    wall at the door to cross (or its centre is itself on a wall)."""
+    reach = door.width / 2 + JAMB_SLACK_M
+    rows, cols = grid.cells.shape
+    x, y = door.at
+    # Cells as floats first: a door may lie off the grid, where cell_of raises.
+    col = math.floor((x - grid.origin[0]) / grid.resolution)
+    row = rows - 1 - math.floor((y - grid.origin[1]) / grid.resolution)
+    span = math.ceil(reach / grid.resolution) + 1
+    top, left = max(0, row - span), max(0, col - span)
+    bottom, right = min(rows, row + span + 1), min(cols, col + span + 1)
+    if top >= bottom or left >= right:
+        return None
+    found = np.nonzero(grid.cells[top:bottom, left:right] == OCCUPIED)
+    xs = grid.origin[0] + (found[1] + left + 0.5) * grid.resolution - x
+    ys = grid.origin[1] + (rows - (found[0] + top) - 0.5) * grid.resolution - y
+    near = np.hypot(xs, ys) <= reach
+    xs, ys = xs[near], ys[near]
+    if not len(xs):
+        return None
+    first = int(np.argmin(np.hypot(xs, ys)))
+    fx, fy = float(xs[first]), float(ys[first])
+    beyond = xs * fx + ys * fy < 0  # on the far side of the line through the centre
+    if not beyond.any():
+        return None
+    far = np.flatnonzero(beyond)[int(np.argmin(np.hypot(xs[beyond], ys[beyond])))]
+    return (x + fx, y + fy), (x + float(xs[far]), y + float(ys[far]))
 
 
 def _jambs(door: Door, ux: float, uy: float) -> tuple[Point, Point]:

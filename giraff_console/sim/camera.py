@@ -202,6 +202,8 @@ class WorldCamera:
         each pixel sees on the wall picks the strip's row. Pixels above or below the wall
         fall off the strip and keep the ceiling or the floor."""
         world = self.world
+        if not len(world.walls):
+            return  # an open floor (a plan of points and doors alone): nothing to paint
         u = along.astype(np.float32)
         seam = np.mod(u, PANEL_M) < SEAM_M
         poster_u = u - world.poster_at[hit].astype(np.float32)

@@ -94,11 +94,11 @@ class World:
     """Walls (and the markers on them) as arrays, ready for vectorised ray casting."""
 
     def __init__(self, walls: list[Wall], markers: Iterable[WorldMarker] = ()) -> None:
-        if not walls:
-            raise ValueError("a world needs walls")
+        # A world may have no walls: a floor plan of points and doors with no grid
+        # either is an open floor, and the camera then sees floor and ceiling alone.
         self.walls = walls
-        self.start = np.array([[w.x1, w.y1] for w in walls], dtype=np.float64)
-        self.end = np.array([[w.x2, w.y2] for w in walls], dtype=np.float64)
+        self.start = np.array([[w.x1, w.y1] for w in walls], dtype=np.float64).reshape(-1, 2)
+        self.end = np.array([[w.x2, w.y2] for w in walls], dtype=np.float64).reshape(-1, 2)
         self.kind = np.array([w.kind for w in walls], dtype=np.int8)
         self.poster_at = np.array([w.poster_at for w in walls], dtype=np.float64)
         self.length = np.hypot(*(self.end - self.start).T)

@@ -211,7 +211,10 @@ def test_an_unreadable_grid_image(tmp_path):
     path = small_home(tmp_path, "image: small-home.pgm", "image: broken.pgm")
     (tmp_path / "broken.pgm").write_bytes(b"P5\nnot an image")
     (problem,) = check_floorplan(path)
-    assert problem.message.endswith("broken.pgm' is unreadable")
+    assert problem.message.endswith(
+        "broken.pgm': its header should give the width, the height and the largest value, "
+        "as whole numbers"
+    )
 
 
 def test_a_room_point_on_an_occupied_cell(tmp_path):
@@ -229,8 +232,11 @@ def test_a_room_point_near_the_top_is_not_mirrored_onto_the_pillar(tmp_path):
 
 def test_a_negated_grid_reads_dark_as_free(tmp_path):
     path = small_home(tmp_path, "resolution: 0.5", "resolution: 0.5\n  negate: 1")
-    # Every room point is on a light (free) pixel, which negate makes occupied.
-    assert len(check_floorplan(path)) == 5
+    # Every room point and door is on a light (free) pixel, which negate makes occupied.
+    messages = [problem.message for problem in check_floorplan(path)]
+    assert sum(message.startswith("room ") for message in messages) == 5
+    assert sum(message.startswith("door ") for message in messages) == 6
+    assert all("on an occupied cell" in message for message in messages)
 
 
 def test_a_room_point_off_the_grid(tmp_path):
