@@ -1,0 +1,113 @@
+"""The robot service in its own process: stops that win, who may move, and the outbox."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+from giraff_console.missions.drive_setup import DriveSetup
+from giraff_console.missions.navigation import Navigator
+from giraff_console.planning.route_planner import walls_of
+from giraff_console.robot.deadman import Intent
+from giraff_console.robot.loop_events import Note
+from giraff_console.robot.telemetry import Telemetry
+from giraff_console.service import commands as c
+from giraff_console.service.outbox import Outbox
+from giraff_console.service.robot_service import RobotService
+from tests.missions.site import PLAN, Site
+
+
+def service_on_site() -> tuple[RobotService, Site]:
+    navigator = Navigator(PLAN, walls_of(PLAN))
+    site = Site(navigator)
+    return RobotService(site.control, DriveSetup.on_loop(site.control, navigator)), site
+
+
+def test_a_stop_while_a_route_is_planned_keeps_the_mission_from_starting():
+    service, site = service_on_site()
+    plan = service.drives.go
+
+    def go_while_the_operator_stops(room: str):
+        mission = plan(room)
+        service.execute(c.Halt())  # Space, from the screen's thread, mid-planning
+        return mission
+
+    service.drives = replace(service.drives)  # a copy, to patch its `go`
+    object.__setattr__(service.drives, "go", go_while_the_operator_stops)
+    reply = service.execute(c.Go("room-101"))
+    assert not reply.ok and "stopped" in reply.text
+    site.run(2.0, until_ended=False)
+    assert site.control.mission is None
+    pose = site.true_pose()
+    assert math.dist((pose.x, pose.y), PLAN.rooms["dock"].at) < 0.01
+
+
+def test_stop_mission_ends_one_the_loop_has_not_taken_up_yet():
+    service, site = service_on_site()
+    assert service.execute(c.Go("room-101")).ok
+    assert service.execute(c.StopMission()).ok  # before the next tick starts it
+    site.run(2.0, until_ended=False)
+    assert site.control.mission is None
+    assert service.situation().last_mission is not None
+
+
+def test_each_operator_s_stop_holds_what_else_may_move_the_robot_until_released():
+    service, _ = service_on_site()
+    held: list[str] = []
+    service.on_stop.append(lambda: held.append("held"))
+    service.on_release.append(lambda: held.append("released"))
+    service.execute(c.Halt())
+    service.execute(c.StopMission())
+    assert service.execute(c.Release()).ok
+    assert held == ["held", "held", "released"]
+
+
+def test_a_watcher_may_read_and_stop_but_not_move_and_a_hung_up_console_nothing():
+    service, _ = service_on_site()
+    service.attach("holder")
+    service.attach("watcher")
+    assert not service.execute(c.Press(Intent.FORWARD), "watcher").ok
+    assert not service.execute(c.Door("dock-corridor", open=False), "watcher").ok
+    assert service.execute(c.Send("get bulk_data"), "watcher").ok
+    assert service.execute(c.Halt(), "watcher").ok
+    service.detach("holder")
+    assert not service.execute(c.Press(Intent.FORWARD), "holder").ok  # gone: not again
+
+
+def test_numbers_that_are_not_numbers_are_refused():
+    service, _ = service_on_site()
+    assert not service.execute(c.Speed(to=math.nan)).ok
+    assert not service.execute(c.Block(math.inf, 0.0)).ok
+
+
+def test_a_scheduled_patrol_waits_while_an_operator_uses_the_robot():
+    service, _ = service_on_site()
+    service.execute(c.Speed(step=1))  # an operator's move of the controls, just now
+    reply = service.run_scheduled("night")
+    assert not reply.ok and "operator" in reply.text
+
+
+def test_the_outbox_keeps_the_newest_telemetry_and_every_other_message():
+    outbox = Outbox(limit=3)
+    _, site = service_on_site()
+    site.run(0.2, until_ended=False)
+    snapshots: list[Telemetry] = []
+    site.control.subscribe(lambda event: snapshots.append(event)
+                           if isinstance(event, Telemetry) else None)  # fmt: skip
+    site.run(0.2, until_ended=False)
+    first, last = snapshots[0], snapshots[-1]
+    outbox.put(first)
+    outbox.put(Note("one"))
+    outbox.put(last)
+    outbox.put(Note("two"))
+    assert [outbox.take(0.1) for _ in range(3)] == [Note("one"), Note("two"), last]
+    assert outbox.take(0.01) is None
+
+
+def test_an_outbox_too_far_behind_closes_rather_than_drop_an_answer():
+    outbox = Outbox(limit=2)
+    for text in ("a", "b", "c"):
+        outbox.put(Note(text))
+    assert outbox.overflowed
+    assert [outbox.take(0.1), outbox.take(0.1), outbox.take(0.1)] == [Note("a"), Note("b"), None]
+    assert outbox.closed
