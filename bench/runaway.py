@@ -9,12 +9,18 @@ heading change times half the wheel base, which is what the outer wheel travels 
 turn. For every signal but SIGKILL it also times how long the console takes to exit;
 one still alive after 5 s is killed with SIGKILL and counted as a failure.
 
+`daemon-go` (issue 15) measures the daemon instead: `giraff-console serve --port PTY`
+owns the board, the client `giraff-console go kitchen` asks it to drive, and the signal
+goes to the daemon. The client should then end by itself; it is timed, and killed if it
+has not ended 5 s after the signal. SIGHUP is not sent: the daemon ignores it on purpose.
+
 Two busy processes (`python3 -c 'while 1: pass'`) load the machine unless --no-load, as
 a robot's small PC is loaded when it is busy (issue 12).
 
 Usage:
   python bench/runaway.py                                # the full table, under load
   python bench/runaway.py --kills 3 --activities teleop,go
+  python bench/runaway.py --kills 30 --activities daemon-go --signals SIGKILL
   python bench/runaway.py --markdown docs/safety.md      # fill the table between markers
   python bench/runaway.py --exit-test 50                 # gone within 2 s after HUP/TERM?
 """
@@ -30,6 +36,7 @@ import pty
 import random
 import re
 import select
+import shutil
 import signal
 import statistics
 import struct
@@ -61,7 +68,9 @@ class Activity:
     `starts` are alternatives taken in turn, run by run; each is a list of steps:
     ("hold", KEY) repeats KEY like a terminal's auto-repeat until the signal;
     ("press", KEY) presses it once; ("type", TEXT) opens the command line and enters
-    TEXT; ("headless", ARGS) runs `giraff-console ARGS --port PTY` without the TUI.
+    TEXT; ("headless", ARGS) runs `giraff-console ARGS --port PTY` without the TUI;
+    ("daemon", ARGS) runs `giraff-console serve --port PTY`, then `giraff-console ARGS`,
+    which asks the daemon; the signal goes to the daemon.
     """
 
     starts: tuple[tuple[tuple[str, str], ...], ...]
@@ -76,6 +85,10 @@ class Activity:
     trigger: str | None = None
     # Code run in the console's process before it starts: a fault put in on purpose.
     fault: str | None = None
+    # Ways to end it that do not apply: no terminal to close; SIGHUP, which the daemon
+    # ignores on purpose (serve_command.py: it has no terminal, and is there to outlive
+    # the SSH session that started it).
+    skip: tuple[str, ...] = ()
 
 
 ACTIVITIES = {
@@ -85,7 +98,9 @@ ACTIVITIES = {
     "go": Activity(((("type", "go kitchen"),),), window=12.0, building="care-home",
                    fresh_sim=True),
     "go-headless": Activity(((("headless", "go kitchen"),),), window=12.0,
-                            building="care-home", fresh_sim=True),
+                            building="care-home", fresh_sim=True, skip=("close",)),
+    "daemon-go": Activity(((("daemon", "go kitchen"),),), window=12.0,
+                          building="care-home", fresh_sim=True, skip=("close", "SIGHUP")),
     "follow-route": Activity(((("type", "follow-route line"),),), window=12.0, fresh_sim=True),
     "replay-route": Activity(((("type", "replay-route line"),),), window=8.0),
     "patrol": Activity(((("type", "patrol line"),),), window=8.0),
@@ -405,6 +420,107 @@ class HeadlessConsole:
             self.traceback = b"Traceback" in self.out.read_bytes()
 
 
+class DaemonConsole:
+    """`giraff-console serve --port PTY` (the process the signal goes to), and the client
+    `giraff-console ARGS` that asks it to drive; no terminal, output to files. Both look
+    for the daemon's socket in a runtime folder of their own (XDG_RUNTIME_DIR), so that
+    no other daemon is found, and this one is found by nothing else."""
+
+    def __init__(self, port: str, options: list[str], client: list[str], env: dict[str, str],
+                 work: Path) -> None:  # fmt: skip
+        # In /tmp: a socket's path may not be longer than 107 bytes.
+        self.runtime = Path(tempfile.mkdtemp(prefix="giraff-rt-", dir="/tmp"))
+        self.env = {**env, "XDG_RUNTIME_DIR": str(self.runtime)}
+        self.socket = self.runtime / "giraff-console" / "robot.sock"
+        self.args = [sys.executable, "-m", "giraff_console", *client]
+        self.out, self.client_out = work / "daemon.out", work / "client.out"
+        self.client: subprocess.Popen[bytes] | None = None
+        self.sent: float | None = None  # when the signal went to the daemon
+        self.client_gone: float | None = None  # when the client was first seen ended
+        self.client_killed = False
+        self.traceback = False
+        try:
+            with self.out.open("wb") as file:
+                self.process = subprocess.Popen(
+                    [sys.executable, "-m", "giraff_console", "serve", "--port", port,
+                     *options],
+                    stdout=file, stderr=subprocess.STDOUT, env=self.env,
+                    start_new_session=True,
+                )  # fmt: skip
+        except BaseException:
+            shutil.rmtree(self.runtime, ignore_errors=True)
+            raise
+
+    def listening(self) -> bool:
+        # The socket, then the line the daemon writes once it listens and the loop runs
+        # (serve_command.py): a client that found no daemon would drive a simulator of
+        # its own.
+        return self.socket.exists() and b"serving the robot at" in self.out.read_bytes()
+
+    def ready(self) -> bool:
+        """Once the daemon listens, start the client; False if it never did."""
+        if not wait_for(lambda: self.listening() or self.gone(), START_TIMEOUT_S, self.pump):
+            return False
+        if self.gone():
+            return False
+        with self.client_out.open("wb") as file:
+            self.client = subprocess.Popen(self.args, stdout=file, stderr=subprocess.STDOUT,
+                                           env=self.env, start_new_session=True)  # fmt: skip
+        return True
+
+    def tail(self) -> str:
+        text = b" | ".join(out.read_bytes()[-300:] for out in (self.out, self.client_out)
+                           if out.exists())  # fmt: skip
+        return ": daemon | client output ends " + repr(text.decode("utf-8", "replace"))
+
+    def pump(self, seconds: float) -> None:
+        time.sleep(seconds)
+        if self.client is not None and self.client_gone is None and self.client.poll() is not None:
+            self.client_gone = time.monotonic()
+
+    def send(self, how: str) -> None:
+        self.pump(0.0)  # a client that has ended is seen to have ended before the signal
+        self.sent = time.monotonic()
+        self.process.send_signal(getattr(signal, how))
+
+    def gone(self) -> bool:
+        return self.process.poll() is not None
+
+    def client_exit(self) -> float | None:
+        """Seconds from the signal until the client ended by itself; None if it did not,
+        or ended before the signal."""
+        if self.sent is None or self.client_gone is None or self.client_gone < self.sent:
+            return None
+        return self.client_gone - self.sent
+
+    def ended_early(self) -> bool:
+        """The client had ended before the signal: its mission was over."""
+        if self.sent is None or self.client_gone is None:
+            return False
+        return self.client_gone < self.sent
+
+    def close(self) -> None:
+        """The daemon killed if it is still there; the client, which should end by itself
+        once the daemon has gone, waited for up to EXIT_GIVE_UP_S after the signal, then
+        killed; both reaped; the runtime folder removed."""
+        try:
+            if self.process.poll() is None:
+                os.killpg(self.process.pid, signal.SIGKILL)
+                self.process.wait(timeout=5)
+            if self.client is not None:
+                since = self.sent if self.sent is not None else time.monotonic()
+                left = max(0.0, since + EXIT_GIVE_UP_S - time.monotonic())
+                wait_for(lambda: self.client_gone is not None, left, self.pump)
+                if self.client.poll() is None:
+                    self.client_killed = True
+                    os.killpg(self.client.pid, signal.SIGKILL)
+                    self.client.wait(timeout=5)
+        finally:
+            outputs = [out for out in (self.out, self.client_out) if out.exists()]
+            self.traceback = any(b"Traceback" in out.read_bytes() for out in outputs)
+            shutil.rmtree(self.runtime, ignore_errors=True)
+
+
 @dataclass
 class Result:
     activity: str
@@ -417,6 +533,10 @@ class Result:
     seconds: float = 0.0  # the whole run, for projecting a full run
     startup: float = 0.0  # from starting the console to the robot moving
     problem: str = ""
+    # daemon-go: seconds from the signal until the client `go` ended by itself, and its
+    # exit status (None: it had to be killed, or was never started).
+    client_exit: float | None = None
+    client_status: int | None = None
 
 
 def run_on(samples: list[Sample], since: float) -> tuple[float, float]:
@@ -451,13 +571,19 @@ class Bench:
         sim.forget()
         steps = activity.starts[index % len(activity.starts)]
         floorplan = care_home() if activity.building == "care-home" else OPEN_FLOOR
+        console: TuiConsole | HeadlessConsole | DaemonConsole
         if steps[0][0] == "headless":
-            console: TuiConsole | HeadlessConsole = HeadlessConsole(
+            console = HeadlessConsole(
                 sim.path,
                 [*steps[0][1].split(), "--floorplan", str(floorplan)],
                 self.env,
                 self.work / "headless.out",
             )
+        elif steps[0][0] == "daemon":
+            console = DaemonConsole(sim.path, ["--floorplan", str(floorplan),
+                                               "--routes", str(self.work / "routes"),
+                                               "--recordings", str(self.work / "recordings")],
+                                    steps[0][1].split(), self.env, self.work)  # fmt: skip
         else:
             console = TuiConsole(sim.path, ["--floorplan", str(floorplan),
                                             "--routes", str(self.work / "routes"),
@@ -467,11 +593,14 @@ class Bench:
             if isinstance(console, TuiConsole) and not console.ready():
                 result.problem = f"the console never showed its telemetry{console.tail()}"
                 return result
+            if isinstance(console, DaemonConsole) and not console.ready():
+                result.problem = f"the daemon never listened{console.tail()}"
+                return result
             for kind, what in steps:
                 if kind in ("hold", "press", "type"):
                     getattr(console, kind)(what)
             if not wait_for(sim.moving, START_TIMEOUT_S, console.pump):
-                tail = console.tail() if isinstance(console, TuiConsole) else ""
+                tail = console.tail() if not isinstance(console, HeadlessConsole) else ""
                 result.problem = f"the robot never moved{tail}"
                 return result
             result.startup = time.monotonic() - started
@@ -484,10 +613,22 @@ class Bench:
             console.close()
             result.traceback = console.traceback
             result.seconds = time.monotonic() - started
+            if isinstance(console, DaemonConsole) and console.client is not None:
+                result.client_exit = console.client_exit()
+                if console.ended_early():
+                    # The mission was over before the signal: not a kill mid-go.
+                    result.problem += (f"{'; ' if result.problem else ''}the client ended "
+                                       f"before the signal{console.tail()}")  # fmt: skip
+                if console.client_killed:
+                    result.problem += (f"{'; ' if result.problem else ''}the client still "
+                                       f"alive {EXIT_GIVE_UP_S:.0f} s after the signal: "
+                                       "killed")  # fmt: skip
+                else:
+                    result.client_status = console.client.returncode
         return result
 
-    def _signal(self, console: TuiConsole | HeadlessConsole, how: str, sim: Simulator,
-                result: Result) -> None:  # fmt: skip
+    def _signal(self, console: TuiConsole | HeadlessConsole | DaemonConsole, how: str,
+                sim: Simulator, result: Result) -> None:  # fmt: skip
         result.moving_at_signal = sim.moving()
         sent = time.monotonic()
         console.send(how)
@@ -527,6 +668,9 @@ def describe(result: Result, n: int, of: int) -> str:
         else "no run-on"
     )
     exit_text = "" if result.exit_time is None else f", exit {result.exit_time:.2f} s"
+    if result.client_exit is not None:
+        exit_text += (f", client gone {result.client_exit:.2f} s after the signal "
+                      f"(status {result.client_status})")  # fmt: skip
     over = result.travel is not None and result.travel > LIMIT_M
     flags = f", OVER {LIMIT_M} m" if over else ""
     flags += "" if result.moving_at_signal else ", NOT MOVING at the signal"
@@ -568,6 +712,13 @@ def table(results: list[Result]) -> list[str]:
                  f"{sum('went on' in r.problem for r in group)} went on",
                  f"{sum(r.traceback for r in group)} tracebacks",
                  f"{len(failed)} failed runs"]  # fmt: skip
+        clients = [r.client_exit for r in group if r.client_exit is not None]
+        if clients:
+            statuses = sorted({r.client_status for r in group if r.client_status is not None})
+            notes.append(f"client `go` gone by itself in {len(clients)}/{len(group)}, "
+                         f"≤ {max(clients):.2f} s after the signal, exit status "
+                         f"{', '.join(map(str, statuses))}")  # fmt: skip
+        notes.append(f"{sum('client still alive' in r.problem for r in group)} clients killed")
         lines.append(" | ".join([f"| {activity}", f"`{how}`", str(len(measured)), *travel,
                                  *rotation, *exit_columns,
                                  "; ".join(n for n in notes if not n.startswith("0 "))
@@ -634,7 +785,8 @@ def project(results: list[Result], began: float) -> None:
     full = sigkill = 0.0
     for name, seconds in per_kill.items():
         mean = statistics.mean(seconds)
-        runs = 10 if ACTIVITIES[name].trigger else 30 + 10 * (len(SIGNALS) - 1)
+        others = [how for how in SIGNALS[1:] if how not in ACTIVITIES[name].skip]
+        runs = 10 if ACTIVITIES[name].trigger else 30 + 10 * len(others)
         full += mean * runs
         sigkill += mean * (10 if ACTIVITIES[name].trigger else 30)
         print(f"{name}: {mean:.1f} s per run; {runs} runs by default: {mean * runs / 60:.1f} min")
@@ -715,8 +867,7 @@ def main() -> int:
                     else:
                         plan = [(how, (args.kills or 30) if how == "SIGKILL" else others)
                                 for how in args.signals.split(",")]  # fmt: skip
-                        if name == "go-headless":  # no terminal to close
-                            plan = [(how, n) for how, n in plan if how != CLOSE]
+                        plan = [(how, n) for how, n in plan if how not in ACTIVITIES[name].skip]
                     run_activity(bench, name, plan, results)
     finally:
         for process in load:

@@ -134,7 +134,8 @@ class RemoteRobot:
             try:
                 message = self._connection.receive(0.2)
             except ConnectionClosed:
-                self._hung_up("the daemon has gone: the robot is stopped if it was driving")
+                self._hung_up("the daemon has gone: the robot comes to rest within the "
+                              "short distance it was last sent ahead")
                 return
             except WireError:
                 continue  # one line garbled; the next may be whole
