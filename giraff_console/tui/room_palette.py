@@ -1,7 +1,9 @@
-"""The command palette's floor plan entries: one "go" per room, and the doors.
+"""The command palette's robot entries: one "go" per room, the doors, and the robot's
+commands that take nothing more (`stop`, `routes`, `status`, ...).
 
 An operator who does not remember a room's id finds it by its label ("Day room") in
-the palette (Ctrl+P); picking an entry runs the same typed command as the command line.
+the palette (Ctrl+P); picking an entry runs the same typed command as the command line,
+from the same table (service/commands.py).
 """
 
 from __future__ import annotations
@@ -11,18 +13,22 @@ from typing import TYPE_CHECKING, cast
 
 from textual.command import DiscoveryHit, Hit, Hits, Provider
 
+from giraff_console.service.commands import TYPED
+
 if TYPE_CHECKING:
     from giraff_console.tui.app import GiraffConsole
 
 
 class RoomCommands(Provider):
-    """`go <room>` for every room, `close`/`open` for every door of the floor plan."""
+    """`go <room>` for every room, `close`/`open` for every door of the floor plan, and
+    the table's commands that are typed alone."""
 
     def _entries(self) -> list[tuple[str, str]]:
         """(command, help) pairs, rooms first."""
+        alone = [(typed.word, typed.help) for typed in TYPED if typed.usage == typed.word]
         navigator = getattr(self.app, "navigator", None)
         if navigator is None:
-            return []
+            return alone
         entries = [
             (f"go {room.id}", f"plan a route to {room.label}")
             for room in sorted(navigator.plan.rooms.values(), key=lambda room: room.label)
@@ -31,7 +37,7 @@ class RoomCommands(Provider):
         for door_id in navigator.door_ids():
             verb = "open" if door_id in closed else "close"
             entries.append((f"{verb} {door_id}", f"{verb} the door {door_id} and plan again"))
-        return entries
+        return entries + alone
 
     def _console(self) -> GiraffConsole:
         # Textual types a provider's app as any App; this provider is the console's only.

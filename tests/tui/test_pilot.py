@@ -242,3 +242,19 @@ async def test_the_camera_view_moves_with_the_robot_and_keys_change_its_resoluti
         await pilot.press("f")
         await rig.show_camera(pilot)
         assert "FAST" not in rig.app.top_bar.camera
+
+
+async def test_the_palette_offers_the_rooms_and_the_robot_s_commands_from_one_table(care_home_rig):
+    rig = care_home_rig
+    async with rig.app.run_test(size=SIZE) as pilot:
+        await rig.run(pilot, 0.2)
+        await pilot.press("ctrl+p")
+        await pilot.pause()
+        for key in "status":
+            await pilot.press(key)
+        await pilot.pause(0.5)
+        await pilot.press("enter")
+        await pilot.pause()
+        await rig.run(pilot, 0.1)
+        lines = "\n".join(str(line) for line in rig.app.status_log.lines)
+        assert "mission: none" in lines and "controls:" in lines
