@@ -1,10 +1,17 @@
-"""Legs across one room on the occupancy grid: D* Lite between two points (§2.6.4).
+"""Legs across one room on the occupancy grid: ways between two points (§2.6.4).
 
 The room graph (§2.6.2) says which doors to pass; a leg is the way from one of those
 points to the next, across the room they share. The thesis would hold "each room ...
 internally represented as a bitmap" and run D* on it, so each leg plans on a window of
 the grid around its room's outline rather than on the whole building: a corridor's
 window is a few tens of thousands of cells where the care home has half a million.
+
+Measuring a leg (the room graph asks for the lengths of the legs its routes might take)
+uses grid_search.py's numpy search, and a leg whose straight line is clear is that line
+with no search at all. The leg the robot is driving keeps a D* Lite planner (`Leg`),
+whose first plan is that same search and whose replans repair it as obstacles are seen:
+there its incremental replans beat any search from scratch. Measured and driven, a leg
+is the same way.
 
 The planner's 8-connected staircase is then shortened by line of sight: every corner the
 robot could skip without its disc touching an obstacle (the grid is inflated by its
@@ -29,6 +36,7 @@ import numpy as np
 from giraff_console.planning.dstar_lite import DStarLite
 from giraff_console.planning.floorplan import FloorPlan, Point
 from giraff_console.planning.grid import Cell, OccupancyGrid
+from giraff_console.planning.grid_search import shortest_path
 
 # How far round a room's outline its window reaches: its doors' far sides, and the walls.
 WINDOW_MARGIN_M = 0.6
@@ -52,10 +60,13 @@ class Leg:
         top, left, bottom, right = window
         self.offset = (top, left)
         view = blocked[top:bottom, left:right]
-        self._start_cell = self._free_near(view, self._local(start))
-        self._goal_cell = self._free_near(view, self._local(goal))
+        reach = max(1, round(NEAREST_FREE_M / grid.resolution))
+        self._start_cell = free_near(view, self._local(start), reach)
+        self._goal_cell = free_near(view, self._local(goal), reach)
         self._planner: DStarLite | None = None
         if self._start_cell is not None and self._goal_cell is not None:
+            # D* Lite's first plan is grid_search's (it starts from that search's costs);
+            # its replans repair them as cells change and the robot moves.
             self._planner = DStarLite(view, self._start_cell, self._goal_cell)
 
     def cells(self) -> list[Cell] | None:
@@ -96,25 +107,26 @@ class Leg:
         row, col = self.grid.cell_of(*point)
         return row - self.offset[0], col - self.offset[1]
 
-    def _free_near(self, view: np.ndarray, cell: Cell) -> Cell | None:
-        """`cell` if it is in the window and free, else the nearest free cell close by."""
-        rows, cols = view.shape
-        row, col = cell
-        if not (0 <= row < rows and 0 <= col < cols):
-            return None
-        if not view[row, col]:
-            return cell
-        reach = max(1, round(NEAREST_FREE_M / self.grid.resolution))
-        top, left = max(0, row - reach), max(0, col - reach)
-        patch = view[top : row + reach + 1, left : col + reach + 1]
-        free = np.argwhere(~patch)
-        if free.size == 0:
-            return None
-        distance = np.hypot(free[:, 0] + top - row, free[:, 1] + left - col)
-        best = free[int(np.argmin(distance))]
-        if distance.min() > reach:
-            return None
-        return int(best[0] + top), int(best[1] + left)
+
+def free_near(view: np.ndarray, cell: Cell, reach: int) -> Cell | None:
+    """`cell` if it is in the window and free, else the nearest free cell within
+    `reach` cells; None if there is none."""
+    rows, cols = view.shape
+    row, col = cell
+    if not (0 <= row < rows and 0 <= col < cols):
+        return None
+    if not view[row, col]:
+        return cell
+    top, left = max(0, row - reach), max(0, col - reach)
+    patch = view[top : row + reach + 1, left : col + reach + 1]
+    free = np.argwhere(~patch)
+    if free.size == 0:
+        return None
+    distance = np.hypot(free[:, 0] + top - row, free[:, 1] + left - col)
+    best = free[int(np.argmin(distance))]
+    if distance.min() > reach:
+        return None
+    return int(best[0] + top), int(best[1] + left)
 
 
 class GridLegs:
@@ -131,6 +143,11 @@ class GridLegs:
         # disc stands on, so that a disc can be taken away when its cell is seen clear.
         self.sensed: dict[Cell, Point] = {}
         self._sensed_cells = np.zeros_like(self.blocked)
+        # The points of each room without an outline, round which its legs plan.
+        self._extent = {room.id: [room.at] for room in plan.rooms.values()}
+        for door in plan.doors:
+            for room_id in door.between:
+                self._extent[room_id].append(door.at)
         # Ways found so far: the room graph measures a leg, then the route drives it.
         self._paths: dict[tuple[Point, Point, str | None], list[Point] | None] = {}
 
@@ -250,19 +267,40 @@ class GridLegs:
         return Leg(self.grid, self.blocked, a, b, self.window(a, b, room_id))
 
     def path(self, a: Point, b: Point, room_id: str | None) -> list[Point] | None:
-        """The way from a to b across the room, shortened by line of sight."""
+        """The way from a to b across the room, shortened by line of sight: the
+        straight line when it is clear, else grid_search's way, shortened."""
         key = (a, b, room_id)
         if key not in self._paths:
-            self._paths[key] = self.points(self.leg(a, b, room_id))
+            self._paths[key] = [a, b] if self.clear(a, b) else self._searched(a, b, room_id)
         return self._paths[key]
 
     def points(self, leg: Leg) -> list[Point] | None:
         """A leg's way as map points from its start to its goal, shortened."""
-        cells = leg.cells()
+        return self._shortened(leg.cells(), leg.start, leg.goal)
+
+    def _searched(self, a: Point, b: Point, room_id: str | None) -> list[Point] | None:
+        """The way of grid_search, which finds what a Leg's first plan finds (D* Lite
+        starts from its costs) without keeping a planner for replans."""
+        top, left, bottom, right = self.window(a, b, room_id)
+        view = self.blocked[top:bottom, left:right]
+        reach = max(1, round(NEAREST_FREE_M / self.grid.resolution))
+        ends = []
+        for point in (a, b):
+            row, col = self.grid.cell_of(*point)
+            ends.append(free_near(view, (row - top, col - left), reach))
+        start, goal = ends
+        if start is None or goal is None:
+            return None
+        found = shortest_path(view, start, goal)
+        if found is None:
+            return None
+        return self._shortened([(row + top, col + left) for row, col in found[1]], a, b)
+
+    def _shortened(self, cells: list[Cell] | None, a: Point, b: Point) -> list[Point] | None:
         if cells is None:
             return None
         corners = [self.grid.centre_of(row, col) for row, col in _turns(cells)[1:-1]]
-        return self.shorten([leg.start, *corners, leg.goal])
+        return self.shorten([a, *corners, b])
 
     def length(self, a: Point, b: Point, room_id: str) -> float | None:
         """The length of the way from a to b across `room_id`, or None if there is none."""
@@ -278,6 +316,12 @@ class GridLegs:
             xs += [x for x, _ in room.outline]
             ys += [y for _, y in room.outline]
             margin = WINDOW_MARGIN_M
+        elif room is not None:
+            # Without an outline, the box round the room's point and doors: the same
+            # window for every leg of the room, so that a way one leg finds through a
+            # door, the leg going straight on finds too (room_graph.py counts on it).
+            xs += [x for x, _ in self._extent[room.id]]
+            ys += [y for _, y in self._extent[room.id]]
         grid = self.grid
         rows, cols = grid.shape
         x0, y0 = grid.origin
@@ -292,7 +336,11 @@ class GridLegs:
         """Whether the straight line from a to b crosses only free cells.
 
         The line is sampled every quarter cell, which finds every cell it crosses by
-        more than a sliver; the inflation's margin covers the slivers.
+        more than a sliver; the inflation's margin covers the slivers. Where two samples
+        in a row step diagonally (through a corner, or past one by a sliver), both cells
+        beside that step must be free too: the searches do not cut corners, and a line
+        through the corner two blocked cells share would come nearer an obstacle than
+        the inflation allows on a coarse grid (0.1 m scans).
         """
         grid = self.grid
         steps = max(2, math.ceil(math.dist(a, b) / (grid.resolution / 4)) + 1)
@@ -306,7 +354,14 @@ class GridLegs:
             return False
         if col.max() >= cols or up.max() >= rows:
             return False
-        return not self.blocked[rows - 1 - up, col].any()
+        row = rows - 1 - up
+        if self.blocked[row, col].any():
+            return False
+        diagonal = (np.diff(row) != 0) & (np.diff(col) != 0)
+        beside = self.blocked[row[1:][diagonal], col[:-1][diagonal]] | self.blocked[
+            row[:-1][diagonal], col[1:][diagonal]
+        ]
+        return not beside.any()
 
     def shorten(self, points: list[Point]) -> list[Point]:
         """Drop the corners that line of sight can skip (string pulling): from each kept
