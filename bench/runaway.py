@@ -111,10 +111,11 @@ ACTIVITIES = {
                                  building="care-home", fresh_sim=True,
                                  trigger="replay-route bad", fault="route-decode"),
 }  # fmt: skip
-# The console now reads a route file that is not UTF-8 with a clear error, as it should;
-# to measure what an internal error does, the fault issue 12 saw is put back in the
-# console's process: loading a route raises the UnicodeDecodeError that escaped then,
-# on the UI thread, in the middle of a `go`. The signals are blocked first, as the
+# The console now reads a route file that is not UTF-8 with a clear error, as it should,
+# and refuses a request that raises a ValueError (issue 15). To measure what an internal
+# error does, one is put in the console's process: replaying a route raises a
+# RuntimeError, on the UI thread, in the middle of a `go`, as the UnicodeDecodeError of
+# issue 12 did then. The signals are blocked first, as the
 # program's entry point does (giraff_console/launch.py).
 FAULTS = {
     "route-decode": """
@@ -123,7 +124,7 @@ from giraff_console.robot.last_stop import SIGNALS
 signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
 from giraff_console.missions import route_book
 def replay(self, name):
-    return (b"format: 1\\n\\xff\\n").decode("utf-8")
+    raise RuntimeError("an internal error, put in by bench/runaway.py")
 route_book.RouteBook.replay = replay
 from giraff_console.launch import main
 sys.exit(main())
