@@ -79,15 +79,7 @@ class PatrolRunLog:
     def start(self, patrol: str, *, scheduled: bool, by: str) -> str | None:
         """Open the run's file with its first line."""
         with self._lock:
-            if self._fd is not None:
-                return self._fail(f"a run is already being logged in {self.path}")
-            at = self._now()
-            failed = self._open(patrol, at)
-            if failed is not None:
-                return failed
-            line = {"event": "start", "patrol": patrol, "at": _stamp(at),
-                    "scheduled": scheduled, "by": by}  # fmt: skip
-            return self._write(line)
+            return self._first("start", patrol, {"scheduled": scheduled, "by": by})
 
     def stop(self, record: dict[str, Any]) -> str | None:
         """A line for a stop: the caller's record of it (patrol_command.py's StopLog)."""
@@ -113,18 +105,22 @@ class PatrolRunLog:
     def skipped(self, patrol: str, why: str, *, by: str = "schedule") -> str | None:
         """A run file of one line, for a slot the schedule skipped: the log shows it."""
         with self._lock:
-            if self._fd is not None:
+            if self._fd is not None:  # a run under way here is not this one to close
                 return self._fail(f"a run is already being logged in {self.path}")
-            at = self._now()
-            failed = self._open(patrol, at)
-            if failed is not None:
-                return failed
-            line = {"event": "skipped", "patrol": patrol, "at": _stamp(at), "scheduled": True,
-                    "by": by, "why": why}  # fmt: skip
-            problem = self._write(line)
+            problem = self._first("skipped", patrol, {"scheduled": True, "by": by, "why": why})
             return self._close() or problem
 
     # Under the lock.
+
+    def _first(self, event: str, patrol: str, fields: dict[str, Any]) -> str | None:
+        """Make the run's file and write its first line; the problem if either fails."""
+        if self._fd is not None:
+            return self._fail(f"a run is already being logged in {self.path}")
+        at = self._now()
+        failed = self._open(patrol, at)
+        if failed is not None:
+            return failed
+        return self._write({"event": event, "patrol": patrol, "at": _stamp(at), **fields})
 
     def _open(self, patrol: str, at: dt.datetime) -> str | None:
         """Make the run's file; the problem if it cannot be made."""
