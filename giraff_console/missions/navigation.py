@@ -96,6 +96,22 @@ class Navigator:
             self.planner.open(door_id)
             return self._replan(pose)
 
+    def use_plan(self, plan: FloorPlan) -> None:
+        """Plan on `plan` from now on: the same building with its rooms renamed
+        (planning/room_names.py). The same grid, doors shut and obstacles sensed carry
+        over; the route shown does not (the caller has no mission running)."""
+        with self._lock:
+            before = self.planner
+            self.plan = plan
+            self.planner = RoutePlanner(plan, before.walls, before.robot_radius)
+            for door_id in before.graph.closed:
+                self.planner.close(door_id)
+            if before.legs is not None and self.planner.legs is not None and before.legs.sensed:
+                radius = before.robot_radius + CLEARANCE_M
+                self.planner.legs.block(list(before.legs.sensed.values()), radius)
+            self._arrival = None
+            self.state = NavigationState(closed=self.state.closed, obstacles=self.state.obstacles)
+
     def forget(self) -> None:
         """No goal any more (arrived, or the operator stopped it)."""
         with self._lock:

@@ -142,6 +142,11 @@ def shown(value: object) -> str:
     return _SHORT.repr(value)
 
 
+def is_id(value: object) -> bool:
+    """Whether `value` can be a room's or a door's id."""
+    return isinstance(value, str) and _ID.match(value) is not None
+
+
 def _finite(value: int | float) -> bool:
     """True for a number a float can hold: `10**400` is an int YAML reads, too big."""
     try:
@@ -251,8 +256,8 @@ class _Reader(ProblemLog):
             return None
         return point
 
-    def text(self, value: Any, where: Where, is_id: bool = False) -> Any:
-        if is_id and not (isinstance(value, str) and _ID.match(value)):
+    def text(self, value: Any, where: Where, as_id: bool = False) -> Any:
+        if as_id and not is_id(value):
             self.bad(where, "an id of letters, digits, '-' and '_' (up to 64)", value)
         elif not isinstance(value, str):
             self.bad(where, "text", value)
@@ -306,7 +311,7 @@ class _Reader(ProblemLog):
         if len(self.problems) > before:
             return None
         door_id = f"{between[0]}-{between[1]}"
-        if "id" in raw and self.text(raw["id"], (*where, "id"), is_id=True) is None:
+        if "id" in raw and self.text(raw["id"], (*where, "id"), as_id=True) is None:
             return None
         return Door(raw.get("id", door_id), (between[0], between[1]), at, width, is_open)
 
@@ -397,7 +402,7 @@ def _read(path: Path) -> tuple[FloorPlan | None, list[Problem]]:
         raw_rooms = {}
     rooms = {}
     for room_id, value in raw_rooms.items():
-        if reader.text(room_id, ("rooms", str(room_id)), is_id=True) is not None:
+        if reader.text(room_id, ("rooms", str(room_id)), as_id=True) is not None:
             room = reader.room(room_id, value)
             if room is not None:
                 rooms[room_id] = room

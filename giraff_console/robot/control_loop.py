@@ -131,6 +131,8 @@ class ControlLoop:
         # Set by emergency_stop: why, and whether the loop is to close after the stop.
         self._halt: tuple[str, bool] | None = None
         self._halt_lock = threading.Lock()
+        self._starting_lock = threading.Lock()
+        self._starting = 0
         self._closed = threading.Event()
 
     # -- from other threads -------------------------------------------------------------
@@ -268,7 +270,23 @@ class ControlLoop:
 
         `ended` is called with the reason, on the loop's thread, when it is over.
         """
-        self.between_ticks(lambda: self._start_mission(mission, ended))
+        with self._starting_lock:
+            self._starting += 1
+
+        def start() -> None:
+            try:
+                self._start_mission(mission, ended)
+            finally:
+                with self._starting_lock:
+                    self._starting -= 1
+
+        self.between_ticks(start)
+
+    @property
+    def missions_starting(self) -> int:
+        """Missions handed to the loop that it has not yet started or refused: `mission`
+        does not show them, and what must not change under a mission waits for them."""
+        return self._starting
 
     def stop_mission(self, why: str = "stopped") -> None:
         self.between_ticks(lambda: self._end_mission(why))

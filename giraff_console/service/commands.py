@@ -240,10 +240,18 @@ class Teach(Request):
 
 @dataclass(frozen=True)
 class Mark(Request):
-    """Name the place where the robot stands, on the route being taught."""
+    """Name the place where the robot stands: on the route being taught, else the room
+    it stands in is renamed `place` (§2.6.3), as `Name` does."""
 
     place: str
-    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class Name(Request):
+    """Rename room `room` of the floor plan `to` (§2.6.3), and save the plan."""
+
+    room: str
+    to: str
 
 
 @dataclass(frozen=True)
@@ -302,7 +310,7 @@ class Shutdown(Request):
 REQUESTS: tuple[type[Request], ...] = (
     Press, Halt, Speed, Send, Stalk, Poll, Go, RunPatrol, Follow, Replay, Undock,
     Pause, Resume, StopMission, Door, Block, Record, Play, Seek, Rate, Step, Teach, Mark,
-    Done, Routes, TakeControls, Heartbeat, Status, Release, Shutdown,
+    Name, Done, Routes, TakeControls, Heartbeat, Status, Release, Shutdown,
 )  # fmt: skip
 
 
@@ -377,6 +385,13 @@ def _patrol(rest: str) -> Request:
     return verbs.get(rest) or RunPatrol(_name("patrol NAME, or patrol pause|resume|stop")(rest))
 
 
+def _rename(rest: str) -> Name:
+    parts = rest.split()
+    if len(parts) != 2:
+        raise Usage("usage: name ROOM NEW (name room-3 kitchen)")
+    return Name(*parts)
+
+
 def _bare(request: Request, word: str) -> Callable[[str], Request]:
     def parse(rest: str) -> Request:
         if rest:
@@ -407,8 +422,10 @@ TYPED: tuple[Typed, ...] = (
           lambda rest: Rate(to=_number(rest, "rate 4"))),
     Typed("teach", "teach NAME", "teach a route by driving it; `mark PLACE` names places",
           lambda rest: Teach(_name("teach NAME")(rest))),
-    Typed("mark", "mark PLACE", "name the place where the robot stands on the route taught",
-          lambda rest: Mark(_name("mark PLACE")(rest))),
+    Typed("mark", "mark PLACE", "name the place where the robot stands: on the route taught, "
+          "else the room it is in", lambda rest: Mark(_name("mark PLACE")(rest))),
+    Typed("name", "name ROOM NEW", "rename a room of the floor plan, and save the plan",
+          _rename),
     Typed("done", "done", "save the route being taught", _bare(Done(), "done")),
     Typed("routes", "routes", "list the taught routes and the patrols", _bare(Routes(), "routes")),
     Typed("replay-route", "replay-route NAME", "drive a taught route again, open-loop (keys "

@@ -56,7 +56,7 @@ from giraff_console.robot.replay import PlaybackStatus
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.service import commands as c
 from giraff_console.service import wire
-from giraff_console.service.events import Controls, Reply, RouteShown, Situation
+from giraff_console.service.events import Controls, Reply, RoomRenamed, RouteShown, Situation
 from giraff_console.service.outbox import Outbox
 from giraff_console.service.robot_service import RobotService
 from giraff_console.service.transport import (
@@ -282,7 +282,8 @@ def _lock_beside(path: Path) -> int:
 # What crosses the socket: the daemon's own messages, the requests, and everything the
 # robot says (a snapshot and all it holds, an exchange with its errors, notes).
 wire.register(
-    Hello, Welcome, Asked, Answered, Reply, Controls, RouteShown, Situation, *c.REQUESTS,
+    Hello, Welcome, Asked, Answered, Reply, Controls, RouteShown, RoomRenamed, Situation,
+    *c.REQUESTS,
     Telemetry, LinkState, MotorState, Pose, Intent, PlaybackStatus, Progress, Battery,
     ChargeStatus, BoardFeatures, Estimate, Exchange, Note, MissionChanged,
     GiraffError, CommandError, ProtocolError, BoardRebootedError, BoardError,

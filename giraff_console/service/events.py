@@ -50,6 +50,15 @@ class RouteShown:
 
 
 @dataclass(frozen=True)
+class RoomRenamed:
+    """A room of the floor plan has a new name, saved in the plan's file: every front
+    end's map and room list follow (planning/room_names.py)."""
+
+    old: str
+    new: str
+
+
+@dataclass(frozen=True)
 class Situation:
     """The answer to `status`: what runs, who drives, how the last mission ended."""
 
@@ -61,7 +70,7 @@ class Situation:
     playing: bool
 
 
-ServiceEvent: TypeAlias = LoopEvent | Controls | RouteShown
+ServiceEvent: TypeAlias = LoopEvent | Controls | RouteShown | RoomRenamed
 ServiceListener: TypeAlias = Callable[[ServiceEvent], None]
 Answered: TypeAlias = Callable[[Reply], None]
 

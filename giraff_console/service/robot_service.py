@@ -27,6 +27,7 @@ from giraff_console.missions.navigation import NavigationState
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
 from giraff_console.planning.room_graph import PlanningError
+from giraff_console.planning.room_names import RenameError, rename_in_file
 from giraff_console.protocol import CommandError, GiraffError, parse_command
 from giraff_console.recording.playback import Playback
 from giraff_console.robot.command_guard import check_command
@@ -40,6 +41,7 @@ from giraff_console.service.events import (
     Answered,
     Controls,
     Reply,
+    RoomRenamed,
     RouteShown,
     ServiceListener,
     Situation,
@@ -150,7 +152,7 @@ class RobotService:
         if on_loop is not None:
             self.control.unsubscribe(on_loop)
 
-    def _tell(self, event: Controls | RouteShown) -> None:
+    def _tell(self, event: Controls | RouteShown | RoomRenamed) -> None:
         for listener in self._listeners:
             listener(event)
 
@@ -400,7 +402,40 @@ class RobotService:
         return self._book(lambda book: book.teach(request.name))
 
     def _do_mark(self, request: c.Mark) -> Reply:
-        return self._book(lambda book: book.mark(request.place))
+        """On the route being taught, a place on it; else the room the robot is in gets
+        the name (§2.6.3: "the robot would be told the name of the room the robot is in")."""
+        if self.routes is not None and self.routes.teacher is not None:
+            return self._book(lambda book: book.mark(request.place))
+        if self.navigator is None:
+            return Reply(False, "mark: not teaching a route (`teach NAME` first), and no "
+                                "floor plan to name a room of")  # fmt: skip
+        pose = self.control.pose
+        room = self.navigator.planner.room_at((pose.x, pose.y))
+        return self._rename(room, request.place, where=" (where the robot stands)")
+
+    def _do_name(self, request: c.Name) -> Reply:
+        return self._rename(request.room, request.to)
+
+    def _rename(self, room: str, to: str, where: str = "") -> Reply:
+        """Room `room` renamed `to` in the plan's file, and for everyone from now on."""
+        navigator = self.navigator
+        if navigator is None:
+            return Reply(False, "name: no floor plan (start the console with --floorplan FILE)")
+        mission = self.control.mission
+        if mission is not None or self.control.missions_starting:
+            running = f"{mission.name} runs" if mission is not None else "a mission starts"
+            return Reply(False, f"name: not while {running}: it goes by the old names")
+        try:
+            plan = rename_in_file(navigator.plan, room, to)
+        except RenameError as error:
+            return Reply(False, f"name: {error}")
+        except OSError as error:
+            return Reply(False, f"name: {navigator.plan.path} not saved, nothing renamed: "
+                                f"{error.strerror or error}")  # fmt: skip
+        navigator.use_plan(plan)
+        self._tell(RoomRenamed(room, to))
+        self._tell(RouteShown.of(navigator.state))
+        return Reply(True, f"room {room}{where} is now {to}; saved in {plan.path}")
 
     def _do_done(self, request: c.Done) -> Reply:
         return self._book(lambda book: book.done() is not None)

@@ -24,12 +24,19 @@ from giraff_console.camera.source import RESOLUTIONS as CAMERA_RESOLUTIONS
 from giraff_console.clock import Clock
 from giraff_console.link import Exchange
 from giraff_console.missions.navigation import Navigator
+from giraff_console.planning import room_names
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.loop_events import Note
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
-from giraff_console.service.events import Controls, Robot, RouteShown, ServiceEvent
+from giraff_console.service.events import (
+    Controls,
+    Robot,
+    RoomRenamed,
+    RouteShown,
+    ServiceEvent,
+)
 from giraff_console.tui.camera_view import CameraView
 from giraff_console.tui.command_line import CommandLine
 from giraff_console.tui.help_screen import HelpScreen
@@ -43,6 +50,7 @@ from giraff_console.tui.messages import (
     ControlsChanged,
     ExchangeSeen,
     NavigationChanged,
+    RoomNamed,
     StatusNote,
     TelemetryUpdated,
 )
@@ -315,6 +323,22 @@ class GiraffConsole(RobotKeys, KeyGuard):
         self.route = message.route
         self._show_map()
 
+    def on_room_named(self, message: RoomNamed) -> None:
+        """The map and the room lists by the new name. In its own process the console
+        shares the service's navigator, which has it already; attached, it has its own."""
+        navigator, renamed = self.navigator, message.renamed
+        if navigator is None:
+            return
+        if renamed.old in navigator.plan.rooms:
+            try:
+                navigator.use_plan(room_names.renamed(navigator.plan, renamed.old, renamed.new))
+            except room_names.RenameError as error:
+                self.note(f"the map keeps the old names: {error}")
+                return
+        if navigator.walls is not None:
+            self._scene = plan_scene(navigator.plan, navigator.walls)
+            self._show_map()
+
     def on_controls_changed(self, message: ControlsChanged) -> None:
         before, controls = self.controls, message.controls
         self.controls = controls
@@ -377,6 +401,8 @@ class GiraffConsole(RobotKeys, KeyGuard):
             self.post_message(NavigationChanged(event))
         elif isinstance(event, Controls):
             self.post_message(ControlsChanged(event))
+        elif isinstance(event, RoomRenamed):
+            self.post_message(RoomNamed(event))
 
     def _post(self, message: Message) -> None:
         """`post_message` for the callbacks the services make, which return nothing."""

@@ -8,7 +8,7 @@ from giraff_console.camera.feed import CameraPicture
 from giraff_console.link import Exchange
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
-from giraff_console.service.events import Controls, Reply, RouteShown
+from giraff_console.service.events import Controls, Reply, RoomRenamed, RouteShown
 
 
 class TelemetryUpdated(Message):
@@ -55,6 +55,14 @@ class NavigationChanged(Message):
     def __init__(self, route: RouteShown) -> None:
         super().__init__()
         self.route = route
+
+
+class RoomNamed(Message):
+    """A room of the floor plan was renamed, and the plan saved."""
+
+    def __init__(self, renamed: RoomRenamed) -> None:
+        super().__init__()
+        self.renamed = renamed
 
 
 class ControlsChanged(Message):

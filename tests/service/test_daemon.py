@@ -35,11 +35,12 @@ from giraff_console.robot.teleop import Teleop
 from giraff_console.service import commands as c
 from giraff_console.service import wire
 from giraff_console.service.daemon import Answered, Asked, Hello, Welcome
-from giraff_console.service.events import Controls, Situation
+from giraff_console.service.events import Controls, RoomRenamed, Situation
 from giraff_console.service.remote import RemoteRobot
 from giraff_console.service.robot_service import RobotService
 from giraff_console.service.runtime_folder import socket_path
 from giraff_console.sim.drive import TruePose
+from tests.planning.scanned_building import write_scanned_plan
 from tests.service.daemon_rig import (
     DaemonProcess,
     Heard,
@@ -258,6 +259,22 @@ def test_a_watcher_that_takes_the_controls_drives_and_the_old_holder_no_longer_d
     assert driven.ok, driven
     status = holder.execute(c.Status(), timeout=WAIT_S)
     assert f"controls: {watcher.console};" in status.lines[1], status
+
+
+def test_a_room_renamed_by_one_console_is_renamed_for_every_console(serve, attach, tmp_path):
+    plan = write_scanned_plan(tmp_path)
+    daemon = serve(*SIM, "--floorplan", str(plan))
+    holder = attach(daemon, "first", take=True)
+    watcher = attach(daemon, "second", take=False)
+    heard = Heard()
+    watcher.subscribe(heard)
+    renamed = holder.execute(c.Name("east-room", "kitchen"), timeout=WAIT_S)
+    assert renamed.ok and "saved" in renamed.text, renamed
+    heard.wait_for(RoomRenamed, lambda e: (e.old, e.new) == ("east-room", "kitchen"), WAIT_S,
+                   what="the rename reaching the watcher")  # fmt: skip
+    assert "kitchen" in load_floorplan(plan).rooms
+    # A console that attaches later reads the saved plan.
+    assert "kitchen" in load_floorplan(attach(daemon, "third").welcome.floorplan).rooms
 
 
 # -- what outlives a console ----------------------------------------------------------
