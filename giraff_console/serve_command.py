@@ -145,6 +145,8 @@ def run_serve(args: argparse.Namespace, settings: Settings, port: str | None,
     last_stop.install()
     control.start(stepped=robot.stepped)
     sys.stderr.write(f"giraff-console: serving the robot at {path}\n")
+    if robot.stepped is None:
+        sys.stderr.write(f"giraff-console: the control loop runs at {control.priority}\n")
     sys.stderr.flush()
     if port_for_others is not None:
         port_for_others.start()

@@ -62,6 +62,7 @@ from giraff_console.robot.loop_events import Listener, LoopEvent, MissionChanged
 from giraff_console.robot.mission import Mission
 from giraff_console.robot.odometry import Odometry, Pose
 from giraff_console.robot.odometry_feed import OdometryFeed
+from giraff_console.robot.realtime import run_promptly
 from giraff_console.robot.replay import Replayer
 from giraff_console.robot.safety import rotation_wheel_speed, stop_robot
 from giraff_console.robot.telemetry import LinkState, Telemetry
@@ -131,6 +132,8 @@ class ControlLoop:
         # Set by emergency_stop: why, and whether the loop is to close after the stop.
         self._halt: tuple[str, bool] | None = None
         self._halt_lock = threading.Lock()
+        # How the loop's thread is scheduled (robot/realtime.py), once it runs.
+        self.priority = "not running"
         self._starting_lock = threading.Lock()
         self._starting = 0
         self._closed = threading.Event()
@@ -148,6 +151,11 @@ class ControlLoop:
         run = self._run if stepped is None else lambda: self._run_stepped(stepped)
         self._thread = threading.Thread(target=run, name="control-loop", daemon=True)
         self._thread.start()
+        if stepped is None and self._thread.native_id is not None:
+            # On the real clock only: a stepped loop runs as fast as it is let, and must
+            # not take a CPU from everything else.
+            self.priority = run_promptly(self._thread.native_id)
+            log.info("control loop: %s", self.priority)
 
     def stop(self, why: str = "console closing", timeout: float = 1.5) -> bool:
         """Stop the robot and close the port, from the loop's own thread if it runs;

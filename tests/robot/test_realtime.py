@@ -1,0 +1,78 @@
+"""The control loop's thread asks to be run ahead of ordinary work (robot/realtime.py),
+so that its ticks keep time on a busy PC (issue 15), and says so when it may not."""
+
+from __future__ import annotations
+
+import os
+import resource
+import subprocess
+import sys
+import threading
+
+from giraff_console.clock import RealClock
+from giraff_console.link import BoardLink
+from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.robot.deadman import Deadman
+from giraff_console.robot.realtime import PRIORITY, run_promptly
+from giraff_console.robot.teleop import Teleop
+
+TIMEOUT_S = 20.0
+
+
+def allowed() -> bool:
+    """Whether this process may use real-time priority: root, or an rtprio limit."""
+    return os.geteuid() == 0 or resource.getrlimit(resource.RLIMIT_RTPRIO)[0] >= 1
+
+
+def test_a_thread_is_put_under_round_robin_where_the_process_may():
+    said: list[str] = []
+    policy: list[int] = []
+
+    def thread() -> None:
+        said.append(run_promptly(threading.get_native_id()))
+        policy.append(os.sched_getscheduler(0))
+
+    worker = threading.Thread(target=thread)
+    worker.start()
+    worker.join(TIMEOUT_S)
+    if allowed():
+        assert said == [f"real-time priority {PRIORITY}"] and policy == [os.SCHED_RR]
+    else:
+        assert said[0].startswith("normal priority") and policy == [os.SCHED_OTHER]
+    assert os.sched_getscheduler(0) == os.SCHED_OTHER  # the caller's own thread is left
+
+
+def test_a_user_without_an_rtprio_limit_is_told_why_and_runs_as_before():
+    # In a child: no rtprio limit and, for root, another user, which has no CAP_SYS_NICE.
+    child = """
+import os, resource, threading
+from giraff_console.robot.realtime import run_promptly
+resource.setrlimit(resource.RLIMIT_RTPRIO, (0, 0))
+if os.geteuid() == 0:
+    os.setgid(65534)
+    os.setuid(65534)
+print(run_promptly(threading.get_native_id()))
+print(os.sched_getscheduler(0) == os.SCHED_OTHER)
+"""
+    done = subprocess.run([sys.executable, "-c", child], capture_output=True, text=True,
+                          timeout=TIMEOUT_S, cwd="/")  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    said, unchanged = done.stdout.splitlines()
+    assert said.startswith("normal priority: this user may not use real-time priority")
+    assert "rtprio" in said and unchanged == "True"
+
+
+def test_the_loop_on_the_real_clock_asks_for_it_and_a_stepped_one_does_not():
+    link = BoardLink.open("giraff-sim://")
+    control = ControlLoop(lambda: link, teleop=Teleop(), deadman=Deadman(RealClock()),
+                          clock=RealClock())  # fmt: skip
+    assert control.priority == "not running"
+    control.start()
+    try:
+        thread = control._thread
+        assert thread is not None and thread.native_id is not None
+        policy = os.sched_getscheduler(thread.native_id)
+        assert (policy == os.SCHED_RR) == allowed()
+        assert control.priority.startswith("real-time" if allowed() else "normal priority")
+    finally:
+        assert control.stop()
