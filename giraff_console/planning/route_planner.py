@@ -132,7 +132,8 @@ class RoutePlanner:
 
     def room_at(self, point: Point) -> str:
         """The room that `point` is in: the outline holding it, else the nearest outline,
-        else (a plan without outlines) the room whose point is nearest."""
+        else (a plan without outlines) the room whose point is nearest, among those in
+        sight on the grid if any is."""
         best, best_distance = None, math.inf
         for room_id, outline in self._outlines.items():
             # Positive inside, negative outside: the signed distance to the outline.
@@ -143,7 +144,13 @@ class RoutePlanner:
                 best, best_distance = room_id, -inside
         if best is not None:
             return best
-        return min(self.plan.rooms.values(), key=lambda room: math.dist(room.at, point)).id
+        rooms = list(self.plan.rooms.values())
+        if self.legs is not None:
+            # The nearest point may be the next room's, through a wall: of the rooms
+            # whose point can be seen from here, the nearest.
+            legs = self.legs
+            rooms = [room for room in rooms if legs.clear(point, room.at)] or rooms
+        return min(rooms, key=lambda room: math.dist(room.at, point)).id
 
     def between_rooms(self, from_room: str, to_room: str) -> PlannedPath:
         """The route from one room's point to another's."""

@@ -142,3 +142,14 @@ def test_the_file_keeps_its_permissions(tmp_path):
     path.chmod(0o640)
     rename_in_file(load_floorplan(path), "east-room", "kitchen")
     assert Path(path).stat().st_mode & 0o777 == 0o640
+
+
+def test_the_room_a_robot_stands_in_is_the_one_in_sight_not_the_nearest_through_a_wall(tmp_path):
+    from giraff_console.planning.route_planner import RoutePlanner, walls_of
+
+    plan = load_floorplan(write_scanned_plan(tmp_path))
+    planner = RoutePlanner(plan, walls_of(plan))
+    # At the corridor's west end, beside a wall of west-room, whose point is 4.2 m away
+    # through the wall: the corridor's point (6, 1) is further, 5.2 m, but in sight.
+    assert planner.room_at((0.8, 1.0)) == "corridor"
+    assert planner.room_at((9.0, 5.0)) == "east-room"
