@@ -65,6 +65,7 @@ from giraff_console.planning.landmarks import marker_detector, marker_poses
 from giraff_console.planning.marker_pages import write_pages
 from giraff_console.planning.plan_drawing import draw_plan
 from giraff_console.planning.room_graph import PlanningError, UnknownRoomError
+from giraff_console.planning.room_segmentation import MIN_ROOM_M2
 from giraff_console.planning.route_planner import ROBOT_RADIUS_M, RoutePlanner, walls_of
 from giraff_console.protocol.kinematics import WHEEL_BASE_M, WHEEL_BASE_RANGE_M
 from giraff_console.recording.mcap_export import export_session
@@ -275,18 +276,29 @@ def build_parser() -> argparse.ArgumentParser:
     imports = floorplan_commands.add_parser(
         "import", help="make a floor plan from an Open-RMF building map",
         description="Write OUT, a floor plan made from one level of SOURCE, an Open-RMF "
-        "*.building.yaml: its named vertices become rooms, its lanes and doors the doors "
-        "between them (floorplans/README.md, \"Importing\"). The result must pass `floorplan "
-        "check`, or nothing is written. Exits 0 when written, 2 for a bad SOURCE or MAP.",
+        "*.building.yaml as traffic-editor saves it: its named vertices become rooms, the "
+        "spaces its walls and doors bound (or, without walls, its lanes) say which rooms "
+        "its doors join, and passages join rooms that share a space. With walls, the grid "
+        "is drawn from them and written next to OUT as a PGM (floorplans/README.md, "
+        "\"Importing\"). What the import decides for the map is told in notes, at their "
+        "lines. The result must pass `floorplan check`, or nothing is written. Exits 0 "
+        "when written, 2 for a bad SOURCE or MAP.",
     )  # fmt: skip
     imports.add_argument("source", type=Path, metavar="SOURCE.building.yaml")
     imports.add_argument("out", type=Path, metavar="OUT.yaml")
     imports.add_argument(
-        "--level", metavar="NAME", help="the level to import (default: the only one)",
+        "--level", metavar="NAME",
+        help="the level to import (default: the only one; a map of several must say which)",
+    )  # fmt: skip
+    imports.add_argument(
+        "--graph", type=int, metavar="N",
+        help="only the lanes of graph N (a fleet's graph_idx), and the named vertices on "
+        "them or on no lane (default: every graph's)",
     )  # fmt: skip
     imports.add_argument(
         "--grid", type=Path, metavar="MAP.yaml",
-        help="a ROS map_server map to use as the grid; its image is copied next to OUT",
+        help="a ROS map_server map to use as the grid, instead of the one drawn from the "
+        "walls; its image is copied next to OUT",
     )  # fmt: skip
     imports.add_argument(
         "--name", metavar="TEXT", help="the floor plan's name (default: building and level)",
@@ -310,6 +322,40 @@ def build_parser() -> argparse.ArgumentParser:
         "--print", type=Path, metavar="DIR", dest="print_to",
         help="write a PNG page for each marker in FILE, and all of them in DIR/markers.pdf",
     )  # fmt: skip
+    rooms = floorplan_commands.add_parser(
+        "rooms", help="find the rooms and doors in a scanned map",
+        description="Write OUT, a floor plan of the rooms and doors found in MAP, a ROS "
+        "map_server map such as SLAM leaves (floorplans/README.md, \"Rooms from a scan\"). "
+        "Rooms are where the free space is wide, doors where it narrows between them; "
+        "rooms are named room-1, room-2, ... from the top left, each with its point where "
+        "it is furthest from walls, and the plan has no outlines: the grid is its walls, "
+        "and its image is copied next to OUT. A picture of what was found (each room "
+        "tinted and named, doors in red) goes next to OUT too. The plan must pass "
+        "`floorplan check`, or nothing is written. Exits 0 when written, 2 for a map that "
+        "cannot be read or has no rooms in it.",
+    )  # fmt: skip
+    rooms.add_argument("map", type=Path, metavar="MAP.yaml")
+    rooms.add_argument("out", type=Path, metavar="OUT.yaml")
+    rooms.add_argument(
+        "--picture", type=Path, metavar="PNG",
+        help="where to draw the rooms found (default: beside OUT, plan.yaml's is "
+        "plan-rooms.png)",
+    )  # fmt: skip
+    rooms.add_argument(
+        "--name", metavar="TEXT", help="the floor plan's name (default: from MAP's name)",
+    )  # fmt: skip
+    rooms.add_argument(
+        "--robot-radius", type=float, default=ROBOT_RADIUS_M, metavar="M",
+        help="free space narrower than twice this is no room, and no door "
+        "(default: %(default)s)",
+    )  # fmt: skip
+    rooms.add_argument(
+        "--min-area", type=float, default=MIN_ROOM_M2, metavar="M2",
+        help="square metres of floor a room needs; smaller pieces join their "
+        "neighbours (default: %(default)s)",
+    )  # fmt: skip
+    rooms.add_argument("--force", action="store_true",
+                       help="overwrite OUT, its image and the picture")  # fmt: skip
 
     add_go_parser(commands, EXAMPLE_FLOORPLAN)
     add_patrol_parser(commands, EXAMPLE_FLOORPLAN)
@@ -371,6 +417,8 @@ def run(args: argparse.Namespace) -> int:
         return run_floorplan_import(args)
     if args.command == "floorplan" and args.floorplan_command == "landmarks":
         return run_floorplan_landmarks(args)
+    if args.command == "floorplan" and args.floorplan_command == "rooms":
+        return run_floorplan_rooms(args)
     if args.command == "floorplan":
         return run_floorplan_check(args)
     return run_console(args)
@@ -633,16 +681,27 @@ def run_floorplan_show(args: argparse.Namespace) -> int:
 
 
 def run_floorplan_import(args: argparse.Namespace) -> int:
-    """A floor plan made from an Open-RMF building map, with a ROS map as its grid."""
+    """A floor plan made from an Open-RMF building map, with a grid drawn from its walls or
+    a ROS map's."""
     # Imported here: of all the commands, only this one reads RMF and ROS maps.
     from giraff_console.planning.rmf_import import read_building, write_floorplan
+    from giraff_console.planning.rmf_source import BuildingError
     from giraff_console.planning.ros_map import read_ros_map
 
+    imported = None
+
+    def tell_notes(notes: list[str]) -> None:
+        # Each is `file:line: note: ...`, in the order of the lines.
+        for note in notes:
+            print(f"giraff-console: {note}", file=sys.stderr)
+
     try:
-        imported = read_building(args.source, args.level, args.name)
+        imported = read_building(args.source, args.level, args.name, args.graph)
         grid = read_ros_map(args.grid) if args.grid is not None else None
         written = write_floorplan(imported, args.out, grid, force=args.force)
     except FloorPlanError as error:
+        tell_notes(error.notes if isinstance(error, BuildingError) else
+                   imported.notes if imported is not None else [])  # fmt: skip
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_USAGE
     except FileExistsError as error:
@@ -651,13 +710,16 @@ def run_floorplan_import(args: argparse.Namespace) -> int:
     except OSError as error:
         print(f"giraff-console: cannot write {args.out}: {error}", file=sys.stderr)
         return EXIT_USAGE
-    for note in imported.notes:
-        print(f"giraff-console: {args.source}: {note}", file=sys.stderr)
-    rooms, doors = imported.plan["rooms"], [door["id"] for door in imported.plan["doors"]]
+    tell_notes(imported.notes)
+    plan = imported.plan
+    rooms, doors = plan["rooms"], [door["id"] for door in plan["doors"]]
+    start = f", starting in {plan['start']}" if "start" in plan else ""
     print(f"wrote {written[0]}: {len(rooms)} rooms ({', '.join(rooms)}), "
-          f"{len(doors)} doors ({', '.join(doors) or 'none'})")  # fmt: skip
+          f"{len(doors)} doors ({', '.join(doors) or 'none'}){start}")  # fmt: skip
     for image in written[1:]:
-        print(f"wrote {image}: the grid image of {args.grid}")
+        made = f"the grid image of {args.grid}" if args.grid is not None else (
+            "the grid, drawn from the level's walls and doors")  # fmt: skip
+        print(f"wrote {image}: {made}")
     return 0
 
 
@@ -682,6 +744,65 @@ def run_floorplan_landmarks(args: argparse.Namespace) -> int:
     total = len(placement.landmarks.markers)
     print(f"{args.file}: placed {placement.added} markers ({placement.beside_doors} beside "
           f"doorways, {placement.along_walls} along walls); it has {total} in all")  # fmt: skip
+    return 0
+
+
+def run_floorplan_rooms(args: argparse.Namespace) -> int:
+    """A floor plan of the rooms found in a scanned map, and a picture of them."""
+    # Imported here: of all the commands, only this one segments maps.
+    from giraff_console.planning.rmf_import import write_floorplan
+    from giraff_console.planning.room_picture import draw_rooms, encode_png
+    from giraff_console.planning.room_segmentation import (
+        SegmentationError,
+        read_scan,
+        scan_plan,
+        segment_rooms,
+    )
+
+    for option, value in (("--robot-radius", args.robot_radius), ("--min-area", args.min_area)):
+        if not (value > 0 and math.isfinite(value)):
+            print(f"giraff-console: {option} must be a positive number", file=sys.stderr)
+            return EXIT_USAGE
+    picture = args.picture or args.out.with_name(f"{args.out.stem}-rooms.png")
+    try:
+        spec, grid = read_scan(args.map)
+        found = segment_rooms(grid, args.robot_radius, args.min_area)
+    except FloorPlanError as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    except SegmentationError as error:
+        print(f"giraff-console: {args.map}: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    plan_files = (args.out, args.out.with_suffix(spec.image.suffix))
+    if picture.resolve() in [path.resolve() for path in plan_files]:
+        print(f"giraff-console: --picture {picture} is a file of the floor plan",
+              file=sys.stderr)  # fmt: skip
+        return EXIT_USAGE
+    try:
+        if picture.exists() and not args.force:
+            raise FileExistsError(None, "already exists", str(picture))
+        # Drawn before anything is written, so that a failure leaves nothing behind.
+        png = encode_png(draw_rooms(found))
+        name = args.name or f"Rooms found in {args.map.name}"
+        written = write_floorplan(scan_plan(found, args.map, name), args.out, spec, args.force)
+        picture.write_bytes(png)
+    except FloorPlanError as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    except FileExistsError as error:
+        print(f"giraff-console: {error.filename} exists: --force overwrites it", file=sys.stderr)
+        return EXIT_USAGE
+    except OSError as error:
+        print(f"giraff-console: cannot write {args.out}: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    for note in found.notes:
+        print(f"giraff-console: {args.map}: {note}", file=sys.stderr)
+    doors = ", ".join(door.id for door in found.doors) or "none"
+    print(f"wrote {written[0]}: {len(found.rooms)} rooms (room-1 to room-{len(found.rooms)}), "
+          f"{len(found.doors)} doors ({doors}), starting in {found.start}")  # fmt: skip
+    for image in written[1:]:
+        print(f"wrote {image}: the grid image of {args.map}")
+    print(f"wrote {picture}: the rooms found, to check and name")
     return 0
 
 
