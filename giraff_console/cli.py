@@ -684,7 +684,8 @@ def run_floorplan_import(args: argparse.Namespace) -> int:
     """A floor plan made from an Open-RMF building map, with a grid drawn from its walls or
     a ROS map's."""
     # Imported here: of all the commands, only this one reads RMF and ROS maps.
-    from giraff_console.planning.rmf_import import read_building, write_floorplan
+    from giraff_console.planning.plan_writing import write_floorplan
+    from giraff_console.planning.rmf_import import read_building
     from giraff_console.planning.rmf_source import BuildingError
     from giraff_console.planning.ros_map import read_ros_map
 
@@ -750,7 +751,7 @@ def run_floorplan_landmarks(args: argparse.Namespace) -> int:
 def run_floorplan_rooms(args: argparse.Namespace) -> int:
     """A floor plan of the rooms found in a scanned map, and a picture of them."""
     # Imported here: of all the commands, only this one segments maps.
-    from giraff_console.planning.rmf_import import write_floorplan
+    from giraff_console.planning.plan_writing import write_floorplan
     from giraff_console.planning.room_picture import draw_rooms, encode_png
     from giraff_console.planning.room_segmentation import (
         SegmentationError,

@@ -29,6 +29,11 @@ def elsewhere(tmp_path) -> Path:
     return folder
 
 
+# `go kitchen` with the simulated camera takes about 22 s on a quiet 2-core machine and
+# over 60 s beside two busy loops and other work.
+COMMAND_TIMEOUT_S = 180
+
+
 def giraff_console(installed: Path, elsewhere: Path, *args: str) -> subprocess.CompletedProcess:
     """`giraff-console ARGS` from the installed package, started in `elsewhere`, with a
     home of its own and no settings file."""
@@ -38,7 +43,7 @@ def giraff_console(installed: Path, elsewhere: Path, *args: str) -> subprocess.C
     env["HOME"] = str(elsewhere.parent / "home")
     return subprocess.run(
         [sys.executable, "-m", "giraff_console", *args],
-        cwd=elsewhere, env=env, capture_output=True, text=True, timeout=60,
+        cwd=elsewhere, env=env, capture_output=True, text=True, timeout=COMMAND_TIMEOUT_S,
     )  # fmt: skip
 
 

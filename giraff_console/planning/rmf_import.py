@@ -19,28 +19,16 @@ never leaves a file that `floorplan check` would refuse.
 
 from __future__ import annotations
 
-import errno
 import re
-import shutil
-import tempfile
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, cast
 
-import cv2
-import yaml
-
 from giraff_console.planning.floorplan import (
-    FloorPlanError,
-    GridSpec,
     Point,
-    Problem,
     Where,
     _dotted,
-    check_floorplan,
 )
-from giraff_console.planning.grid import OccupancyGrid
-from giraff_console.planning.rasterise import grid_image
+from giraff_console.planning.plan_writing import MadePlan
 from giraff_console.planning.rmf_lanes import lane_graph
 from giraff_console.planning.rmf_level import ID_LENGTH, Lane, Level, Named, RmfDoor, numbered
 from giraff_console.planning.rmf_source import (
@@ -53,20 +41,10 @@ from giraff_console.planning.rmf_source import (
 )
 from giraff_console.planning.rmf_spaces import find_rooms
 from giraff_console.planning.rmf_walls import draw_floor, draw_grid
-from giraff_console.planning.ros_map import grid_section, read_yaml
+from giraff_console.planning.ros_map import read_yaml
 
 _NOT_ID = re.compile(r"[^A-Za-z0-9_-]+")
 _SYSTEMS = ("reference_image", "cartesian_meters")
-
-
-@dataclass(frozen=True)
-class ImportedPlan:
-    source: Path
-    level: str
-    plan: dict[str, Any]  # a floor plan in our schema, ready to be written as YAML
-    notes: list[str]  # what the import decided that the map did not say, for the operator
-    header: str  # the comment that opens the written file
-    drawn: OccupancyGrid | None = None  # a grid drawn from the map's walls, to write with it
 
 
 def sanitise_id(text: str) -> str:
@@ -75,13 +53,9 @@ def sanitise_id(text: str) -> str:
     return _NOT_ID.sub("-", text).strip("-")[:ID_LENGTH].rstrip("-")
 
 
-def _m(value: float) -> float:
-    return round(value, 3) + 0.0  # millimetres are plenty; + 0.0 turns -0.0 into 0.0
-
-
 def read_building(
     path: str | Path, level: str | None = None, name: str | None = None, graph: int | None = None
-) -> ImportedPlan:
+) -> MadePlan:
     """The floor plan for one level of the Open-RMF building map at `path` (the only
     level unless `level` names one), from every fleet's lanes or only those of `graph`;
     raises BuildingError (a FloorPlanError) listing what is wrong."""
@@ -167,7 +141,7 @@ def read_building(
     if floor is not None:
         kept = {door["id"] for door in layout.doors}
         drawn = draw_grid(found, [i for i, door in enumerate(doors) if door.id in kept])
-    return ImportedPlan(path, level, plan, source.notes, header, drawn)
+    return MadePlan(path, plan, source.notes, header, drawn)
 
 
 def _named(source: BuildingSource, names: list[str], params: list[dict], points: list[Point],
@@ -229,77 +203,3 @@ def _doors(source: BuildingSource, edges: list[tuple[tuple[int, int, dict], Wher
         first[door_id] = at
         doors.append(RmfDoor(door_id, (points[a], points[b]), at))
     return doors
-
-
-def write_floorplan(
-    imported: ImportedPlan, out: str | Path, grid: GridSpec | None = None, force: bool = False
-) -> list[Path]:
-    """Write `imported` to `out` with its grid next to it as `out`'s name with the image's
-    suffix: `grid`'s image copied, else the grid the import drew, as a PGM. Return the
-    files written. Nothing is written if the result would not load (FloorPlanError naming
-    the problems) or, without `force`, if a file to write exists already
-    (FileExistsError)."""
-    out = Path(out)
-    drawn = imported.drawn if grid is None else None
-    image = None
-    if grid is not None:
-        image = out.with_suffix(grid.image.suffix)
-    elif drawn is not None:
-        image = out.with_suffix(".pgm")
-    copy_image = image is not None and (
-        grid is None or not (image.exists() and image.samefile(grid.image))
-    )
-    for target in (out, image if copy_image else None):
-        if target is not None and target.exists() and not force:
-            raise FileExistsError(errno.EEXIST, "already exists", str(target))
-    pixels = _pgm(drawn) if drawn is not None else b""
-    with tempfile.TemporaryDirectory() as directory:
-        trial = Path(directory) / out.name
-        if drawn is not None:
-            grid = _drawn_spec(drawn, trial.with_suffix(".pgm"))
-            grid.image.write_bytes(pixels)
-        # Checked against the map's own image, so that nothing is copied for a plan refused.
-        section = grid_section(grid, str(grid.image.resolve())) if grid is not None else None
-        trial.write_text(_text(imported.header, imported.plan, section), encoding="utf-8")
-        problems = check_floorplan(trial)
-    if problems:
-        raise FloorPlanError(
-            [Problem(imported.source, None, problem.message) for problem in problems]
-            + [Problem(out, None, "not written: the imported floor plan would not load")]
-        )
-    written = []
-    section = None
-    if grid is not None and image is not None:
-        section = grid_section(grid, image.name)
-        if drawn is not None:
-            image.write_bytes(pixels)
-            written.append(image)
-        elif copy_image:
-            shutil.copyfile(grid.image, image)
-            written.append(image)
-    out.write_text(_text(imported.header, imported.plan, section), encoding="utf-8")
-    return [out, *written]
-
-
-def _pgm(grid: OccupancyGrid) -> bytes:
-    found, encoded = cv2.imencode(".pgm", grid_image(grid))
-    if not found:
-        raise OSError("OpenCV could not encode the grid as a PGM")
-    return encoded.tobytes()
-
-
-def _drawn_spec(grid: OccupancyGrid, image: Path) -> GridSpec:
-    """The grid section of a drawn grid: map_server's thresholds, which read rasterise's
-    shades as free, occupied and unknown."""
-    return GridSpec(image, grid.resolution, (_m(grid.origin[0]), _m(grid.origin[1]), 0.0), 0,
-                    0.65, 0.196)  # fmt: skip
-
-
-def _text(header: str, plan: dict[str, Any], grid: dict[str, Any] | None) -> str:
-    """The floor plan as YAML, its keys in the order floorplans/README.md gives them."""
-    ordered: dict[str, Any] = {key: plan[key] for key in ("name", "rooms", "doors") if key in plan}
-    if grid is not None:
-        ordered["grid"] = grid
-    ordered |= {key: value for key, value in plan.items() if key not in ordered}
-    body = yaml.safe_dump(ordered, sort_keys=False, default_flow_style=None, allow_unicode=True)
-    return header + body

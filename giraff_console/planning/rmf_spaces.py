@@ -32,6 +32,7 @@ import numpy as np
 from scipy.sparse.csgraph import dijkstra  # type: ignore[import-untyped]
 
 from giraff_console.planning.floorplan import Point, Where
+from giraff_console.planning.plan_writing import millimetres
 from giraff_console.planning.rmf_lanes import LaneGraph, chains, crossing, halfway
 from giraff_console.planning.rmf_level import ID_LENGTH, Level, Named, Places, RmfDoor, numbered
 from giraff_console.planning.rmf_walls import SEAT_REACH_M, Floor
@@ -246,7 +247,8 @@ class _Finder:
                     f"(it needs {NARROWEST_DOOR_M:.2f} m): routes will not pass it",
                 )
             x, y = door.centre
-            plan = {"between": [], "at": [_m(x), _m(y)], "width": _m(door.width), "id": door.id}
+            at, width = [millimetres(x), millimetres(y)], millimetres(door.width)
+            plan = {"between": [], "at": at, "width": width, "id": door.id}
             self._join(ends[0], ends[1], plan, door)
 
     def _join(self, a: int, b: int, plan: dict[str, Any], rmf: RmfDoor | None = None) -> None:
@@ -270,7 +272,8 @@ class _Finder:
             if self.space(ra) != self.space(rb):
                 continue  # lanes through a wall: the floor is what the robot drives on
             x, y = self._settled(halfway([_point(lanes.xy[p]) for p in chain]), self.space(ra))
-            self._join(at_place[a], at_place[b], {"between": [], "at": [_m(x), _m(y)]})
+            at = [millimetres(x), millimetres(y)]
+            self._join(at_place[a], at_place[b], {"between": [], "at": at})
 
     def _lanes_through_walls(self) -> None:
         """Note each lane that joins two spaces through a wall rather than a door: the
@@ -328,7 +331,7 @@ class _Finder:
             while way[-1] != local[self.rooms[a].place]:
                 way.append(int(previous[row[a], way[-1]]))
             x, y = self._midway(inside[np.array(way[::-1])])
-            self._join(a, b, {"between": [], "at": [_m(x), _m(y)]})
+            self._join(a, b, {"between": [], "at": [millimetres(x), millimetres(y)]})
 
     def _midway(self, way: np.ndarray) -> Point:
         """A point of a way across a space for a passage: halfway along it, or the point
@@ -360,7 +363,7 @@ class _Finder:
             named = room.named
             if root(i) == kept:
                 label = named.name if named is not None and named.name != room.id else None
-                rooms[room.id] = ((_m(room.at[0]), _m(room.at[1])), label)
+                rooms[room.id] = ((millimetres(room.at[0]), millimetres(room.at[1])), label)
             elif named is not None:
                 self.note(
                     named.where,
@@ -426,9 +429,5 @@ def _point(xy: Any) -> Point:
     return (float(xy[0]), float(xy[1]))
 
 
-def _m(value: float) -> float:
-    return round(value, 3) + 0.0  # millimetres are plenty; + 0.0 turns -0.0 into 0.0
-
-
 def _shown(point: Point) -> str:
-    return f"[{_m(point[0])}, {_m(point[1])}]"
+    return f"[{millimetres(point[0])}, {millimetres(point[1])}]"

@@ -33,7 +33,7 @@ import numpy as np
 
 from giraff_console.planning.floorplan import Door, GridSpec, Point
 from giraff_console.planning.grid import FREE, OccupancyGrid
-from giraff_console.planning.rmf_import import ImportedPlan
+from giraff_console.planning.plan_writing import MadePlan, millimetres
 from giraff_console.planning.ros_map import read_grid_image, read_ros_map
 from giraff_console.planning.route_planner import ROBOT_RADIUS_M
 from giraff_console.planning.walls import grid_jambs
@@ -367,7 +367,7 @@ def _at(grid: OccupancyGrid, cells: Cells, clearance: np.ndarray) -> Point:
     middle = np.hypot(rows - rows.mean(), cols - cols.mean())
     i = int(np.argmin(middle))
     x, y = grid.centre_of(int(rows[i]), int(cols[i]))
-    return _m(x), _m(y)
+    return millimetres(x), millimetres(y)
 
 
 def _doorway(
@@ -380,22 +380,18 @@ def _doorway(
     guess = Door("", ("", ""), (x, y), 2 * float(clearance[cell]), True)
     jambs = grid_jambs(grid, guess)
     if jambs is None:
-        return (_m(x), _m(y)), _m(guess.width)
+        return (millimetres(x), millimetres(y)), millimetres(guess.width)
     (ax, ay), (bx, by) = jambs
     middle = ((ax + bx) / 2, (ay + by) / 2)
     width = math.dist(jambs[0], jambs[1]) - grid.resolution  # centres to faces
     row, col = grid.cell_of(*middle)
     if grid.cells[row, col] != FREE:
         middle = (x, y)
-    return (_m(middle[0]), _m(middle[1])), _m(width)
+    return (millimetres(middle[0]), millimetres(middle[1])), millimetres(width)
 
 
-def _m(value: float) -> float:
-    return round(value, 3) + 0.0  # millimetres are plenty; + 0.0 turns -0.0 into 0.0
-
-
-def scan_plan(segmentation: Segmentation, source: Path, name: str) -> ImportedPlan:
-    """The floor plan of the rooms found, ready for rmf_import.write_floorplan to check
+def scan_plan(segmentation: Segmentation, source: Path, name: str) -> MadePlan:
+    """The floor plan of the rooms found, ready for plan_writing.write_floorplan to check
     and write with the map as its grid: room points and doors, no outlines, so that the
     simulator takes its walls from the grid (floorplans/README.md, "Plans without
     outlines")."""
@@ -417,4 +413,4 @@ def scan_plan(segmentation: Segmentation, source: Path, name: str) -> ImportedPl
         f"# Rooms found in {source.name} by `giraff-console floorplan rooms`: named room-1,\n"
         "# room-2, ... as a page is read, from the top left. Rename them as you like.\n"
     )
-    return ImportedPlan(source, "", plan, list(segmentation.notes), header)
+    return MadePlan(source, plan, list(segmentation.notes), header)
