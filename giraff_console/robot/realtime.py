@@ -5,8 +5,10 @@ lateness ≤ 5 ms beside two busy processes). Ordinary threads share the CPUs fa
 on a loaded machine a loop that wakes on time can still wait several milliseconds for
 a CPU. Under a real-time policy (SCHED_RR) it is run as soon as it wakes, ahead of
 every ordinary thread, as robot control loops usually are (ros2_control does the same
-for its update thread). The loop sleeps between ticks, and the kernel's real-time
-throttling (by default 95 % of each second) bounds what a stuck loop could take.
+for its update thread). The console in its own process asks for it too, on a real
+board. The loop sleeps between ticks, and the kernel's real-time throttling (by default
+950 ms of each second, per CPU on most kernels) bounds what a stuck loop could take.
+Threads the loop starts are not given it (SCHED_RESET_ON_FORK).
 
 Only a process allowed to may do it: root, CAP_SYS_NICE, or a user given an `rtprio`
 limit (docs/daemon.md, "Ticks on time"). Without that the loop runs as before, and says
@@ -28,7 +30,10 @@ def run_promptly(thread: int) -> str:
     try:
         limit = os.sched_get_priority_max(os.SCHED_RR)
         priority = min(PRIORITY, limit)
-        os.sched_setscheduler(thread, os.SCHED_RR, os.sched_param(priority))
+        # Reset on fork: the threads the loop starts (a session's metadata, a patrol's
+        # snapshot) do disk work that must not run ahead of everything else.
+        policy = os.SCHED_RR | os.SCHED_RESET_ON_FORK
+        os.sched_setscheduler(thread, policy, os.sched_param(priority))
     except PermissionError:
         return ("normal priority: this user may not use real-time priority (an rtprio "
                 "limit allows it, docs/daemon.md)")  # fmt: skip

@@ -30,7 +30,7 @@ def test_a_thread_is_put_under_round_robin_where_the_process_may():
 
     def thread() -> None:
         said.append(run_promptly(threading.get_native_id()))
-        policy.append(os.sched_getscheduler(0))
+        policy.append(os.sched_getscheduler(0) & ~os.SCHED_RESET_ON_FORK)
 
     worker = threading.Thread(target=thread)
     worker.start()
@@ -71,8 +71,21 @@ def test_the_loop_on_the_real_clock_asks_for_it_and_a_stepped_one_does_not():
     try:
         thread = control._thread
         assert thread is not None and thread.native_id is not None
-        policy = os.sched_getscheduler(thread.native_id)
+        policy = os.sched_getscheduler(thread.native_id) & ~os.SCHED_RESET_ON_FORK
         assert (policy == os.SCHED_RR) == allowed()
         assert control.priority.startswith("real-time" if allowed() else "normal priority")
+        # What the loop's thread starts (a session's metadata, a patrol's snapshot)
+        # does disk work at normal priority.
+        started: list[int] = []
+
+        def start_one() -> None:
+            child = threading.Thread(target=lambda: started.append(os.sched_getscheduler(0)))
+            child.start()
+            child.join(TIMEOUT_S)
+
+        done = threading.Event()
+        control.between_ticks(lambda: (start_one(), done.set()))
+        assert done.wait(TIMEOUT_S)
+        assert started == [os.SCHED_OTHER]
     finally:
         assert control.stop()
