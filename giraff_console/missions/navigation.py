@@ -98,19 +98,24 @@ class Navigator:
 
     def use_plan(self, plan: FloorPlan) -> None:
         """Plan on `plan` from now on: the same building with its rooms renamed
-        (planning/room_names.py). The same grid, doors shut and obstacles sensed carry
-        over; the route shown does not (the caller has no mission running)."""
+        (planning/room_names.py keeps the door ids). The same grid, doors shut and
+        obstacles sensed carry over; the route shown does not (the caller has no mission
+        running). The new planner is made whole before it replaces the old."""
         with self._lock:
             before = self.planner
-            self.plan = plan
-            self.planner = RoutePlanner(plan, before.walls, before.robot_radius)
-            for door_id in before.graph.closed:
-                self.planner.close(door_id)
-            if before.legs is not None and self.planner.legs is not None and before.legs.sensed:
+            planner = RoutePlanner(plan, before.walls, before.robot_radius)
+            # As the operator left them, which may not be as the file says.
+            for door in plan.doors:
+                shut = door.id in before.graph.closed
+                if shut != (door.id in planner.graph.closed):
+                    (planner.close if shut else planner.open)(door.id)
+            if before.legs is not None and planner.legs is not None and before.legs.sensed:
                 radius = before.robot_radius + CLEARANCE_M
-                self.planner.legs.block(list(before.legs.sensed.values()), radius)
+                planner.legs.block(list(before.legs.sensed.values()), radius)
+            self.plan, self.planner = plan, planner
             self._arrival = None
-            self.state = NavigationState(closed=self.state.closed, obstacles=self.state.obstacles)
+            closed = frozenset(planner.graph.closed)
+            self.state = NavigationState(closed=closed, obstacles=self.state.obstacles)
 
     def forget(self) -> None:
         """No goal any more (arrived, or the operator stopped it)."""

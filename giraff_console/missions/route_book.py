@@ -158,6 +158,19 @@ class RouteBook:
         return [f"routes: {', '.join(routes) or 'none'}",
                 f"patrols: {', '.join(patrols) or 'none'}"]  # fmt: skip
 
+    def patrols_going_to(self, room: str) -> list[str]:
+        """The patrols with a stop in `room`: a patrol names rooms by their ids, and
+        looks them up as each leg starts."""
+        going = []
+        for name in list_patrols(self.directory):
+            try:
+                patrol = load_patrol(self.directory / f"{name}{PATROL_SUFFIX}")
+            except PatrolError:
+                continue  # one that does not load says so when it is run
+            if any(stop.room == room for stop in patrol.stops):
+                going.append(name)
+        return going
+
     def replay(self, name: str) -> bool:
         """Drive route `name` again, open-loop, with its original timing."""
         route = self._load(name)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
@@ -73,21 +74,22 @@ def rename_in_file(plan: FloorPlan, old: str, new: str) -> FloorPlan:
     RenameError if it cannot be (the file is then as it was), OSError if the file
     cannot be written."""
     check_rename(plan, old, new)
-    path = plan.path
-    if path.resolve().parent == SHIPPED:
+    # A plan reached through a link is renamed where it is, and the link stays.
+    path = plan.path.resolve()
+    if path.parent == SHIPPED:
         raise RenameError(f"{path.name} is the example that comes with the console and is not "
                           "renamed: copy it, and start with --floorplan COPY")  # fmt: skip
-    text = path.read_text(encoding="utf-8")
-    spans = _spans_naming(text, old)
-    if not spans:
+    with open(path, encoding="utf-8", newline="") as file:  # its line endings kept
+        text = file.read()
+    edits = _edits(text, old, new)
+    if not any(end > start for start, end, _ in edits):
         raise RenameError(f"{path} does not name room {old!r} any more: was it edited?")
-    # A name YAML would read as something else (101, true, 1e3) is quoted.
-    written = new if yaml.safe_load(new) == new else f"'{new}'"
-    for start, end in sorted(spans, reverse=True):
-        text = text[:start] + written + text[end:]
+    for start, end, replacement in sorted(edits, reverse=True):
+        text = text[:start] + replacement + text[end:]
     with tempfile.NamedTemporaryFile(
         "w",
         encoding="utf-8",
+        newline="",
         dir=path.parent,
         prefix=f".{path.name}.",
         suffix=".yaml",
@@ -98,41 +100,79 @@ def rename_in_file(plan: FloorPlan, old: str, new: str) -> FloorPlan:
     try:
         # The copy is read back as the plan it must be before it replaces the file.
         read_back = load_floorplan(trial_path)
-        if read_back.rooms.keys() != renamed(plan, old, new).rooms.keys():
+        expected = renamed(plan, old, new)
+        if read_back.rooms.keys() != expected.rooms.keys() or read_back.doors != expected.doors:
             raise RenameError(f"{path}: the renamed plan did not read back as it should")
         os.chmod(trial_path, path.stat().st_mode & 0o777)
         os.replace(trial_path, path)
     except FloorPlanError as error:
-        raise RenameError(f"not renamed, the plan would not load: {error}") from None
+        problems = "; ".join(problem.message for problem in error.problems)
+        raise RenameError(f"not renamed, {path} would not load: {problems}") from None
     finally:
         trial_path.unlink(missing_ok=True)
-    return replace(read_back, path=path)
+    return replace(read_back, path=plan.path)
 
 
-def _spans_naming(text: str, room: str) -> list[tuple[int, int]]:
-    """Where in `text` room id `room` is written: the room's key under `rooms`, each
-    door's `between`, and `start`; as (start, end) character offsets."""
+def _written(name: str) -> str:
+    """`name` as YAML text: quoted if YAML would read it as something else (101, true)."""
+    return name if yaml.safe_load(name) == name else f"'{name}'"
+
+
+def _edits(text: str, room: str, new: str) -> list[tuple[int, int, str]]:
+    """What to change in `text` to call room `room` `new`, as (start, end, replacement)
+    character ranges: the room's key under `rooms`, each door's `between`, and `start`.
+    A door that joins the room and has no `id` takes its id from its rooms' names, so
+    it is given the one it had (the simulated building and patrols know it by it)."""
+    if any(isinstance(token, yaml.AnchorToken | yaml.AliasToken)
+           for token in yaml.scan(text, Loader=yaml.SafeLoader)):  # fmt: skip
+        raise RenameError("the plan file uses YAML anchors (&name, *name): rename the room in "
+                          "it by hand")  # fmt: skip
     root = yaml.compose(text, Loader=yaml.SafeLoader)
     if not isinstance(root, yaml.MappingNode):
         return []
-    spans = []
+    newline = "\r\n" if "\r\n" in text else "\n"
+    edits = []
 
     def names(node: yaml.Node) -> bool:
         return isinstance(node, yaml.ScalarNode) and node.value == room
 
-    def span(node: yaml.Node) -> tuple[int, int]:
-        return node.start_mark.index, node.end_mark.index
+    def renaming(node: yaml.Node) -> tuple[int, int, str]:
+        return node.start_mark.index, node.end_mark.index, _written(new)
 
     for key, value in root.value:
         if key.value == "rooms" and isinstance(value, yaml.MappingNode):
-            spans += [span(room_key) for room_key, _ in value.value if names(room_key)]
+            edits += [renaming(room_key) for room_key, _ in value.value if names(room_key)]
         elif key.value == "doors" and isinstance(value, yaml.SequenceNode):
             for door in value.value:
-                if not isinstance(door, yaml.MappingNode):
-                    continue
-                for door_key, between in door.value:
-                    if door_key.value == "between" and isinstance(between, yaml.SequenceNode):
-                        spans += [span(end) for end in between.value if names(end)]
+                if isinstance(door, yaml.MappingNode):
+                    edits += _door_edits(text, door, names, renaming, newline)
         elif key.value == "start" and names(value):
-            spans.append(span(value))
-    return spans
+            edits.append(renaming(value))
+    return edits
+
+
+def _door_edits(text: str, door: yaml.MappingNode, names: Callable[[yaml.Node], bool],
+                renaming: Callable[[yaml.Node], tuple[int, int, str]],
+                newline: str) -> list[tuple[int, int, str]]:  # fmt: skip
+    fields = {key.value: value for key, value in door.value}
+    between = fields.get("between")
+    if not isinstance(between, yaml.SequenceNode):
+        return []
+    ends = [end for end in between.value if names(end)]
+    edits = [renaming(end) for end in ends]
+    if not ends or "id" in fields:
+        return edits
+    # The id the loader gave it: its rooms' ids joined by '-'.
+    kept = f"id: {_written('-'.join(str(end.value) for end in between.value))}"
+    if door.flow_style:
+        closing = door.end_mark.index - 1  # at its '}'
+        return [*edits, (closing, closing, f", {kept}")]
+    indent = " " * door.value[0][0].start_mark.column
+    after = door.value[-1][1].end_mark.index
+    if after > 0 and text[after - 1] != "\n":
+        # After the end of the last line, past any comment on it.
+        line_end = text.find("\n", after)
+        if line_end < 0:
+            return [*edits, (len(text), len(text), f"{newline}{indent}{kept}{newline}")]
+        after = line_end + 1
+    return [*edits, (after, after, f"{indent}{kept}{newline}")]

@@ -97,6 +97,9 @@ class RobotService:
             if part is not None:
                 part.report = control.note
         self._lock = threading.Lock()
+        # Held while a mission is planned and handed to the loop, and while a room is
+        # renamed: a mission planned by the old names must not start on the new plan.
+        self._plan_lock = threading.Lock()
         self._consoles: list[str] = []
         self._holder: str | None = None
         self._listeners: tuple[ServiceListener, ...] = ()
@@ -240,7 +243,11 @@ class RobotService:
         # Those that need to know who asks say so with a second parameter.
         with_console = isinstance(request, c.TakeControls | c.RunPatrol)
         stops = self._stops
-        reply: Reply = handler(request, console) if with_console else handler(request)
+        if isinstance(request, (*STARTS_MISSION, c.Name, c.Mark)):
+            with self._plan_lock:
+                reply: Reply = handler(request, console) if with_console else handler(request)
+        else:
+            reply = handler(request, console) if with_console else handler(request)
         if isinstance(request, STARTS_MISSION) and reply.ok and self._stops != stops:
             # A stop came while the mission was being planned, before the loop had it: the
             # stop must win. Queued after the start, so the mission ends before its first
@@ -382,7 +389,8 @@ class RobotService:
             return Reply(False, busy)
         if self.routes is None:
             return Reply(False, "routes are not available")
-        return Reply(self.routes.patrol(patrol, by="schedule", scheduled=True))
+        with self._plan_lock:
+            return Reply(self.routes.patrol(patrol, by="schedule", scheduled=True))
 
     def _do_follow(self, request: c.Follow) -> Reply:
         return self._book(lambda book: book.follow(request.name))
@@ -411,7 +419,10 @@ class RobotService:
                                 "floor plan to name a room of")  # fmt: skip
         pose = self.control.pose
         room = self.navigator.planner.room_at((pose.x, pose.y))
-        return self._rename(room, request.place, where=" (where the robot stands)")
+        reply = self._rename(room, request.place, where=" (where the robot stands)")
+        if not reply.ok:
+            return reply
+        return replace(reply, text=f"{reply.text}; `name {request.place} {room}` undoes it")
 
     def _do_name(self, request: c.Name) -> Reply:
         return self._rename(request.room, request.to)
@@ -435,7 +446,12 @@ class RobotService:
         navigator.use_plan(plan)
         self._tell(RoomRenamed(room, to))
         self._tell(RouteShown.of(navigator.state))
-        return Reply(True, f"room {room}{where} is now {to}; saved in {plan.path}")
+        text = f"room {room}{where} is now {to}; saved in {plan.path}"
+        going = self.routes.patrols_going_to(room) if self.routes is not None else []
+        if going:
+            text += (f"; patrols {', '.join(going)} still stop at {room}: change them to {to} "
+                     f"in their files")  # fmt: skip
+        return Reply(True, text)
 
     def _do_done(self, request: c.Done) -> Reply:
         return self._book(lambda book: book.done() is not None)

@@ -153,3 +153,52 @@ def test_the_room_a_robot_stands_in_is_the_one_in_sight_not_the_nearest_through_
     # through the wall: the corridor's point (6, 1) is further, 5.2 m, but in sight.
     assert planner.room_at((0.8, 1.0)) == "corridor"
     assert planner.room_at((9.0, 5.0)) == "east-room"
+
+
+def test_doors_named_by_their_rooms_keep_their_ids_in_both_styles(tmp_path):
+    path = write_scanned_plan(tmp_path, BLOCK)
+    before = {door.id for door in load_floorplan(path).doors}
+    plan = rename_in_file(load_floorplan(path), "room-1", "corridor")
+    assert {door.id for door in plan.doors} == before  # room-1-room-2 and room-1-room-4
+    text = path.read_text()
+    assert "    width: 1.0\n    id: room-1-room-2\n  - {between: [corridor, 'room-3']" in text
+    assert "      - room-4\n    at: [10, 2.05]\n    id: room-1-room-4\n" in text
+    flow = write_scanned_plan(tmp_path, name="flow")
+    ids = {door.id for door in load_floorplan(flow).doors}
+    renamed_flow = rename_in_file(load_floorplan(flow), "corridor", "hall")
+    assert {door.id for door in renamed_flow.doors} == ids
+    assert "width: 1.0, id: corridor-east-room}" in flow.read_text()
+
+
+def test_a_door_with_a_comment_on_its_last_line_gets_its_id_below_the_comment(tmp_path):
+    text = BLOCK.replace("      - room-4\n    at: [10, 2.05]\n",
+                         "      - room-4\n    at: [10, 2.05]  # the east doorway\n")  # fmt: skip
+    path = write_scanned_plan(tmp_path, text)
+    rename_in_file(load_floorplan(path), "room-4", "lounge")
+    assert "at: [10, 2.05]  # the east doorway\n    id: room-1-room-4\n" in path.read_text()
+
+
+def test_windows_line_endings_are_kept(tmp_path):
+    path = write_scanned_plan(tmp_path, BLOCK)
+    path.write_bytes(path.read_bytes().replace(b"\n", b"\r\n"))
+    rename_in_file(load_floorplan(path), "room-4", "lounge")
+    data = path.read_bytes()
+    assert b"lounge:\r\n" in data and b"\n" not in data.replace(b"\r\n", b"")
+
+
+def test_a_plan_with_anchors_is_refused_by_name_and_left(tmp_path):
+    text = BLOCK.replace("room-2: {{at: [2, 5]}}", "room-2: {{at: &west [2, 5]}}")
+    path = write_scanned_plan(tmp_path, text)
+    before = path.read_text()
+    with pytest.raises(RenameError, match="uses YAML anchors"):
+        rename_in_file(load_floorplan(path), "room-4", "lounge")
+    assert path.read_text() == before
+
+
+def test_a_plan_reached_through_a_link_is_renamed_where_it_is_and_the_link_stays(tmp_path):
+    real = write_scanned_plan(tmp_path)
+    link = tmp_path / "home.yaml"
+    link.symlink_to(real)
+    plan = rename_in_file(load_floorplan(link), "east-room", "kitchen")
+    assert link.is_symlink() and plan.path == link
+    assert "kitchen" in load_floorplan(real).rooms

@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import math
+import shutil
+import threading
 from dataclasses import replace
 
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import Navigator
+from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.robot.deadman import Intent
 from giraff_console.robot.loop_events import Note
@@ -14,7 +17,7 @@ from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
 from giraff_console.service.outbox import Outbox
 from giraff_console.service.robot_service import RobotService
-from tests.missions.site import PLAN, Site
+from tests.missions.site import EXAMPLE, PLAN, Site
 
 
 def service_on_site() -> tuple[RobotService, Site]:
@@ -111,3 +114,33 @@ def test_an_outbox_too_far_behind_closes_rather_than_drop_an_answer():
     assert outbox.overflowed
     assert [outbox.take(0.1), outbox.take(0.1), outbox.take(0.1)] == [Note("a"), Note("b"), None]
     assert outbox.closed
+
+
+def test_a_rename_waits_for_a_mission_being_planned_and_is_then_refused(tmp_path):
+    for suffix in (".yaml", ".pgm"):
+        shutil.copy(EXAMPLE.with_suffix(suffix), tmp_path / f"care-home{suffix}")
+    plan = load_floorplan(tmp_path / "care-home.yaml")
+    navigator = Navigator(plan, walls_of(plan))
+    site = Site(navigator)
+    service = RobotService(site.control, DriveSetup.on_loop(site.control, navigator))
+    plan_go = service.drives.go
+    answers: list = []
+
+    def go_while_an_operator_renames(room: str):
+        mission = plan_go(room)
+        renaming = threading.Thread(
+            target=lambda: answers.append(service.execute(c.Name("kitchen", "cookhouse"))))
+        renaming.start()
+        renaming.join(0.3)
+        answers.append("still waiting" if renaming.is_alive() else "done")
+        service.renaming = renaming  # joined below
+        return mission
+
+    service.drives = replace(service.drives)
+    object.__setattr__(service.drives, "go", go_while_an_operator_renames)
+    assert service.execute(c.Go("kitchen")).ok
+    service.renaming.join(5.0)
+    assert answers[0] == "still waiting"
+    refused = answers[1]
+    assert not refused.ok and "not while a mission starts" in refused.text, refused
+    assert "kitchen" in load_floorplan(tmp_path / "care-home.yaml").rooms

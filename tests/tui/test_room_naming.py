@@ -39,6 +39,22 @@ async def test_name_renames_a_room_everywhere_and_saves_the_plan(tmp_path):
         await said(rig, pilot, "route to kitchen:")
 
 
+async def test_a_door_shut_before_a_rename_stays_shut_and_keeps_its_id(tmp_path):
+    path = write_scanned_plan(tmp_path)  # its doors have no ids: named by their rooms
+    rig = Rig(floorplan=path)
+    async with rig.app.run_test(size=SIZE) as pilot:
+        await rig.run(pilot, 0.1)
+        rig.app.run_command("close corridor-east-room")
+        await said(rig, pilot, "door corridor-east-room closed")
+        rig.app.run_command("name east-room kitchen")
+        await said(rig, pilot, "room east-room is now kitchen")
+        assert rig.navigator.planner.graph.closed == {"corridor-east-room"}
+        assert rig.navigator.state.closed == {"corridor-east-room"}
+        assert "corridor-east-room" in {door.id for door in load_floorplan(path).doors}
+        rig.app.run_command("open corridor-east-room")
+        await said(rig, pilot, "door corridor-east-room open")
+
+
 async def test_mark_names_the_room_the_robot_stands_in(tmp_path):
     path = write_scanned_plan(tmp_path)  # the robot starts in the corridor
     rig = Rig(floorplan=path)
@@ -68,3 +84,21 @@ async def test_a_rename_refused_says_why_and_changes_nothing(tmp_path):
         rig.app.run_command("name east-room kitchen")
         await said(rig, pilot, "name: not while go west-room runs")
     assert path.read_text() == before
+
+
+async def test_a_rename_says_which_patrols_still_stop_at_the_old_name(tmp_path):
+    path = write_scanned_plan(tmp_path)
+    rig = Rig(floorplan=path, recordings=tmp_path / "recordings")
+    routes = tmp_path / "routes"
+    routes.mkdir(exist_ok=True)
+    (routes / "night.patrol.yaml").write_text("rounds: 1\nstops:\n  - room: east-room\n")
+    (routes / "day.patrol.yaml").write_text("rounds: 1\nstops:\n  - room: west-room\n")
+    async with rig.app.run_test(size=SIZE) as pilot:
+        await rig.run(pilot, 0.1)
+        rig.app.run_command("name east-room kitchen")
+        lines = await said(rig, pilot, "room east-room is now kitchen")
+        assert "patrols night still stop at east-room: change them to kitchen" in lines
+        assert "day" not in lines.split("is now kitchen")[1]
+        rig.app.run_command("mark hall")
+        lines = await said(rig, pilot, "room corridor (where the robot stands) is now hall")
+        assert "`name hall corridor` undoes it" in lines
