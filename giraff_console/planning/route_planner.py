@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 
 from giraff_console.planning.floorplan import Door, FloorPlan, Point
-from giraff_console.planning.grid import OccupancyGrid
+from giraff_console.planning.grid import OCCUPIED, OccupancyGrid
 from giraff_console.planning.legs import GridLegs, polyline_length
 from giraff_console.planning.rasterise import rasterise
 from giraff_console.planning.room_graph import NoRouteError, RoomGraph, Route
@@ -145,12 +145,25 @@ class RoutePlanner:
         if best is not None:
             return best
         rooms = list(self.plan.rooms.values())
-        if self.legs is not None:
+        if self.walls is not None:
             # The nearest point may be the next room's, through a wall: of the rooms
             # whose point can be seen from here, the nearest.
-            legs = self.legs
-            rooms = [room for room in rooms if legs.clear(point, room.at)] or rooms
+            rooms = [room for room in rooms if self._in_sight(point, room.at)] or rooms
         return min(rooms, key=lambda room: math.dist(room.at, point)).id
+
+    def _in_sight(self, a: Point, b: Point) -> bool:
+        """Whether no wall of the plan's own grid (not inflated: a robot beside a wall
+        still sees its room) lies on the straight line from a to b."""
+        grid = self.walls
+        assert grid is not None
+        rows, cols = grid.shape
+        steps = max(2, math.ceil(math.dist(a, b) / (grid.resolution / 2)) + 1)
+        col = np.floor((np.linspace(a[0], b[0], steps) - grid.origin[0]) / grid.resolution)
+        up = np.floor((np.linspace(a[1], b[1], steps) - grid.origin[1]) / grid.resolution)
+        row = rows - 1 - up
+        if col.min() < 0 or row.min() < 0 or col.max() >= cols or row.max() >= rows:
+            return False
+        return not (grid.cells[row.astype(int), col.astype(int)] == OCCUPIED).any()
 
     def between_rooms(self, from_room: str, to_room: str) -> PlannedPath:
         """The route from one room's point to another's."""

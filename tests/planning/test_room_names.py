@@ -202,3 +202,15 @@ def test_a_plan_reached_through_a_link_is_renamed_where_it_is_and_the_link_stays
     plan = rename_in_file(load_floorplan(link), "east-room", "kitchen")
     assert link.is_symlink() and plan.path == link
     assert "kitchen" in load_floorplan(real).rooms
+
+
+def test_a_robot_against_a_wall_still_sees_its_own_room(tmp_path):
+    from giraff_console.planning.route_planner import RoutePlanner, walls_of
+
+    plan = load_floorplan(write_scanned_plan(tmp_path))
+    planner = RoutePlanner(plan, walls_of(plan))
+    # In middle-room, 0.2 m from its south wall (inside the robot's inflation, where
+    # the inflated grid sees nothing): the corridor's point (6, 1) is nearer, but
+    # through the wall; middle-room's (6, 5) is in sight.
+    assert planner.room_at((5.0, 2.3)) == "middle-room"
+    assert planner.room_at((4.6, 2.3)) == "middle-room"
