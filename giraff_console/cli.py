@@ -329,10 +329,14 @@ def build_parser() -> argparse.ArgumentParser:
         "Rooms are where the free space is wide, doors where it narrows between them; "
         "rooms are named room-1, room-2, ... from the top left, each with its point where "
         "it is furthest from walls, and the plan has no outlines: the grid is its walls, "
-        "and its image is copied next to OUT. A picture of what was found (each room "
+        "and its grid is written next to OUT: the map's image copied, or, when the map "
+        "had to be cropped to its floor or cleared of specks of noise, the grid so "
+        "redrawn (MAP itself is never changed). Rooms the route planner cannot reach "
+        "from the rest are left out, with a note. A picture of what was found (each room "
         "tinted and named, doors in red) goes next to OUT too. The plan must pass "
         "`floorplan check`, or nothing is written. Exits 0 when written, 2 for a map that "
-        "cannot be read or has no rooms in it.",
+        "cannot be read or has no rooms in it, for several rooms no two of which the "
+        "robot can be planned between, and for an output that cannot be written.",
     )  # fmt: skip
     rooms.add_argument("map", type=Path, metavar="MAP.yaml")
     rooms.add_argument("out", type=Path, metavar="OUT.yaml")
@@ -346,8 +350,8 @@ def build_parser() -> argparse.ArgumentParser:
     )  # fmt: skip
     rooms.add_argument(
         "--robot-radius", type=float, default=ROBOT_RADIUS_M, metavar="M",
-        help="free space narrower than twice this is no room, and no door "
-        "(default: %(default)s)",
+        help="free space narrower than twice this and the route planner's 0.05 m "
+        "clearance is no room, and no door (default: %(default)s)",
     )  # fmt: skip
     rooms.add_argument(
         "--min-area", type=float, default=MIN_ROOM_M2, metavar="M2",
@@ -751,14 +755,15 @@ def run_floorplan_landmarks(args: argparse.Namespace) -> int:
 def run_floorplan_rooms(args: argparse.Namespace) -> int:
     """A floor plan of the rooms found in a scanned map, and a picture of them."""
     # Imported here: of all the commands, only this one segments maps.
+    from giraff_console.planning.output_files import OutputError, check_outputs
     from giraff_console.planning.plan_writing import write_floorplan
     from giraff_console.planning.room_picture import draw_rooms, encode_png
     from giraff_console.planning.room_segmentation import (
         SegmentationError,
-        read_scan,
         scan_plan,
         segment_rooms,
     )
+    from giraff_console.planning.scan_grid import read_scan
 
     for option, value in (("--robot-radius", args.robot_radius), ("--min-area", args.min_area)):
         if not (value > 0 and math.isfinite(value)):
@@ -766,43 +771,49 @@ def run_floorplan_rooms(args: argparse.Namespace) -> int:
             return EXIT_USAGE
     picture = args.picture or args.out.with_name(f"{args.out.stem}-rooms.png")
     try:
-        spec, grid = read_scan(args.map)
-        found = segment_rooms(grid, args.robot_radius, args.min_area)
+        scan = read_scan(args.map)
+        found = segment_rooms(scan.grid, args.robot_radius, args.min_area, scan.cropped)
     except FloorPlanError as error:
-        print(f"giraff-console: {error}", file=sys.stderr)
+        for problem in error.problems:
+            print(f"giraff-console: {problem}", file=sys.stderr)
         return EXIT_USAGE
     except SegmentationError as error:
         print(f"giraff-console: {args.map}: {error}", file=sys.stderr)
         return EXIT_USAGE
-    plan_files = (args.out, args.out.with_suffix(spec.image.suffix))
-    if picture.resolve() in [path.resolve() for path in plan_files]:
-        print(f"giraff-console: --picture {picture} is a file of the floor plan",
-              file=sys.stderr)  # fmt: skip
-        return EXIT_USAGE
+    # A grid cropped or cleaned is written as a PGM; the map's own is copied as it is.
+    image = args.out.with_suffix(".pgm" if found.redrawn else scan.spec.image.suffix)
     try:
-        if picture.exists() and not args.force:
-            raise FileExistsError(None, "already exists", str(picture))
+        outputs = [("OUT", args.out), ("OUT's grid image", image), ("--picture", picture)]
+        check_outputs(outputs, [("MAP", args.map), ("MAP's image", scan.spec.image)], args.force)
         # Drawn before anything is written, so that a failure leaves nothing behind.
         png = encode_png(draw_rooms(found))
         name = args.name or f"Rooms found in {args.map.name}"
-        written = write_floorplan(scan_plan(found, args.map, name), args.out, spec, args.force)
+        made = scan_plan(found, args.map, name)
+        written = write_floorplan(made, args.out, None if found.redrawn else scan.spec,
+                                  args.force)  # fmt: skip
         picture.write_bytes(png)
-    except FloorPlanError as error:
+    except OutputError as error:
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_USAGE
-    except FileExistsError as error:
-        print(f"giraff-console: {error.filename} exists: --force overwrites it", file=sys.stderr)
+    except FloorPlanError as error:
+        for problem in error.problems:
+            print(f"giraff-console: {problem}", file=sys.stderr)
         return EXIT_USAGE
     except OSError as error:
-        print(f"giraff-console: cannot write {args.out}: {error}", file=sys.stderr)
+        print(f"giraff-console: cannot write {error.filename or args.out}: "
+              f"{error.strerror or error}", file=sys.stderr)  # fmt: skip
         return EXIT_USAGE
-    for note in found.notes:
+    for note in (*scan.notes, *found.notes):
         print(f"giraff-console: {args.map}: {note}", file=sys.stderr)
+    rooms = [room.id for room in found.rooms]
+    named = f"{rooms[0]} to {rooms[-1]}" if len(rooms) > 1 else rooms[0]
     doors = ", ".join(door.id for door in found.doors) or "none"
-    print(f"wrote {written[0]}: {len(found.rooms)} rooms (room-1 to room-{len(found.rooms)}), "
-          f"{len(found.doors)} doors ({doors}), starting in {found.start}")  # fmt: skip
-    for image in written[1:]:
-        print(f"wrote {image}: the grid image of {args.map}")
+    rooms_s, doors_s = "s" * (len(rooms) != 1), "s" * (len(found.doors) != 1)
+    print(f"wrote {written[0]}: {len(rooms)} room{rooms_s} ({named}), {len(found.doors)} "
+          f"door{doors_s} ({doors}), starting in {found.start}")  # fmt: skip
+    made_as = "redrawn as noted above" if found.redrawn else "its image copied"
+    for grid_image in written[1:]:
+        print(f"wrote {grid_image}: the grid of {args.map}, {made_as}")
     print(f"wrote {picture}: the rooms found, to check and name")
     return 0
 

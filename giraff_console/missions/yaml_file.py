@@ -14,7 +14,7 @@ import reprlib
 from pathlib import Path
 from typing import Any, NoReturn
 
-from giraff_console.planning.floorplan import Where, _dotted, _node_lines
+from giraff_console.planning.floorplan import Where, _node_lines, dotted
 from giraff_console.yaml_source import YamlSourceError, parse_yaml
 
 _NAME = re.compile(r"[A-Za-z0-9_-]{1,64}\Z")
@@ -76,9 +76,9 @@ class YamlFile:
         duplicates: list[tuple[Where, str, int]] = []
         if node is not None:
             _node_lines(node, (), lines, duplicates)
-        self.lines = {_dotted(where): line for where, line in lines.items()}
+        self.lines = {dotted(where): line for where, line in lines.items()}
         for where, key, line in duplicates:
-            self.fail(f"duplicate key {_dotted((*where, key))}", line=line)
+            self.fail(f"duplicate key {dotted((*where, key))}", line=line)
         return self.table(document, "", (*required, *optional), required)
 
     def table(

@@ -171,11 +171,14 @@ def check_floorplan(path: str | Path) -> list[Problem]:
 Where = tuple[str | int, ...]
 
 
-def _dotted(where: Where) -> str:
+def dotted(where: Where) -> str:
+    """A place in a YAML file as a person reads it: `rooms.kitchen.at`, `doors[2]`."""
     text = ""
     for part in where:
         text += f"[{part}]" if isinstance(part, int) else f".{part}" if text else part
     return text or "the file"
+
+
 
 
 def _node_lines(node: yaml.Node, where: Where, lines: dict, duplicates: list) -> None:
@@ -215,7 +218,7 @@ class _Reader(ProblemLog):
     """Turns the loaded YAML into a FloorPlan, collecting problems rather than stopping."""
 
     def bad(self, where: Where, what: str, value: Any) -> None:
-        self.add(where, f"{_dotted(where)} should be {what}, not {shown(value)}")
+        self.add(where, f"{dotted(where)} should be {what}, not {shown(value)}")
 
     def mapping(self, value: Any, where: Where, keys: dict[str, bool]) -> dict | None:
         if not isinstance(value, dict):
@@ -224,10 +227,10 @@ class _Reader(ProblemLog):
         for key in value:
             if key not in keys:
                 sub = (*where, str(key))
-                self.add(sub, f"unknown key {_dotted(sub)} (expected {', '.join(keys)})")
+                self.add(sub, f"unknown key {dotted(sub)} (expected {', '.join(keys)})")
         for key, required in keys.items():
             if required and key not in value:
-                self.add(where, f"missing key {_dotted((*where, key))}")
+                self.add(where, f"missing key {dotted((*where, key))}")
         return value
 
     def number(self, value: Any, where: Where, low: float = -math.inf, high=math.inf) -> Any:
@@ -236,7 +239,7 @@ class _Reader(ProblemLog):
         elif not _finite(value):
             self.bad(where, "a finite number", value)
         elif not low <= value <= high:
-            self.add(where, f"{_dotted(where)} is {value}, out of range [{low}, {high}]")
+            self.add(where, f"{dotted(where)} is {value}, out of range [{low}, {high}]")
         else:
             return float(value)
         return None
@@ -252,7 +255,7 @@ class _Reader(ProblemLog):
     def point(self, value: Any, where: Where) -> Any:
         point = self.numbers(value, where, 2, "a pair of numbers [x, y] in metres")
         if point is not None and max(map(abs, point)) > MAX_EXTENT_M:
-            self.add(where, f"{_dotted(where)} is more than {MAX_EXTENT_M:g} m from the origin")
+            self.add(where, f"{dotted(where)} is more than {MAX_EXTENT_M:g} m from the origin")
             return None
         return point
 
@@ -391,7 +394,7 @@ def _read(path: Path) -> tuple[FloorPlan | None, list[Problem]]:
         _node_lines(node, (), lines, duplicates)
     reader = _Reader(path, lines)
     for where, key, line in duplicates:
-        reader.problems.append(Problem(path, line, f"duplicate key {_dotted((*where, key))}"))
+        reader.problems.append(Problem(path, line, f"duplicate key {dotted((*where, key))}"))
     top = reader.mapping(document, (), _TOP)
     if top is None:
         return None, reader.problems

@@ -12,7 +12,7 @@ from __future__ import annotations
 import errno
 import shutil
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +27,7 @@ from giraff_console.planning.floorplan import (
 )
 from giraff_console.planning.grid import OccupancyGrid
 from giraff_console.planning.rasterise import grid_image
-from giraff_console.planning.ros_map import grid_section
+from giraff_console.planning.ros_map import grid_section, read_yaml
 
 
 @dataclass(frozen=True)
@@ -39,6 +39,9 @@ class MadePlan:
     notes: list[str]  # what the command decided that the source did not say
     header: str  # the comment that opens the written file
     drawn: OccupancyGrid | None = None  # a grid drawn by the command, to write with it
+    # The line of the source each room and door was made from, by id, so that a problem
+    # the final check finds in one is told there; a command may leave it empty.
+    lines: dict[str, int] = field(default_factory=dict)
 
 
 def millimetres(value: float) -> float:
@@ -77,11 +80,13 @@ def write_floorplan(
         section = grid_section(grid, str(grid.image.resolve())) if grid is not None else None
         trial.write_text(_text(made.header, made.plan, section), encoding="utf-8")
         problems = check_floorplan(trial)
+        made_from = _made_from(made, trial) if problems else {}
     if problems:
         raise FloorPlanError(
-            [Problem(made.source, None, problem.message) for problem in problems]
+            [Problem(made.source, made_from.get(problem.line or 0), problem.message)
+             for problem in problems]
             + [Problem(out, None, "not written: the floor plan made would not load")]
-        )
+        )  # fmt: skip
     written = []
     section = None
     if grid is not None and image is not None:
@@ -94,6 +99,21 @@ def write_floorplan(
             written.append(image)
     out.write_text(_text(made.header, made.plan, section), encoding="utf-8")
     return [out, *written]
+
+
+def _made_from(made: MadePlan, trial: Path) -> dict[int, int]:
+    """For each line of the trial file that is in a room or door, the line of the source
+    that room or door was made from (made.lines)."""
+    _, lines = read_yaml(trial)
+    doors = [door.get("id") for door in made.plan.get("doors", [])]
+    found: dict[int, int] = {}
+    for where, line in lines.items():
+        if len(where) < 2 or where[0] not in ("rooms", "doors"):
+            continue
+        item = where[1] if where[0] == "rooms" else doors[int(where[1])]
+        if isinstance(item, str) and item in made.lines:
+            found[line] = made.lines[item]
+    return found
 
 
 def _pgm(grid: OccupancyGrid) -> bytes:

@@ -26,11 +26,11 @@ from typing import Any, cast
 from giraff_console.planning.floorplan import (
     Point,
     Where,
-    _dotted,
+    dotted,
 )
 from giraff_console.planning.plan_writing import MadePlan
 from giraff_console.planning.rmf_lanes import lane_graph
-from giraff_console.planning.rmf_level import ID_LENGTH, Lane, Level, Named, RmfDoor, numbered
+from giraff_console.planning.rmf_level import ID_LENGTH, Lane, Level, Named, RmfDoor, free_id
 from giraff_console.planning.rmf_source import (
     BuildingSource,
     param,
@@ -78,14 +78,16 @@ def read_building(
     where: Where = ("levels", level)
     raw = by_name[level]
     if not isinstance(raw, dict):
-        source.fail(where, f"{_dotted(where)} should be a mapping of keys, not {raw!r:.60}")
+        source.fail(where, f"{dotted(where)} should be a mapping of keys, not {raw!r:.60}")
 
     points, names, params = read_vertices(source, raw.get("vertices"), where)
     if system == "reference_image":
         scale = read_scale(source, source.items(raw, where, "measurements"), where, points)
         # Pixel rows grow downwards; RMF's map generator flips y to make the map frame.
-        points = [None if p is None else (p[0] * scale, -p[1] * scale) for p in points]
-        frame = f"reference_image: {scale:.6g} m a pixel, y flipped"
+        # Without a scale the measurements are problems: read on for the others.
+        metres = 1.0 if scale is None else scale
+        points = [None if p is None else (p[0] * metres, -p[1] * metres) for p in points]
+        frame = f"reference_image: {metres:.6g} m a pixel, y flipped"
     else:
         frame = "cartesian_meters"
     count = len(points)
@@ -114,8 +116,11 @@ def read_building(
     layout = find_rooms(found, lane_graph(found), floor, taken)
     for at, message in layout.notes:
         source.note(at, message)
+    if not layout.rooms and any(names):
+        source.fail(where, f"{dotted(where)} has no rooms: each of its named vertices was "
+                    "left out (the notes above say why)")  # fmt: skip
     if not layout.rooms:
-        source.fail(where, f"{_dotted(where)} has no named vertices, and no doors between "
+        source.fail(where, f"{dotted(where)} has no named vertices, and no doors between "
                     "spaces, to make rooms of")  # fmt: skip
     building = document.get("name", document.get("building_name"))
     if not isinstance(building, str):
@@ -141,7 +146,11 @@ def read_building(
     if floor is not None:
         kept = {door["id"] for door in layout.doors}
         drawn = draw_grid(found, [i for i, door in enumerate(doors) if door.id in kept])
-    return MadePlan(path, plan, source.notes, header, drawn)
+    made_from = {
+        item: line for item, where in layout.made_from.items()
+        if (line := source.line(where)) is not None
+    }  # fmt: skip
+    return MadePlan(path, plan, source.notes, header, drawn, made_from)
 
 
 def _named(source: BuildingSource, names: list[str], params: list[dict], points: list[Point],
@@ -152,17 +161,18 @@ def _named(source: BuildingSource, names: list[str], params: list[dict], points:
     named: list[Named] = []
     first: dict[str, int] = {}
     for i, name in enumerate(names):
-        if not name or (i in on_lanes and i not in chosen):
+        if not name:
             continue
         at = (*where, "vertices", i)
+        if i in on_lanes and i not in chosen:
+            source.note(at, f"vertex {i} ({name!r}) is only on lanes of other graphs than "
+                        "the one chosen (--graph): left out")  # fmt: skip
+            continue
         stem = sanitise_id(name) or f"vertex-{i}"
         if not sanitise_id(name):
             source.note(at, f"vertex {i}'s name {name!r} has no letters or digits: it is room "
                         f"{stem!r}")  # fmt: skip
-        room_id, count = stem, 1
-        while room_id in first:
-            count += 1
-            room_id = numbered(stem, count)
+        room_id = free_id(stem, first)
         if room_id != stem:
             other = first[stem]
             line = source.line((*where, "vertices", other))
@@ -179,7 +189,8 @@ def _doors(source: BuildingSource, edges: list[tuple[tuple[int, int, dict], Wher
     """The RMF doors, each with an id of its own: its name made an id, with `-door` after
     it if a room has it, numbered if another door has it."""
     doors: list[RmfDoor] = []
-    first: dict[str, Where] = {}
+    first: dict[str, Where] = {}  # by id, the door that has it
+    taken = set(room_ids)
     for (a, b, params), at in edges:
         name = param(params, "name")
         name = str(name) if isinstance(name, str | int) and not isinstance(name, bool) else ""
@@ -188,18 +199,17 @@ def _doors(source: BuildingSource, edges: list[tuple[tuple[int, int, dict], Wher
             stem = f"door-{at[-1]}"
             source.note(at, f"door {at[-1]} has no name of letters or digits ({name!r}): it is "
                         f"door {stem!r}")  # fmt: skip
+        named = stem
         if stem in room_ids:
-            renamed = sanitise_id(f"{stem}-door")
-            source.note(at, f"door {stem!r} has the name of a room: it is door {renamed!r}")
-            stem = renamed
-        door_id, count = stem, 1
-        while door_id in first or door_id in room_ids:
-            count += 1
-            door_id = numbered(stem, count)
+            stem = sanitise_id(f"{stem}-door")
+        door_id = free_id(stem, taken)
+        taken.add(door_id)
+        # One note a door, in the names the map gave it.
+        clashes = ["the name of a room"] if named in room_ids else []
         if door_id != stem and stem in first:
-            line = source.line(first[stem])
-            source.note(at, f"door {stem!r} has the name of another door (line {line}): it is "
-                        f"door {door_id!r}")  # fmt: skip
+            clashes.append(f"the name of another door (line {source.line(first[stem])})")
+        if clashes:
+            source.note(at, f"door {named!r} has {' and '.join(clashes)}: it is door {door_id!r}")
         first[door_id] = at
         doors.append(RmfDoor(door_id, (points[a], points[b]), at))
     return doors

@@ -63,9 +63,7 @@ def lane_graph(level: Level) -> LaneGraph:
     def sides(index: int) -> tuple[int, int]:
         if index not in door_sides:
             door = level.doors[index]
-            (px, py), (qx, qy) = door.ends
-            length = door.width or 1.0
-            nx, ny = -(qy - py) / length * SIDE_M, (qx - px) / length * SIDE_M
+            nx, ny = (SIDE_M * n for n in door.normal)
             cx, cy = door.centre
             door_sides[index] = (place((cx + nx, cy + ny)), place((cx - nx, cy - ny)))
         return door_sides[index]
@@ -90,7 +88,7 @@ def lane_graph(level: Level) -> LaneGraph:
         crossings = sorted(
             (*found, i)
             for i, door in enumerate(level.doors)
-            if (found := crossing(start, end, door)) is not None
+            if (found := crossing(start, end, door) or _touching(start, end, door)) is not None
         )
         here = vertex(u)
         for t, before, i in crossings:
@@ -130,6 +128,31 @@ def crossing(start: Point, end: Point, door: RmfDoor) -> tuple[float, int] | Non
         return None
     # Just before the crossing the lane is on the side where (door x point) has det's sign.
     return along_lane, 0 if det > 0 else 1
+
+
+def _touching(start: Point, end: Point, door: RmfDoor) -> tuple[float, int] | None:
+    """A lane that does not cross `door` but starts or ends within ON_DOOR_M of it ends in
+    the doorway as one that crosses it there does: it arrives at the side it comes from
+    or leaves from the side it goes to, whichever side of the line the vertex is drawn on
+    (a junction drawn a millimetre past a door is in the doorway, not behind it)."""
+    near = [_away(point, door) <= ON_DOOR_M for point in (start, end)]
+    if near[0] == near[1]:
+        return None  # clear of the door, or along it
+    # As `crossing` tells it: the side the lane comes from (0: the door's left), which for
+    # a lane leaving the doorway is the side opposite the one it goes to.
+    if near[0]:
+        return 0.0, 1 if door.on_left(end) else 0
+    return 1.0, 0 if door.on_left(start) else 1
+
+
+def _away(point: Point, door: RmfDoor) -> float:
+    """Metres from `point` to the door's segment."""
+    (px, py), (qx, qy) = door.ends
+    fx, fy = qx - px, qy - py
+    length2 = fx * fx + fy * fy
+    along = ((point[0] - px) * fx + (point[1] - py) * fy) / length2 if length2 else 0.0
+    t = min(1.0, max(0.0, along))
+    return math.dist(point, (px + t * fx, py + t * fy))
 
 
 def chains(lanes: Places, rooms: Collection[int]) -> dict[tuple[int, int], list[int]]:

@@ -14,6 +14,7 @@ them and choosing where passages go is done once for both.
 from __future__ import annotations
 
 import math
+from collections.abc import Container
 from dataclasses import dataclass
 from typing import Any
 
@@ -27,6 +28,17 @@ ID_LENGTH = 64  # as floorplan.py allows: ids are typed in commands
 def numbered(stem: str, count: int) -> str:
     """`stem` with `-count` after it, within an id's length ("waiting_area-2")."""
     return f"{stem[: ID_LENGTH - len(str(count)) - 1]}-{count}"
+
+
+def free_id(stem: str, taken: Container[str], plain: bool = True) -> str:
+    """The first id not `taken` of `stem` (cut to an id's length; unless not `plain`),
+    `stem-2`, `stem-3`, ... (`stem-1` first when not `plain`: "space-1")."""
+    count = 1
+    found = stem[:ID_LENGTH] if plain else numbered(stem, count)
+    while found in taken:
+        count += 1
+        found = numbered(stem, count)
+    return found
 
 
 @dataclass(frozen=True)
@@ -55,6 +67,19 @@ class RmfDoor:
     @property
     def width(self) -> float:
         return math.dist(*self.ends)
+
+    @property
+    def normal(self) -> Point:
+        """The unit vector square to the door, to its left from its first end to its
+        second; (0, 0) for a door of no width."""
+        (px, py), (qx, qy) = self.ends
+        width = self.width
+        return (-(qy - py) / width, (qx - px) / width) if width else (0.0, 0.0)
+
+    def on_left(self, point: Point) -> bool:
+        """Whether `point` is on the door's left, from its first end to its second."""
+        (px, py), (qx, qy) = self.ends
+        return (qx - px) * (point[1] - py) - (qy - py) * (point[0] - px) > 0
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,7 @@ from giraff_console.planning.floorplan import (
     Problem,
     ProblemLog,
     Where,
-    _dotted,
+    dotted,
     shown,
 )
 from giraff_console.planning.rmf_level import Lane
@@ -54,17 +54,22 @@ class BuildingSource(ProblemLog):
 
     def fail(self, where: Where, message: str) -> NoReturn:
         self.add(where, message)
-        raise BuildingError(self.problems, self.notes)
+        raise BuildingError(self._in_order(), self.notes)
 
     def check(self) -> None:
         if self.problems:
-            raise BuildingError(self.problems, self.notes)
+            raise BuildingError(self._in_order(), self.notes)
+
+    def _in_order(self) -> list[Problem]:
+        """The problems in the order of their lines, as the notes are (sorted keeps the
+        order they were found in for one line)."""
+        return sorted(self.problems, key=lambda problem: problem.line or 0)
 
     def items(self, level: dict, where: Where, key: str) -> list:
         """The level's list under `key`; none if it is missing or not a list."""
         raw = level.get(key)
         if raw is not None and not isinstance(raw, list):
-            self.add((*where, key), f"{_dotted((*where, key))} should be a list, not {raw!r:.60}")
+            self.add((*where, key), f"{dotted((*where, key))} should be a list, not {raw!r:.60}")
         return raw if isinstance(raw, list) else []
 
     def edge(self, item: Any, where: Where, count: int) -> tuple[int, int, dict] | None:
@@ -76,7 +81,7 @@ class BuildingSource(ProblemLog):
         if not good or not all(is_index(end, count) for end in item[:2]):
             self.add(
                 where,
-                f"{_dotted(where)} should be [v1, v2, {{parameters}}] with v1 and v2 "
+                f"{dotted(where)} should be [v1, v2, {{parameters}}] with v1 and v2 "
                 f"from 0 to {count - 1}, not {item!r:.80}",
             )
             return None
@@ -103,7 +108,7 @@ def read_vertices(
     """Each vertex's position as written, its name ("" if unnamed) and its parameters;
     None for a bad one's position."""
     if not isinstance(raw, list) or not raw:
-        source.fail((*where, "vertices"), f"{_dotted(where)} has no vertices")
+        source.fail((*where, "vertices"), f"{dotted(where)} has no vertices")
     points: list[Point | None] = []
     names: list[str] = []
     params: list[dict] = []
@@ -115,7 +120,7 @@ def read_vertices(
         extra = item[4] if isinstance(item, list) and len(item) > 4 else {}
         good = isinstance(item, list) and len(item) >= 2 and all(map(is_number, item[:2]))
         if not good or not isinstance(name, str):
-            source.add(at, f"{_dotted(at)} should be [x, y, z, name, {{parameters}}], not {item!r}")
+            source.add(at, f"{dotted(at)} should be [x, y, z, name, {{parameters}}], not {item!r}")
             points.append(None)
             names.append("")
             params.append({})
@@ -128,12 +133,13 @@ def read_vertices(
 
 def read_scale(
     source: BuildingSource, raw: list, where: Where, points: list[Point | None]
-) -> float:
+) -> float | None:
     """Metres a pixel: the mean over the level's measurements of distance / pixel length,
     as RMF's map generator works it out. RMF carries on in pixels without one; a robot
-    among people must not, so no measurement is an error."""
+    among people must not, so no measurement is an error. None if no measurement is good:
+    each bad one is a problem, and the level is read on for the rest of them."""
     if not raw:
-        source.fail(where, f"{_dotted(where)} has no measurements to turn pixels into metres")
+        source.add(where, f"{dotted(where)} has no measurements to turn pixels into metres")
     ratios = []
     for i, item in enumerate(raw):
         at = (*where, "measurements", i)
@@ -146,11 +152,10 @@ def read_scale(
         distance = param(edge[2], "distance")
         if not (is_number(distance) and distance > 0 and length > 0):
             apart = f"should join two places {{distance: [3, metres]}} apart, not {item!r:.80}"
-            source.add(at, f"{_dotted(at)} {apart}")
+            source.add(at, f"{dotted(at)} {apart}")
         else:
             ratios.append(distance / length)
-    source.check()
-    return sum(ratios) / len(ratios)
+    return sum(ratios) / len(ratios) if ratios else None
 
 
 def read_lanes(
@@ -168,7 +173,7 @@ def read_lanes(
             continue
         index = param(edge[2], "graph_idx") if "graph_idx" in edge[2] else 0
         if not is_index(index, 10**9):
-            source.add(at, f"{_dotted(at)}'s graph_idx should be [2, n], n a whole number, "
+            source.add(at, f"{dotted(at)}'s graph_idx should be [2, n], n a whole number, "
                        f"not {shown(edge[2].get('graph_idx'))}")  # fmt: skip
             continue
         graphs.add(index)
@@ -177,7 +182,7 @@ def read_lanes(
             lanes.append(Lane((edge[0], edge[1]), at))
     if graph is not None and graph not in graphs and not source.problems:
         there = f"graphs {', '.join(map(str, sorted(graphs)))}" if graphs else "no lanes"
-        source.add((*where, "lanes"), f"{_dotted(where)} has no lanes in graph {graph} "
+        source.add((*where, "lanes"), f"{dotted(where)} has no lanes in graph {graph} "
                    f"(it has {there})")  # fmt: skip
     return lanes, on_lanes
 
@@ -192,7 +197,7 @@ def read_polygons(
         corners = item.get("vertices") if isinstance(item, dict) else None
         if not (isinstance(corners, list) and len(corners) >= 3
                 and all(is_index(v, count) for v in corners)):  # fmt: skip
-            source.add(at, f"{_dotted(at)} should be {{vertices: [v1, v2, v3, ...]}}, at least "
+            source.add(at, f"{dotted(at)} should be {{vertices: [v1, v2, v3, ...]}}, at least "
                        f"3 vertices from 0 to {count - 1}, not {shown(item)}")  # fmt: skip
             continue
         polygons.append(corners)

@@ -4,8 +4,9 @@ An RMF map does not say where one room ends and the next begins: it has walls, d
 each fleet's lanes, and named vertices, the places robots are sent to. Our floor plan is
 rooms joined by doors (thesis §2.6.2). They are found from what the map does say:
 
-- A space is a part of the floor that walls and shut doors bound (rmf_walls.py); on a
-  level without walls, a part of the lanes that doors cut off (rmf_lanes.py).
+- A space is a part of the floor that walls, shut doors and gaps too narrow for the
+  robot bound (rmf_walls.py); on a level without walls, a part of the lanes that doors
+  cut off (rmf_lanes.py).
 - Each named vertex is a room, in its space, at the vertex; one too close to a wall for
   the robot is moved clear of it. A space that a door leads to and that has no named
   vertex is a room of its own (`space-1`, ...) at its most interior point.
@@ -14,7 +15,7 @@ rooms joined by doors (thesis §2.6.2). They are found from what the map does sa
   each chain of lanes between two of them that passes no other room and no door, then
   as few more as join every room of the space to every other, each on the shortest way
   across the space between the nearest two not yet joined (Kruskal's minimum spanning
-  tree), at a point on it well clear of the walls.
+  tree, over the ways rmf_ways.py finds), at a point on it well clear of the walls.
 - Rooms that nothing joins to the largest part of the level are left out.
 
 Every choice the map did not make itself is told in a note, at the line it comes from.
@@ -23,24 +24,24 @@ Every choice the map did not make itself is told in a note, at the line it comes
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
 from dataclasses import dataclass, field
-from itertools import combinations
 from typing import Any
 
 import numpy as np
-from scipy.sparse.csgraph import dijkstra  # type: ignore[import-untyped]
 
 from giraff_console.planning.floorplan import Point, Where
 from giraff_console.planning.plan_writing import millimetres
 from giraff_console.planning.rmf_lanes import LaneGraph, chains, crossing, halfway
-from giraff_console.planning.rmf_level import ID_LENGTH, Level, Named, Places, RmfDoor, numbered
+from giraff_console.planning.rmf_level import Level, Named, Places, RmfDoor, free_id
 from giraff_console.planning.rmf_walls import SEAT_REACH_M, Floor
+from giraff_console.planning.rmf_ways import Parts, Ways, space_ways
 from giraff_console.planning.route_planner import CLEARANCE_M, ROBOT_RADIUS_M
 
 # How far from a wall a room's point, or a passage, must be for the robot to stand there:
 # its radius, the planner's margin (route_planner.py) and a cell of the spaces' grid more.
 ROOM_CLEARANCE_M = ROBOT_RADIUS_M + CLEARANCE_M + 0.1
+# Two named vertices nearer than this are drawn at one point: one place by two names.
+SAME_POINT_M = 0.05
 # A doorway the planner can pass: the robot and its margin either side, and a grid cell.
 NARROWEST_DOOR_M = 2 * (ROBOT_RADIUS_M + CLEARANCE_M) + 0.05
 
@@ -53,6 +54,8 @@ class Layout:
     doors: list[dict[str, Any]]  # in the floor plan's schema
     start: str | None
     notes: list[tuple[Where, str]] = field(default_factory=list)
+    # By room and door id, what it was made from: a passage, the first room it joins.
+    made_from: dict[str, Where] = field(default_factory=dict)
 
 
 @dataclass
@@ -61,6 +64,7 @@ class _Room:
     at: Point
     place: int  # in the spaces' places
     named: Named | None  # None for a space's own room
+    where: Where  # what it was made from: its vertex, or the door that leads to its space
 
 
 @dataclass
@@ -90,13 +94,13 @@ class _Finder:
         self._seat_named()
         sides = self._door_sides()
         self._space_rooms(sides)
-        measured = {space: self._measure(space) for space in self._spaces()}
-        self._rmf_doors(sides, measured)
+        ways = {space: self._ways(space) for space in self._spaces()}
+        self._rmf_doors(sides, ways)
         self._lane_passages()
         if self.floor is not None:
             self._lanes_through_walls()
-        for members, distance, previous, local in measured.values():
-            self._spanning(members, distance, previous, local)
+        for found in ways.values():
+            self._spanning(found)
         return self._connected()
 
     def note(self, where: Where, message: str) -> None:
@@ -110,10 +114,19 @@ class _Finder:
 
     def _seat_named(self) -> None:
         """A room at each named vertex that is on the floor (or the lanes)."""
-        for named in self.level.named:
+        for k, named in enumerate(self.level.named):
+            same = [other for other in self.level.named[:k] if
+                    math.dist(other.at, named.at) < SAME_POINT_M]  # fmt: skip
+            if same:
+                self.note(
+                    named.where,
+                    f"vertex {named.vertex} ({named.name!r}) is where vertex {same[0].vertex} "
+                    f"({same[0].name!r}) is: rooms {same[0].id!r} and {named.id!r} are one "
+                    "place, and a passage between them is there",
+                )
             if self.floor is None:
                 place = self.lanes.vertex_place[named.vertex]
-                self.rooms.append(_Room(named.id, named.at, place, named))
+                self.rooms.append(_Room(named.id, named.at, place, named, named.where))
                 continue
             seat = self.floor.seat(named.at)
             if seat is None:
@@ -124,7 +137,7 @@ class _Finder:
                 )
                 continue
             place, at = self._clear(named, seat)
-            self.rooms.append(_Room(named.id, at, place, named))
+            self.rooms.append(_Room(named.id, at, place, named, named.where))
 
     def _clear(self, named: Named, place: int) -> tuple[int, Point]:
         """Where a named vertex's room is: at the vertex, unless that is on a wall, off the
@@ -192,40 +205,32 @@ class _Finder:
                     continue
                 roomed.add(space)
                 place = self.places.centre(space)
-                room_id = self._space_id()
+                room_id = self._new_id("space", plain=False)
                 at = _point(self.places.xy[place])
-                self.rooms.append(_Room(room_id, at, place, None))
+                self.rooms.append(_Room(room_id, at, place, None, door.where))
                 made = f"it is room {room_id!r}, at {_shown(at)}"
                 self.note(
                     door.where, f"door {door.id!r} leads to a space with no named vertex: {made}"
                 )
 
-    def _measure(self, space: int) -> tuple[list[int], np.ndarray, np.ndarray, np.ndarray]:
-        """The space's rooms, the shortest ways from each across the space (distance and
-        previous place, over the space's own places) and where each place is in those."""
+    def _ways(self, space: int) -> Ways:
+        """The shortest ways across the space from its rooms (rmf_ways.py)."""
         members = [i for i, room in enumerate(self.rooms) if self.space(room) == space]
-        inside = np.flatnonzero(self.places.space == space)
-        local = np.full(len(self.places.space), -1, np.int64)
-        local[inside] = np.arange(inside.size)
-        links = self.places.links[inside, :][:, inside]
-        sources = [int(local[self.rooms[i].place]) for i in members]
-        distance, previous = dijkstra(links, indices=sources, return_predecessors=True)
-        return members, distance, previous, local
+        return space_ways(self.places, space, members, [self.rooms[i].place for i in members])
 
-    def _rmf_doors(self, sides: dict[int, tuple[int, int]], measured: dict) -> None:
+    def _rmf_doors(self, sides: dict[int, tuple[int, int]], ways: dict[int, Ways]) -> None:
         for i, (a, b) in sides.items():
             door = self.level.doors[i]
             ends = []
             for place in (a, b):
-                if int(self.places.space[place]) not in measured:
+                found = ways.get(int(self.places.space[place]))
+                if found is None:
                     break  # both sides are one space, and no room is in it
-                members, distance, _, local = measured[int(self.places.space[place])]
                 # The nearest room on this side of the door's line, if any is: round a
                 # door standing in open floor, a room behind it may be nearer.
-                side = _side(door, _point(self.places.xy[place]))
-                behind = [_side(door, self.rooms[k].at) != side for k in members]
-                away = distance[:, local[place]] + np.array(behind) * 1e9
-                ends.append(members[int(np.argmin(away))])
+                side = door.on_left(_point(self.places.xy[place]))
+                ahead = [door.on_left(self.rooms[k].at) == side for k in found.rooms]
+                ends.append(found.rooms[found.nearest(place, ahead)])
             if len(ends) < 2:
                 self.note(
                     door.where,
@@ -288,8 +293,8 @@ class _Finder:
                 self.note(
                     lane.where,
                     f"the lane from vertex {lane.ends[0]} to vertex {lane.ends[1]} runs "
-                    "through a wall, where the map has no door: the robot will not follow it "
-                    "there",
+                    "through a wall (or a gap too narrow for the robot), where the map has no "
+                    "door: the robot will not follow it there",
                 )
 
     def _settled(self, point: Point, space: int) -> Point:
@@ -309,28 +314,19 @@ class _Finder:
             better = self.places.nearest(point, space, 0.0)
         return point if better is None else _point(self.places.xy[better])
 
-    def _spanning(self, members: list[int], distance: np.ndarray, previous: np.ndarray,
-                  local: np.ndarray) -> None:  # fmt: skip
+    def _spanning(self, ways: Ways) -> None:
         """Passages joining every room of a space to every other, on the shortest ways
         between the nearest rooms not yet joined (Kruskal), after the doors and lanes."""
-        parts = _Parts(members)
+        parts = Parts(ways.rooms)
         for door in self.doors:
             if all(room in parts.parent for room in door.rooms):
                 parts.join(*door.rooms)
-        row = {room: k for k, room in enumerate(members)}
-        inside = np.flatnonzero(local >= 0)
-        pairs = sorted(
-            (float(distance[row[a], local[self.rooms[b].place]]), a, b)
-            for a, b in combinations(members, 2)
-        )
-        for length, a, b in pairs:
-            if parts.root(a) == parts.root(b) or not math.isfinite(length):
+        for candidate in ways.candidates():
+            a, b = (ways.rooms[k] for k in candidate.rooms)
+            if parts.root(a) == parts.root(b):
                 continue
             parts.join(a, b)
-            way = [int(local[self.rooms[b].place])]
-            while way[-1] != local[self.rooms[a].place]:
-                way.append(int(previous[row[a], way[-1]]))
-            x, y = self._midway(inside[np.array(way[::-1])])
+            x, y = self._midway(ways.way(candidate))
             self._join(a, b, {"between": [], "at": [millimetres(x), millimetres(y)]})
 
     def _midway(self, way: np.ndarray) -> Point:
@@ -349,7 +345,7 @@ class _Finder:
     def _connected(self) -> Layout:
         """The largest part of the level that doors and passages join; what is left out of
         it is told."""
-        parts = _Parts(range(len(self.rooms)))
+        parts = Parts(range(len(self.rooms)))
         for door in self.doors:
             parts.join(*door.rooms)
         root = parts.root
@@ -368,12 +364,16 @@ class _Finder:
                 self.note(
                     named.where,
                     f"vertex {named.vertex} ({named.name!r}) is cut off from the rest of the "
-                    f"level: no door, opening or lane leads to room {room.id!r}; left out",
+                    "level: no door, opening the robot can pass or lane leads to room "
+                    f"{room.id!r}; left out",
                 )
+        made_from = {room.id: room.where for room in self.rooms if room.id in rooms}
         doors = []
         for door in self.doors:
             if root(door.rooms[0]) == kept:
                 doors.append(door.plan)
+                first = self.rooms[door.rooms[0]].where
+                made_from[door.plan["id"]] = door.rmf.where if door.rmf is not None else first
             elif door.rmf is not None:
                 self.note(
                     door.rmf.where,
@@ -383,46 +383,13 @@ class _Finder:
         chargers = [room.id for room in self.rooms if room.id in rooms and room.named is not None
                     and room.named.charger]  # fmt: skip
         start = chargers[0] if chargers else next(iter(rooms), None)
-        return Layout(rooms, doors, start, self.notes)
+        return Layout(rooms, doors, start, self.notes, made_from)
 
-    def _new_id(self, wanted: str) -> str:
-        """`wanted`, cut to an id's length, or, if that is taken, the same with -2, -3, ..."""
-        found = wanted = wanted[:ID_LENGTH]
-        count = 1
-        while found in self.taken:
-            count += 1
-            found = numbered(wanted, count)
+    def _new_id(self, wanted: str, plain: bool = True) -> str:
+        """An id of `wanted` no other room or door has (rmf_level.free_id), now taken."""
+        found = free_id(wanted, self.taken, plain)
         self.taken.add(found)
         return found
-
-    def _space_id(self) -> str:
-        count = 1
-        while f"space-{count}" in self.taken:
-            count += 1
-        self.taken.add(f"space-{count}")
-        return f"space-{count}"
-
-
-class _Parts:
-    """Which rooms are joined to which, through doors and passages (union-find)."""
-
-    def __init__(self, rooms: Iterable[int]) -> None:
-        self.parent = {room: room for room in rooms}
-
-    def root(self, room: int) -> int:
-        while self.parent[room] != room:
-            self.parent[room] = self.parent[self.parent[room]]
-            room = self.parent[room]
-        return room
-
-    def join(self, a: int, b: int) -> None:
-        self.parent[self.root(a)] = self.root(b)
-
-
-def _side(door: RmfDoor, point: Point) -> bool:
-    """Whether `point` is on the left of the door's line, from its first end to its second."""
-    (px, py), (qx, qy) = door.ends
-    return (qx - px) * (point[1] - py) - (qy - py) * (point[0] - px) > 0
 
 
 def _point(xy: Any) -> Point:

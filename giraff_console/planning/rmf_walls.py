@@ -5,9 +5,11 @@ floors as polygons, and RMF builds its simulated world from them. Drawn into a g
 they say what the lanes alone cannot: where one room ends and the next begins. Two
 grids are drawn from them here, alike but for the doors:
 
-- the spaces: with every door shut, each part of the floor that walls and doors bound
-  is one space (rmf_spaces.py finds its rooms); 10 cm cells, as places the robot could
-  stand, each joined to its neighbours and knowing how far it is from a wall;
+- the spaces: with every door shut, each part of the floor that walls and doors bound,
+  and that the robot can drive all over, is one space (rmf_spaces.py finds its rooms);
+  10 cm cells, as places the robot could stand, each joined to its neighbours and
+  knowing how far it is from a wall. A gap the robot cannot pass (a wall stopping short
+  of another) parts two spaces as a wall would: the planner would find no way through;
 - the grid the robot plans on (§2.6.4), written next to the floor plan: with each door
   of the floor plan open as wide as the door (the others shut), 5 cm cells, walls 0.1 m
   thick as rasterise.py draws outlines, unknown off the floor.
@@ -28,12 +30,13 @@ from itertools import chain
 import cv2
 import numpy as np
 from scipy.sparse import csr_array  # type: ignore[import-untyped]
-from scipy.sparse.csgraph import connected_components  # type: ignore[import-untyped]
+from scipy.sparse.csgraph import connected_components, dijkstra  # type: ignore[import-untyped]
 
 from giraff_console.planning.floorplan import Point
 from giraff_console.planning.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from giraff_console.planning.rasterise import MARGIN_M, RESOLUTION_M, WALL_M
 from giraff_console.planning.rmf_level import Level, Places
+from giraff_console.planning.route_planner import CLEARANCE_M, ROBOT_RADIUS_M
 
 SPACE_CELL_M = 0.1
 # The most cells each grid may have: a 100 m by 100 m level keeps 5 cm cells for the
@@ -44,6 +47,9 @@ MAX_GRID_CELLS = 4_000_000
 # A named vertex on a wall, or just off the floor, is a room at the nearest free floor
 # within this distance.
 SEAT_REACH_M = 1.0
+# How far from a wall the robot's centre must stay to drive there: its radius and the
+# planner's margin (route_planner.py). Floor narrower than twice this is no way through.
+PASSABLE_M = ROBOT_RADIUS_M + CLEARANCE_M
 # How far from a door's line its sides are looked for: a wall's thickness and more.
 PROBE_M = 0.6
 _SHIFT = 4  # cv2 draws at sixteenths of a cell
@@ -59,9 +65,13 @@ class Frame:
     cols: int
 
     def cell(self, point: Point) -> tuple[int, int] | None:
-        col = math.floor((point[0] - self.origin[0]) / self.resolution)
-        row = self.rows - 1 - math.floor((point[1] - self.origin[1]) / self.resolution)
+        row, col = self.row_col(point)
         return (row, col) if 0 <= row < self.rows and 0 <= col < self.cols else None
+
+    def row_col(self, point: Point) -> tuple[int, int]:
+        """The row and column `point` is in, were the grid to go on past its edges."""
+        col = math.floor((point[0] - self.origin[0]) / self.resolution)
+        return self.rows - 1 - math.floor((point[1] - self.origin[1]) / self.resolution), col
 
     def drawn(self, points: list[Point]) -> np.ndarray:
         """Points as cv2 draws them: x the column, y the row, cell centres at whole
@@ -82,8 +92,7 @@ class Floor:
         """The place at `point`, or the nearest within SEAT_REACH_M (a vertex on a wall,
         or just off the floor); None if there is none so near."""
         res, (ox, oy) = self.frame.resolution, self.frame.origin
-        col = math.floor((point[0] - ox) / res)
-        row = self.frame.rows - 1 - math.floor((point[1] - oy) / res)
+        row, col = self.frame.row_col(point)
         reach = math.ceil(SEAT_REACH_M / res)
         top, left = max(0, row - reach), max(0, col - reach)
         window = self.index[top : max(0, row + reach + 1), left : max(0, col + reach + 1)]
@@ -121,11 +130,11 @@ def draw_grid(level: Level, doors: Collection[int]) -> OccupancyGrid:
 
 
 def _frame(level: Level, finest: float, most: int) -> Frame:
-    """A frame round everything the level draws, with a margin."""
+    """A frame round what the level draws (its walls, floors and doors), with a margin.
+    Named vertices and lanes do not widen it: a stray vertex far off the drawing would
+    make every cell coarse. A named vertex outside it is off the floor, and told so."""
     ends = [level.points[v] for wall in level.walls for v in wall]
-    points = [*ends, *chain(*level.floors), *(p for door in level.doors for p in door.ends),
-              *(named.at for named in level.named),
-              *(level.points[v] for lane in level.lanes for v in lane.ends)]  # fmt: skip
+    points = [*ends, *chain(*level.floors), *(p for door in level.doors for p in door.ends)]
     xs, ys = [x for x, _ in points], [y for _, y in points]
     # In whole millimetres, as the floor plan writes them.
     left, bottom = (math.floor((min(xs) - MARGIN_M) * 1000) / 1000,
@@ -158,10 +167,10 @@ def _draw(level: Level, frame: Frame, open_doors: Collection[int] = ()) -> np.nd
         doorways = np.zeros_like(cells)
         for i in sorted(open_doors):
             door = level.doors[i]
-            (px, py), (qx, qy) = door.ends
             if door.width == 0:
                 continue
-            nx, ny = -(qy - py) / door.width * half, (qx - px) / door.width * half
+            (px, py), (qx, qy) = door.ends
+            nx, ny = (half * n for n in door.normal)
             corners = [(px + nx, py + ny), (qx + nx, qy + ny), (qx - nx, qy - ny),
                        (px - nx, py - ny)]  # fmt: skip
             cv2.fillPoly(doorways, [frame.drawn(corners)], 1, shift=_SHIFT)
@@ -205,7 +214,6 @@ def _places(frame: Frame, free: np.ndarray) -> tuple[Places, np.ndarray]:
          (np.concatenate([ends[0], ends[1]]), np.concatenate([ends[1], ends[0]]))),
         shape=(count, count),
     )  # fmt: skip
-    _, space = connected_components(links, directed=False)
     cell_rows, cell_cols = np.nonzero(free)
     xy = np.stack([frame.origin[0] + (cell_cols + 0.5) * res,
                    frame.origin[1] + (rows - cell_rows - 0.5) * res], axis=1)  # fmt: skip
@@ -213,7 +221,26 @@ def _places(frame: Frame, free: np.ndarray) -> tuple[Places, np.ndarray]:
     padded = np.pad(free, 1).astype(np.uint8)
     away = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)[1:-1, 1:-1]
     clearance = (away[free] - 0.5) * res
+    space = _passable_spaces(links, clearance >= PASSABLE_M)
     return Places(xy, links, space, clearance, res), index
+
+
+def _passable_spaces(links: csr_array, clear: np.ndarray) -> np.ndarray:
+    """The space of each place: the places the robot can stand on (`clear`) that join
+    one another are one space, and each other place is in the space of the clear place
+    nearest it along the floor (a room's corners, a doorway's sides, a slit's two halves).
+    A part of the floor with no clear place at all is a space of its own."""
+    _, space = connected_components(links, directed=False)
+    inside = np.flatnonzero(clear)
+    if inside.size:
+        count, label = connected_components(links[inside, :][:, inside], directed=False)
+        _, _, sources = dijkstra(links, indices=inside, min_only=True, return_predecessors=True)
+        reached = sources >= 0
+        where = np.full(len(space), -1, np.int64)
+        where[inside] = np.arange(inside.size)
+        space = space + count  # apart from the clear spaces' numbers
+        space[reached] = label[where[sources[reached]]]
+    return np.unique(space, return_inverse=True)[1].astype(np.int64)
 
 
 def _door_sides(
@@ -224,11 +251,10 @@ def _door_sides(
     sides: dict[int, tuple[int | None, int | None]] = {}
     res = frame.resolution
     for i, door in enumerate(level.doors):
-        (px, py), (qx, qy) = door.ends
         if door.width == 0:
             sides[i] = (None, None)
             continue
-        nx, ny = -(qy - py) / door.width, (qx - px) / door.width
+        nx, ny = door.normal
         cx, cy = door.centre
         found: list[int | None] = []
         for sign in (1.0, -1.0):

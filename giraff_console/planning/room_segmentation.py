@@ -7,19 +7,18 @@ transform of the free space: how far each free cell is from the nearest wall. Ro
 wide and the doorways between them narrow, so as the transform is cut at rising
 heights the free space falls apart into pieces at the doorways, one piece to a room.
 
-Here the cut rises one cell at a time, from the robot's radius (narrower space is no
-room for it) upwards. Where a piece splits into two, each is a room of its own only if
-it rises well clear of the split (`PROMINENCE_M`) and the split is narrow next to it
+The rooms are found on the grid the plan will use: the map cropped to its floor and
+cleared of specks (scan_grid.py), with unknown space not free, since the robot has not
+seen it. Here the cut rises one cell at a time, from the least clearance the route
+planner leaves the robot (its radius and CLEARANCE_M; narrower space is no room for it)
+upwards. Where a piece splits into two, each is a room of its own only if it rises well
+clear of the split (`PROMINENCE_M`) and the split is narrow next to it
 (`SADDLE_RATIO`): a doorway between rooms is, a gap between an armchair and a bed is
 not. Each room's piece, taken where it split off, seeds a watershed flood of the
 transform that grows it back over the whole free space, so that neighbouring rooms meet
-at the narrowest cross-section between them: the doorway. Rooms too small to be rooms
-(`MIN_ROOM_M2`) are flooded by their neighbours instead.
-
-Unknown space is not free: the robot has not seen it. Holes in the free space smaller
-than `SPECK_M2` are noise, or the legs of tables and chairs, and are filled before the
-transform is taken, so that they neither split a room nor make one; the room points and
-doorway widths are measured on the grid as it is.
+at the narrowest cross-section between them: the doorway (room_doors.py). Rooms too
+small to be rooms (`MIN_ROOM_M2`) are flooded by their neighbours instead, and rooms the
+planner cannot take the robot to from the rest are left out.
 """
 
 from __future__ import annotations
@@ -31,18 +30,22 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from giraff_console.planning.floorplan import Door, GridSpec, Point
+from giraff_console.planning.floorplan import Door, Point
 from giraff_console.planning.grid import FREE, OccupancyGrid
 from giraff_console.planning.plan_writing import MadePlan, millimetres
-from giraff_console.planning.ros_map import read_grid_image, read_ros_map
-from giraff_console.planning.route_planner import ROBOT_RADIUS_M
-from giraff_console.planning.walls import grid_jambs
+from giraff_console.planning.room_doors import (
+    Cells,
+    Doorway,
+    cells_of,
+    doorways,
+    least_clearance,
+    passable,
+)
+from giraff_console.planning.route_planner import CLEARANCE_M, ROBOT_RADIUS_M
+from giraff_console.planning.scan_grid import CROP_MARGIN_M, SPECK_M2, clean_grid
 
 # Less floor than this is a cupboard, a bay window or noise, not a room to send a robot to.
 MIN_ROOM_M2 = 1.0
-# Holes in the free space up to this size are filled before segmenting: single cells a
-# scan got wrong, and the legs of tables and chairs (a 7 cm leg is 0.005 m^2).
-SPECK_M2 = 0.05
 # A piece of free space that splits off is a room when its widest point is at least this
 # much wider (in clearance, metres) than the split, and the split at most this fraction
 # of it. A 0.9 m doorway (0.45 m clearance) off a 2 m corridor (1 m) is 0.55 m and 0.45;
@@ -69,37 +72,38 @@ class FoundRoom:
 
 @dataclass(frozen=True)
 class Segmentation:
-    grid: OccupancyGrid
+    grid: OccupancyGrid  # the map's grid cropped and cleaned, as the plan is to use it
+    redrawn: bool  # whether `grid` differs from the map's, and so is written in its place
     labels: np.ndarray  # int32 per cell: a room's label, 0 for no room
     rooms: tuple[FoundRoom, ...]  # in reading order: room-1 top left
     doors: tuple[Door, ...]
     start: str  # the room with the most doors, where the robot is best placed to start
-    notes: tuple[str, ...]  # what was left out, for the operator to know
+    notes: tuple[str, ...]  # what was changed or left out, for the operator to know
 
 
-def read_scan(path: str | Path) -> tuple[GridSpec, OccupancyGrid]:
-    """The ROS map_server map at `path` and its grid; FloorPlanError for a bad map."""
-    spec = read_ros_map(path)
-    pixels = read_grid_image(spec.image)
-    grid = OccupancyGrid.from_image(pixels, spec.resolution, spec.origin[:2], spec.negate,
-                                    spec.occupied_thresh, spec.free_thresh)  # fmt: skip
-    return spec, grid
-
-
-def segment_rooms(grid: OccupancyGrid, robot_radius: float = ROBOT_RADIUS_M,
-                  min_area: float = MIN_ROOM_M2) -> Segmentation:  # fmt: skip
-    """The rooms of `grid` and the doors between them; SegmentationError if none."""
-    free = grid.cells == FREE
-    if not free.any():
+def segment_rooms(
+    grid: OccupancyGrid,
+    robot_radius: float = ROBOT_RADIUS_M,
+    min_area: float = MIN_ROOM_M2,
+    cropped: bool = False,
+) -> Segmentation:
+    """The rooms of `grid` and the doors between them, found on `grid` cleaned of specks
+    (scan_grid.py), which the Segmentation holds; SegmentationError if there is no room,
+    or if the robot cannot be planned between any two rooms of several. `cropped` says
+    that `grid` is already a crop of the map's (read_scan), and so differs from it."""
+    if not (grid.cells == FREE).any():
         raise SegmentationError("no free cell in the map: nothing to segment")
-    floor = _without_specks(free, round(SPECK_M2 / grid.resolution**2))
+    cleaned = clean_grid(grid)
+    grid = cleaned.grid
+    floor = grid.cells == FREE
     clearance = _clearance(floor, grid.resolution)
-    if clearance.max() <= robot_radius:
+    least = least_clearance(robot_radius)
+    if clearance.max() <= least:
         raise SegmentationError(
-            f"no free space wide enough for the robot ({robot_radius:g} m radius): "
-            "nothing to segment"
+            f"no free space wide enough for the robot ({robot_radius:g} m radius): the "
+            f"route planner needs {_way(robot_radius):g} m: nothing to segment"
         )
-    seeds = _seeds(clearance, robot_radius, grid.resolution)
+    seeds = _seeds(clearance, least, grid.resolution)
     min_cells = min_area / grid.resolution**2
     while True:
         labels = _flood(clearance, floor, seeds, grid.resolution)
@@ -113,21 +117,30 @@ def segment_rooms(grid: OccupancyGrid, robot_radius: float = ROBOT_RADIUS_M,
             f"no room of {min_area:g} m² or more that the robot ({robot_radius:g} m radius) "
             "fits in: nothing to segment"
         )
-    real = _clearance(free, grid.resolution)
-    return _plan(grid, labels, real, robot_radius)
+    notes = []
+    if cleaned.specks:
+        notes.append(
+            f"cleared {_count(cleaned.specks, 'speck')} ({cleaned.speck_cells} cells) from the "
+            f"floor: holes in it up to {SPECK_M2:g} m² (scan noise, or the legs of tables "
+            "and chairs), which the route planner would grow by the robot's radius into "
+            "discs that shut doorways"
+        )
+    redrawn = cropped or cleaned.specks > 0
+    if redrawn:
+        changes = [f"cropped to its floor and {CROP_MARGIN_M:g} m round it"] * cropped
+        changes += ["cleared of those specks"] * (cleaned.specks > 0)
+        notes.append(f"the grid written with the plan is the map {' and '.join(changes)}; "
+                     "the map itself is unchanged")  # fmt: skip
+    return _plan(grid, redrawn, labels, clearance, robot_radius, notes)
 
 
-def _without_specks(free: np.ndarray, speck_cells: int) -> np.ndarray:
-    """`free` with its small holes filled: blobs of other cells with free all round."""
-    _, blobs, stats, _ = cv2.connectedComponentsWithStats((~free).astype(np.uint8), connectivity=8)
-    rows, cols = free.shape
-    left, top = stats[:, cv2.CC_STAT_LEFT], stats[:, cv2.CC_STAT_TOP]
-    right = left + stats[:, cv2.CC_STAT_WIDTH]
-    bottom = top + stats[:, cv2.CC_STAT_HEIGHT]
-    inside = (left > 0) & (top > 0) & (right < cols) & (bottom < rows)
-    specks = inside & (stats[:, cv2.CC_STAT_AREA] <= speck_cells)
-    specks[0] = False  # label 0 is the free space itself
-    return free | specks[blobs]
+def _way(robot_radius: float) -> float:
+    """How wide a way the route planner needs for a robot of `robot_radius`."""
+    return round(2 * (robot_radius + CLEARANCE_M), 3)
+
+
+def _count(number: int, thing: str) -> str:
+    return f"{number} {thing}{'' if number == 1 else 's'}"
 
 
 def _clearance(free: np.ndarray, resolution: float) -> np.ndarray:
@@ -138,10 +151,10 @@ def _clearance(free: np.ndarray, resolution: float) -> np.ndarray:
     return distance[1:-1, 1:-1].astype(np.float64) * resolution
 
 
-def _seeds(clearance: np.ndarray, robot_radius: float, step: float) -> np.ndarray:
+def _seeds(clearance: np.ndarray, least: float, step: float) -> np.ndarray:
     """One seed per room, numbered from 1: the piece of the cut through the clearance
     where it split off from its neighbours, or, for a piece that never splits, the whole
-    of it at the robot's radius.
+    of it at the least clearance the robot needs (`least`).
 
     The cut falls one cell at a time from the top. Each piece at one height holds the
     pieces of the height above it; where it holds several, those rising far enough above
@@ -149,7 +162,7 @@ def _seeds(clearance: np.ndarray, robot_radius: float, step: float) -> np.ndarra
     with what it was just above the split. A piece that has split already has its rooms
     seeded, and the rest are bumps of the highest: they join it."""
     seeds = np.zeros(clearance.shape, dtype=np.int32)
-    heights = np.arange(robot_radius, clearance.max(), step)
+    heights = np.arange(least, clearance.max(), step)
     above: np.ndarray | None = None  # the pieces at the last height, and for each:
     above_peaks: list[tuple[float, tuple[int, int]]] = []  # its highest clearance and cell
     above_split: list[bool] = []  # whether it holds several rooms
@@ -223,115 +236,53 @@ def _flood(clearance: np.ndarray, floor: np.ndarray, seeds: np.ndarray,
     return labels.astype(np.int32)
 
 
-def _plan(grid: OccupancyGrid, labels: np.ndarray, clearance: np.ndarray,
-          robot_radius: float) -> Segmentation:  # fmt: skip
-    """Name the rooms, put a door in every doorway between two of them that the robot
-    fits through, and leave out the rooms it could not reach from the rest."""
-    cells = _cells_of(labels)
-    # A doorway no wider than the robot is none: no plan could take it through.
-    between = [(a, b, at, width) for a, b, at, width in _doorways(grid, labels, clearance)
-               if width > 2 * robot_radius]  # fmt: skip
-    joined = _reachable(cells, [(a, b) for a, b, _, _ in between])
-    notes = []
+def _plan(grid: OccupancyGrid, redrawn: bool, labels: np.ndarray, clearance: np.ndarray,
+          robot_radius: float, notes: list[str]) -> Segmentation:  # fmt: skip
+    """Put a door in every doorway between two rooms that the robot can be planned
+    through, leave out the rooms it could not be planned to from the rest, and name the
+    rooms left."""
+    cells = cells_of(labels)
+    points = {label: _at(grid, cells[label], clearance) for label in cells}
+    sizes = {label: len(rows) for label, (rows, _) in cells.items()}
+    joined, ways = passable(grid, points, sizes, doorways(grid, labels, clearance), robot_radius)
+    area = grid.resolution**2
     if len(joined) < len(cells):
-        left_out = [label for label in cells if label not in joined]
+        left_out = sorted((label for label in cells if label not in joined),
+                          key=lambda label: -sizes[label])  # fmt: skip
+        if len(joined) < 2:
+            raise SegmentationError(
+                f"no two of the {len(cells)} rooms found are joined by a way "
+                f"{_way(robot_radius):g} m wide, as the route planner needs for the robot "
+                f"({robot_radius:g} m radius): is a doorway half shut, or the scan noisy?"
+            )
         # The biggest few, for a note the operator reads rather than a list of specks.
-        biggest = sorted(left_out, key=lambda label: -len(cells[label][0]))[:3]
-        where = ", ".join(f"({x:.1f}, {y:.1f})" for x, y in
-                          (_at(grid, cells[label], clearance) for label in biggest))  # fmt: skip
+        where = ", ".join(f"{sizes[label] * area:.1f} m² at ({points[label][0]:.1f}, "
+                          f"{points[label][1]:.1f})" for label in left_out[:3])  # fmt: skip
         more = f" and {len(left_out) - 3} more" if len(left_out) > 3 else ""
-        notes.append(f"left out {len(left_out)} piece{'s' if len(left_out) > 1 else ''} of "
-                     f"floor the robot cannot reach from the rest, at {where}{more}")  # fmt: skip
+        notes.append(f"left out {_count(len(left_out), 'piece')} of floor the robot cannot "
+                     "reach from the rest (the route planner needs a way "
+                     f"{_way(robot_radius):g} m wide): {where}{more}")  # fmt: skip
         labels = np.where(np.isin(labels, left_out), 0, labels)
     order = _reading_order(grid, {label: cells[label] for label in joined})
     names = {label: f"room-{number}" for number, label in enumerate(order, start=1)}
-    area = grid.resolution**2
-    rooms = tuple(
-        FoundRoom(
-            names[label], _at(grid, cells[label], clearance), label, len(cells[label][0]) * area
-        )
-        for label in order
-    )
+    rooms = tuple(FoundRoom(names[label], points[label], label, sizes[label] * area)
+                  for label in order)  # fmt: skip
     rank = {label: number for number, label in enumerate(order)}
-    kept: list[tuple[int, int, Point, float]] = []
-    for a, b, at, width in between:
-        if a in rank and b in rank:
-            first, second = sorted((a, b), key=rank.__getitem__)
-            kept.append((first, second, at, width))
-    kept.sort(key=lambda door: (rank[door[0]], rank[door[1]], door[2][0], -door[2][1]))
+    kept: list[tuple[int, int, Doorway]] = []
+    for way in ways:
+        first, second = sorted(way.rooms, key=rank.__getitem__)
+        kept.append((first, second, way))
+    kept.sort(key=lambda door: (rank[door[0]], rank[door[1]], door[2].at[0], -door[2].at[1]))
     doors: list[Door] = []
-    for a, b, at, width in kept:
+    for a, b, way in kept:
         door_id = f"{names[a]}-{names[b]}"
         # A second doorway between the same two rooms: room-7-room-10-2.
         alike = sum(door.between == (names[a], names[b]) for door in doors)
         door_id += f"-{alike + 1}" if alike else ""
-        doors.append(Door(door_id, (names[a], names[b]), at, width, True))
+        doors.append(Door(door_id, (names[a], names[b]), way.at, way.width, True))
     count = {room.id: sum(room.id in door.between for door in doors) for room in rooms}
     start = max(rooms, key=lambda room: count[room.id]).id
-    return Segmentation(grid, labels, rooms, tuple(doors), start, tuple(notes))
-
-
-Cells = tuple[np.ndarray, np.ndarray]  # rows and columns
-
-
-def _cells_of(labels: np.ndarray) -> dict[int, Cells]:
-    """Each room's cells, by label, found in one pass over the grid."""
-    rows, cols = np.nonzero(labels)
-    ids = labels[rows, cols]
-    order = np.argsort(ids, kind="stable")
-    ids, rows, cols = ids[order], rows[order], cols[order]
-    starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]]) if len(ids) else np.array([], int)
-    ends = np.r_[starts[1:], len(ids)]
-    return {int(ids[s]): (rows[s:e], cols[s:e]) for s, e in zip(starts, ends, strict=True)}
-
-
-def _doorways(grid: OccupancyGrid, labels: np.ndarray,
-              clearance: np.ndarray) -> list[tuple[int, int, Point, float]]:  # fmt: skip
-    """Where each two rooms meet: (one's label, the other's, the doorway's centre and
-    width), once for each separate stretch of their border, so that a room with two
-    doorways onto a corridor has two doors. The doorway is measured from the widest
-    point of the stretch, which the flood put where the way is narrowest."""
-    rows, cols = labels.shape
-    border: dict[tuple[int, int], list[Cells]] = {}
-    for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
-        # Each cell against its neighbour to the right, below, and diagonally below.
-        left, right = max(0, -dc), max(0, dc)
-        here = labels[: rows - dr, left : cols - right]
-        there = labels[dr:, right : cols - left]
-        r, c = np.nonzero((here > 0) & (there > 0) & (here != there))
-        low = np.minimum(here[r, c], there[r, c])
-        high = np.maximum(here[r, c], there[r, c])
-        for key in set(zip(low.tolist(), high.tolist(), strict=True)):
-            pick = (low == key[0]) & (high == key[1])
-            border.setdefault(key, []).append((r[pick], c[pick] + left))
-            border[key].append((r[pick] + dr, c[pick] + right))
-    found: list[tuple[int, int, Point, float]] = []
-    for (a, b), pieces in border.items():
-        # The border drawn in its own box, to be cut into its separate stretches.
-        r = np.concatenate([piece[0] for piece in pieces])
-        c = np.concatenate([piece[1] for piece in pieces])
-        top, left = r.min(), c.min()
-        drawn = np.zeros((r.max() - top + 1, c.max() - left + 1), dtype=np.uint8)
-        drawn[r - top, c - left] = 1
-        count, stretches = cv2.connectedComponents(drawn, connectivity=8)
-        for stretch in range(1, count):
-            on = np.argwhere(stretches == stretch) + np.array([top, left])
-            best = on[int(np.argmax(clearance[on[:, 0], on[:, 1]]))]
-            found.append((a, b, *_doorway(grid, clearance, (int(best[0]), int(best[1])))))
-    return found
-
-
-def _reachable(cells: dict[int, Cells], doors: list[tuple[int, int]]) -> set[int]:
-    """The rooms joined by doors to the most others (the most floor, if several groups
-    are as many): a plan must reach every room from its start."""
-    group = {label: {label} for label in cells}
-    for a, b in doors:
-        if group[a] is not group[b]:
-            merged = group[a] | group[b]
-            for label in merged:
-                group[label] = merged
-    groups = {id(rooms): rooms for rooms in group.values()}.values()
-    return max(groups, key=lambda rooms: (len(rooms), sum(len(cells[r][0]) for r in rooms)))
+    return Segmentation(grid, redrawn, labels, rooms, tuple(doors), start, tuple(notes))
 
 
 def _reading_order(grid: OccupancyGrid, cells: dict[int, Cells]) -> list[int]:
@@ -370,31 +321,12 @@ def _at(grid: OccupancyGrid, cells: Cells, clearance: np.ndarray) -> Point:
     return millimetres(x), millimetres(y)
 
 
-def _doorway(
-    grid: OccupancyGrid, clearance: np.ndarray, cell: tuple[int, int]
-) -> tuple[Point, float]:
-    """The centre and free width of the doorway whose widest point on the border between
-    two rooms is `cell`: half-way between its jambs, the occupied cells either side (as
-    the route planner finds them, walls.py), and the space between their faces."""
-    x, y = grid.centre_of(*cell)
-    guess = Door("", ("", ""), (x, y), 2 * float(clearance[cell]), True)
-    jambs = grid_jambs(grid, guess)
-    if jambs is None:
-        return (millimetres(x), millimetres(y)), millimetres(guess.width)
-    (ax, ay), (bx, by) = jambs
-    middle = ((ax + bx) / 2, (ay + by) / 2)
-    width = math.dist(jambs[0], jambs[1]) - grid.resolution  # centres to faces
-    row, col = grid.cell_of(*middle)
-    if grid.cells[row, col] != FREE:
-        middle = (x, y)
-    return (millimetres(middle[0]), millimetres(middle[1])), millimetres(width)
-
-
 def scan_plan(segmentation: Segmentation, source: Path, name: str) -> MadePlan:
     """The floor plan of the rooms found, ready for plan_writing.write_floorplan to check
-    and write with the map as its grid: room points and doors, no outlines, so that the
-    simulator takes its walls from the grid (floorplans/README.md, "Plans without
-    outlines")."""
+    and write with its grid: room points and doors, no outlines, so that the simulator
+    takes its walls from the grid (floorplans/README.md, "Plans without outlines"). The
+    grid is the segmentation's, drawn, when it is not the map's as it is (`drawn`);
+    else the map's image is to be copied."""
     plan = {
         "name": name,
         "rooms": {room.id: {"at": list(room.at)} for room in segmentation.rooms},
@@ -413,4 +345,5 @@ def scan_plan(segmentation: Segmentation, source: Path, name: str) -> MadePlan:
         f"# Rooms found in {source.name} by `giraff-console floorplan rooms`: named room-1,\n"
         "# room-2, ... as a page is read, from the top left. Rename them as you like.\n"
     )
-    return MadePlan(source, plan, list(segmentation.notes), header)
+    drawn = segmentation.grid if segmentation.redrawn else None
+    return MadePlan(source, plan, list(segmentation.notes), header, drawn)

@@ -25,9 +25,9 @@ from giraff_console.planning.floorplan import (
     GridSpec,
     Problem,
     Where,
-    _dotted,
     _finite,
     _node_lines,
+    dotted,
     load_yaml,
     shown,
 )
@@ -72,7 +72,11 @@ def netpbm_mismatch(data: bytes) -> str | None:
     """What is wrong with a Netpbm image's header, or between it and its pixels; None
     when it is right, or when `data` is not a Netpbm image at all (a PNG checks itself).
     A few whitespace bytes after the pixels, fewer than a row, are allowed: some writers
-    end the file with a newline."""
+    end the file with a newline. No data at all is wrong whatever the kind: OpenCV's
+    imdecode raises (`!buf.empty()`) for it rather than returning None, so every reader
+    of grid images (here, and floorplan.py's check) must refuse it first."""
+    if not data:
+        return "the file is empty"
     kind = data[:2]
     if kind not in _NETPBM:
         return None
@@ -143,7 +147,7 @@ def read_yaml(path: Path) -> tuple[dict[Any, Any], dict[Where, int]]:
     if duplicates:
         raise FloorPlanError(
             [
-                Problem(path, line, f"duplicate key {_dotted((*where, key))}")
+                Problem(path, line, f"duplicate key {dotted((*where, key))}")
                 for where, key, line in duplicates
             ]
         )

@@ -330,3 +330,57 @@ def write_building(folder: Path, name: str = "office", **options: object) -> Pat
     path = folder / f"{name}.building.yaml"
     path.write_text(building(**options))  # type: ignore[arg-type]
     return path
+
+
+def one_level(level: Level) -> str:
+    """A building of one level, L1, in metres (the shapes below)."""
+    text = ["coordinate_system: cartesian_meters", "levels:", "  L1:",
+            level.yaml("cartesian_meters", walls=True), "name: shapes", ""]  # fmt: skip
+    return "\n".join(text)
+
+
+def gap_only(gap: float) -> Level:
+    """Two rooms, 10 m by 8 m each, and the wall between them stopping `gap` metres short
+    of the north wall: no door, only the gap."""
+    level = Level()
+    level.wall((2, 2), (22, 2), (22, 10), (2, 10), (2, 2))
+    level.wall((12, 2), (12, 10 - gap))
+    level.floors.append([(2, 2), (22, 2), (22, 10), (2, 10)])
+    level.named("west_room", 7, 6)
+    level.named("east_room", 17, 6)
+    return level
+
+
+def stray_vertex() -> Level:
+    """Level L2, and a named vertex 1.5 km off the drawing (a marker left from an old map)."""
+    level = level_two()
+    level.named("old_marker", 1500.0, -1500.0)
+    return level
+
+
+def junction_by_door(past: float) -> Level:
+    """Lanes only: from the hall south through a door at y 10, to a junction `past` metres
+    beyond the door's line (less than 0: before it) that branches to two beds."""
+    level = Level()
+    hall, chair = level.named("hall", 5, 14), level.named("hall_chair", 8, 14)
+    level.path(0, hall, chair)
+    junction = (5.0, 10.0 - past)
+    level.path(0, hall, junction, level.named("bed_1", 3, 6))
+    level.path(0, junction, level.named("bed_2", 7, 6))
+    level.door("bedroom_door", (4.4, 10.0), (5.6, 10.0))
+    return level
+
+
+def open_hall(places: int, width: float = 60.0, depth: float = 40.0) -> Level:
+    """One open hall (an airport's airside), `places` named places in rows, no inner walls."""
+    level = Level()
+    level.wall((0, 0), (width, 0), (width, depth), (0, depth), (0, 0))
+    level.floors.append([(0, 0), (width, 0), (width, depth), (0, depth)])
+    columns = 20
+    rows = -(-places // columns)
+    for k in range(places):
+        row, column = divmod(k, columns)
+        x = 2 + column * (width - 4) / (columns - 1)
+        y = 2 + row * (depth - 4) / max(1, rows - 1)
+        level.named(f"kiosk_{k}", round(x, 3), round(y, 3))
+    return level

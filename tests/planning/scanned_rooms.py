@@ -208,11 +208,50 @@ mode: trinary
 """
 
 
-def write_scanned_map(folder: Path, name: str = "map") -> Path:
-    """The map's PGM and its map_server YAML written into `folder`; the YAML's path."""
-    image = folder / f"{name}.pgm"
-    cv2.imwrite(str(image), scanned_image())
-    path = folder / f"{name}.yaml"
-    path.write_text(MAP_YAML.format(image=image.name, resolution=RESOLUTION,
-                                    x=ORIGIN[0], y=ORIGIN[1]))  # fmt: skip
-    return path
+def write_scanned_map(folder: Path, name: str = "map", image: np.ndarray | None = None,
+                      origin: tuple[float, float] = ORIGIN) -> Path:  # fmt: skip
+    """The map's PGM (`image`, by default the scan) and its map_server YAML written into
+    `folder`; the YAML's path."""
+    path = folder / f"{name}.pgm"
+    cv2.imwrite(str(path), scanned_image() if image is None else image)
+    yaml_path = folder / f"{name}.yaml"
+    yaml_path.write_text(MAP_YAML.format(image=path.name, resolution=RESOLUTION,
+                                         x=origin[0], y=origin[1]))  # fmt: skip
+    return yaml_path
+
+
+# Scans worse than a tuned SLAM leaves, as a review of `floorplan rooms` found them.
+
+
+def speckled_image(occupied: float, unknown: float = 0.0, seed: int = 2) -> np.ndarray:
+    """The scan with a fraction `occupied` of its free cells turned occupied, and a
+    fraction `unknown` turned unknown, anywhere, doorways too: an untuned scan, or one
+    taken while people walked about. Half a per cent is a speck every 0.5 m^2."""
+    rng = np.random.default_rng(seed)
+    image = scanned_image()
+    free = image == FREE_SHADE
+    image[free & (rng.random(image.shape) < occupied)] = WALL_SHADE
+    image[free & (rng.random(image.shape) < unknown)] = UNKNOWN_SHADE
+    return image
+
+
+def half_open_doors_image() -> np.ndarray:
+    """The scan with a door leaf in every doorway, hinged at its west jamb and swung 45
+    degrees into the room, drawn a cell thick: the way past it is 0.7 of the doorway's
+    width, too narrow for the robot in all but the 1.2 m double door."""
+    canvas = _Canvas()
+    canvas.image = scanned_image()
+    for (x, y), width in DOORWAYS:
+        into = 1 if y > CORRIDOR[3] else -1  # north rooms lie up the map
+        hinge_y = y + into * WALL_M / 2
+        top, left = canvas.cell(x - width / 2, hinge_y)
+        bottom, right = canvas.cell(x - width / 2 + 0.7 * width, hinge_y + into * 0.7 * width)
+        cv2.line(canvas.image, (left, top), (right, bottom), WALL_SHADE, 1)
+    return canvas.image
+
+
+def in_unknown(image: np.ndarray, cells: int) -> np.ndarray:
+    """`image` in the middle of unknown space `cells` wide all round, as SLAM packages
+    save a fixed canvas (4000 cells a side is a common default) of which the building
+    is a corner."""
+    return np.pad(image, cells, constant_values=UNKNOWN_SHADE)

@@ -110,3 +110,14 @@ def test_floorplan_check_passes_the_scanned_plan(tmp_path, capsys):
     path = write_scanned_plan(tmp_path)
     assert main(["floorplan", "check", str(path)]) == 0
     assert capsys.readouterr().out == f"{path}: no problems\n"
+
+
+def test_an_empty_image_is_an_error_not_a_traceback(tmp_path, capsys):
+    # OpenCV raises cv2.error (`!buf.empty()`) for an empty buffer instead of failing.
+    path = write_scanned_plan(tmp_path)
+    (tmp_path / "scanned.pgm").write_bytes(b"")
+    with pytest.raises(GridImageError, match=r"scanned.pgm: the file is empty"):
+        read_grid_image(tmp_path / "scanned.pgm")
+    assert main(["floorplan", "check", str(path)]) == 2
+    printed = capsys.readouterr().out
+    assert "scanned.pgm': the file is empty" in printed

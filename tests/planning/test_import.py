@@ -170,7 +170,10 @@ def test_a_room_off_the_grid_is_reported_and_neither_file_is_written(tmp_path, c
     grid.write_text(grid.read_text().replace("origin: [0.0, -10.0, 0.0]", "origin: [50, 50, 0]"))
     out = tmp_path / "plan.yaml"
     assert main(["floorplan", "import", str(SMALL), str(out), "--grid", str(grid)]) == 2
-    assert "room 'dock' at [1.23, -8.2] is off the grid" in capsys.readouterr().err
+    # At the line of the vertex the room was made from, as every problem of an import is.
+    line = next(i for i, text in enumerate(SMALL.read_text().splitlines(), 1) if " dock, " in text)
+    err = capsys.readouterr().err
+    assert f"{SMALL}:{line}: room 'dock' at [1.23, -8.2] is off the grid" in err
     assert not out.exists() and not (tmp_path / "plan.pgm").exists()
 
 
@@ -316,3 +319,58 @@ def test_a_ros_map_in_raw_mode_is_refused(tmp_path):
 )  # fmt: skip
 def test_names_are_made_ids_of_letters_digits_dashes_and_underscores(name, expected):
     assert sanitise_id(name) == expected
+
+
+def test_two_named_vertices_at_one_point_are_told(tmp_path):
+    same = "      - [1.5, 2.0, 0, c]\n    lanes:"
+    source = write(tmp_path, TWO_ROOMS.replace("    lanes:", same))
+    assert (
+        f"{source}:7: note: vertex 2 ('c') is where vertex 0 ('a') is: rooms 'a' and 'c' "
+        "are one place, and a passage between them is there" in read_building(source).notes
+    )
+
+
+def test_a_second_door_named_like_a_room_is_told_in_the_names_the_map_gave(tmp_path):
+    doors = (
+        "      - [3, 1, 0, '']\n      - [3, 3, 0, '']\n      - [3.5, 1, 0, '']\n"
+        "      - [3.5, 3, 0, '']\n    doors: [[2, 3, {name: [1, a]}], [4, 5, {name: [1, a]}]]"
+    )
+    source = write(tmp_path, TWO_ROOMS.replace("    lanes:", f"{doors}\n    lanes:"))
+    notes = read_building(source).notes
+    assert f"{source}:11: note: door 'a' has the name of a room: it is door 'a-door'" in notes
+    assert f"{source}:11: note: door 'a' has the name of a room and the name of another door " \
+           "(line 11): it is door 'a-door-2'" in notes  # fmt: skip
+
+
+def refused(tmp_path: Path, text: str) -> tuple[Path, FloorPlanError]:
+    """A building map of `text` written, and the error importing it raises."""
+    source = write(tmp_path, text)
+    with pytest.raises(FloorPlanError) as error:
+        read_building(source)
+    return source, error.value
+
+
+def test_a_level_whose_named_vertices_are_all_left_out_says_so(tmp_path):
+    walled = (
+        "coordinate_system: cartesian_meters\nlevels:\n  L1:\n    vertices:\n"
+        "      - [0, 0, 0, '']\n      - [4, 0, 0, '']\n      - [4, 4, 0, '']\n"
+        "      - [0, 4, 0, '']\n      - [90, 90, 0, far]\n"
+        "    walls: [[0, 1, {}], [1, 2, {}], [2, 3, {}], [3, 0, {}]]\n"
+    )
+    source, error = refused(tmp_path, walled)
+    assert f"{source}:3: levels.L1 has no rooms: each of its named vertices was left out " \
+           "(the notes above say why)" in str(error)  # fmt: skip
+
+
+def test_a_pixel_map_with_a_bad_measurement_has_every_problem_told_in_line_order(tmp_path):
+    # The scale is worked out before the lanes and walls are read: a bad measurement is
+    # one problem of them all, not the only one.
+    bad = (
+        "coordinate_system: reference_image\nlevels:\n  L1:\n"
+        "    lanes:\n      - [0, 5, {graph_idx: [2, 0]}]\n"
+        "    measurements:\n      - [0, 0, {distance: [3, 5]}]\n"
+        "    vertices:\n      - [0, 0, 0, a]\n      - [100, 0, 0, b]\n"
+        "    walls:\n      - [0, 9]\n"
+    )
+    _, error = refused(tmp_path, bad)
+    assert [problem.line for problem in error.problems] == [5, 7, 12], str(error)

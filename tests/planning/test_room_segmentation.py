@@ -21,19 +21,27 @@ import pytest
 from giraff_console.cli import main
 from giraff_console.planning.floorplan import FloorPlan, check_floorplan, load_floorplan
 from giraff_console.planning.grid import FREE, OccupancyGrid
+from giraff_console.planning.room_graph import NoRouteError
 from giraff_console.planning.room_picture import DOOR_COLOUR, picture_scale, room_colours
-from giraff_console.planning.room_segmentation import read_scan, segment_rooms
+from giraff_console.planning.room_segmentation import SegmentationError, segment_rooms
 from giraff_console.planning.route_planner import (
     CLEARANCE_M,
     ROBOT_RADIUS_M,
     RoutePlanner,
     walls_of,
 )
+from giraff_console.planning.scan_grid import read_scan
 from tests.planning.scanned_rooms import (
     CORRIDOR,
     DOORWAYS,
+    ORIGIN,
+    RESOLUTION,
     ROOMS,
     UNKNOWN_SHADE,
+    half_open_doors_image,
+    in_unknown,
+    scanned_image,
+    speckled_image,
     write_scanned_map,
 )
 
@@ -45,6 +53,7 @@ WHEELCHAIR_X = (10.5, 11.3)
 class Written:
     folder: Path
     map: Path
+    map_image: bytes  # the map's image as written, before the command ran
     out: Path
     code: int
     printed: str
@@ -66,9 +75,10 @@ def rooms_command(*args: str) -> tuple[int, str, str]:
 def written(tmp_path_factory) -> Written:
     folder = tmp_path_factory.mktemp("scan")
     path = write_scanned_map(folder)
+    image = (folder / "map.pgm").read_bytes()
     out = folder / "plan.yaml"
     code, printed, errors = rooms_command(str(path), str(out))
-    return Written(folder, path, out, code, printed, errors)
+    return Written(folder, path, image, out, code, printed, errors)
 
 
 def in_corridor(x: float, y: float) -> bool:
@@ -149,11 +159,27 @@ def test_rooms_are_named_as_a_page_is_read(written):
     assert plan.start in (west, east)  # the room with the most doors
 
 
-def test_the_plan_has_no_outlines_and_the_maps_image_as_its_grid(written):
+def test_the_plan_has_no_outlines_and_the_map_cleared_of_specks_as_its_grid(written):
     plan = written.plan
     assert all(room.outline is None for room in plan.rooms.values())
     assert plan.grid is not None and plan.grid.image == written.folder / "plan.pgm"
-    assert plan.grid.image.read_bytes() == (written.folder / "map.pgm").read_bytes()
+    assert (written.folder / "map.pgm").read_bytes() == written.map_image  # left as it was
+    drawn, scan = walls_of(plan), read_scan(written.map).grid
+    assert drawn is not None and drawn.origin == scan.origin and drawn.shape == scan.shape
+    changed = drawn.cells != scan.cells
+    # Only specks were cleared, to free floor: the furniture and walls are as scanned.
+    assert 100 < changed.sum() < 500 and (drawn.cells[changed] == FREE).all()
+    assert "cleared 1" in written.errors and "the map itself is unchanged" in written.errors
+    assert f"wrote {written.folder / 'plan.pgm'}: the grid of {written.map}, redrawn" in (
+        written.printed
+    )
+
+
+def test_a_map_without_specks_is_its_own_grid_copied(tmp_path):
+    path = plain_map(tmp_path, walled(4.0, 3.0))
+    code, printed, _ = rooms_command(str(path), str(tmp_path / "p.yaml"))
+    assert code == 0 and "its image copied" in printed
+    assert (tmp_path / "p.pgm").read_bytes() == (tmp_path / "map.pgm").read_bytes()
 
 
 def test_the_lawn_seen_through_a_window_is_left_out_with_a_note(written):
@@ -195,11 +221,12 @@ def test_the_picture_is_the_grid_drawn_with_each_rooms_colour_and_the_doors(writ
     picture = written.folder / "plan-rooms.png"
     image = cv2.imread(str(picture))
     assert image is not None
-    _, grid = read_scan(written.map)
+    scan = read_scan(written.map)
+    found = segment_rooms(scan.grid, cropped=scan.cropped)
+    grid = found.grid
     scale = picture_scale(grid.shape)
     assert scale >= 2  # a small grid is drawn larger, for the names to be read
     assert image.shape == (grid.shape[0] * scale, grid.shape[1] * scale, 3)
-    found = segment_rooms(grid)
     colours = room_colours(found)
     assert len(set(colours.values())) == len(found.rooms)
     for room in found.rooms:
@@ -258,11 +285,10 @@ def test_an_alcove_too_small_to_be_a_room_is_no_room():
     grid = OccupancyGrid(cells, 0.05)
     found = segment_rooms(grid)
     assert len(found.rooms) == 1 and found.doors == () and found.notes == ()
-    # Counted as a room, the alcove would be one the robot cannot get into.
-    smaller = segment_rooms(grid, min_area=0.5)
-    assert len(smaller.rooms) == 1
-    assert smaller.notes == ("left out 1 piece of floor the robot cannot reach from the rest, "
-                             "at (2.5, 4.9)",)  # fmt: skip
+    # Counted as a room, the alcove is one the robot cannot get into: with the room, no
+    # two rooms the robot can be planned between.
+    with pytest.raises(SegmentationError, match="no two of the 2 rooms found are joined"):
+        segment_rooms(grid, min_area=0.5)
 
 
 def nothing_written(folder: Path, *names: str) -> bool:
@@ -347,3 +373,132 @@ def test_the_help_says_what_the_command_does(capsys):
     help_text = " ".join(capsys.readouterr().out.split())
     assert "room-1, room-2" in help_text and "Rooms from a scan" in help_text
     assert "--picture" in help_text and "--force" in help_text
+
+
+def reachable_from_start(plan: FloorPlan) -> list[str]:
+    """The plan's rooms that `plan` (the command) finds a route to from its start."""
+    planner = RoutePlanner(plan, walls_of(plan))
+    assert plan.start is not None
+    reached = []
+    for room in plan.rooms:
+        with contextlib.suppress(NoRouteError):
+            planner.between_rooms(plan.start, room)
+            reached.append(room)
+    return reached
+
+
+# Half a per cent of speckle shut 6 of the 7 rooms written off from the start (the
+# review); 3 % of occupied and 2 % of unknown speckle made one room of the building.
+# That much noise also ragged a doorway's jambs: a room or two may be left out, as the
+# planner cannot reach them either.
+@pytest.mark.parametrize(("occupied", "unknown", "rooms"), [
+    (0.002, 0, 11), (0.005, 0, 11), (0.01, 0, 11), (0.03, 0.02, 9)])  # fmt: skip
+def test_a_speckled_scan_gives_the_rooms_of_a_clean_one_all_reachable(
+    tmp_path, occupied, unknown, rooms
+):
+    path = write_scanned_map(tmp_path, image=speckled_image(occupied, unknown))
+    code, _, err = rooms_command(str(path), str(tmp_path / "p.yaml"))
+    assert code == 0, err
+    plan = load_floorplan(tmp_path / "p.yaml")
+    assert rooms <= len(plan.rooms) <= len(ROOMS) + 2
+    assert reachable_from_start(plan) == list(plan.rooms)
+    assert "specks" in err and "the grid written with the plan is the map cleared" in err
+
+
+def test_rooms_behind_half_open_doors_are_left_out_with_a_note_naming_them(tmp_path):
+    path = write_scanned_map(tmp_path, image=half_open_doors_image())
+    code, _, err = rooms_command(str(path), str(tmp_path / "p.yaml"))
+    assert code == 0, err
+    plan = load_floorplan(tmp_path / "p.yaml")
+    assert reachable_from_start(plan) == list(plan.rooms)
+    # The corridor, and the day room through its 1.2 m double door, are still there.
+    assert 2 <= len(plan.rooms) < len(ROOMS)
+    (note,) = [line for line in err.splitlines() if "left out" in line]
+    assert "the route planner needs a way 0.7 m wide" in note and " m² at (" in note
+
+
+def test_two_rooms_the_planner_cannot_pass_between_are_an_error(tmp_path):
+    cells = np.full((70, 130), 255, np.uint8)
+    cells[1:-1, 1:-1] = 100
+    cells[2:-2, 2:64] = 0  # two rooms 3.1 m by 3.3 m
+    cells[2:-2, 66:-2] = 0
+    cells[29:41, 64:66] = 0  # a doorway 0.6 m wide: the robot's 0.6 m, not the planner's 0.7
+    path = plain_map(tmp_path, cells)
+    code, _, err = rooms_command(str(path), str(tmp_path / "p.yaml"))
+    assert code == 2
+    assert "no two of the 2 rooms found are joined by a way 0.7 m wide" in err
+    assert err.count("\n") == 1
+    assert nothing_written(tmp_path, "p.yaml", "p.pgm", "p-rooms.png")
+
+
+def test_one_room_is_counted_in_the_singular(tmp_path):
+    path = plain_map(tmp_path, walled(4.0, 3.0))
+    code, printed, _ = rooms_command(str(path), str(tmp_path / "p.yaml"))
+    assert code == 0
+    assert ": 1 room (room-1), 0 doors (none), starting in room-1" in printed
+
+
+def test_a_scan_in_a_big_unknown_canvas_is_cropped_with_its_rooms_where_they_were(
+    tmp_path, written
+):
+    border = 700  # cells: a canvas 1920 by 1690, mostly unknown
+    origin = (ORIGIN[0] - border * RESOLUTION, ORIGIN[1] - border * RESOLUTION)
+    path = write_scanned_map(tmp_path, image=in_unknown(scanned_image(), border), origin=origin)
+    code, _, err = rooms_command(str(path), str(tmp_path / "p.yaml"))
+    assert code == 0, err
+    plan = load_floorplan(tmp_path / "p.yaml")
+    assert check_floorplan(tmp_path / "p.yaml") == []
+    assert [room.at for room in plan.rooms.values()] == [
+        room.at for room in written.plan.rooms.values()
+    ]
+    grid = walls_of(plan)
+    # The building, 26 m by 14.5 m with the unknown round it, and 1 m round its floor.
+    assert grid is not None and grid.shape <= (320, 540)
+    assert "cropped to its floor and 1 m round it" in err
+
+
+def test_the_map_is_never_overwritten_even_with_force(tmp_path):
+    path = plain_map(tmp_path, walled(4.0, 3.0))
+    before = path.read_bytes(), (tmp_path / "map.pgm").read_bytes()
+    for args in ([str(path)], [str(tmp_path / "p.yaml"), "--picture", str(tmp_path / "map.pgm")]):
+        code, _, err = rooms_command(str(path), *args, "--force")
+        assert code == 2 and "would overwrite MAP" in err and err.count("\n") == 1
+        assert (path.read_bytes(), (tmp_path / "map.pgm").read_bytes()) == before
+    assert nothing_written(tmp_path, "p.yaml", "p.pgm", "p-rooms.png")
+
+
+def test_a_picture_with_no_folder_stops_the_command_before_anything_is_written(tmp_path):
+    path = plain_map(tmp_path, walled(4.0, 3.0))
+    picture = tmp_path / "nowhere" / "p.png"
+    code, _, err = rooms_command(str(path), str(tmp_path / "p.yaml"), "--picture", str(picture))
+    assert code == 2 and err == (
+        f"giraff-console: --picture {picture}: there is no folder {picture.parent} to write it in\n"
+    )
+    assert nothing_written(tmp_path, "p.yaml", "p.pgm")
+
+
+@pytest.mark.parametrize("force", [[], ["--force"]])
+def test_a_folder_as_out_is_refused_and_nothing_is_left_behind(tmp_path, force):
+    path = plain_map(tmp_path, walled(4.0, 3.0))
+    (tmp_path / "d").mkdir()
+    code, _, err = rooms_command(str(path), str(tmp_path / "d"), *force)
+    out = tmp_path / "d"
+    assert code == 2 and err == f"giraff-console: OUT {out} is a folder: give a file's name\n"
+    assert nothing_written(tmp_path, "d.pgm", "d-rooms.png")
+
+
+def test_each_line_of_a_bad_map_says_whose_it_is(tmp_path):
+    path = plain_map(tmp_path, walled(4.0, 3.0))
+    path.write_text("image: map.pgm\nresolution: 0.05\n")
+    code, _, err = rooms_command(str(path), str(tmp_path / "p.yaml"))
+    lines = err.splitlines()
+    assert code == 2 and len(lines) == 4
+    assert all(line.startswith(f"giraff-console: {path}: missing key ") for line in lines)
+
+
+def test_a_yaw_in_the_origin_is_noted_as_not_applied(tmp_path):
+    path = plain_map(tmp_path, walled(4.0, 3.0))
+    path.write_text(path.read_text().replace("[0.0, 0.0, 0.0]", "[0.0, 0.0, 0.3]"))
+    code, _, err = rooms_command(str(path), str(tmp_path / "p.yaml"))
+    assert code == 0
+    assert f"giraff-console: {path}: the yaw in origin (0.3) is not applied" in err
