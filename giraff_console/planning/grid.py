@@ -64,14 +64,16 @@ class OccupancyGrid:
         """Read a map image as map_server's trinary mode does: a colour pixel is the mean
         of its colour channels (alpha ignored), its occupancy is (255 - value) / 255, or
         value / 255 with `negate`, and it is occupied above `occupied_thresh`, free below
-        `free_thresh`, and unknown in between."""
+        `free_thresh`, and unknown in between. A 16-bit image's values are out of 65535,
+        not 255, as nav2's map_server reads them."""
         pixels = np.asarray(pixels)
+        top = float(np.iinfo(pixels.dtype).max) if pixels.dtype.kind in "ui" else 255.0
         if pixels.ndim == 3:
             channels = 3 if pixels.shape[2] >= 3 else 1
             value = pixels[:, :, :channels].astype(np.float64).mean(axis=2)
         else:
             value = pixels.astype(np.float64)
-        occupancy = value / 255.0 if negate else (255.0 - value) / 255.0
+        occupancy = value / top if negate else (top - value) / top
         cells = np.full(value.shape, UNKNOWN, dtype=np.uint8)
         cells[occupancy > occupied_thresh] = OCCUPIED
         cells[occupancy < free_thresh] = FREE

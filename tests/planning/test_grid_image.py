@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 
@@ -121,3 +122,18 @@ def test_an_empty_image_is_an_error_not_a_traceback(tmp_path, capsys):
     assert main(["floorplan", "check", str(path)]) == 2
     printed = capsys.readouterr().out
     assert "scanned.pgm': the file is empty" in printed
+
+
+def test_a_16_bit_pgm_reads_as_the_same_grid_as_its_8_bit_self(tmp_path):
+    eight = scanned_image()
+    sixteen = eight.astype(np.uint16) * 257  # 254 -> 65278, 205 -> 52685, 0 -> 0
+    assert cv2.imwrite(str(tmp_path / "wide.pgm"), sixteen)
+    read = read_grid_image(tmp_path / "wide.pgm")
+    assert read.dtype == np.uint16
+    path = write_scanned_plan(tmp_path)
+    plan = load_floorplan(path)
+    grid8 = walls_of(plan)
+    path.write_text(path.read_text().replace("scanned.pgm", "wide.pgm"))
+    grid16 = walls_of(load_floorplan(path))
+    assert grid8 is not None and grid16 is not None
+    assert np.array_equal(grid8.cells, grid16.cells)
