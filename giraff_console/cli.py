@@ -688,6 +688,7 @@ def run_floorplan_import(args: argparse.Namespace) -> int:
     """A floor plan made from an Open-RMF building map, with a grid drawn from its walls or
     a ROS map's."""
     # Imported here: of all the commands, only this one reads RMF and ROS maps.
+    from giraff_console.planning.output_files import OutputError, check_outputs
     from giraff_console.planning.plan_writing import write_floorplan
     from giraff_console.planning.rmf_import import read_building
     from giraff_console.planning.rmf_source import BuildingError
@@ -703,7 +704,21 @@ def run_floorplan_import(args: argparse.Namespace) -> int:
     try:
         imported = read_building(args.source, args.level, args.name, args.graph)
         grid = read_ros_map(args.grid) if args.grid is not None else None
+        # Never over SOURCE or MAP, --force or not: it is for an old result.
+        inputs = [("SOURCE", args.source)]
+        outputs = [("OUT", args.out)]
+        if grid is not None:
+            inputs += [("MAP", args.grid), ("MAP's image", grid.image)]
+            image = args.out.with_suffix(grid.image.suffix)
+            if not (image.exists() and image.samefile(grid.image)):  # else used as it is
+                outputs.append(("OUT's grid image", image))
+        elif imported.drawn is not None:
+            outputs.append(("OUT's grid image", args.out.with_suffix(".pgm")))
+        check_outputs(outputs, inputs, args.force)
         written = write_floorplan(imported, args.out, grid, force=args.force)
+    except OutputError as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_USAGE
     except FloorPlanError as error:
         tell_notes(error.notes if isinstance(error, BuildingError) else
                    imported.notes if imported is not None else [])  # fmt: skip

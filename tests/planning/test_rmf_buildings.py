@@ -319,6 +319,27 @@ def test_the_grid_image_is_not_overwritten_without_force(tmp_path, capsys):
     assert load_floorplan(tmp_path / "out.yaml").grid is not None
 
 
+def test_force_never_writes_over_the_source_or_the_ros_map(tmp_path, capsys):
+    source = write_building(tmp_path)
+    kept = source.read_bytes()
+    args = ["floorplan", "import", str(source), str(source), "--level", "L1", "--force"]
+    assert main(args) == 2
+    assert f"OUT {source} would overwrite SOURCE {source}" in capsys.readouterr().err
+    assert source.read_bytes() == kept
+    # A ROS map as --grid, and OUT given its name by mistake.
+    image = np.full((600, 900), 254, dtype=np.uint8)
+    assert cv2.imwrite(str(tmp_path / "a.pgm"), image)
+    ros = tmp_path / "scan.yaml"
+    ros.write_text("image: a.pgm\nresolution: 0.05\norigin: [-2.0, -28.0, 0.0]\nnegate: 0\n"
+                   "occupied_thresh: 0.65\nfree_thresh: 0.196\n")  # fmt: skip
+    map_text = ros.read_text()
+    args = ["floorplan", "import", str(source), str(ros), "--level", "L1", "--grid", str(ros),
+            "--force"]  # fmt: skip
+    assert main(args) == 2
+    assert f"OUT {ros} would overwrite MAP {ros}" in capsys.readouterr().err
+    assert ros.read_text() == map_text and not (tmp_path / "scan.pgm").exists()
+
+
 def test_python_m_giraff_console_imports_from_another_folder(tmp_path):
     source = write_building(tmp_path)
     work = tmp_path / "elsewhere"
