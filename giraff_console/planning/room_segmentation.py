@@ -42,7 +42,7 @@ from giraff_console.planning.room_doors import (
     passable,
 )
 from giraff_console.planning.route_planner import CLEARANCE_M, ROBOT_RADIUS_M
-from giraff_console.planning.scan_grid import CROP_MARGIN_M, SPECK_M2, clean_grid
+from giraff_console.planning.scan_grid import CROP_MARGIN_M, SPECK_M2, SPECK_SIDE_M, clean_grid
 
 # Less floor than this is a cupboard, a bay window or noise, not a room to send a robot to.
 MIN_ROOM_M2 = 1.0
@@ -121,9 +121,9 @@ def segment_rooms(
     if cleaned.specks:
         notes.append(
             f"cleared {_count(cleaned.specks, 'speck')} ({cleaned.speck_cells} cells) from the "
-            f"floor: holes in it up to {SPECK_M2:g} m² (scan noise, or the legs of tables "
-            "and chairs), which the route planner would grow by the robot's radius into "
-            "discs that shut doorways"
+            f"floor: holes in it up to {SPECK_M2:g} m² and {SPECK_SIDE_M:g} m across (scan "
+            "noise, or the legs of tables and chairs), which the route planner would grow "
+            "by the robot's radius into discs that shut doorways"
         )
     redrawn = cropped or cleaned.specks > 0
     if redrawn:

@@ -11,10 +11,10 @@ And a scan is speckled: single cells a laser got wrong, a person walking past, t
 of tables and chairs. The route planner grows every occupied or unknown cell by the
 robot's radius and its clearance (route_planner.py), so a speck in a doorway shuts it,
 and half a per cent of speckle shuts most of a building's rooms off from the rest. Holes
-in the floor up to `SPECK_M2` are cleared, in the grid the rooms are found on and in the
-grid written with the plan alike, so that the plan's rooms are the ones its planner can
-reach. The robot's range finder sees the legs again as it drives (legs.py), as it sees
-anything the map does not show.
+in the floor up to `SPECK_M2` and `SPECK_SIDE_M` across are cleared, in the grid the
+rooms are found on and in the grid written with the plan alike, so that the plan's rooms
+are the ones its planner can reach. The robot's range finder sees the legs again as it
+drives (legs.py), as it sees anything the map does not show.
 """
 
 from __future__ import annotations
@@ -33,6 +33,9 @@ from giraff_console.planning.ros_map import read_grid_image, read_ros_map
 # Holes in the free space up to this size are cleared: single cells a scan got wrong, and
 # the legs of tables and chairs (a 7 cm leg is 0.005 m^2).
 SPECK_M2 = 0.05
+# ... and no longer than this either way: a glass screen or a bench's edge is as small in
+# area as a table leg, but long, and the robot must not be planned through it.
+SPECK_SIDE_M = 0.2
 # The crop keeps this much round the floor: its walls, and what lies just beyond them.
 CROP_MARGIN_M = 1.0
 # Rows of the image read into the grid at a time: OccupancyGrid.from_image holds the
@@ -95,15 +98,17 @@ def read_scan(path: str | Path) -> Scan:
 def clean_grid(grid: OccupancyGrid) -> CleanGrid:
     """`grid` with the holes in its free space up to SPECK_M2 made free."""
     cells = grid.cells.copy()
-    holes = _specks(cells == FREE, round(SPECK_M2 / grid.resolution**2))
+    holes = _specks(cells == FREE, round(SPECK_M2 / grid.resolution**2),
+                    max(1, math.floor(SPECK_SIDE_M / grid.resolution + 1e-9)))  # fmt: skip
     cells[holes > 0] = FREE
     return CleanGrid(OccupancyGrid(cells, grid.resolution, grid.origin), int(holes.max()),
                      int(np.count_nonzero(holes)))  # fmt: skip
 
 
-def _specks(free: np.ndarray, speck_cells: int) -> np.ndarray:
-    """The holes in `free` of at most `speck_cells` cells, numbered from 1 (0 elsewhere):
-    blobs of other cells with free cells all round, none on the grid's edge."""
+def _specks(free: np.ndarray, speck_cells: int, speck_side: int) -> np.ndarray:
+    """The holes in `free` of at most `speck_cells` cells and `speck_side` cells either
+    way, numbered from 1 (0 elsewhere): blobs of other cells with free cells all round,
+    none on the grid's edge."""
     count, blobs, stats, _ = cv2.connectedComponentsWithStats((~free).astype(np.uint8),
                                                               connectivity=8)  # fmt: skip
     rows, cols = free.shape
@@ -111,7 +116,9 @@ def _specks(free: np.ndarray, speck_cells: int) -> np.ndarray:
     right = left + stats[:, cv2.CC_STAT_WIDTH]
     bottom = top + stats[:, cv2.CC_STAT_HEIGHT]
     inside = (left > 0) & (top > 0) & (right < cols) & (bottom < rows)
-    speck = inside & (stats[:, cv2.CC_STAT_AREA] <= speck_cells)
+    width, height = stats[:, cv2.CC_STAT_WIDTH], stats[:, cv2.CC_STAT_HEIGHT]
+    small = (width <= speck_side) & (height <= speck_side)
+    speck = inside & small & (stats[:, cv2.CC_STAT_AREA] <= speck_cells)
     speck[0] = False  # label 0 is the free space itself
     number = np.zeros(count, dtype=np.int32)
     number[speck] = np.arange(1, np.count_nonzero(speck) + 1)

@@ -182,6 +182,20 @@ def test_a_map_without_specks_is_its_own_grid_copied(tmp_path):
     assert (tmp_path / "p.pgm").read_bytes() == (tmp_path / "map.pgm").read_bytes()
 
 
+def test_a_thin_screen_stays_in_the_grid_while_a_table_leg_is_cleared(tmp_path):
+    cells = walled(9.5, 4.5)
+    cells[40, 60:80] = 100  # a 1 m glass screen, one cell thick: 0.05 m² like a leg
+    cells[60:62, 120:122] = 100  # a table leg, 0.1 m square
+    path = plain_map(tmp_path, cells)
+    code, _, errors = rooms_command(str(path), str(tmp_path / "p.yaml"))
+    assert code == 0, errors
+    assert "cleared 1 speck (4 cells)" in errors
+    drawn = walls_of(load_floorplan(tmp_path / "p.yaml"))
+    assert drawn is not None
+    screen = [drawn.cell_of(x, 0.05 * (cells.shape[0] - 40.5)) for x in (3.1, 3.5, 3.9)]
+    assert all(drawn.cells[cell] != FREE for cell in screen)
+
+
 def test_the_lawn_seen_through_a_window_is_left_out_with_a_note(written):
     assert "left out 1 piece of floor" in written.errors
     assert all(room.at[1] < 11.0 for room in written.plan.rooms.values())
