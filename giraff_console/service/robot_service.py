@@ -14,6 +14,7 @@ stop it. A console that hangs up while holding the controls lets go of the keys 
 
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 import time
@@ -243,11 +244,9 @@ class RobotService:
         # Those that need to know who asks say so with a second parameter.
         with_console = isinstance(request, c.TakeControls | c.RunPatrol)
         stops = self._stops
-        if isinstance(request, (*STARTS_MISSION, c.Name, c.Mark)):
-            with self._plan_lock:
-                reply: Reply = handler(request, console) if with_console else handler(request)
-        else:
-            reply = handler(request, console) if with_console else handler(request)
+        plans = isinstance(request, (*STARTS_MISSION, c.Name, c.Mark))
+        with self._plan_lock if plans else contextlib.nullcontext():
+            reply: Reply = handler(request, console) if with_console else handler(request)
         if isinstance(request, STARTS_MISSION) and reply.ok and self._stops != stops:
             # A stop came while the mission was being planned, before the loop had it: the
             # stop must win. Queued after the start, so the mission ends before its first
