@@ -346,7 +346,8 @@ def run_setup(setup: Setup, folder: Path, idle_s: float, busy_s: float) -> list[
         if setup.robot == "pty":
             sim, port = start_sim_pty(stack, folder / "sim.log")
             processes["sim"] = sim.pid
-            robot = ["--port", port]
+            # The robot stands on its dock, and the operator says so (issue 25).
+            robot = ["--port", port, "--at", "dock"]
         if setup.daemon:
             daemon, path = start_daemon(stack, robot, {**os.environ, **env},
                                         folder / "daemon.log")  # fmt: skip

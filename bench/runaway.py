@@ -576,17 +576,18 @@ class Bench:
         if steps[0][0] == "headless":
             console = HeadlessConsole(
                 sim.path,
-                [*steps[0][1].split(), "--floorplan", str(floorplan)],
+                # The robot stands on its dock, and the operator says so (issue 25).
+                [*steps[0][1].split(), "--floorplan", str(floorplan), "--at", "dock"],
                 self.env,
                 self.work / "headless.out",
             )
         elif steps[0][0] == "daemon":
-            console = DaemonConsole(sim.path, ["--floorplan", str(floorplan),
+            console = DaemonConsole(sim.path, ["--floorplan", str(floorplan), "--at", "dock",
                                                "--routes", str(self.work / "routes"),
                                                "--recordings", str(self.work / "recordings")],
                                     steps[0][1].split(), self.env, self.work)  # fmt: skip
         else:
-            console = TuiConsole(sim.path, ["--floorplan", str(floorplan),
+            console = TuiConsole(sim.path, ["--floorplan", str(floorplan), "--at", "dock",
                                             "--routes", str(self.work / "routes"),
                                             "--recordings", str(self.work / "recordings")],
                                  self.env, activity.fault)  # fmt: skip

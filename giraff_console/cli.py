@@ -23,19 +23,12 @@ from giraff_console.attach_commands import (
     run_status,
     run_stop,
 )
-from giraff_console.camera.feed import DEFAULT_FPS, CameraFeed
-from giraff_console.camera.halfblock import HalfBlockRenderer
-from giraff_console.camera.markers import MarkerDetector
+from giraff_console.camera.feed import DEFAULT_FPS
 from giraff_console.camera.processors import (
     FAST_THRESHOLD,
-    CameraIntrinsics,
-    CannyEdges,
-    FastCorners,
-    FrameProcessor,
-    Pipeline,
     Undistortion,
 )
-from giraff_console.camera.source import DEFAULT_RESOLUTION, Frame, SyntheticCamera, open_camera
+from giraff_console.camera_setup import camera_feed, find_the_robot, plan_camera
 from giraff_console.clock import Clock, RealClock
 from giraff_console.data_folders import (
     data_folder,
@@ -44,7 +37,7 @@ from giraff_console.data_folders import (
     example_floorplan,
 )
 from giraff_console.go_command import add_go_parser, run_go
-from giraff_console.headless import add_board_options, add_folder_options
+from giraff_console.headless import UsageError, add_board_options, add_folder_options, placed_at
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.sessions import Sessions
@@ -52,7 +45,6 @@ from giraff_console.patrol_command import add_patrol_parser, run_patrol
 from giraff_console.planning.floorplan import (
     FloorPlan,
     FloorPlanError,
-    Landmarks,
     check_floorplan,
     load_floorplan,
 )
@@ -61,7 +53,6 @@ from giraff_console.planning.landmark_placement import (
     place_markers,
     write_landmarks,
 )
-from giraff_console.planning.landmarks import marker_detector, marker_poses
 from giraff_console.planning.marker_pages import write_pages
 from giraff_console.planning.plan_drawing import draw_plan
 from giraff_console.planning.room_graph import PlanningError, UnknownRoomError
@@ -76,11 +67,10 @@ from giraff_console.recording.session import (
     SessionStart,
     read_meta,
 )
-from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.last_stop import SIGNALS, LastStop
-from giraff_console.robot.marker_eye import hand_on
+from giraff_console.robot.localisation import PoseBasis
 from giraff_console.robot.replay import replay_poses
-from giraff_console.robot_setup import board_connector, control_loop, route_book
+from giraff_console.robot_setup import board_connector, control_loop, keep_the_pose, route_book
 from giraff_console.send_command import add_send_parser, run_send
 from giraff_console.serve_command import add_serve_parser, run_serve
 from giraff_console.service import commands as c
@@ -90,13 +80,11 @@ from giraff_console.service.runtime_folder import socket_path
 from giraff_console.service.transport import NoDaemon, TransportError
 from giraff_console.settings import Settings, SettingsError, config_path, load_settings
 from giraff_console.sim import BoardConfig, GiraffBoard, Imperfections, PtyServer
-from giraff_console.sim.camera import WorldCamera
+from giraff_console.sim.camera_server import CameraServer, CameraServerError
 from giraff_console.sim.drive import TruePose
 from giraff_console.sim.firmware import DEFAULT_FIRMWARE, FIRMWARES
 from giraff_console.sim.modem_shim import main as print_modem_shim
 from giraff_console.sim.pose_log import PoseLog
-from giraff_console.sim.surroundings import Surroundings
-from giraff_console.sim.world import World, demo_world
 from giraff_console.sim_site import SimulatedSite
 from giraff_console.simulator_options import (
     add_firmware_option,
@@ -130,16 +118,6 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--camera-fps", type=float, default=DEFAULT_FPS, metavar="FPS",
         help="cap on camera frames per second (default: %(default)s)",
-    )  # fmt: skip
-    parser.add_argument(
-        "--calibration", metavar="FILE",
-        help="OpenCV fisheye calibration (camera_matrix, distortion_coefficients, "
-        "image_width, image_height) to undistort the camera image",
-    )  # fmt: skip
-    parser.add_argument(
-        "--camera", metavar="DEVICE",
-        help="camera index, device path or video file (default: the synthetic camera with "
-        "the simulator, else camera 0; a test pattern if it is missing)",
     )  # fmt: skip
     add_folder_options(parser, after_command=False)
     parser.add_argument(
@@ -206,6 +184,14 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="FILE",
         help="write the true pose (never on the wire) to FILE every 20 ms",
     )
+    sim.add_argument(
+        "--camera", type=Path, dest="camera_socket", metavar="SOCKET",
+        help="with --floorplan: also serve what a camera on the robot sees (the plan's "
+        "walls, doors and markers, drawn from the robot's true pose) on a Unix socket at "
+        "SOCKET, only this user's, in a folder not every user may write to, and write its "
+        "calibration to SOCKET.calibration.yaml; the console reads it with --camera "
+        "unix:SOCKET --calibration SOCKET.calibration.yaml. Both are removed on exit",
+    )  # fmt: skip
 
     replay = commands.add_parser(
         "replay",
@@ -308,9 +294,11 @@ def build_parser() -> argparse.ArgumentParser:
         "landmarks", help="place markers on a floor plan's walls, or print them",
         description="Place fiducial markers (AprilTag 36h11) on FILE's walls, for the robot "
         "to find itself by: beside every doorway on both sides and along walls at least M "
-        "metres long, and write them into FILE (floorplans/README.md, \"Landmarks\"). "
-        "Markers already there stay. With --print, write one page per marker to DIR "
-        "instead, to print at actual size and put up. Exits 2 for a bad floor plan.",
+        "metres long, and write them into FILE (floorplans/README.md, \"Landmarks\"). The "
+        "walls are the rooms' outlines, or in a plan without outlines (an import, rooms "
+        "found in a scan) the walls in its grid, where the robot sees them. Markers already "
+        "there stay. With --print, write one page per marker to DIR instead, to print at "
+        "actual size and put up. Exits 2 for a bad floor plan.",
     )  # fmt: skip
     landmarks.add_argument("file", type=Path, metavar="FILE")
     landmarks_action = landmarks.add_mutually_exclusive_group()
@@ -525,8 +513,22 @@ def run_console(args: argparse.Namespace) -> int:
     start = navigator.start_pose
     if start is not None:
         # The console has no way to find the robot on the plan by itself (§2.3): it
-        # starts where the plan says, and so does the simulated robot.
-        control.place(start)
+        # starts where the plan says. The simulator's robot is put there, so that is
+        # where it stands; a real robot's is only assumed to (robot/localisation.py).
+        control.place(start, PoseBasis.GIVEN if simulator is not None else PoseBasis.ASSUMED)
+    # A real robot's last estimate, read back as an assumption, and kept from now on;
+    # unless the operator says where it stands (--at).
+    keeper = keep_the_pose(control, plan.path.resolve()) if port is not None else None
+    if args.at is not None:
+        if port is None:
+            print("giraff-console: --at: only on a real robot; the simulator's starts on its "
+                  "dock", file=sys.stderr)  # fmt: skip
+            return EXIT_USAGE
+        try:
+            control.place(placed_at(plan, args.at), PoseBasis.GIVEN)
+        except UsageError as error:
+            print(f"giraff-console: {error}", file=sys.stderr)
+            return EXIT_USAGE
     site = None
     if simulator is not None:
         site = SimulatedSite(simulator.board, plan, start, settings.motion.sensing_range)
@@ -581,6 +583,8 @@ def run_console(args: argparse.Namespace) -> int:
         app.run()
     finally:
         control.stop()
+        if keeper is not None:
+            keeper.close()
         last_stop.uninstall()
     if last_stop.signalled is not None:
         return 128 + last_stop.signalled
@@ -850,87 +854,6 @@ def run_export(args: argparse.Namespace) -> int:
     return 0
 
 
-def camera_feed(
-    device: str | None,
-    simulator: serial.SerialBase | None,
-    calibration: str | None = None,
-    fast_threshold: int = FAST_THRESHOLD,
-    fps: float = DEFAULT_FPS,
-    world: World | None = None,
-    surroundings: Surroundings | None = None,
-    landmarks: Landmarks | None = None,
-    clock: Clock | None = None,
-) -> CameraFeed:
-    """The camera asked for, else the synthetic one with the simulator (seeing `world`,
-    or a demo world, and `surroundings`, its frames stamped by `clock`, the control
-    loop's), else camera 0; a test pattern when none of them is there (§3.4.1). With
-    `landmarks`, the marker detector runs on every frame, for the localisation (see
-    `find_the_robot`); `o` shows what it finds."""
-    synthetic = None
-    camera_world = None
-    if simulator is not None:
-        camera_world = WorldCamera(world or demo_world(), surroundings=surroundings)
-        board = simulator.board
-        synthetic = SyntheticCamera(
-            lambda width, height: camera_world.render(board.true_pose, width, height),
-            (clock or RealClock()).now,
-        )
-    if device is None and synthetic is None:
-        device = "0"
-    camera = int(device) if device is not None and device.isdigit() else device
-    source, size, note = open_camera(camera, *DEFAULT_RESOLUTION, synthetic)
-    undistortion = Undistortion.from_file(calibration) if calibration else None
-    processors: list[FrameProcessor] = [FastCorners(fast_threshold), CannyEdges()]
-
-    def intrinsics(width: int, height: int) -> CameraIntrinsics | None:
-        """The intrinsics of the frames the processors see: a calibrated camera's after
-        undistortion, the synthetic camera's exactly, else unknown (markers are then
-        outlined but not placed)."""
-        if undistortion is not None:
-            return undistortion.intrinsics(width, height)
-        if camera_world is not None and feed.source is synthetic:
-            known = camera_world.intrinsics(width, height)
-            return CameraIntrinsics(known.fx, known.fy, known.cx, known.cy, known.distortion)
-        return None
-
-    if landmarks is not None:
-        processors.append(marker_detector(landmarks, intrinsics))
-    pipeline = Pipeline(processors, undistortion)
-    pipeline.toggle("fast")
-    if landmarks is not None:
-        pipeline.require("markers")
-    truecolor = os.environ.get("COLORTERM") in ("truecolor", "24bit")
-    feed = CameraFeed(
-        source, size, pipeline, HalfBlockRenderer(truecolor), lambda picture: None, fps
-    )
-    feed.note = note
-    return feed
-
-
-def find_the_robot(control: ControlLoop, camera: CameraFeed, plan: FloorPlan) -> str | None:
-    """Let the plan's markers, as the camera finds them, correct where the robot is
-    believed to be (robot/localisation.py); a note for the status log when the plan
-    has markers the camera cannot place. Only the live camera's frames count: a
-    recording played back shows where the robot was then, not where it is."""
-    markers = marker_poses(plan)
-    detector = camera.pipeline.processors.get("markers")
-    if not markers or not isinstance(detector, MarkerDetector):
-        return None
-    if detector.intrinsics(*camera.size) is None:
-        # Markers the console cannot place would leave every mission looking for one.
-        return ("markers: the plan has markers, but this camera has no calibration "
-                "(--calibration), so they are outlined but not used to find the robot")  # fmt: skip
-    control.localisation.use_markers(markers)
-    live, hand = camera.source, hand_on(control.localisation)
-
-    def listener(frame: Frame, data: dict[str, object]) -> None:
-        if camera.source is live:
-            hand(frame, data)
-
-    camera.listeners.append(listener)
-    return f"markers: finding the robot by the plan's {len(markers)} markers"
-
-
 def run_sim(args: argparse.Namespace) -> int:
     if args.modem_shim:
         return print_modem_shim()
@@ -952,6 +875,7 @@ def run_sim(args: argparse.Namespace) -> int:
         wheel_base=args.wheel_base,
     )
     board = GiraffBoard(RealClock(), config)
+    plan = None
     if args.floorplan is not None:
         try:
             plan = load_floorplan(args.floorplan)
@@ -963,6 +887,28 @@ def run_sim(args: argparse.Namespace) -> int:
             # The start room is where the robot docks (its point and heading).
             board.dock = TruePose(room.at[0], room.at[1], math.radians(room.heading or 0.0))
             board.place(board.dock)
+    camera = None
+    if args.camera_socket is not None:
+        if plan is None:
+            print("giraff-console: --camera needs --floorplan: the camera sees the plan's "
+                  "building", file=sys.stderr)  # fmt: skip
+            return EXIT_USAGE
+        try:
+            # Before any thread starts: it sets the process's umask for a moment.
+            camera = CameraServer(args.camera_socket, plan_camera(plan),
+                                  lambda: board.true_pose)  # fmt: skip
+        except (CameraServerError, OSError) as error:
+            print(f"giraff-console: {error}", file=sys.stderr)
+            return EXIT_USAGE
+    try:
+        return serve_board(board, args, camera)
+    finally:
+        if camera is not None:
+            camera.close()
+
+
+def serve_board(board: GiraffBoard, args: argparse.Namespace, camera: CameraServer | None) -> int:
+    """The board on a new pty, and `camera` beside it, until SIGINT or SIGTERM."""
     server = PtyServer(board, paced=args.pace)
     signal.signal(signal.SIGTERM, lambda *_: server.stop())
     signal.signal(signal.SIGINT, lambda *_: server.stop())
@@ -970,9 +916,17 @@ def run_sim(args: argparse.Namespace) -> int:
         pose_log = PoseLog(board, args.pose_log) if args.pose_log else None
     except OSError as error:
         print(f"giraff-console: cannot write the pose log: {error}", file=sys.stderr)
+        server.close()
         return EXIT_USAGE
+    if camera is not None:
+        camera.start()  # before the pty's path is printed: then both are ready
     print(server.path, flush=True)
     print(f"giraff-console sim: board on {server.path}; Ctrl-C to stop", file=sys.stderr)
+    if camera is not None:
+        print(f"giraff-console sim: camera on {camera.path}, calibration "
+              f"{camera.calibration_path}; the console takes them with --camera "
+              f"unix:{camera.path} --calibration {camera.calibration_path}",
+              file=sys.stderr)  # fmt: skip
     try:
         server.serve_forever()
     finally:

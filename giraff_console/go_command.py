@@ -21,6 +21,7 @@ from pathlib import Path
 from giraff_console.headless import (
     EXIT_ARRIVED,
     EXIT_FAILED,
+    EXIT_UNVERIFIED,
     EXIT_USAGE,
     HeadlessRobot,
     UsageError,
@@ -40,8 +41,10 @@ def add_go_parser(commands: argparse._SubParsersAction, example: Path) -> None:
         "taken to stand) to ROOM and drive it: clothoid turns, a jerk-limited speed "
         "profile, steering from the pose estimate (the odometry corrected by the plan's "
         "markers), replanning round what the range finder sees. Progress goes to "
-        "standard error. Exits 0 when the robot arrived, 1 when it did not (the reason is "
-        "printed), 2 for an unknown room or a bad floor plan.",
+        "standard error. Exits 0 when the robot arrived with its pose confirmed by a "
+        "marker, 3 when it arrived by an estimate nothing confirmed (dead reckoning, or no "
+        "marker in sight at the goal), 1 when it did not arrive (the reason is printed), 2 "
+        "for an unknown room or a bad floor plan.",
     )
     go.add_argument(
         "room", metavar="ROOM",
@@ -79,8 +82,11 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
         print(json.dumps(data))
     else:
         goal = "the dock" if args.room == DOCK else "the room's point"
-        print(f"{mission.name}: {report.why}; {data['error_m'] * 100:.1f} cm and "
+        print(f"{mission.name}: {report.detail or report.why}; {data['error_m'] * 100:.1f} cm and "
               f"{data['heading_error_deg']:.1f}° from {goal}, in "
               f"{data['duration_s']:.1f} s (jerk-limited optimum "
               f"{data['time_optimal_s']:.1f} s), {len(data['stops'])} stops")  # fmt: skip
-    return EXIT_ARRIVED if report.arrived else EXIT_FAILED
+    if report.arrived:
+        return EXIT_ARRIVED
+    arrived = report.outcome is not None and report.outcome.arrived
+    return EXIT_UNVERIFIED if arrived else EXIT_FAILED

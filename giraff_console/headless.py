@@ -31,8 +31,11 @@ import rich.progress
 import serial
 from rich.console import Console
 
+from giraff_console.camera.feed import CameraFeed
+from giraff_console.camera_setup import camera_feed, find_the_robot
 from giraff_console.clock import Clock, RealClock
 from giraff_console.data_folders import default_recordings, default_routes
+from giraff_console.missions.docking import DOCK
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.path_mission import Sense
@@ -40,19 +43,22 @@ from giraff_console.planning.floorplan import FloorPlan, FloorPlanError, load_fl
 from giraff_console.planning.landmarks import fit_on_walls, marker_poses, marker_walls
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.robot.last_stop import LastStop
+from giraff_console.robot.localisation import PoseBasis
 from giraff_console.robot.loop_events import LoopEvent, Note
 from giraff_console.robot.marker_eye import EYE_FPS, EYE_SIZE, MarkerEye
 from giraff_console.robot.mission import TEXT_BAR, Mission
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.telemetry import LinkState, Telemetry
-from giraff_console.robot_setup import board_connector, control_loop
+from giraff_console.robot_setup import board_connector, control_loop, keep_the_pose
 from giraff_console.settings import Settings
 from giraff_console.sim import GiraffBoard
 from giraff_console.sim.drive import TruePose
 from giraff_console.sim_site import SimulatedSite, plan_world
 from giraff_console.simulator_options import add_firmware_option, simulator_url
 
-EXIT_ARRIVED, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+# How `go` and `patrol` end: arrived with the pose confirmed by a marker; not arrived;
+# a mistake in the command; arrived, but by an estimate nothing confirmed (issue 25).
+EXIT_ARRIVED, EXIT_FAILED, EXIT_USAGE, EXIT_UNVERIFIED = 0, 1, 2, 3
 # Seconds of real time to wait for the board's first answer.
 CONNECT_TIMEOUT_S = 10.0
 # The options that only mean something in the simulated building.
@@ -91,6 +97,27 @@ def add_board_options(parser: argparse.ArgumentParser, example: Path, *,
         "--sim-speed", type=float, default=default(1.0), metavar="K",
         help="run the simulator's clock K times faster than real time; inf for as fast as "
         "it can (default: 1)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--camera", metavar="DEVICE", default=default(None),
+        help="camera index, device path or video file; or unix:PATH, a camera served on a "
+        "Unix socket, as `sim --camera PATH` serves one (give --calibration "
+        "PATH.calibration.yaml, which it writes). Default: the synthetic camera with the "
+        "simulator, else camera 0; a test pattern if it is missing. Markers are found in "
+        "its frames only with a calibration",
+    )  # fmt: skip
+    parser.add_argument(
+        "--calibration", metavar="FILE", default=default(None),
+        help="OpenCV fisheye calibration (camera_matrix, distortion_coefficients, "
+        "image_width, image_height) to undistort the camera image and place markers",
+    )  # fmt: skip
+    parser.add_argument(
+        "--at", metavar="ROOM[:DEG]", default=default(None),
+        help="the robot stands at ROOM's point (dock: on its dock), facing the room's "
+        "heading or DEG degrees: you say so, and it drives from there without a marker to "
+        "confirm it. Without it, a real robot's pose is only assumed (the one it was last "
+        "believed at, or the dock) until a marker confirms it, and no mission drives "
+        "from an assumed pose. Never put it in a service unit that restarts the daemon",
     )  # fmt: skip
     add_firmware_option(parser, after_command=after_command)
 
@@ -174,6 +201,9 @@ class HeadlessRobot:
                 raise UsageError(f"{', '.join(given)}: only with the simulator (--sim)")
         if not args.sim_speed > 0:  # NaN too
             raise UsageError("--sim-speed must be positive")
+        if port is None and args.at is not None:
+            raise UsageError("--at: only on a real robot; the simulator's starts on its dock, "
+                             "and --sim-start puts it elsewhere")  # fmt: skip
         try:
             self.plan = load_floorplan(args.floorplan or example)
             self.navigator = Navigator(self.plan, walls_of(self.plan), settings.robot_radius)
@@ -217,22 +247,33 @@ class HeadlessRobot:
             # --imperfect, none on the ideal board (robot/localisation.py).
             control.localisation.casters_turn_up_to(self.site.caster_drift)
         if self.start is not None:
-            # The console cannot know where the robot was put down: it assumes the dock,
-            # and the markers correct that (robot/localisation.py, "No starting guess").
-            control.place(self.start)
+            # The simulator made here puts its robot on the dock, and so the command says
+            # where it stands, unless told otherwise (--sim-start). A real robot's console
+            # cannot know where it was put down: it assumes the dock, which the markers
+            # correct, and without them no mission sets off from it (robot/localisation.py,
+            # "No starting guess").
+            told = self.site is not None and args.sim_start is None
+            control.place(self.start, PoseBasis.GIVEN if told else PoseBasis.ASSUMED)
         if print_notes:
             control.subscribe(_print_note, vital=True)
-        # The markers find the robot only through a camera, which `go` and `patrol` have
-        # with the simulator alone (its synthetic one); on a real robot they drive by
-        # the odometry, as the console does with a camera that has no calibration.
+        # A real robot: where it was last believed to be, read back as an assumption, and
+        # kept from now on (robot/pose_keeper.py).
+        self.keeper = None
+        if port is not None:
+            self.keeper = keep_the_pose(control, self.plan.path.resolve())
+        if args.at is not None:
+            control.place(placed_at(self.plan, args.at), PoseBasis.GIVEN)
+        # The markers find the robot through a camera: the simulator's synthetic one,
+        # looked through on the loop's thread, or the robot's own, on a thread of its own
+        # as the console's is; without a calibration a real camera cannot place them.
         self.eye: MarkerEye | None = None
+        self.camera: CameraFeed | None = None
         if self.plan.landmarks is not None and not args.no_landmarks:
             if self.site is None:
-                control.note("markers: not used without a camera (go and patrol have the "
-                             "simulator's only): driving by the odometry")  # fmt: skip
+                self.camera = self._robot_camera(args, clock)
             else:
                 self.eye = self.site.eye(control.localisation, clock, fps=eye_fps, size=eye_size)
-        self.landmarks = self.eye is not None
+        self.landmarks = self.eye is not None or self.camera is not None
         # What `go` and `patrol` build their missions with: the loop's pose and estimate,
         # its tick, the settings' limits and patience, and the simulator's range finder.
         self.drives = DriveSetup.on_loop(control, self.navigator, limits=self.limits,
@@ -248,6 +289,30 @@ class HeadlessRobot:
             # The simulator is always on a stepped virtual clock: the eye looks on the
             # loop's thread, between ticks (robot/marker_eye.py).
             control.subscribe(look)
+
+    def _robot_camera(self, args: argparse.Namespace, clock: Clock) -> CameraFeed | None:
+        """The robot's camera, its markers handed to the localisation; None, with a note,
+        if it cannot place them (no calibration)."""
+        try:
+            feed = camera_feed(args.camera, None, args.calibration,
+                               landmarks=self.plan.landmarks, clock=clock)  # fmt: skip
+        except (OSError, ValueError) as error:
+            raise UsageError(f"--calibration: {error}") from None
+        feed.shown = False  # nothing to draw: only the markers are wanted
+        feed.pipeline.toggle("fast")  # on for the screen by default
+        found = find_the_robot(self.control, feed, self.plan)
+        self.control.note(f"camera: {feed.note}; {found}")
+        if not self.control.localisation.markers:
+            feed.stop()
+            return None
+        return feed
+
+    def close(self) -> None:
+        """Stop what runs beside the loop: the camera, and the pose kept (its last)."""
+        if self.camera is not None:
+            self.camera.stop()
+        if self.keeper is not None:
+            self.keeper.close()
 
     @property
     def sense(self) -> Sense | None:
@@ -292,6 +357,8 @@ class HeadlessRobot:
         last_stop = LastStop(control)
         last_stop.install()
         control.start(stepped=self.stepped)
+        if self.camera is not None:
+            self.camera.start()
         try:
             if not connected.wait(CONNECT_TIMEOUT_S):
                 return False
@@ -299,6 +366,7 @@ class HeadlessRobot:
             return True
         finally:
             control.stop()
+            self.close()
             last_stop.uninstall()
 
 
@@ -365,6 +433,24 @@ def built_in_simulator(firmware: str | None, seed: int | None, faults: bool) -> 
     simulator.board = GiraffBoard(simulator.clock, config)
     simulator.open()
     return simulator
+
+
+def placed_at(plan: FloorPlan, text: str) -> Pose:
+    """The pose `--at ROOM[:DEG]` says: the room's point (the start room's for `dock`),
+    facing DEG or the room's heading. UsageError if there is no such room, or neither
+    gives a heading."""
+    name, _, degrees = text.partition(":")
+    room = plan.rooms.get(plan.start if name == DOCK and plan.start is not None else name)
+    if room is None:
+        raise UsageError(f"--at: no room called {name!r}")
+    try:
+        heading = _finite(float(degrees)) if degrees else room.heading
+    except ValueError:
+        raise UsageError(f"--at wants ROOM or ROOM:DEGREES, not {text!r}") from None
+    if heading is None:
+        raise UsageError(f"--at {name}: the room has no heading; say which way the robot "
+                         f"faces: --at {name}:DEGREES")  # fmt: skip
+    return Pose(room.at[0], room.at[1], math.radians(heading))
 
 
 def _moved_plan(plan: FloorPlan, moves: list[str]) -> FloorPlan | None:

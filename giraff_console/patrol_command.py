@@ -11,9 +11,12 @@ file. Headless, it takes no snapshots and does not go to charge.
 patrol ends on the way to it: where the robot believes it is, where it really is (with
 the simulator), how far that is from the stop's goal (the room's point and heading, as
 `go` measures it, or the end of the route's taught path) and how well the estimate
-knew it (`sigma_m`); then a last line for the patrol. The exit code is `go`'s: 0 every
-stop of every round arrived, 1 not (the reason is printed), 2 a mistake in the command
-(no such patrol, a bad patrol file or floor plan, a room the plan does not have).
+knew it (`sigma_m`), the stop's `outcome` and its `detail` (a stop that failed says
+why, and the patrol goes on to the next: missions/patrol.py); then a last line for the
+patrol. The exit codes are `go`'s: 0 every stop of every round arrived, its pose
+confirmed; 3 every stop arrived, some unconfirmed; 1 not (the reason is printed); 2 a
+mistake in the command (no such patrol, a bad patrol file or floor plan, a room the
+plan does not have).
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from giraff_console.data_folders import data_folder, default_routes
 from giraff_console.headless import (
     EXIT_ARRIVED,
     EXIT_FAILED,
+    EXIT_UNVERIFIED,
     EXIT_USAGE,
     HeadlessRobot,
     UsageError,
@@ -50,7 +54,11 @@ from giraff_console.missions.patrol import (
 )
 from giraff_console.missions.route import Route, RouteError, load_route
 from giraff_console.protocol.codec import Command
+from giraff_console.robot.mission import Outcome
 from giraff_console.settings import Settings
+
+# The stops that got there, confirmed or not, as their `outcome` is printed.
+ARRIVED_VALUES = frozenset(outcome.value for outcome in Outcome if outcome.arrived)
 
 
 def add_patrol_parser(commands: argparse._SubParsersAction, example: Path) -> None:
@@ -60,8 +68,12 @@ def add_patrol_parser(commands: argparse._SubParsersAction, example: Path) -> No
         description="Run patrol NAME: each round, each stop in turn (a room of the floor "
         "plan, driven to as `go` drives, or a taught route), from the floor plan's start "
         "room. Progress goes to standard error; --json prints a line for each stop and one "
-        "for the patrol. Exits 0 when every stop arrived, 1 when one did not (the reason "
-        "is printed), 2 for an unknown patrol or room, or a bad patrol file or floor plan.",
+        "for the patrol. A stop that fails on the way (touched something again and again, "
+        "or no way there) is reported and the patrol goes on to the next, unless the file "
+        "says carry_on: false. Exits 0 when every stop arrived with its pose confirmed by "
+        "a marker, 3 when every stop arrived but some unconfirmed (dead reckoning), 1 "
+        "when one did not (the reason is printed), 2 for an unknown patrol or room, or a "
+        "bad patrol file or floor plan.",
     )
     patrol.add_argument(
         "name", metavar="NAME",
@@ -90,7 +102,7 @@ def run_patrol(args: argparse.Namespace, settings: Settings, port: str | None,
     try:
         # The first leg is planned here, before the loop starts (as `go` plans).
         run = _TimedPatrol(patrol, routes, log.reached, go=robot.drives.go,
-                           follow=robot.drives.follow)  # fmt: skip
+                           follow=robot.drives.follow, notify=robot.control.note)  # fmt: skip
     except PatrolError as error:
         return fail(str(error), EXIT_USAGE)
     log.run = run
@@ -102,7 +114,9 @@ def run_patrol(args: argparse.Namespace, settings: Settings, port: str | None,
     else:
         print(f"patrol {patrol.name}: {summary['why']}; {summary['arrived']} of "
               f"{summary['stops']} stops arrived, in {summary['duration_s']:.0f} s")  # fmt: skip
-    return EXIT_ARRIVED if summary["why"] == "done" and log.all_arrived else EXIT_FAILED
+    if summary["why"] != "done" or not log.all_reached:
+        return EXIT_FAILED
+    return EXIT_ARRIVED if log.all_arrived else EXIT_UNVERIFIED
 
 
 def _load(name: str, folder: Path) -> tuple[Patrol, dict[str, Route]]:
@@ -144,7 +158,9 @@ class StopLog:
         self.routes = routes
         self.run: _TimedPatrol | None = None
         self.records: list[dict] = []
+        # Every stop so far arrived with its pose confirmed; arrived at all.
         self.all_arrived = True
+        self.all_reached = True
         self.why = "not started"
         self.ended_at: float | None = None
         self._lines: queue.SimpleQueue[dict] = queue.SimpleQueue()
@@ -155,8 +171,10 @@ class StopLog:
     # On the loop's thread.
 
     def reached(self, stop: StopReached) -> None:
-        self._record(stop.round, stop.stop_index, True, "done")
-        dwell = self.patrol.stops[stop.stop_index - 1].dwell
+        """A stop's leg ended: arrived (confirmed or not), or failed and skipped."""
+        why = "done" if stop.reached else f"failed: {stop.detail}"
+        self._record(stop.round, stop.stop_index, stop.outcome, why, stop.detail)
+        dwell = self.patrol.stops[stop.stop_index - 1].dwell if stop.reached else 0.0
         self._leg_from = self.robot.control.clock.now() + dwell
 
     def ended(self, why: str) -> None:
@@ -166,9 +184,10 @@ class StopLog:
         leg = len(self.records)
         if why != "done" and leg < self.patrol.rounds * count:
             # Ended on the way to the next stop: it did not arrive there.
-            self._record(leg // count + 1, leg % count + 1, False, why)
+            self._record(leg // count + 1, leg % count + 1, None, why, why)
 
-    def _record(self, round_number: int, index: int, arrived: bool, why: str) -> None:
+    def _record(self, round_number: int, index: int, outcome: Outcome | None, why: str,
+                detail: str) -> None:  # fmt: skip
         control, now = self.robot.control, self.robot.control.clock.now()
         stop = self.patrol.stops[index - 1]
         started = self.run.started_at if self.run is not None else None
@@ -178,7 +197,8 @@ class StopLog:
         estimate = control.estimate()
         goal = self._goal(stop)
         report = GoReport(
-            room=stop.place, arrived=arrived, why=why, pose_estimate=estimate.pose,
+            room=stop.place, outcome=outcome, why=why, detail=detail,
+            pose_estimate=estimate.pose,
             goal=goal[0] if goal else (math.nan, math.nan),
             goal_heading=goal[1] if goal else None,
             duration_s=now - leg_from, time_optimal_s=0.0,
@@ -189,8 +209,10 @@ class StopLog:
             "round": round_number,
             "room": stop.room,
             "route": stop.route,
-            "arrived": arrived,
+            "arrived": report.arrived,
+            "outcome": measured["outcome"],
             "why": why,
+            "detail": detail,
             "pose_estimate": measured["pose_estimate"],
             "pose_true": measured["pose_true"],
             "error_m": measured["error_m"] if goal else None,
@@ -200,10 +222,13 @@ class StopLog:
             "found": estimate.found,
             "seen": list(estimate.seen),
             "rejected": list(estimate.rejected),
+            "since_fix_m": round(estimate.since_fix_m, 3),
+            "basis": estimate.basis.value,
             "duration_s": measured["duration_s"],
             "t_s": round(now - started, 3),
         }
-        self.all_arrived = self.all_arrived and arrived
+        self.all_arrived = self.all_arrived and report.arrived
+        self.all_reached = self.all_reached and outcome is not None and outcome.arrived
         self.records.append(record)
         self._lines.put(record)
 
@@ -243,6 +268,7 @@ class StopLog:
             "rounds": self.patrol.rounds,
             "stops": self.patrol.rounds * len(self.patrol.stops),
             "arrived": sum(record["arrived"] for record in self.records),
+            "failed": sum(record["outcome"] not in ARRIVED_VALUES for record in self.records),
             "why": self.why,
             "duration_s": round(end - started, 3) if started is not None and end else 0.0,
             "landmarks": self.robot.landmarks,
@@ -257,7 +283,7 @@ class StopLog:
 
 def _stop_line(record: dict) -> str:
     place = record["room"] or record["route"]
-    how = "arrived" if record["arrived"] else record["why"]
+    how = record["detail"] or record["why"]
     where = ""
     if record["error_m"] is not None:
         where = (f"; {record['error_m'] * 100:.1f} cm and {record['heading_error_deg']:.1f}° "

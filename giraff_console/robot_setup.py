@@ -14,13 +14,15 @@ from pathlib import Path
 import serial
 
 from giraff_console.clock import Clock
-from giraff_console.data_folders import patrol_runs
+from giraff_console.data_folders import data_home, patrol_runs
 from giraff_console.link import BoardLink
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
 from giraff_console.robot.control_loop import Connect, ControlLoop
 from giraff_console.robot.deadman import Deadman
+from giraff_console.robot.localisation import PoseBasis
+from giraff_console.robot.pose_keeper import PoseKeeper, PoseKeeperError, read_kept
 from giraff_console.robot.teleop import Teleop
 from giraff_console.settings import Settings
 
@@ -66,3 +68,27 @@ def route_book(control: ControlLoop, sessions: Sessions, routes: Path, drives: D
     return RouteBook(control, sessions, routes, control.note, drives,
                      settings.battery.levels(), settings.teleop.undock_distance,
                      runs=patrol_runs())  # fmt: skip
+
+
+# Where a real robot's last pose estimate is kept (robot/pose_keeper.py).
+KEPT_POSE = "pose.json"
+
+
+def keep_the_pose(control: ControlLoop, plan: Path) -> PoseKeeper:
+    """A real robot's last estimate on the floor plan `plan`, read back as an assumption
+    and placed, if there is one; and kept from now on (robot/pose_keeper.py). Before the
+    loop starts."""
+    path = data_home() / KEPT_POSE
+    try:
+        kept = read_kept(path, plan)
+    except PoseKeeperError as error:
+        control.note(f"{error}: taking the robot to be on its dock, unconfirmed")
+        kept = None
+    if kept is not None:
+        control.place(kept.pose, PoseBasis.ASSUMED, kept.as_assumed())
+        pose = kept.pose
+        control.note(f"pose: last believed at ({pose.x:.2f}, {pose.y:.2f}), "
+                     f"{pose.heading_deg:.0f}°; unconfirmed until a marker says so")  # fmt: skip
+    keeper = PoseKeeper(path, plan)
+    control.subscribe(keeper.hear)
+    return keeper

@@ -144,6 +144,8 @@ def run_serve(args: argparse.Namespace, settings: Settings, port: str | None,
                          signals=SIGNALS - {signal.SIGHUP})  # fmt: skip
     last_stop.install()
     control.start(stepped=robot.stepped)
+    if robot.camera is not None:
+        robot.camera.start()
     sys.stderr.write(f"giraff-console: serving the robot at {path}\n")
     if robot.stepped is None:
         sys.stderr.write(f"giraff-console: the control loop runs at {control.priority}\n")
@@ -165,6 +167,7 @@ def run_serve(args: argparse.Namespace, settings: Settings, port: str | None,
             port_for_others.close()
         service.close()
         control.stop()
+        robot.close()
         journal.close()
         last_stop.uninstall()
     return 128 + last_stop.signalled if last_stop.signalled is not None else 0

@@ -61,12 +61,9 @@ class SimulatedSite:
             # charges on later firmware (issue 13).
             board.dock = TruePose(start.x, start.y, start.heading)
             board.place(board.dock)
-        self.surroundings = Surroundings()
         # The plan's own grid, if it has one: where a plan without outlines has its walls.
         self._grid = walls_of(plan) if plan.grid is not None else None
-        for door in plan.doors:
-            if not door.open:
-                self.surroundings.close_door(door.id, *doorway(plan, door, self._grid))
+        self.surroundings = shut_doors(plan, self._grid)
         # The building is solid: a robot of `robot_radius` that drives into a wall stops
         # against it, wheels stalled (sim/collision.py). The walls are the ones the
         # camera sees (building_walls). Closed doors and boxes are the surroundings',
@@ -136,6 +133,16 @@ class SimulatedSite:
     def unblock(self, x: float, y: float) -> list[str]:
         """Take away the box at (x, y), or the nearest within 0.5 m; the ids taken."""
         return self.surroundings.unblock(x, y)
+
+
+def shut_doors(plan: FloorPlan, grid: OccupancyGrid | None) -> Surroundings:
+    """The building's surroundings as the plan leaves them: its shut doors shut, nothing
+    else put down. `grid` is the plan's, if it has one."""
+    surroundings = Surroundings()
+    for door in plan.doors:
+        if not door.open:
+            surroundings.close_door(door.id, *doorway(plan, door, grid))
+    return surroundings
 
 
 def building_walls(plan: FloorPlan, grid: OccupancyGrid | None = None) -> list[WallSegment]:

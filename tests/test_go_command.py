@@ -14,8 +14,9 @@ from giraff_console.headless import built_in_simulator
 SMALL_EYE = ("--eye-size", "400x300", "--eye-fps", "5")
 
 KEYS = {
-    "arrived", "room", "why", "pose_estimate", "pose_true", "error_m", "heading_error_deg",
-    "duration_s", "time_optimal_s", "stops", "max_jerk", "gear_jumps", "replans",
+    "arrived", "outcome", "room", "why", "detail", "pose_estimate", "pose_true", "error_m",
+    "heading_error_deg", "duration_s", "time_optimal_s", "stops", "max_jerk", "gear_jumps",
+    "replans", "contacts", "since_fix_m",
 }  # fmt: skip
 
 
@@ -26,11 +27,14 @@ def go(capsys, *args: str) -> tuple[int, dict | None, str]:
 
 
 def test_go_arrives_and_reports_as_json(capsys):
-    # Dead reckoning: on a perfect simulator, what the drive does by itself.
+    # Dead reckoning: on a perfect simulator, what the drive does by itself; nothing
+    # confirms where it ends, so it says so (exit 3).
     code, report, err = go(capsys, "day-room", "--sim-speed", "inf", "--json", "--no-landmarks")
-    assert code == 0
+    assert code == 3
     assert set(report) == KEYS
-    assert report["arrived"] and report["room"] == "day-room" and report["why"] == "done"
+    assert report["outcome"] == "arrived_unverified" and not report["arrived"]
+    assert report["room"] == "day-room" and report["why"] == "done"
+    assert "odometry alone" in report["detail"] and report["since_fix_m"] > 30
     assert report["error_m"] <= 0.03 and report["gear_jumps"] == 0
     assert report["duration_s"] <= 1.15 * report["time_optimal_s"]
     assert len(report["pose_true"]) == 3 and len(report["pose_estimate"]) == 3
@@ -42,7 +46,7 @@ def test_a_faster_clock_changes_nothing_but_the_wall_time(capsys):
     _, fast, _ = go(capsys, "room-105", "--sim-speed", "inf", "--json", *SMALL_EYE)
     _, slower, _ = go(capsys, "room-105", "--sim-speed", "400", "--json", *SMALL_EYE)
     assert fast == slower
-    assert fast["arrived"] and fast["error_m"] <= 0.03
+    assert fast["arrived"] and fast["outcome"] == "arrived" and fast["error_m"] <= 0.03
 
 
 def test_faults_off_keeps_the_imperfect_odometry_but_not_its_stalls_and_estops():

@@ -15,9 +15,9 @@ from giraff_console.cli import main
 # A small camera, a few frames a second: enough to find the robot by, and quick.
 SMALL_EYE = ("--eye-size", "400x300", "--eye-fps", "5")
 STOP_KEYS = {
-    "stop", "round", "room", "route", "arrived", "why", "pose_estimate", "pose_true",
-    "error_m", "heading_error_deg", "sigma_m", "sigma_heading_deg", "found", "seen",
-    "rejected", "duration_s", "t_s",
+    "stop", "round", "room", "route", "arrived", "outcome", "why", "detail", "pose_estimate",
+    "pose_true", "error_m", "heading_error_deg", "sigma_m", "sigma_heading_deg", "found",
+    "seen", "rejected", "since_fix_m", "basis", "duration_s", "t_s",
 }  # fmt: skip
 
 
@@ -70,19 +70,38 @@ def test_taught_routes_drive_headless_and_are_measured_from_their_path_end(tmp_p
     write_patrol(tmp_path, "out-and-back", [{"route": "out"}, {"room": "dock"}], rounds=2)
     code, lines, _ = patrol(capsys, "out-and-back", "--routes", str(tmp_path), "--sim",
                             "--sim-speed", "inf", "--json", "--no-landmarks")  # fmt: skip
-    assert code == 0
+    # Every stop reached, none confirmed by a marker: dead reckoning's exit code.
+    assert code == 3
     *stops, summary = lines
     assert [(s["round"], s["route"] or s["room"]) for s in stops] == [
         (1, "out"), (1, "dock"), (2, "out"), (2, "dock"),
     ]  # fmt: skip
-    assert all(s["arrived"] and s["error_m"] <= 0.03 for s in stops)
+    assert all(s["outcome"] == "arrived_unverified" and s["error_m"] <= 0.03 for s in stops)
     assert not summary["landmarks"] and summary["eye"] is None
 
 
-def test_a_stop_that_is_not_reached_ends_the_patrol_and_exits_1(tmp_path, capsys):
-    # A box in the dock's doorway: the robot sees it, and there is no other way out.
+def test_a_stop_that_cannot_be_reached_is_reported_and_the_patrol_goes_on(tmp_path, capsys):
+    # A box in the dock's doorway: the robot sees it, and there is no other way out of
+    # the dock room. The kitchen cannot be reached; the dock, where it stands, can.
     write_patrol(tmp_path, "boxed-in", [{"room": "kitchen"}, {"room": "dock"}], rounds=2)
     code, lines, err = patrol(capsys, "boxed-in", "--routes", str(tmp_path), "--sim",
+                              "--sim-speed", "inf", "--json", "--no-landmarks",
+                              "--block", "2,10.3")  # fmt: skip
+    assert code == 1
+    *stops, summary = lines
+    assert [(s["round"], s["room"], s["outcome"]) for s in stops] == [
+        (1, "kitchen", "blocked"), (1, "dock", "arrived_unverified"),
+        (2, "kitchen", "blocked"), (2, "dock", "arrived_unverified"),
+    ]  # fmt: skip
+    assert "no way" in stops[0]["detail"] and stops[0]["error_m"] > 10
+    assert summary["why"] == "done" and (summary["stops"], summary["failed"]) == (4, 2)
+    assert "going on to the next stop" in err and "Traceback" not in err
+
+
+def test_a_patrol_told_not_to_carry_on_ends_at_its_first_failed_stop(tmp_path, capsys):
+    path = write_patrol(tmp_path, "strict", [{"room": "kitchen"}, {"room": "dock"}], rounds=2)
+    path.write_text(path.read_text() + "carry_on: false\n")
+    code, lines, err = patrol(capsys, "strict", "--routes", str(tmp_path), "--sim",
                               "--sim-speed", "inf", "--json", "--no-landmarks",
                               "--block", "2,10.3")  # fmt: skip
     assert code == 1

@@ -23,6 +23,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from giraff_console.link.motor_state import MotorState
+from giraff_console.missions.certainty import trusted, unverified
 from giraff_console.missions.go_to import GoReport, GoTo, go_report
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.path_mission import Course, PathMission, Sense
@@ -34,7 +35,7 @@ from giraff_console.planning.route_planner import Arrival
 from giraff_console.protocol.codec import Command
 from giraff_console.robot.battery import Battery
 from giraff_console.robot.localisation import Estimate
-from giraff_console.robot.mission import Mission, Progress
+from giraff_console.robot.mission import Mission, Outcome, Progress
 from giraff_console.robot.odometry import Pose
 
 # What `go` takes to mean the dock rather than a room.
@@ -82,7 +83,8 @@ class GoToPose(PathMission):
                  turn_limits: TurnLimits | None = None, sense: Sense | None = None,
                  notify: Callable[[str], None] = lambda text: None,
                  patience: Patience | None = None,
-                 estimate: Callable[[], Estimate] | None = None) -> None:  # fmt: skip
+                 estimate: Callable[[], Estimate] | None = None,
+                 touched: Callable[[], None] = lambda: None) -> None:  # fmt: skip
         self.goal = goal
         self.arrival = arrival
         self.name = f"go {goal}"
@@ -90,7 +92,7 @@ class GoToPose(PathMission):
         self._there_already = self._there(pose())
         super().__init__(navigator, pose, tick=tick, limits=limits, turn_limits=turn_limits,
                          sense=sense, notify=notify, patience=patience,
-                         estimate=estimate)  # fmt: skip
+                         estimate=estimate, touched=touched)  # fmt: skip
         if self._there_already:
             self.time_optimal = 0.0
 
@@ -103,13 +105,17 @@ class GoToPose(PathMission):
         return math.dist((here.x, here.y), arrival.point) <= ON_DOCK_M and off <= ON_DOCK_DEG
 
     def step(self, now: float, state: MotorState | None) -> list[Command]:
-        if self._there_already:
+        if self._there_already and state is not None:
             self._there_already = False
             estimate = self._estimate() if self._estimate is not None else None
-            # A robot not found yet is on its dock only by assumption: it looks first.
-            if estimate is None or not estimate.lost:
+            # A robot not found yet is on its dock only by assumption: it looks first
+            # (or, with nothing to look for, is not started: path_mission.py).
+            if unverified(estimate, self.retry) is None and (estimate is None or not estimate.lost):
                 # Out and back in again would only turn the robot round twice on the spot.
-                self._started = self._ended = now
+                self._started = self._now = now
+                sure = estimate is not None and estimate.landmarks and trusted(estimate)
+                self._end(Outcome.ARRIVED if sure else Outcome.ARRIVED_UNVERIFIED,
+                          "on the dock already")  # fmt: skip
                 return []
         return super().step(now, state)
 
@@ -133,14 +139,15 @@ def go_mission(navigator: Navigator, room: str, pose: Callable[[], Pose], *, tic
                limits: MotionLimits | None = None, sense: Sense | None = None,
                notify: Callable[[str], None] = lambda text: None,
                patience: Patience | None = None,
-               estimate: Callable[[], Estimate] | None = None) -> GoTo | GoToPose:  # fmt: skip
+               estimate: Callable[[], Estimate] | None = None,
+               touched: Callable[[], None] = lambda: None) -> GoTo | GoToPose:  # fmt: skip
     """What `go ROOM` drives, for every front end: to a room of the plan, or, for
     `dock`, onto the dock square on. PlanningError if there is no way. With `estimate`
     the mission minds how well the robot knows where it is (path_mission.py)."""
     if room == DOCK:
         return GoToPose(navigator, DOCK, dock_arrival(navigator), pose, tick=tick,
                         limits=limits, sense=sense, notify=notify, patience=patience,
-                        estimate=estimate)  # fmt: skip
+                        estimate=estimate, touched=touched)  # fmt: skip
     return GoTo(
         navigator,
         room,
@@ -151,6 +158,7 @@ def go_mission(navigator: Navigator, room: str, pose: Callable[[], Pose], *, tic
         notify=notify,
         patience=patience,
         estimate=estimate,
+        touched=touched,
     )
 
 

@@ -43,6 +43,7 @@ class DriveSetup:
     notify: Callable[[str], None] = lambda text: None
     patience: Patience | None = None
     estimate: Callable[[], Estimate] | None = None
+    touched: Callable[[], None] = lambda: None
 
     @classmethod
     def on_loop(cls, control: ControlLoop, navigator: Navigator | None, *,
@@ -52,29 +53,32 @@ class DriveSetup:
         """For missions the loop `control` runs: its pose, tick and estimate, and, unless
         `notify`, its notes, which reach whoever listens to the loop when they are made."""
         return cls(navigator, lambda: control.pose, control.period, limits=limits,
-                   sense=sense, notify=notify or control.note,
-                   patience=patience, estimate=control.estimate)  # fmt: skip
+                   sense=sense, notify=notify or control.note, patience=patience,
+                   estimate=control.estimate,
+                   touched=control.localisation.touched)  # fmt: skip
 
     def go(self, room: str) -> GoTo | GoToPose:
         """To a room of the plan, or onto the dock (`dock`); PlanningError if there is no
         floor plan or no way."""
         return go_mission(self._plan(), room, self.pose, tick=self.tick, limits=self.limits,
                           sense=self.sense, notify=self.notify, patience=self.patience,
-                          estimate=self.estimate)  # fmt: skip
+                          estimate=self.estimate, touched=self.touched)  # fmt: skip
 
     def arrive(self, goal: str, arrival: Arrival) -> GoToPose:
         """To a point of the plan named `goal`, arriving as `arrival` says; PlanningError
         if there is no floor plan or no way."""
         return GoToPose(self._plan(), goal, arrival, self.pose, tick=self.tick,
                         limits=self.limits, sense=self.sense, notify=self.notify,
-                        patience=self.patience, estimate=self.estimate)  # fmt: skip
+                        patience=self.patience, estimate=self.estimate,
+                        touched=self.touched)  # fmt: skip
 
     def follow(self, route: Route) -> FollowRoute:
         """Along a taught route's path, closed loop; PlanningError if the route has no
         path or the robot is too far from its start."""
         return FollowRoute(route, self.navigator, self.pose, tick=self.tick,
                            limits=self.limits, sense=self.sense, notify=self.notify,
-                           patience=self.patience, estimate=self.estimate)  # fmt: skip
+                           patience=self.patience, estimate=self.estimate,
+                           touched=self.touched)  # fmt: skip
 
     def _plan(self) -> Navigator:
         if self.navigator is None:

@@ -47,6 +47,7 @@ class FollowRoute(PathMission):
         notify: Callable[[str], None] = lambda text: None,
         patience: Patience | None = None,
         estimate: Callable[[], Estimate] | None = None,
+        touched: Callable[[], None] = lambda: None,
     ) -> None:
         if not route.path:
             raise PlanningError(f"route {route.name} has no path to follow (taught before "
@@ -59,14 +60,14 @@ class FollowRoute(PathMission):
         self._passed = 0  # path points behind the robot
         super().__init__(navigator, pose, tick=tick, limits=limits, turn_limits=turn_limits,
                          sense=sense, notify=notify, patience=patience,
-                         estimate=estimate)  # fmt: skip
+                         estimate=estimate, touched=touched)  # fmt: skip
 
     def _course(self, pose: Pose) -> Course:
         here = (pose.x, pose.y)
         points = self._points
         if self._passed == 0:
             away = math.dist(here, points[0])
-            if away > START_REACH_M and not self.replans and not self._restart:
+            if away > START_REACH_M and not self.replanning:
                 raise PlanningError(
                     f"the robot is {away:.1f} m from where route {self.route.name} starts; "
                     f"drive it there first (within {START_REACH_M} m)"

@@ -21,6 +21,7 @@ from giraff_console.motion.shaping import TurnLimits
 from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.robot.localisation import Estimate
+from giraff_console.robot.mission import Outcome
 from giraff_console.robot.odometry import Pose
 
 
@@ -29,8 +30,9 @@ class GoReport:
     """How a `go` went, as `giraff-console go --json` prints it."""
 
     room: str
-    arrived: bool
-    why: str
+    outcome: Outcome | None  # None: the loop ended it from outside (`why` says how)
+    why: str  # the loop's reason it ended: "done", "stopped: ..."
+    detail: str  # the mission's own words for its outcome
     pose_estimate: Pose
     goal: tuple[float, float]
     goal_heading: float | None  # radians; None: the room asks for none
@@ -40,6 +42,15 @@ class GoReport:
     max_jerk: float = 0.0
     gear_jumps: int = 0
     replans: int = 0
+    contacts: int = 0
+    # Metres driven on the odometry alone since a marker (or the placing) last said
+    # where the robot was, as it ended; None without an estimate.
+    since_fix_m: float | None = None
+
+    @property
+    def arrived(self) -> bool:
+        """Arrived, and the pose confirmed: the only arrival a mission claims (issue 25)."""
+        return self.outcome is Outcome.ARRIVED
 
     def as_json(self, pose_true: Pose | None = None) -> dict:
         """The report; errors are measured from the true pose when the simulator gives
@@ -51,8 +62,10 @@ class GoReport:
             heading_error = math.degrees(abs(wrap(measured.heading - self.goal_heading)))
         data = {
             "arrived": self.arrived,
+            "outcome": self.outcome.value if self.outcome is not None else "stopped",
             "room": self.room,
             "why": self.why,
+            "detail": self.detail,
             "pose_estimate": _pose_list(self.pose_estimate),
             "pose_true": _pose_list(pose_true) if pose_true is not None else None,
             "error_m": round(error, 4),
@@ -63,6 +76,8 @@ class GoReport:
             "max_jerk": round(self.max_jerk, 3),
             "gear_jumps": self.gear_jumps,
             "replans": self.replans,
+            "contacts": self.contacts,
+            "since_fix_m": None if self.since_fix_m is None else round(self.since_fix_m, 3),
         }
         return data
 
@@ -87,20 +102,21 @@ class GoTo(PathMission):
         notify: Callable[[str], None] = lambda text: None,
         patience: Patience | None = None,
         estimate: Callable[[], Estimate] | None = None,
+        touched: Callable[[], None] = lambda: None,
     ) -> None:
         self.room = room
         self.name = f"go {room}"
         self.retry = f"go {room}"
         super().__init__(navigator, pose, tick=tick, limits=limits, turn_limits=turn_limits,
                          sense=sense, notify=notify, patience=patience,
-                         estimate=estimate)  # fmt: skip
+                         estimate=estimate, touched=touched)  # fmt: skip
 
     def _course(self, pose: Pose) -> Course:
         assert self.navigator is not None
         try:
             planned = self.navigator.go(self.room, pose)
         except PlanningError as error:
-            if self.replans or self._restart:
+            if self.replanning:
                 raise PlanningError(f"no way to {self.room} any more: {error}") from None
             raise
         return Course(planned.path, planned.goal_heading, planned.doorways,
@@ -120,10 +136,12 @@ def go_report(mission: PathMission, goal_name: str, goal: tuple[float, float],
     start = mission.started_at if mission.started_at is not None else mission.now
     end = mission.ended_at if mission.ended_at is not None else mission.now
     trace = mission.merged_trace()
+    outcome = mission.outcome
     return GoReport(
         room=goal_name,
-        arrived=mission.finished and why == "done",
+        outcome=outcome,
         why=why,
+        detail=mission.detail,
         pose_estimate=mission.pose_now(),
         goal=goal,
         goal_heading=goal_heading,
@@ -133,4 +151,6 @@ def go_report(mission: PathMission, goal_name: str, goal: tuple[float, float],
         max_jerk=trace.max_jerk(),
         gear_jumps=trace.gear_jumps,
         replans=mission.replans,
+        contacts=mission.contacts,
+        since_fix_m=mission.since_fix_m(),
     )

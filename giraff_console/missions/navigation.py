@@ -124,13 +124,15 @@ class Navigator:
             self.state = NavigationState(closed=self.state.closed, obstacles=self.state.obstacles)
 
     def report_obstacles(self, points: list[Point], seen_from: Point | None = None,
-                         free: Sequence[Point] = ()) -> list[tuple[Cell, bool]]:  # fmt: skip
+                         free: Sequence[Point] = (),
+                         margin: float = 0.0) -> list[tuple[Cell, bool]]:  # fmt: skip
         """Obstacles sensed at `points` (map frame): the grid's cells round them are
         blocked, legs are measured again as routes need them. With `seen_from`, where
         the range finder stood: what was sensed before on the beams to `points`, and on
         those to `free` (the ends of beams that met nothing), is gone, and its cells
-        are freed first. Returns the cells that changed, for the D* Lite planner of the
-        leg being driven."""
+        are freed first. `margin`: the obstacles are known only where they were met (a
+        contact), and may reach this much further. Returns the cells that changed, for
+        the D* Lite planner of the leg being driven."""
         legs = self.planner.legs
         if legs is None or not (points or free):
             return []
@@ -142,7 +144,7 @@ class Navigator:
                 ends, hits = [*points, *free], [True] * len(points) + [False] * len(free)
                 freed = legs.see_through(seen_from, ends, hits, radius)
             cleared = len(legs.sensed)  # the first only takes away, the second only adds
-            blocked = legs.block(points, radius)
+            blocked = legs.block(points, radius + margin)
             # A cell freed and blocked again in the same sweep has not changed.
             freed_cells, blocked_cells = {cell for cell, _ in freed}, {cell for cell, _ in blocked}
             changes = [change for change in freed if change[0] not in blocked_cells]
@@ -152,6 +154,17 @@ class Navigator:
             if before != cleared or cleared != len(legs.sensed):
                 self.state = replace(self.state, obstacles=tuple(legs.sensed.values()))
             return changes
+
+    def forget_obstacles(self, points: list[Point], margin: float = 0.0) -> None:
+        """Obstacles reported at `points` (with `margin`) are no longer believed: their
+        cells are freed, unless something else sensed keeps them blocked."""
+        legs = self.planner.legs
+        if legs is None or not points:
+            return
+        with self._lock:
+            if legs.unblock(points, self.planner.robot_radius + CLEARANCE_M + margin):
+                self.planner.graph.forget_legs()
+            self.state = replace(self.state, obstacles=tuple(legs.sensed.values()))
 
     def _replan(self, pose: Pose) -> NavigationState:
         closed = frozenset(self.planner.graph.closed)

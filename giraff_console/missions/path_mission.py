@@ -1,28 +1,38 @@
-"""A mission that drives a planned path: shape, drive and watch (thesis §2.7, §2.4).
+"""A mission that drives a planned path: plan, drive, watch, recover, arrive (§2.7, §2.4).
 
 The planned polyline is shaped into clothoid turns the board can drive without a jump in
 its gear ratio (motion/shaping.py), given a jerk-limited speed profile and streamed to
-the board tick by tick, steering back onto the path from the odometry
+the board tick by tick, steering back onto the path from the pose estimate
 (motion/executor.py). `go <room>` and a taught route followed closed-loop are both this;
-they differ in where the path comes from.
+they differ in where the path comes from (`_course`).
 
-While driving, the range finder (§2.4, §6) reports what is ahead. Obstacles go into the
-grid, what its beams now see through comes out again (a box taken away), and the D* Lite
-planner of the leg the robot is on is told of both, so that it replans incrementally.
-If the path ahead is blocked, the robot comes to a jerk-limited stop and sets off on a
-new path from where it stands. A stall (motion commanded, the wheels not
-turning: §2.3.2), no way left, or no progress for long (progress_watch.py: something in
-the way that no new plan gets round) ends the mission with the reason and what to do;
-ESTOP, a lost link and the operator's keys end it in the control loop. The control loop
-stops the robot when a mission ends with a problem.
+The mission is a small state machine (issue 25, item 4): at every moment it is in one
+`Stage`, and every change of stage is named, as Nav2's behaviour trees name their
+recoveries.
 
-With an `estimate` from a plan with markers (issue 14), the mission also minds how well
-the robot knows where it is, by the bounds of certainty.py. Never found by a marker since
-the start, it looks for one before it sets off (localising.py); unsure, it drives slower;
-lost, it comes to a stop, looks, and plans again from where the marker says it is; and
-it arrives only once the estimate is known well enough and at the goal, looking and
-coming in again if need be. Its turns on the spot are steered as steady_turn.py says.
-Without markers it drives by the odometry as it always has.
+- DRIVING: the executor drives the plan. The range finder's obstacles go into the grid
+  and the D* Lite planner of the leg under way replans incrementally (§2.6.4).
+- STOPPING: a jerk-limited stop along the path, then what comes next: a new plan round
+  something in the way or a door shut on the route, a look for a marker, or the end.
+- HALTING: a stop at once, after a contact (a stall: §2.3.2); then BACKING_OFF.
+- BACKING_OFF: straight back the way it came, then, with markers, a look if the contact
+  left the estimate unsure, and a new plan (recovery.py says why in that order).
+- LOOKING: turning on the spot to find a marker (localising.py): before setting off from
+  a pose no marker has confirmed, when lost, and before claiming an arrival.
+- TURNING: at the goal, on the spot to the room's heading.
+- ENDED: with an `Outcome` (robot/mission.py) and its words.
+
+Knowing where it is (issue 14, 25): with an `estimate` from a plan with markers, the
+mission minds how well the robot knows where it is, by the bounds of certainty.py. It
+never sets off from a pose that only an assumption vouches for (a restarted daemon's,
+a console's first): with markers it looks first, without any it does not start. Unsure,
+it drives slower; lost, it stops, looks, and plans again from where the marker says it
+is; and it claims ARRIVED only on a fresh marker fix within the arrival bounds, else
+ARRIVED_UNVERIFIED, with the metres driven on the odometry alone. Its turns on the spot
+are steered as steady_turn.py says.
+
+A mission that fails brings the robot to rest first and then reports its problem, so
+that a patrol can carry on to its next stop; the control loop stops the robot besides.
 
 What `progress` gives is the plan under way: while the robot stops to plan again it
 says so rather than giving the few centimetres of braking left, and when the robot
@@ -31,6 +41,7 @@ gets no nearer it says for how long rather than an ETA.
 
 from __future__ import annotations
 
+import enum
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -55,13 +66,17 @@ from giraff_console.missions.certainty import (
     settling,
     slow_stretches,
     sure,
+    trusted,
+    unverified,
 )
-from giraff_console.missions.localising import Look, Outcome
+from giraff_console.missions.localising import Look
+from giraff_console.missions.localising import Outcome as LookOutcome
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.progress_watch import Patience, ProgressWatch
+from giraff_console.missions.recovery import FELT_EXTENT_M, MAX_CONTACTS, Recovery
 from giraff_console.missions.steady_turn import SteadyTurn
 from giraff_console.motion.executor import Executor, Trace
-from giraff_console.motion.path import Drive, Rotation, Section, wrap
+from giraff_console.motion.path import Drive, Reverse, Rotation, Section, wrap
 from giraff_console.motion.shaping import ALIGNED_RAD, TurnLimits, shape
 from giraff_console.motion.speed_profile import MotionLimits, SlowZone
 from giraff_console.planning.landmarks import marker_poses
@@ -71,8 +86,9 @@ from giraff_console.planning.route_planner import PlannedPath
 from giraff_console.planning.walls import wall_segments
 from giraff_console.protocol.codec import Command
 from giraff_console.robot.localisation import Estimate
-from giraff_console.robot.mission import ARRIVED, DRIVING, PAUSED, Progress
+from giraff_console.robot.mission import ARRIVED, DRIVING, PAUSED, Outcome, Progress
 from giraff_console.robot.odometry import Pose
+from giraff_console.robot.safety import stop_commands
 
 Point = tuple[float, float]
 
@@ -102,6 +118,31 @@ SHOW_STILL_S = 5.0
 MARGIN_TOLERANCE_M = 0.01
 # Sensed obstacles this close to the robot are what a stuck mission names as the cause.
 CAUSE_NEAR_M = 1.5
+# Halting after a contact, the stop is sent again this often while the board still
+# says it moves: once is enough on a board that answers, and never a flood.
+HALT_EVERY_S = 0.5
+# A board whose stop has not run out after this long is pushing its wheels against what
+# they touch (the move's ramp waits on wheels that do not turn: 0.4 m/s at 0.5 m/s^2
+# ramps down in 0.8 s): the recovery goes on, and its move back replaces the stop.
+HALT_WAIT_S = 1.0
+
+
+class Stage(enum.Enum):
+    """What a path mission is doing (module docstring)."""
+
+    DRIVING = "driving"
+    STOPPING = "stopping"
+    HALTING = "stopping at once"
+    BACKING_OFF = "backing off"
+    LOOKING = "looking for a marker"
+    TURNING = "turning to the room's heading"
+    ENDED = "ended"
+
+
+# The stages the progress watch's time limit ends: a look for a marker and a recovery
+# from a contact have bounds of their own, and a stop that is already ending the
+# mission is let finish.
+WATCHED = frozenset({Stage.DRIVING, Stage.TURNING, Stage.STOPPING})
 
 
 @dataclass(frozen=True)
@@ -115,8 +156,23 @@ class Course:
     planned: PlannedPath | None = None  # the room graph's route, for D* Lite replanning
 
 
+@dataclass(frozen=True)
+class Tick:
+    """What one step of the mission goes by: the time, the board's state, the pose it
+    steers by, and the estimate while it minds one (None: by the odometry alone)."""
+
+    now: float
+    state: MotorState
+    pose: Pose
+    estimate: Estimate | None
+
+
+# What a stop leads to, once the robot is still.
+Then = Callable[[Tick], list[Command]]
+
+
 class PathMission:
-    """A Mission that drives the course `_course` gives, replanning round obstacles.
+    """A Mission that drives the course `_course` gives; see the module docstring.
 
     Planning happens when the mission is made (PlanningError if there is no way), so
     the console makes it off its UI thread.
@@ -140,12 +196,14 @@ class PathMission:
         notify: Callable[[str], None] = lambda text: None,
         patience: Patience | None = None,
         estimate: Callable[[], Estimate] | None = None,
+        touched: Callable[[], None] = lambda: None,
     ) -> None:
         """`notify` gets a line for the operator when the mission changes its plan;
         `patience` says how long it may go without getting nearer before it gives up.
         `estimate`, called on the control loop's thread when the mission is stepped,
-        says how well `pose` is known (see the module docstring); without it, or
-        while the plan has no markers, the mission steers by `pose` alone."""
+        says how well `pose` is known (see the module docstring); without it, the
+        mission steers by `pose` alone. `touched` tells whoever keeps the estimate that
+        the robot has touched something (localisation.touched)."""
         self.navigator = navigator
         self.notify = notify
         self.limits = limits or MotionLimits()
@@ -154,21 +212,30 @@ class PathMission:
         self._pose = pose
         self._sense = sense if navigator is not None else None
         self.problem: str | None = None
+        # How it ended, once it has (robot/mission.py), and the words for it.
+        self.outcome: Outcome | None = None
+        self.detail = ""
         self.replans = 0
         self._started: float | None = None
         self._ended: float | None = None
         self._now = 0.0
         self._paused = False
-        self._restart = False  # set off again on a new plan once the robot is still
-        self._restart_why = ""
+        self._stage = Stage.DRIVING
+        self._stopping_why = ""  # what a STOPPING stage says it stops for
+        self._then: Then = lambda tick: []  # what STOPPING, HALTING, BACKING_OFF lead to
+        self._halted_at: float | None = None  # the last stop sent while halting
+        self._halt_began: float | None = None
+        self._failing = False  # coming to rest to end (`_fail`)
         # The traces of the plans driven before the present one (after replanning).
         self._traces: list[Trace] = []
         self._leg: Leg | None = None
         self._leg_index = -1
         self._estimate = estimate
+        self._touched = touched
         self._markers = marker_poses(navigator.plan) if navigator is not None else {}
         self._look: Look | None = None
-        self._look_next = False  # look once stopped, rather than plan again at once
+        self._look_kind = "lost"
+        self._begun = False  # the first step has judged whether it may set off
         self._set_off = False  # the robot has been commanded to move
         # With markers to find the robot by, plans are slowed where it will be unsure:
         # from their start when made unsure, and after turns on the spot (`turned`: it
@@ -182,7 +249,8 @@ class PathMission:
         # under way is the turn to the goal's heading after one.
         self._as_known = False
         self._steady_turn = SteadyTurn()
-        self._look_kind = "lost"
+        self._recovery = Recovery(navigator.planner.robot_radius if navigator else 0.3)
+        self._felt: list[Point] = []  # contacts it put on the grid (recovery.py)
         self._goal: tuple[Point, float | None] = ((0.0, 0.0), None)
         # Planned from where the robot is assumed to be: a first look may move it.
         self.executor = self._plan(pose())
@@ -197,6 +265,26 @@ class PathMission:
         """Whether a robot at `pose`, found there by a first look, need not move at all."""
         return False
 
+    @property
+    def stage(self) -> Stage:
+        return self._stage
+
+    @property
+    def contacts(self) -> int:
+        """How many times the robot touched something on the way."""
+        return len(self._recovery.contacts)
+
+    def since_fix_m(self) -> float | None:
+        """Metres driven on the odometry alone since the pose was last fixed (a marker,
+        or the placing); None without an estimate."""
+        raw = self._estimate() if self._estimate is not None else None
+        return None if raw is None else raw.since_fix_m
+
+    @property
+    def replanning(self) -> bool:
+        """Whether the plan being made is a new way (after setting off), not the first."""
+        return self._set_off or self.replans > 0
+
     # -- the Mission protocol -----------------------------------------------------------
 
     def step(self, now: float, state: MotorState | None) -> list[Command]:
@@ -204,75 +292,29 @@ class PathMission:
         if self._started is None:
             self._started = now
             self._progress_watch.restart(now)
-        if self._paused or state is None or self.finished or self.problem is not None:
+        if self._paused or state is None or self._stage is Stage.ENDED:
             return []
         pose = self._pose()
+        raw = self._estimate() if self._estimate is not None else None
+        if not self._begun:
+            self._begun = True
+            refusal = unverified(raw, self.retry)
+            if refusal is not None:
+                self._end(Outcome.UNVERIFIED, f"not started: {refusal}")
+                return []
+        # No markers to find the robot by: the odometry is all there is.
+        estimate = raw if raw is not None and raw.landmarks else None
+        self._mind_the_estimate(estimate)
+        tick = Tick(now, state, pose, estimate)
         if self._sense is not None:
-            self._watch(now, pose)
-        estimate = self._estimate() if self._estimate is not None else None
-        if estimate is not None and not estimate.landmarks:
-            estimate = None  # no markers to find the robot by: the odometry is all there is
-        if (estimate is not None) != self._minding:
-            self._minding = estimate is not None
-            if estimate is not None and not self._set_off and not self._restart:
-                # The plan made before the mission knew: slowed where it will be unsure.
-                self._unsure_start = estimate.unsure
-                self.executor = self._executor_for(self._sections)
-                self.time_optimal = self.executor.time_optimal
-        if self._look is not None:
-            if estimate is not None:
-                return self._step_look(now, state, estimate, pose)
-            self._drop_look()  # the markers were taken away: plan again, by the odometry
-            self._restart, self._restart_why = True, "no markers any more"
-        closed = self.navigator.state.closed if self.navigator is not None else frozenset()
-        if closed != self._closed:
-            self._closed = closed
-            if closed & set(self._doors) and not self._restart:
-                # The operator shut a door on the route: round it, from a stop.
-                self.notify(f"{self.name}: {', '.join(sorted(closed & set(self._doors)))} "
-                            "closed on the route; stopping to go round")  # fmt: skip
-                self.executor.brake(now)
-                self._restart, self._restart_why = True, "a door closed on the route"
-                self._approach_anew()
-        if estimate is not None:
-            self._mind(now, estimate)
-        watch = self._progress_watch
-        if watch.stuck(now):
-            self.problem = self._stuck(pose, f"stuck for {watch.still_for(now):.0f} s near {{}}")
-            return []
-        if self._restart and self.executor.finished:
-            if state.moving:
-                return []
-            if self._look_next and estimate is not None:
-                self._look_next = False
-                if watch.out_of_looks():
-                    self.problem = lost_again(pose, watch.looks, self.retry)
-                    return []
-                self._look = self._make_look(estimate, None, "lost")
-                return self._step_look(now, state, estimate, pose)
-            self._look_next = False
-            if watch.out_of_replans():
-                self.problem = self._stuck(pose, f"stuck near {{}} after {watch.replans} new "
-                                                 "ways in a row that got no nearer")  # fmt: skip
-                return []
-            first = not self._set_off
-            if not self._replan(pose, estimate):
-                return []
-            if not first:
-                watch.replanned(self.executor.remaining())
-        steer = pose
-        if estimate is not None:
-            steer = self._steady_turn.pose(self.executor, pose, estimate.odometry)
-        casters = estimate.caster_rate if estimate is not None else 0.0
-        commands = self.executor.step(now, state, steer, casters)
-        self._set_off = self._set_off or bool(commands)
-        if self.executor.problem is not None:
-            self.problem = self.executor.problem
-        elif self.executor.finished and not self._restart:
-            self._arrive(now, estimate, pose)
-        elif not self._restart:
-            # While braking for a new plan, what is left of the old one is not progress.
-            watch.driven(now, self.executor.remaining())
+            self._watch(tick)
+        if self._stage is Stage.DRIVING:
+            self._interrupt(tick)
+        if self._progress_watch.stuck(now) and self._stage in WATCHED:
+            how = f"stuck for {self._progress_watch.still_for(now):.0f} s near {{}}"
+            return self._fail(tick, Outcome.BLOCKED, self._stuck(pose, how))
+        commands = self._steps[self._stage](self, tick)
+        self._recovery.trail(pose)
         return commands
 
     def next_due(self) -> float | None:
@@ -283,17 +325,21 @@ class PathMission:
         self._paused = True
 
     def resume(self, now: float) -> None:
-        if self._paused:
-            self._paused = False
-            self._drop_look()  # a look, if it still must, starts again from the stop
-            self.executor.abandon()
-            self._restart, self._restart_why = True, "resuming"
-            self._approach_anew()  # it may have been driven anywhere by hand meanwhile
-            self._progress_watch.restart(now)
+        if not self._paused:
+            return
+        self._paused = False
+        if self._stage is Stage.ENDED:
+            return
+        self._drop_look()  # a look, if it still must, starts again from the stop
+        self.executor.abandon()
+        self._approach_anew()  # it may have been driven anywhere by hand meanwhile
+        self._progress_watch.restart(now)
+        self._stop_then(now, "resuming", self._plan_again)
 
     @property
     def finished(self) -> bool:
-        return self._ended is not None
+        """Arrived, confirmed or not; a mission that failed has a `problem` instead."""
+        return self.outcome is not None and self.outcome.arrived
 
     @property
     def started_at(self) -> float | None:
@@ -319,13 +365,17 @@ class PathMission:
         """The plan under way: the metres left of it and the time left, for the main view."""
         if self.finished:
             return Progress(self.name, ARRIVED)
-        if self._look is not None:
+        if self._stage is Stage.LOOKING and self._look is not None:
             return Progress(self.name, self._look.state, total_m=self._total)
-        if self._restart:
+        if self._stage is Stage.STOPPING:
             # The plan being given up says nothing true of the way left: the braking
             # metres of the old one would read as nearly there.
-            why = f"stopping to plan a new way ({self._restart_why})"
+            why = f"stopping to plan a new way ({self._stopping_why})"
             return Progress(self.name, why, total_m=self._total)
+        if self._stage in (Stage.HALTING, Stage.BACKING_OFF):
+            tries = f"contact {self._recovery.in_a_row}"
+            return Progress(self.name, f"touched something: {self._stage.value} ({tries})",
+                            total_m=self._total)  # fmt: skip
         left = self.executor.remaining()
         if self._paused:
             return Progress(self.name, PAUSED, left, self._total)
@@ -348,56 +398,184 @@ class PathMission:
             trace.gear_jumps += each.gear_jumps
         return trace
 
-    # -- knowing where it is (issue 14) --------------------------------------------------
+    # -- the stages ---------------------------------------------------------------------
 
-    def _mind(self, now: float, estimate: Estimate) -> None:
-        """Lost: come to a stop to look for a marker. Moved by a marker before setting
-        off: plan again from there."""
-        if estimate.lost and not settling(estimate):
-            if not self._look_next:
-                self._look_next = True
-                stopping = "stopping" if self._set_off else "before setting off"
-                self.notify(f"{self.name}: {how_lost(estimate)}; {stopping} to look for a "
-                            "marker")  # fmt: skip
-                self.executor.brake(now)
-                self._restart, self._restart_why = True, "looking for a marker"
-        elif not self._set_off and not self._restart and moved(self._planned_from, estimate.pose):
-            # The first marker seen puts the robot where it says: the plan starts
-            # somewhere else.
-            self.executor.brake(now)
-            self._restart, self._restart_why = True, "a marker moved the pose"
+    def _driving(self, tick: Tick) -> list[Command]:
+        """The plan under way; at its end, the arrival (`_arrive`)."""
+        steer = tick.pose
+        casters = 0.0
+        if tick.estimate is not None:
+            steer = self._steady_turn.pose(self.executor, tick.pose, tick.estimate.odometry)
+            casters = tick.estimate.caster_rate
+        commands = self.executor.step(tick.now, tick.state, steer, casters)
+        self._set_off = self._set_off or bool(commands)
+        executor = self.executor
+        if executor.stalled:
+            return [*commands, *self._contact(tick)]
+        if executor.problem is not None:
+            self._end(Outcome.FAILED, executor.problem)
+            return commands
+        if executor.finished:
+            return [*commands, *self._arrive(tick)]
+        left = executor.remaining()
+        self._progress_watch.driven(tick.now, left)
+        self._recovery.driven(left)
+        return commands
 
-    def _replan(self, pose: Pose, estimate: Estimate | None, turned: bool = False) -> bool:
-        """Plan again from `pose`, its start slowly while `estimate` is unsure, and after
-        a turn on the spot (`turned`: a look) while the casters settle; False, with the
-        problem set, if there is no way. Before the robot has moved (a first look moved
-        the pose it assumed) this is the mission's first plan, not a new way: its
-        progress is watched from here."""
+    def _stopping(self, tick: Tick) -> list[Command]:
+        """A jerk-limited stop along the path; once the robot is still, what is next."""
+        commands = self.executor.step(tick.now, tick.state, tick.pose)
+        if self.executor.stalled:
+            # Touching something while braking: the board holds the move; at once.
+            self._stage = Stage.HALTING
+            return self._halting(tick)
+        done = self.executor.finished or self.executor.problem is not None
+        if not done or tick.state.moving:
+            return commands
+        return [*commands, *self._then(tick)]
+
+    def _halting(self, tick: Tick) -> list[Command]:
+        """Stop at once (the board still holds a move that pushes); once still, or once
+        HALT_WAIT_S have shown that its stop cannot run out against what the robot
+        touches, next: a move back replaces it."""
+        if self._halt_began is None:
+            self._halt_began = tick.now
+        if not tick.state.moving or tick.now - self._halt_began >= HALT_WAIT_S:
+            self._halt_began = self._halted_at = None
+            return self._then(tick)
+        if self._halted_at is not None and tick.now - self._halted_at < HALT_EVERY_S:
+            return []
+        self._halted_at = tick.now
+        style = self.executor.style
+        return stop_commands(tick.state, float(style if style is not None else 1))
+
+    def _looking(self, tick: Tick) -> list[Command]:
+        look = self._look
+        assert look is not None
+        estimate = tick.estimate
+        if estimate is None:
+            self._drop_look()  # the markers were taken away: plan again, by the odometry
+            return self._plan_again(tick)
+        commands = look.step(tick.now, tick.state, estimate)
+        if look.problem is not None:
+            self._end(Outcome.FAILED, look.problem)
+            return []
+        if not look.finished:
+            return commands
+        self._drop_look()
+        if look.outcome is LookOutcome.NOT_FOUND and estimate.lost:
+            self._end(Outcome.LOST, lost(estimate, self.retry))
+            return []
+        if self._look_kind == "arrival":
+            if look.outcome is LookOutcome.NOT_FOUND:
+                self.notify(f"{self.name}: no marker in sight to confirm the arrival "
+                            f"(±{estimate.sigma_m:.2f} m)")  # fmt: skip
+            self._as_known = look.outcome is not LookOutcome.FOUND  # no use looking again
+            return [*commands, *self._arrive(tick)]
+        seen = ", ".join(str(i) for i in estimate.seen) or "a marker"
+        self.notify(f"{self.name}: found by {seen}, ±{estimate.sigma_m:.2f} m; carrying on")
+        if not self._set_off and self._arrived_already(tick.pose):
+            self._started = self._ended = tick.now
+            self._end(Outcome.ARRIVED if trusted(estimate) else Outcome.ARRIVED_UNVERIFIED,
+                      "there already")  # fmt: skip
+            return commands
+        if self._replan(tick.pose, estimate, turned=True):
+            # Before setting off too: a robot that keeps finding markers too far to be sure
+            # by must not turn on the spot for ever.
+            self._progress_watch.looked(tick.now - (look.started_at or tick.now),
+                                        self.executor.remaining())  # fmt: skip
+        return commands
+
+    def _backing_off(self, tick: Tick) -> list[Command]:
+        commands = self.executor.step(tick.now, tick.state, tick.pose)
+        if self.executor.stalled:
+            # Touching behind as well: nothing here is safe to try.
+            return self._fail(tick, Outcome.STALLED, self._stuck(
+                tick.pose, "stalled: touched something ahead and behind near {}"))  # fmt: skip
+        if self.executor.problem is not None:
+            self._end(Outcome.FAILED, self.executor.problem)
+            return commands
+        if not self.executor.finished or tick.state.moving:
+            return commands
+        return [*commands, *self._then(tick)]
+
+    def _ended_stage(self, tick: Tick) -> list[Command]:
+        return []
+
+    _steps: dict[Stage, Callable[[PathMission, Tick], list[Command]]] = {
+        Stage.DRIVING: _driving,
+        Stage.TURNING: _driving,
+        Stage.STOPPING: _stopping,
+        Stage.HALTING: _halting,
+        Stage.BACKING_OFF: _backing_off,
+        Stage.LOOKING: _looking,
+        Stage.ENDED: _ended_stage,
+    }
+
+    # -- changes of stage ---------------------------------------------------------------
+
+    def _stop_then(self, now: float, why: str, then: Then) -> None:
+        """STOPPING: brake along the path (a turn on the spot finishes first), then `then`."""
+        self.executor.brake(now)
+        self._stage, self._stopping_why, self._then = Stage.STOPPING, why, then
+
+    def _fail(self, tick: Tick, outcome: Outcome, why: str) -> list[Command]:
+        """Bring the robot to rest, then end with `outcome` (module docstring): at once
+        against a stall, whose move the board holds, else along the path."""
+
+        def end(tick: Tick) -> list[Command]:
+            self._end(outcome, why)
+            return []
+
+        if self._failing:
+            return self._steps[self._stage](self, tick)  # on its way to an end already
+        self._failing = True
+        if not tick.state.moving:
+            return end(tick)
+        if self.executor.stalled:
+            self._stage, self._then = Stage.HALTING, end
+            return self._halting(tick)
+        self._stop_then(tick.now, why, end)
+        return self._stopping(tick)
+
+    def _end(self, outcome: Outcome, why: str) -> None:
+        self._stage = Stage.ENDED
+        if self._felt and self.navigator is not None:
+            # What this mission only felt is its own belief: the next mission tries
+            # afresh, and the range finder, where there is one, says what is really there.
+            self.navigator.forget_obstacles(self._felt, margin=FELT_EXTENT_M)
+            self._felt = []
+        self.outcome, self.detail = outcome, why
+        if outcome.arrived:
+            self._ended = self._now
+        else:
+            self.problem = why
+
+    def _plan_again(self, tick: Tick) -> list[Command]:
+        """From a stop: a new way from here, unless too many came to nothing."""
+        if self._progress_watch.out_of_replans():
+            self._end(Outcome.BLOCKED, self._stuck(tick.pose, f"stuck near {{}} after "
+                      f"{self._progress_watch.replans} new ways in a row that got no nearer"))
+            return []
         first = not self._set_off
-        self._traces.append(self.executor.trace)
-        if first:
-            self._restart = False  # the way from where the robot is is no way round
-        self._unsure_start = estimate is not None and estimate.unsure
-        self._turned = turned
-        try:
-            self.executor = self._plan(pose)
-        except PlanningError as error:
-            self.problem = str(error)
-            return False
-        self._restart = False
-        if first:
-            self.time_optimal = self.executor.time_optimal
-            self._progress_watch = ProgressWatch(self._progress_watch.patience, self._now,
-                                                 self.executor.remaining())  # fmt: skip
-            return True
-        self.replans += 1
-        through = f" through {', '.join(self._doors)}" if self._doors else ""
-        self.notify(f"{self.name}: new way, {self.executor.remaining():.1f} m{through}")
-        return True
+        if self._replan(tick.pose, tick.estimate) and not first:
+            self._progress_watch.replanned(self.executor.remaining())
+        return []
 
-    def _make_look(self, estimate: Estimate, prefer: float | None, kind: str) -> Look:
-        """A look for a marker: `kind` "lost" until the estimate is back under the slow
-        bound, "arrival" until it is within the arrival bounds."""
+    def _look_now(self, tick: Tick) -> list[Command]:
+        """From a stop, lost: look for a marker, unless looks keep coming to nothing."""
+        estimate = tick.estimate
+        if estimate is None:
+            return self._plan_again(tick)
+        if self._progress_watch.out_of_looks():
+            self._end(Outcome.LOST, lost_again(tick.pose, self._progress_watch.looks, self.retry))
+            return []
+        self._start_look(estimate, None, "lost")
+        return self._looking(tick)
+
+    def _start_look(self, estimate: Estimate, prefer: float | None, kind: str) -> None:
+        """LOOKING: `kind` "lost" until the estimate is back under the slow bound,
+        "arrival" until it is within the arrival bounds."""
         navigator = self.navigator
         walls = wall_segments(navigator.plan, navigator.state.closed) if navigator else []
         if kind == "arrival":
@@ -407,89 +585,171 @@ class PathMission:
             why = f"{how_lost(estimate)}: looking for a marker"
             enough = sure
         self._look_kind = kind
-        return Look(estimate, self._markers, walls, limits=self.limits, tick=self.tick,
-                    enough=enough, prefer=prefer, why=why)  # fmt: skip
+        self._look = Look(estimate, self._markers, walls, limits=self.limits, tick=self.tick,
+                          enough=enough, prefer=prefer, why=why)  # fmt: skip
+        self._stage = Stage.LOOKING
 
-    def _step_look(self, now: float, state: MotorState, estimate: Estimate,
-                   pose: Pose) -> list[Command]:  # fmt: skip
-        look = self._look
-        assert look is not None
-        commands = look.step(now, state, estimate)
-        if look.problem is not None:
-            self.problem = look.problem
-            return []
-        if not look.finished:
-            return commands
-        self._drop_look()
-        if look.outcome is Outcome.NOT_FOUND and estimate.lost:
-            self.problem = lost(estimate, self.retry)
-            return []
-        if self._look_kind == "arrival":
-            if look.outcome is Outcome.NOT_FOUND:
-                self.notify(f"{self.name}: no marker in sight to confirm the arrival "
-                            f"(±{estimate.sigma_m:.2f} m)")  # fmt: skip
-            self._as_known = look.outcome is not Outcome.FOUND  # no use looking again
-            self._arrive(now, estimate, pose)
-            return commands
-        seen = ", ".join(str(i) for i in estimate.seen) or "a marker"
-        self.notify(f"{self.name}: found by {seen}, ±{estimate.sigma_m:.2f} m; carrying on")
-        first = not self._set_off
-        if first and self._arrived_already(pose):
-            self._started = self._ended = now
-            return commands
-        self._restart = True
-        if self._replan(pose, estimate, turned=True):
-            # Before setting off too: a robot that keeps finding markers too far to be sure
-            # by must not turn on the spot for ever.
-            self._progress_watch.looked(now - (look.started_at or now), self.executor.remaining())
-        return commands
+    def _drop_look(self) -> None:
+        if self._look is not None:
+            self._traces.extend(self._look.traces)
+            self._look = None
 
-    def _arrive(self, now: float, estimate: Estimate | None, pose: Pose) -> None:
+    # -- contacts (recovery.py) ---------------------------------------------------------
+
+    def _contact(self, tick: Tick) -> list[Command]:
+        """A stall: stop at once, then back off, find the pose again and try again."""
+        navigator = self.navigator
+        contact = self._recovery.touched(tick.pose, navigator.walls if navigator else None)
+        self._touched()  # the estimate is less sure than the filter thinks
+        where = f"({contact.point[0]:.1f}, {contact.point[1]:.1f})"
+        if self._recovery.exhausted:
+            why = self._stuck(tick.pose, f"stalled: touched something {self._recovery.in_a_row} "
+                                         "times in a row near {}")  # fmt: skip
+            return self._fail(tick, Outcome.STALLED, why)
+        self.notify(f"{self.name}: touched something at {where}; backing off to try again "
+                    f"(contact {self._recovery.in_a_row} of {MAX_CONTACTS})")
+        self._approach_anew()
+        self._progress_watch.restart(tick.now)
+        self._stage, self._then = Stage.HALTING, self._back_off
+        return self._halting(tick)
+
+    def _back_off(self, tick: Tick) -> list[Command]:
+        """BACKING_OFF straight back the way it came, then on with the recovery."""
+        distance = self._recovery.back_off(tick.pose)
+        if distance <= 0:
+            return self._after_contact(tick)
+        self._traces.append(self.executor.trace)
+        self.executor = Executor([Reverse(tick.pose, distance)], self.limits, self.tick)
+        self._stage, self._then = Stage.BACKING_OFF, self._after_contact
+        return self._backing_off(tick)
+
+    def _after_contact(self, tick: Tick) -> list[Command]:
+        """Clear of the contact: put it on the grid if something unknown is there
+        (recovery.py), look for a marker if the estimate is no longer sure, then plan
+        again."""
+        contact = self._recovery.contacts[-1]
+        if contact.unknown_obstacle and self.navigator is not None:
+            self.navigator.report_obstacles([contact.point], margin=FELT_EXTENT_M)
+            self._felt.append(contact.point)
+        estimate = tick.estimate
+        if estimate is not None and not sure(estimate):
+            self._start_look(estimate, None, "lost")
+            return self._looking(tick)
+        return self._plan_again(tick)
+
+    # -- what interrupts a drive ---------------------------------------------------------
+
+    def _interrupt(self, tick: Tick) -> None:
+        """While driving: a door shut on the route, or the estimate lost or moved,
+        stops the robot to go round, look, or plan again."""
+        closed = self.navigator.state.closed if self.navigator is not None else frozenset()
+        if closed != self._closed:
+            self._closed = closed
+            if closed & set(self._doors):
+                # The operator shut a door on the route: round it, from a stop.
+                self.notify(f"{self.name}: {', '.join(sorted(closed & set(self._doors)))} "
+                            "closed on the route; stopping to go round")  # fmt: skip
+                self._approach_anew()
+                self._stop_then(tick.now, "a door closed on the route", self._plan_again)
+                return
+        estimate = tick.estimate
+        if estimate is None:
+            return
+        if estimate.lost and not settling(estimate):
+            stopping = "stopping" if self._set_off else "before setting off"
+            self.notify(f"{self.name}: {how_lost(estimate)}; {stopping} to look for a "
+                        "marker")  # fmt: skip
+            self._stop_then(tick.now, "looking for a marker", self._look_now)
+        elif not self._set_off and moved(self._planned_from, estimate.pose):
+            # The first marker seen puts the robot where it says: the plan starts
+            # somewhere else.
+            self._stop_then(tick.now, "a marker moved the pose", self._plan_again)
+
+    def _mind_the_estimate(self, estimate: Estimate | None) -> None:
+        """A plan made before the mission knew it had markers to mind is slowed where
+        the robot will be unsure, before it sets off."""
+        if (estimate is not None) == self._minding:
+            return
+        self._minding = estimate is not None
+        if estimate is not None and not self._set_off and self._stage is Stage.DRIVING:
+            self._unsure_start = estimate.unsure
+            self.executor = self._executor_for(self._sections)
+            self.time_optimal = self.executor.time_optimal
+
+    # -- arriving -----------------------------------------------------------------------
+
+    def _arrive(self, tick: Tick) -> list[Command]:
         """The plan is driven. With markers the robot has arrived once the estimate is
-        within the arrival bounds (else it looks for a marker) and at the goal (else it
-        comes in again, or turns to the goal's heading); having come in again, it settles
-        within AFTER_REAPPROACH_M; after ARRIVAL_TRIES of those it settles for what it
-        has, and says so."""
+        confirmed (certainty.py) and at the goal (else it looks, comes in again, or
+        turns to the goal's heading); having come in again, it settles within
+        AFTER_REAPPROACH_M; after ARRIVAL_TRIES of those it settles for what it has,
+        unconfirmed, and says so. Without markers it arrives unconfirmed at once."""
+        estimate, pose = tick.estimate, tick.pose
         goal, heading = self._goal
         off = math.dist((pose.x, pose.y), goal)
         near = AFTER_REAPPROACH_M if self._came_in_again else REAPPROACH_M
         turned = heading is not None and abs(wrap(heading - pose.heading)) > ALIGNED_RAD
+        if estimate is None:
+            self._end(Outcome.ARRIVED_UNVERIFIED, self._by_odometry())
+            return []
         # The turn to the goal's heading after a look adds only the wheels' error over
         # that turn, which looking again, turning away and back, would not take out.
-        known = estimate is None or self._as_known or confirmed(estimate)
-        if estimate is None or (known and off <= near and not turned):
-            self._ended = now
-            return
+        known = self._as_known or confirmed(estimate)
+        if known and off <= near and not turned:
+            if trusted(estimate):
+                self._end(Outcome.ARRIVED, "arrived")
+            else:
+                self._end(Outcome.ARRIVED_UNVERIFIED, self._unconfirmed(estimate))
+            return []
         if self._arrival_tries >= ARRIVAL_TRIES:
             askew = 0.0 if heading is None else abs(wrap(heading - pose.heading))
             if off > NEAR_ENOUGH_M or askew > NEAR_ENOUGH_HEADING:
-                self.problem = (f"could not get nearer than {off:.2f} m and "
-                                f"{math.degrees(askew):.0f}° to the goal (by the estimate, "
-                                f"known to ±{estimate.sigma_m:.2f} m) after {ARRIVAL_TRIES} "
-                                f"tries; drive the robot there by hand, or type "
-                                f"{self.retry} again")  # fmt: skip
-                return
+                return self._fail(tick, Outcome.BLOCKED, (
+                    f"could not get nearer than {off:.2f} m and {math.degrees(askew):.0f}° "
+                    f"to the goal (by the estimate, known to ±{estimate.sigma_m:.2f} m) "
+                    f"after {ARRIVAL_TRIES} tries; drive the robot there by hand, or type "
+                    f"{self.retry} again"))  # fmt: skip
             self.notify(f"{self.name}: arrived as near as it could, {off:.2f} m off by the "
                         f"estimate, known to ±{estimate.sigma_m:.2f} m")  # fmt: skip
-            self._ended = now
-            return
+            if trusted(estimate):
+                self._end(Outcome.ARRIVED, "arrived as near as it could")
+            else:
+                self._end(Outcome.ARRIVED_UNVERIFIED, self._unconfirmed(estimate))
+            return []
         self._arrival_tries += 1
         self._as_known = False
         # The look or the new approach is not the way getting no nearer.
-        self._progress_watch.restart(now)
+        self._progress_watch.restart(tick.now)
         if not known:
-            self._look = self._make_look(estimate, heading, "arrival")
-        elif off > near:
+            self._start_look(estimate, heading, "arrival")
+            return self._looking(tick)
+        if off > near:
             self.notify(f"{self.name}: {off:.2f} m off the goal by the markers; coming in again")
-            self._restart, self._restart_why = True, "coming in again"
             self._came_in_again = True
             self._replan(pose, estimate, turned=True)
-        else:
-            assert heading is not None
-            self._traces.append(self.executor.trace)
-            turn = Rotation(pose, wrap(heading - pose.heading))
-            self.executor = Executor([turn], self.limits, self.tick)
-            self._as_known = True
+            return []
+        assert heading is not None
+        self._traces.append(self.executor.trace)
+        turn = Rotation(pose, wrap(heading - pose.heading))
+        self.executor = Executor([turn], self.limits, self.tick)
+        self._stage = Stage.TURNING
+        self._as_known = True
+        return []
+
+    def _by_odometry(self) -> str:
+        raw = self._estimate() if self._estimate is not None else None
+        if raw is None:
+            return "arrived by the odometry alone"
+        return (f"arrived by the odometry alone: {raw.since_fix_m:.1f} m driven since "
+                f"{'a marker' if raw.found else 'the start'} last said where it was")
+
+    @staticmethod
+    def _unconfirmed(estimate: Estimate) -> str:
+        contact = ", touched something since" if estimate.contact else ""
+        return (f"arrived, unconfirmed: known to ±{estimate.sigma_m:.2f} m and "
+                f"±{math.degrees(estimate.sigma_heading):.1f}°, "
+                f"{estimate.since_fix_m:.1f} m driven since a marker last corrected it"
+                f"{contact}")
 
     def _approach_anew(self) -> None:
         """A way round, or from wherever it was driven by hand, is a new approach: its
@@ -497,12 +757,34 @@ class PathMission:
         self._arrival_tries = 0
         self._came_in_again = False
 
-    def _drop_look(self) -> None:
-        if self._look is not None:
-            self._traces.extend(self._look.traces)
-            self._look = None
+    # -- planning -----------------------------------------------------------------------
 
-    # -- inside -------------------------------------------------------------------------
+    def _replan(self, pose: Pose, estimate: Estimate | None, turned: bool = False) -> bool:
+        """DRIVING a new plan from `pose`, its start slowly while `estimate` is unsure,
+        and after a turn on the spot (`turned`: a look) while the casters settle; False,
+        with the mission ended BLOCKED, if there is no way. Before the robot has moved (a
+        first look moved the pose it assumed) this is the mission's first plan, not a new
+        way: its progress is watched from here."""
+        first = not self._set_off
+        self._traces.append(self.executor.trace)
+        self._unsure_start = estimate is not None and estimate.unsure
+        self._turned = turned
+        try:
+            self.executor = self._plan(pose)
+        except PlanningError as error:
+            self._end(Outcome.BLOCKED, str(error))
+            return False
+        self._stage = Stage.DRIVING
+        self._recovery.replanned(self.executor.remaining())
+        if first:
+            self.time_optimal = self.executor.time_optimal
+            self._progress_watch = ProgressWatch(self._progress_watch.patience, self._now,
+                                                 self.executor.remaining())  # fmt: skip
+            return True
+        self.replans += 1
+        through = f" through {', '.join(self._doors)}" if self._doors else ""
+        self.notify(f"{self.name}: new way, {self.executor.remaining():.1f} m{through}")
+        return True
 
     def _stuck(self, pose: Pose, how: str) -> str:
         """Why the mission gives up (`how`, where `{}` is put where the robot is), and
@@ -552,12 +834,15 @@ class PathMission:
         self._total = executor.remaining()
         return executor
 
-    def _watch(self, now: float, pose: Pose) -> None:
+    # -- sensing ------------------------------------------------------------------------
+
+    def _watch(self, tick: Tick) -> None:
         """Put what the range finder sees into the grid, and take out what its beams now
         see through (while stopping too, so that the new plan knows all it can); if the
         grid now blocks the path ahead, stop and plan again (D* Lite across this room,
         else the room graph)."""
         assert self._sense is not None and self.navigator is not None
+        pose = tick.pose
         scan = self._sense()
         hits: list[Point] = []
         free: list[Point] = []
@@ -574,14 +859,13 @@ class PathMission:
             leg = self._current_leg(pose)
             if leg is not None:
                 leg.update(changes)
-        if self._restart or not self.navigator.state.obstacles:
+        if self._stage is not Stage.DRIVING or not self.navigator.state.obstacles:
             return
         if self._blocks_path_ahead():
             self.notify(f"{self.name}: something in the way ahead of ({pose.x:.1f}, "
                         f"{pose.y:.1f}); stopping to plan again")  # fmt: skip
-            self.executor.brake(now)
-            self._restart, self._restart_why = True, "something in the way"
             self._approach_anew()
+            self._stop_then(tick.now, "something in the way", self._plan_again)
 
     def _blocks_path_ahead(self) -> bool:
         """Whether the grid, as it now is, blocks the path within LOOKOUT_M ahead: of

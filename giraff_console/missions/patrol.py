@@ -10,6 +10,12 @@ end where it began, where the operator can see how far it drifted.
 
 A patrol file is `routes/<name>.patrol.yaml`; routes/README.md describes it.
 
+A stop that fails on the way (the robot touched something again and again, or found no
+way there) does not end the patrol (issue 25): the failed mission brings the robot to
+rest, the stop is reported with its outcome and why, and the patrol goes on to the
+next stop, unless the file says `carry_on: false`. A robot that does not know where it
+is (LOST, UNVERIFIED) or a failure of the board ends it: going on would drive blind.
+
 On a board with a charger, a patrol that finds its battery low once it has finished a
 stop goes to the dock, charges, and carries on (missions/docking.py).
 """
@@ -29,13 +35,16 @@ from giraff_console.missions.yaml_file import YamlFile, shown
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.protocol.codec import Command
 from giraff_console.protocol.errors import GiraffError
-from giraff_console.robot.mission import Mission, Progress
+from giraff_console.robot.mission import Mission, Outcome, Progress
 from giraff_console.robot.odometry import Pose
 
 PATROL_SUFFIX = ".patrol.yaml"
 # A patrol is planned as a list of every leg of every round, so rounds are bounded; this
 # many rounds of one short stop is weeks of driving.
 MAX_ROUNDS = 10_000
+# The failures of a stop after which a patrol carries on to the next (with carry_on):
+# the robot is at rest and knows where it is, and the next stop may be reachable.
+CARRY_ON_AFTER = frozenset({Outcome.STALLED, Outcome.BLOCKED})
 
 
 class PatrolError(GiraffError):
@@ -66,15 +75,25 @@ class Patrol:
     rounds: int
     snapshots: bool
     stops: list[Stop]
+    carry_on: bool = True  # on to the next stop after one that failed (CARRY_ON_AFTER)
 
 
 @dataclass(frozen=True)
 class StopReached:
-    """The robot came to rest at the end of a stop's route; both numbers count from 1."""
+    """A stop's leg has ended: the robot came to rest at the end of its route, or the
+    leg failed and the patrol goes on; both numbers count from 1. `outcome` is the
+    leg's (a taught route replayed has none of its own: ARRIVED_UNVERIFIED) and
+    `detail` its words."""
 
     round: int
     stop_index: int
     route_name: str
+    outcome: Outcome = Outcome.ARRIVED_UNVERIFIED
+    detail: str = ""
+
+    @property
+    def reached(self) -> bool:
+        return self.outcome.arrived
 
 
 def load_patrol(path: Path) -> Patrol:
@@ -83,7 +102,7 @@ def load_patrol(path: Path) -> Patrol:
     if not file.path.name.endswith(PATROL_SUFFIX):
         file.fail(f"a patrol file's name ends in {PATROL_SUFFIX}")
     name = file.name(file.path.name.removesuffix(PATROL_SUFFIX), "patrol")
-    doc = file.mapping(required=("rounds", "stops"), optional=("snapshots",))
+    doc = file.mapping(required=("rounds", "stops"), optional=("snapshots", "carry_on"))
     rounds = doc["rounds"]
     if isinstance(rounds, bool) or not isinstance(rounds, int) or not 1 <= rounds <= MAX_ROUNDS:
         file.fail(
@@ -92,11 +111,15 @@ def load_patrol(path: Path) -> Patrol:
     snapshots = doc.get("snapshots", True)
     if not isinstance(snapshots, bool):
         file.fail(f"snapshots should be true or false, not {shown(snapshots)}", "snapshots")
+    carry_on = doc.get("carry_on", True)
+    if not isinstance(carry_on, bool):
+        file.fail(f"carry_on should be true or false, not {shown(carry_on)}", "carry_on")
     stops = doc["stops"]
     if not isinstance(stops, list) or not stops:
         file.fail("stops should be a list of {route: NAME} or {room: ROOM}, at least one", "stops")
     return Patrol(
-        name, rounds, snapshots, [_stop(file, s, f"stops[{i}]") for i, s in enumerate(stops)]
+        name, rounds, snapshots, [_stop(file, s, f"stops[{i}]") for i, s in enumerate(stops)],
+        carry_on,
     )
 
 
@@ -172,27 +195,47 @@ class PatrolRun:
         self._legs = [(n, i) for n in range(1, patrol.rounds + 1) for i in range(len(patrol.stops))]
         self._leg = 0
         self._problem: str | None = None
-        # A patrol set off on a low battery charges first.
-        self._detour = self._charging_detour()
-        self._mission = _Idle() if self._detour else self._start_leg(patrol.stops[0])
+        self._failed_in_a_row = 0
+        self._mission: Mission = _Idle()
+        self._detour: ChargingDetour | None = None
         self._dwell_end: float | None = None
         self._paused_at: float | None = None
         self._now: float | None = None
+        # A patrol set off on a low battery charges first.
+        self._start_leg()
 
-    def _start_leg(self, stop: Stop) -> Mission:
-        """The mission that drives to `stop`; a leg that cannot start ends the patrol."""
-        try:
-            if stop.room is not None:
-                assert self._go is not None
-                return self._go(stop.room)
-            route = self._routes[str(stop.route)]
-            if stop.follow:
-                assert self._follow is not None
-                return self._follow(route)
-            return RouteReplay(route)
-        except PlanningError as error:
-            self._problem = f"stop {stop.place}: {error}"
-            return _Idle()
+    def _start_leg(self) -> None:
+        """The detour to the dock, if the battery is low, else the mission that drives
+        to the stop now due. A stop whose way cannot be planned is skipped as failed
+        (carry_on); any other leg that cannot start ends the patrol."""
+        if self.finished or self._problem is not None:
+            return
+        self._detour = self._charging_detour()
+        if self._detour is not None:
+            self._mission = _Idle()
+            return
+        while not self.finished and self._problem is None:
+            stop = self._stop()
+            try:
+                self._mission = self._leg_mission(stop)
+                return
+            except PlanningError as error:
+                why = f"stop {stop.place}: {error}"
+                if not (self.patrol.carry_on and stop.room is not None):
+                    self._problem, self._mission = why, _Idle()
+                    return
+                self._failed(Outcome.BLOCKED, why)
+
+    def _leg_mission(self, stop: Stop) -> Mission:
+        """The mission that drives to `stop`; PlanningError if there is no way."""
+        if stop.room is not None:
+            assert self._go is not None
+            return self._go(stop.room)
+        route = self._routes[str(stop.route)]
+        if stop.follow:
+            assert self._follow is not None
+            return self._follow(route)
+        return RouteReplay(route)
 
     def step(self, now: float, state: MotorState | None) -> list[Command]:
         if self._paused_at is not None or self.finished or self._problem is not None:
@@ -204,21 +247,46 @@ class PatrolRun:
             self._leg, self._dwell_end = self._leg + 1, None
             if self.finished:
                 return []
-            self._detour = self._charging_detour()
-            if self._detour is None:
-                self._mission = self._start_leg(self._stop())
+            self._start_leg()
         if self._detour is not None:
             commands = self._detour.step(now, state)
             if self._detour.finished:
                 self._detour = None
-                self._mission = self._start_leg(self._stop())
+                self._start_leg()
             return commands
-        commands = self._mission.step(now, state)
-        if self._mission.finished:
-            round_number, index = self._legs[self._leg]
-            self._on_stop(StopReached(round_number, index + 1, self._stop().place))
+        mission = self._mission
+        commands = mission.step(now, state)
+        path = mission if isinstance(mission, PathMission) else None
+        outcome = path.outcome if path is not None else None
+        if mission.finished:
+            self._failed_in_a_row = 0
+            self._reached(outcome or Outcome.ARRIVED_UNVERIFIED, path.detail if path else "")
             self._dwell_end = now + self._stop().dwell
+        elif mission.problem is not None and self.patrol.carry_on and outcome in CARRY_ON_AFTER:
+            assert outcome is not None
+            self._failed(outcome, mission.problem)
+            self._start_leg()
         return commands
+
+    def _reached(self, outcome: Outcome, detail: str) -> None:
+        round_number, index = self._legs[self._leg]
+        self._on_stop(StopReached(round_number, index + 1, self._stop().place, outcome, detail))
+
+    def _failed(self, outcome: Outcome, why: str) -> None:
+        """The stop under way failed and the patrol carries on (the robot is at rest:
+        path_mission.py): say so and move on to the next stop, with no dwell, since the
+        robot never got there. A whole round of stops failed in a row ends it."""
+        round_number, index = self._legs[self._leg]
+        place = self._stop().place
+        self._reached(outcome, why)
+        self._failed_in_a_row += 1
+        self._leg += 1
+        if self._failed_in_a_row >= len(self.patrol.stops):
+            self._problem = (f"every stop failed, {self._failed_in_a_row} in a row; the last, "
+                             f"{place}: {why}")  # fmt: skip
+            return
+        self._notify(f"patrol {self.name}: round {round_number}, stop {index + 1} ({place}) "
+                     f"failed: {why}; going on to the next stop")  # fmt: skip
 
     def _charging_detour(self) -> ChargingDetour | None:
         """To the dock, if the battery is low; back to here after, if the next stop is a

@@ -325,15 +325,16 @@ class _RunLog:
     def reached(self, stop: StopReached, pose: Pose) -> None:
         """On the loop's thread, as the robot comes to rest: the snapshot is encoded and
         written on another."""
-        self.reached_count += 1
+        self.reached_count += stop.reached
         if self.log is not None:
             self._told(self.log.stop({
                 "round": stop.round, "stop": stop.stop_index, "place": stop.route_name,
+                "outcome": stop.outcome.value, "detail": stop.detail,
                 "pose_estimate": [round(pose.x, 3), round(pose.y, 3),
                                   round(math.degrees(pose.heading), 1)],
             }))  # fmt: skip
         sessions = self.sessions
-        if sessions is None:
+        if sessions is None or not stop.reached:
             return
         label = f"round{stop.round}-stop{stop.stop_index}-{stop.route_name}"
 

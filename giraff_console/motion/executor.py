@@ -22,7 +22,12 @@ rule with a margin) chosen so that, for one tick, the board does what the plan w
   overshoot.
 
 Turns on the spot are streamed the same way, in the rotation style (r = 0), where `p`
-is degrees and positive turns right (A.2.2).
+is degrees and positive turns right (A.2.2). A `Reverse` (backing clear of something the
+robot touched) is a straight drive with `p` negative and no gear ratio.
+
+A stall (motion commanded, the wheels not turning: §2.3.2) is the executor's `problem`,
+and `stalled` says that is what it is, for a mission that recovers from it; `halt`
+then stops the board's move at once, where `brake` would ease off along the path.
 """
 
 from __future__ import annotations
@@ -34,7 +39,7 @@ from dataclasses import dataclass, field, replace
 import ruckig
 
 from giraff_console.link.motor_state import MotorState
-from giraff_console.motion.path import Drive, Rotation, Section, gear_of, wrap
+from giraff_console.motion.path import Drive, Reverse, Rotation, Section, gear_of, wrap
 from giraff_console.motion.speed_profile import (
     MotionLimits,
     Profile,
@@ -75,8 +80,21 @@ STALL_M = 0.001
 # being left for that.
 PLAN_PULL = 0.2
 JERK_SPARE = 0.85
+# The most the pull may run the profile's clock faster or slower, as a fraction of the
+# time passing (see _advance_plan).
+PULL_MAX = 0.08
+# Below this acceleration (m/s^2) a pull's change is bounded as if at this one: where
+# the profile cruises, moving its clock changes the speed by little, but not by nothing.
+PULL_ACCEL_FLOOR = 0.05
 # Values are sent to a tenth of a millimetre: finer changes are not worth a command.
 DECIMALS = 4
+# How fast the robot's place along the path may follow a jump of the pose it is given
+# (a marker's correction, issue 25): taken in at once, a few centimetres move the
+# profile's clock by a tenth of a second in one tick, which while speeding up or
+# slowing down is a step in the commanded acceleration (jerk of 3.8 m/s^3 against a
+# limit of 1, measured). At this rate a correction is a gentle ramp of the speed, and
+# the few centimetres a marker moves the estimate are taken up within half a second.
+ALONG_RATE = 0.1  # m/s
 
 
 @dataclass
@@ -127,6 +145,7 @@ class Executor:
         self.time_optimal = sum(p.duration for p in _profiles(self.sections, limits, zones))
         self.index = 0
         self.problem: str | None = None
+        self.stalled = False  # the problem is a stall (see the module docstring)
         self.trace = Trace([], [])
         self._t0: float | None = None
         self._base = (0.0, 0.0)
@@ -136,7 +155,11 @@ class Executor:
         # When the wheels last turned, and where they were then: for stalls.
         self._still_since: tuple[float, tuple[float, float]] | None = None
         self._progress = 0.0
+        # How far ahead of the odometers' travel the pose puts the robot along the path,
+        # as taken up so far (ALONG_RATE), and when it was last taken up.
+        self._along: tuple[float, float] | None = None
         self._plan_time = 0.0  # where the present section's profile is, in its own time
+        self._pull = 0.0  # how far the last tick moved the profile's clock towards the robot
         self._plan_clock: float | None = None  # when _plan_time was last advanced
         self._creep_since: float | None = None  # when the profile ran out short of the end
         # A turn on the spot: the odometry's heading at its start, and the angle to turn.
@@ -173,7 +196,7 @@ class Executor:
         if self.finished or self._t0 is None:
             self.abandon()
             return
-        if isinstance(self.sections[self.index], Rotation):
+        if isinstance(self.sections[self.index], Rotation | Reverse):
             self.sections = self.sections[: self.index + 1]
             self.profiles = self.profiles[: self.index + 1]
             return
@@ -197,6 +220,13 @@ class Executor:
         """Give the rest up (the robot was stopped by other means): finished at once."""
         self.sections = self.sections[: self.index]
         self.profiles = self.profiles[: self.index]
+
+    @property
+    def style(self) -> int | None:
+        """The movement style (`r`) last sent to the board, if any: what a stop's `p`
+        means (A.2)."""
+        sent = self._sent.get("r")
+        return None if sent is None else int(sent)
 
     @property
     def progress(self) -> float:
@@ -234,6 +264,8 @@ class Executor:
         section = self.sections[self.index]
         if isinstance(section, Drive):
             commands = self._drive(section, now, state, pose, casters)
+        elif isinstance(section, Reverse):
+            commands = self._reverse(section, now, state)
         else:
             commands = self._rotate(section, now, state, pose)
         if commands is None:  # the section is done; the next starts on the next tick
@@ -241,6 +273,7 @@ class Executor:
                 self.trace.stops.append(now)
             self.index += 1
             self._t0 = self._plan_clock = self._creep_since = self._start_heading = None
+            self._along = None
             self._progress = self._plan_time = 0.0
             return []
         self._check_stall(now, state)
@@ -258,7 +291,7 @@ class Executor:
         # of or behind the path's point the pose is.
         near = drive.pose_at(travelled)
         dx, dy = pose.x - near.x, pose.y - near.y
-        along = math.cos(near.heading) * dx + math.sin(near.heading) * dy
+        along = self._taken_up(math.cos(near.heading) * dx + math.sin(near.heading) * dy, now)
         s = min(max(travelled + along, 0.0), drive.length)
         here = drive.pose_at(s)
         lateral = -math.sin(here.heading) * (pose.x - here.x) + math.cos(here.heading) * (
@@ -338,6 +371,36 @@ class Executor:
             stop = u * u / (2 * max(target, 1e-4))
         return min(max(abs(v_cmd - u) / self.tick, runaway, stop, 1e-3), limits.a_max)
 
+    # -- backing up ---------------------------------------------------------------------
+
+    def _reverse(self, section: Reverse, now: float, state: MotorState) -> list[Command] | None:
+        """Straight back along the robot's heading, jerk-limited like a drive: no
+        steering over a few decimetres, so the gear ratio ramps to zero and stays."""
+        profile = self.profiles[self.index]
+        assert self._t0 is not None
+        t = now - self._t0
+        travelled = -((state.imdl or 0.0) - self._base[0] + (state.imdr or 0.0) - self._base[1]) / 2
+        s = min(max(travelled, 0.0), section.length)
+        self._progress = s
+        remaining = section.length - s
+        speed = abs(state.speed or 0.0)
+        if not state.moving and (
+            remaining <= DONE_M or (t >= profile.duration and remaining <= SETTLE_M)
+        ):
+            return None
+        _, v_cmd, _ = profile.at(self._advance_plan(profile, s, now) + self.tick)
+        if t >= profile.duration and remaining > DONE_M:
+            v_cmd = max(v_cmd, self._creep(now, remaining))
+        self._record(now, v_cmd)
+        v_cmd = max(v_cmd, MIN_SPEED)
+        target = min(remaining, LOOKAHEAD_M)
+        if target < 1e-4:
+            return []
+        accel = self._accel(speed, v_cmd, target, ahead=remaining - speed * self.tick > DONE_M)
+        return self._commands({"r": PATH_STYLE, "mode": 0, "cdp": LOOKAHEAD_M, "a": accel,
+                               "v": v_cmd, "vg": 0.0, "vgr": GEAR_RATE_RANGE[1]},
+                              -target)  # fmt: skip
+
     # -- turning on the spot ------------------------------------------------------------
 
     def _rotate(self, rotation: Rotation, now: float, state: MotorState,
@@ -389,6 +452,19 @@ class Executor:
         eased = self.limits.j_max * JERK_SPARE * (now - self._creep_since) ** 2 / 2
         return min(CREEP_SPEED, eased, remaining)
 
+    def _taken_up(self, along: float, now: float) -> float:
+        """`along` (the pose's lead on the odometers' travel) as the robot's place is
+        allowed to follow it: from the first tick of a section at once, after that at
+        ALONG_RATE (see there)."""
+        if self._along is None:
+            self._along = (along, now)
+            return along
+        before, then = self._along
+        step = ALONG_RATE * max(now - then, 0.0)
+        taken = before + max(-step, min(step, along - before))
+        self._along = (taken, now)
+        return taken
+
     def _advance_plan(self, profile: Profile, done: float, now: float) -> float:
         """Where in its profile the section is: the clock's time since the last tick,
         nudged towards the moment the profile passes the robot's place. Following the
@@ -398,9 +474,27 @@ class Executor:
         with some of the jerk limit to spare for it (JERK_SPARE)."""
         if self._plan_clock is None:
             self._plan_time = 0.0
+            self._pull = 0.0
         else:
-            self._plan_time += now - self._plan_clock
-            self._plan_time += PLAN_PULL * (profile.time_at(done) - self._plan_time)
+            dt = now - self._plan_clock
+            self._plan_time += dt
+            wanted = PLAN_PULL * (profile.time_at(done) - self._plan_time)
+            # The pull is a second clock on top of the profile's, and it adds jerk two
+            # ways: running the clock a fraction f faster scales the profile's own jerk
+            # by (1 + f), and a pull that changes from one tick to the next changes the
+            # commanded acceleration by the profile's acceleration times that change.
+            # So the pull is held within PULL_MAX of the tick, and its change to what
+            # the jerk left spare (JERK_SPARE) then allows. Without this, a robot a
+            # centimetre ahead of its profile in the last decimetres before it stops (a
+            # marker's correction, issue 25), where a millimetre is a long time, was
+            # pulled into a jerk of 3.8 m/s^3, and at the start of a drive into 1.04.
+            _, _, accel = profile.at(self._plan_time)
+            spare = (1 - JERK_SPARE * (1 + PULL_MAX)) * self.limits.j_max * dt * dt
+            step = spare / max(abs(accel), PULL_ACCEL_FLOOR)
+            bound = PULL_MAX * dt
+            wanted = max(-bound, min(bound, wanted))
+            self._pull = max(self._pull - step, min(self._pull + step, wanted))
+            self._plan_time += self._pull
         self._plan_clock = now
         return self._plan_time
 
@@ -453,13 +547,17 @@ class Executor:
             self._still_since = (now, wheels)
         elif now - since >= STALL_S:
             self.problem = f"stalled: the wheels have not turned for {now - since:.1f} s"
+            self.stalled = True
 
 
 def _profiles(sections: Sequence[Section], limits: MotionLimits,
               zones: Callable[[Drive], Sequence[SlowZone]]) -> list[Profile]:  # fmt: skip
-    return [
-        drive_profile(section, limits, zones(section))
-        if isinstance(section, Drive)
-        else rotation_profile(section, limits)
-        for section in sections
-    ]
+    profiles = []
+    for section in sections:
+        if isinstance(section, Drive):
+            profiles.append(drive_profile(section, limits, zones(section)))
+        elif isinstance(section, Reverse):
+            profiles.append(drive_profile(section.ahead(), limits))
+        else:
+            profiles.append(rotation_profile(section, limits))
+    return profiles

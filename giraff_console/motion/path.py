@@ -127,4 +127,27 @@ class Drive:
         return segment.curvature_at(into)
 
 
-Section = Drive | Rotation
+@dataclass(frozen=True)
+class Reverse:
+    """Backing straight up `length` metres from `start`, the robot facing the way it
+    faces there: how a robot that has touched something gets clear of it the way it
+    came (missions/recovery.py). `pose_at(s)` is where it is after backing `s` metres."""
+
+    start: Pose
+    length: float
+
+    @property
+    def end(self) -> Pose:
+        return self.pose_at(self.length)
+
+    def pose_at(self, s: float) -> Pose:
+        back = min(max(s, 0.0), self.length)
+        h = self.start.heading
+        return Pose(self.start.x - back * math.cos(h), self.start.y - back * math.sin(h), h)
+
+    def ahead(self) -> Drive:
+        """The same line driven forwards, which has the same speed profile."""
+        return Drive((Segment(self.end, self.length),))
+
+
+Section = Drive | Rotation | Reverse

@@ -201,6 +201,26 @@ class GridLegs:
             self._paths.clear()
         return changes
 
+    def unblock(self, points: list[Point], radius: float) -> list[tuple[Cell, bool]]:
+        """What was sensed at `points` is no longer believed (a contact a mission put
+        there, path_mission.py): their cells are forgotten and freed as see_through
+        frees them. Returns the cells freed, as (cell, False) pairs."""
+        gone = []
+        for x, y in points:
+            try:
+                cell = self.grid.cell_of(x, y)
+            except ValueError:
+                continue
+            if self.sensed.pop(cell, None) is not None:
+                self._sensed_cells[cell] = False
+                gone.append(cell)
+        if not gone:
+            return []
+        changes = self._free_round(np.array(gone), radius)
+        if changes:
+            self._paths.clear()
+        return changes
+
     def _disc(self, cell: Cell, point: Point, radius: float) -> tuple[slice, slice, np.ndarray]:
         """The window of cells round `cell` that a disc of `radius` at `point` can reach,
         and which of them it covers (their centres within `radius` of `point`)."""

@@ -36,6 +36,8 @@ import threading
 import time
 from collections.abc import Callable
 
+import numpy as np
+
 from giraff_console.clock import Clock, VirtualClock
 from giraff_console.link import (
     BoardFeatures,
@@ -57,7 +59,7 @@ from giraff_console.robot.battery import Battery
 from giraff_console.robot.board_gauges import BoardGauges
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.deadman import Deadman, Intent
-from giraff_console.robot.localisation import Estimate, Localisation
+from giraff_console.robot.localisation import Estimate, Localisation, PoseBasis
 from giraff_console.robot.loop_events import Listener, LoopEvent, MissionChanged, Note
 from giraff_console.robot.mission import Mission
 from giraff_console.robot.odometry import Odometry, Pose
@@ -328,9 +330,11 @@ class ControlLoop:
         """The pose with how well it is known (the loop's thread; see `pose`)."""
         return self.localisation.estimate()
 
-    def place(self, pose: Pose) -> None:
-        """The robot stands at `pose`: before the loop starts, or from its thread."""
-        self.localisation.place(pose)
+    def place(self, pose: Pose, basis: PoseBasis = PoseBasis.ASSUMED,
+              covariance: np.ndarray | None = None) -> None:  # fmt: skip
+        """The robot stands at `pose`, as `basis` says, known to `covariance` (the
+        dock's few centimetres by default): before the loop starts, or from its thread."""
+        self.localisation.place(pose, covariance, basis)
 
     @property
     def board(self) -> BoardFeatures | None:

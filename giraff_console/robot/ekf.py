@@ -291,6 +291,15 @@ class PoseFilter:
         self._set_pose(pose, covariance, 0.0, 0.0)
         self._rotation = None
 
+    def inflate(self, extra: np.ndarray) -> None:
+        """Know the pose less well by `extra` (a 3x3 covariance added to the pose's):
+        something happened that the motion model does not cover, such as a contact."""
+        if not self.placed:
+            return
+        p = self._p.copy()
+        p[:3, :3] += np.asarray(extra, dtype=float)
+        self._p = (p + p.T) / 2
+
     def move_to(self, pose: Pose) -> None:
         """The estimate is now `pose`, known as well as it was, the casters' turn to come
         kept: the odometry's own pose jumped, and the estimate with it."""

@@ -17,13 +17,24 @@ Why a frame is moved to the present before it corrects anything
     longer kept, and so old a frame says little anyway.
 
 No starting guess
-    The console assumes the robot starts on its dock (the plan's start room), as it
-    always has; without markers in the plan that is all there is. With markers, that
-    assumption is not evidence: until a marker has confirmed the pose (`found`), a
-    sighting the gate rejects places the robot where the sighting says instead (the
-    first marker seen places the robot: ids are unique in a plan). After that the gate
-    holds, so that a marker moved on the wall but not in the plan cannot drag the
-    estimate away.
+    Where the robot starts is only ever as good as whoever said so, and the estimate
+    says who did (`PoseBasis`): a marker, the dock's charging contacts, the operator
+    (`place`, or a simulator started on its dock), or nobody (the pose kept on disk by
+    a daemon that was restarted, or the dock merely assumed: `ASSUMED`). An assumed
+    pose is never driven on beyond a look for a marker (missions/path_mission.py,
+    issue 25). With markers, a start is not evidence either: until a marker has
+    confirmed the pose (`found`), a sighting the gate rejects places the robot where
+    the sighting says instead (the first marker seen places the robot: ids are unique
+    in a plan). After that the gate holds, so that a marker moved on the wall but not
+    in the plan cannot drag the estimate away.
+
+How fresh a fix is
+    The filter's uncertainty grows with every metre driven, but only by the noise it
+    models: a robot that clips a door frame, or whose casters pull harder than modelled
+    (§3.2.1.5), is further off than it says. So the estimate also counts the metres
+    driven on the odometry alone since a marker last corrected it (`since_fix_m`), and
+    whether the robot has touched something since (`contact`, from a stall): a mission
+    claims arrival only on a fix recent enough for both (missions/certainty.py).
 
 The pose when the odometry's jumps
     The odometry's pose jumps when its first-motion check replaces the wheel reading
@@ -35,6 +46,7 @@ The pose when the odometry's jumps
 from __future__ import annotations
 
 import collections
+import enum
 import math
 import queue
 from collections.abc import Callable, Iterable, Mapping
@@ -65,6 +77,28 @@ PLACE_REACH_M = 4.0
 # A step whose centre moves less than this fraction of what its wheels turn is a turn
 # in place, which leaves the casters out of line (§3.2.1.5).
 IN_PLACE_FRACTION = 0.1
+
+
+# After a contact (a stall against something) the pose may be off by what the robot was
+# pushed, or by what the steering could not take out before it touched: the position's
+# and the heading's uncertainty grow by this much, so that the next marker is not
+# rejected by a gate made too narrow by a filter that could not see it.
+CONTACT_SIGMA_M = 0.05
+CONTACT_SIGMA_HEADING = math.radians(5.0)
+
+
+class PoseBasis(enum.Enum):
+    """Who last said where the robot is; see the module docstring."""
+
+    MARKER = "marker"  # a marker placed or confirmed it
+    DOCK = "dock"  # the charger's contacts: the robot stands on its dock
+    GIVEN = "given"  # the operator: `place`, or a simulator started on its dock
+    ASSUMED = "assumed"  # nobody: kept on disk by a restarted daemon, or the dock assumed
+
+    @property
+    def verified(self) -> bool:
+        """Something other than an assumption says where the robot is."""
+        return self is not PoseBasis.ASSUMED
 
 
 @dataclass(frozen=True)
@@ -98,6 +132,12 @@ class Estimate:
     # positive left), for drives to steer against.
     caster_pending: float = 0.0
     caster_rate: float = 0.0
+    # Who said where the robot is, the metres its centre has driven on the odometry
+    # alone since (a marker's correction, or the placing), and whether it has touched
+    # something since (module docstring, "How fresh a fix is").
+    basis: PoseBasis = PoseBasis.ASSUMED
+    since_fix_m: float = 0.0
+    contact: bool = False
 
     @property
     def lost(self) -> bool:
@@ -132,6 +172,9 @@ class Localisation:
         self.filter = PoseFilter(odometry.pose, start_covariance())
         self._noise = self.filter.noise
         self.found = False
+        self.basis = PoseBasis.ASSUMED
+        self.since_fix_m = 0.0
+        self.contact = False
         self._wheels = odometry.wheels
         # Where the odometry's pose would be if it only moved by the wheel steps followed.
         self._odometry_pose = odometry.pose
@@ -180,9 +223,11 @@ class Localisation:
 
     # -- on the loop's thread -----------------------------------------------------------
 
-    def place(self, pose: Pose, covariance: np.ndarray | None = None) -> None:
-        """The robot is at `pose` (the operator says so, or the console starts on the
-        dock): the odometry and the estimate start again from there."""
+    def place(self, pose: Pose, covariance: np.ndarray | None = None,
+              basis: PoseBasis = PoseBasis.ASSUMED) -> None:  # fmt: skip
+        """The robot is at `pose`, as `basis` says (the operator, the dock, or only an
+        assumption: the console starting, a daemon restarted from the pose it kept): the
+        odometry and the estimate start again from there."""
         self.odometry.reset(pose, self.odometry.reference)
         self.filter.reset(pose, start_covariance() if covariance is None else covariance)
         self._odometry_pose = pose
@@ -190,6 +235,16 @@ class Localisation:
         self._history.clear()
         self._history.append((self.now(), pose))
         self.found = False
+        self.basis = basis
+        self.since_fix_m = 0.0
+        self.contact = False
+
+    def touched(self) -> None:
+        """The robot has stalled against something (a mission's contact): the estimate
+        is less sure than the filter thinks, and its fix is no longer fresh."""
+        self.contact = True
+        extra = np.diag([CONTACT_SIGMA_M**2, CONTACT_SIGMA_M**2, CONTACT_SIGMA_HEADING**2])
+        self.filter.inflate(extra)
 
     def follow(self) -> None:
         """Predict by what the wheels did since the last call (see the module docstring
@@ -204,6 +259,7 @@ class Localisation:
             in_place = centre < IN_PLACE_FRACTION * max(abs(left), abs(right))
             self.filter.predict(left, right, base, turned_in_place=in_place)
             self._odometry_pose = _step(self._odometry_pose, left, right, base)
+            self.since_fix_m += abs(left + right) / 2
         jump = _between(self._odometry_pose, odometry.pose)
         if math.hypot(jump.x, jump.y) > 1e-6 or abs(jump.heading) > 1e-6:
             self.filter.move_to(_compose(self.filter.pose, jump))
@@ -244,20 +300,25 @@ class Localisation:
         if not self.found and not near:
             return  # too weak to confirm the assumed start by, or to place the robot
         if self.filter.correct(present, marker):
-            self.found = True
-            self._seen[marker_id] = now
-            self.used[marker_id] += 1
+            self._fixed(marker_id, now)
             return
         if not self.found and present.facing_rad is not None:
             # Not found yet: the assumed start is no evidence; this marker is.
             pose = self.filter.place_from(present, marker)
-            self.found = True
-            self._seen[marker_id] = now
-            self.used[marker_id] += 1
+            self._fixed(marker_id, now)
             self.report(f"found by marker {marker_id}: at x={pose.x:.2f} y={pose.y:.2f}")
             return
         self._rejected[marker_id] = now
         self.rejections[marker_id] += 1
+
+    def _fixed(self, marker_id: int, now: float) -> None:
+        """A marker has placed or corrected the pose: it is found, and fixed afresh."""
+        self.found = True
+        self.basis = PoseBasis.MARKER
+        self.since_fix_m = 0.0
+        self.contact = False
+        self._seen[marker_id] = now
+        self.used[marker_id] += 1
 
     def _to_present(self, sighting: Observation, now: float) -> Observation | None:
         """The sighting as a camera at the robot's pose now would make it."""
@@ -317,6 +378,9 @@ class Localisation:
             corrected_at=f.corrected_at if self.found else None,
             caster_pending=f.caster_pending,
             caster_rate=f.caster_rate,
+            basis=self.basis,
+            since_fix_m=self.since_fix_m,
+            contact=self.contact,
         )
 
     @property

@@ -14,6 +14,7 @@ only text (a log, a pipe) `Progress.line` gives the line operators know.
 
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -26,6 +27,35 @@ PAUSED = "paused"
 ARRIVED = "arrived"
 # The text bar's width, in characters: as wide as it has always been in the main view.
 TEXT_BAR = 16
+
+
+class Outcome(enum.Enum):
+    """How a mission that drives to a place ended, as the mission itself judged it: a
+    type, so that no front end decides by comparing the words (issue 25). `value` is
+    what `--json` prints. The loop ends missions from outside too (the operator, ESTOP,
+    a lost link): those say so in the loop's reason, and the mission's outcome stays
+    None."""
+
+    # There, and the pose confirmed by a marker recently enough (missions/certainty.py).
+    ARRIVED = "arrived"
+    # There by the estimate, but nothing has confirmed it lately: dead reckoning, or no
+    # marker in sight at the goal. The detail says how far it drove on the odometry.
+    ARRIVED_UNVERIFIED = "arrived_unverified"
+    # Touched something again and again, and backing off and trying again did not help.
+    STALLED = "stalled"
+    # No way there, or no nearer for too long.
+    BLOCKED = "blocked"
+    # No marker seen to find the robot by, where it needed one.
+    LOST = "lost"
+    # Not started: where the robot stands is only assumed, and nothing can confirm it.
+    UNVERIFIED = "unverified"
+    # Something else it cannot go on with (the board's readings, a bad plan).
+    FAILED = "failed"
+
+    @property
+    def arrived(self) -> bool:
+        """At the goal, confirmed or not."""
+        return self in (Outcome.ARRIVED, Outcome.ARRIVED_UNVERIFIED)
 
 
 @dataclass(frozen=True)

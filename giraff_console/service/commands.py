@@ -247,6 +247,18 @@ class Mark(Request):
 
 
 @dataclass(frozen=True)
+class Place(Request):
+    """The robot stands at room `room`'s point (the dock's for `dock`), facing the
+    room's heading, or `heading` degrees (counter-clockwise from the map's x axis): the
+    operator says so, and missions may drive from there (issue 25). Only the holder of
+    the controls may say it: a wrong pose moves the robot as surely as a key."""
+
+    room: str
+    heading: float | None = None
+    moves: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
 class Name(Request):
     """Rename room `room` of the floor plan `to` (§2.6.3), and save the plan."""
 
@@ -310,7 +322,7 @@ class Shutdown(Request):
 REQUESTS: tuple[type[Request], ...] = (
     Press, Halt, Speed, Send, Stalk, Poll, Go, RunPatrol, Follow, Replay, Undock,
     Pause, Resume, StopMission, Door, Block, Record, Play, Seek, Rate, Step, Teach, Mark,
-    Name, Done, Routes, TakeControls, Heartbeat, Status, Release, Shutdown,
+    Place, Name, Done, Routes, TakeControls, Heartbeat, Status, Release, Shutdown,
 )  # fmt: skip
 
 
@@ -385,6 +397,15 @@ def _patrol(rest: str) -> Request:
     return verbs.get(rest) or RunPatrol(_name("patrol NAME, or patrol pause|resume|stop")(rest))
 
 
+def _place(rest: str) -> Place:
+    usage = "place ROOM [DEGREES] (place dock; place kitchen 90)"
+    parts = rest.split()
+    if not 1 <= len(parts) <= 2:
+        raise Usage(f"usage: {usage}")
+    heading = _number(parts[1], usage) if len(parts) == 2 else None
+    return Place(parts[0], heading)
+
+
 def _rename(rest: str) -> Name:
     parts = rest.split()
     if len(parts) != 2:
@@ -426,6 +447,8 @@ TYPED: tuple[Typed, ...] = (
           "else the room it is in", lambda rest: Mark(_name("mark PLACE")(rest))),
     Typed("name", "name ROOM NEW", "rename a room of the floor plan, and save the plan",
           _rename),
+    Typed("place", "place ROOM [DEG]", "the robot stands at ROOM's point (dock: on the dock), "
+          "facing its heading or DEG: missions may drive from there", _place),
     Typed("done", "done", "save the route being taught", _bare(Done(), "done")),
     Typed("routes", "routes", "list the taught routes and the patrols", _bare(Routes(), "routes")),
     Typed("replay-route", "replay-route NAME", "drive a taught route again, open-loop (keys "

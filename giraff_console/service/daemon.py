@@ -48,7 +48,7 @@ from giraff_console.protocol.errors import (
 )
 from giraff_console.robot.battery import Battery
 from giraff_console.robot.deadman import Intent
-from giraff_console.robot.localisation import Estimate
+from giraff_console.robot.localisation import Estimate, PoseBasis
 from giraff_console.robot.loop_events import MissionChanged, Note
 from giraff_console.robot.mission import Progress
 from giraff_console.robot.odometry import Pose
@@ -285,7 +285,7 @@ wire.register(
     Hello, Welcome, Asked, Answered, Reply, Controls, RouteShown, RoomRenamed, Situation,
     *c.REQUESTS,
     Telemetry, LinkState, MotorState, Pose, Intent, PlaybackStatus, Progress, Battery,
-    ChargeStatus, BoardFeatures, Estimate, Exchange, Note, MissionChanged,
+    ChargeStatus, BoardFeatures, Estimate, PoseBasis, Exchange, Note, MissionChanged,
     GiraffError, CommandError, ProtocolError, BoardRebootedError, BoardError,
     UnknownNameError, QueueRolloverError, ArgumentError, LinkError, LinkTimeout,
     LinkDisconnected,

@@ -23,6 +23,7 @@ from dataclasses import replace
 from typing import Protocol
 
 from giraff_console.link import BoardLink
+from giraff_console.missions.docking import DOCK
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import NavigationState
 from giraff_console.missions.route_book import RouteBook
@@ -33,7 +34,9 @@ from giraff_console.protocol import CommandError, GiraffError, parse_command
 from giraff_console.recording.playback import Playback
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.robot.localisation import PoseBasis
 from giraff_console.robot.loop_events import LoopEvent, MissionChanged
+from giraff_console.robot.odometry import Pose
 from giraff_console.robot.safety import stop_robot
 from giraff_console.robot.stalk import head_height, stepped
 from giraff_console.robot.telemetry import Telemetry
@@ -422,6 +425,29 @@ class RobotService:
         if not reply.ok:
             return reply
         return replace(reply, text=f"{reply.text}; `name {request.place} {room}` undoes it")
+
+    def _do_place(self, request: c.Place) -> Reply:
+        """Where the robot stands, as the operator says (robot/localisation.py, "No
+        starting guess"): a room's point, facing its heading or the one given."""
+        navigator = self.navigator
+        if navigator is None:
+            return Reply(False, "place: no floor plan (start the console with --floorplan FILE)")
+        if self.control.mission is not None or self.control.missions_starting:
+            return Reply(False, "place: not while a mission runs; stop it first")
+        plan = navigator.plan
+        name = plan.start if request.room == DOCK and plan.start is not None else request.room
+        room = plan.rooms.get(name)
+        if room is None:
+            return Reply(False, f"place: no room called {request.room!r}")
+        degrees = request.heading if request.heading is not None else room.heading
+        if degrees is None:
+            return Reply(False, f"place: {request.room} has no heading in the plan: say which "
+                                f"way the robot faces (place {request.room} DEGREES, "
+                                "counter-clockwise from the map's x axis)")  # fmt: skip
+        pose = Pose(room.at[0], room.at[1], math.radians(degrees))
+        self.control.between_ticks(lambda: self.control.place(pose, PoseBasis.GIVEN))
+        return Reply(True, f"placed at {request.room} ({pose.x:.2f}, {pose.y:.2f}), facing "
+                           f"{degrees % 360:.0f}°, as the operator says")  # fmt: skip
 
     def _do_name(self, request: c.Name) -> Reply:
         return self._rename(request.room, request.to)

@@ -33,7 +33,7 @@ def test_killing_go_mid_route_leaves_the_robot_stopped_within_0_3_m(tmp_path):
     with errors.open("w") as stderr:
         go = subprocess.Popen(
             [sys.executable, "-m", "giraff_console", "go", "room-113", "--port", robot.path,
-             "--floorplan", str(EXAMPLE)],
+             "--floorplan", str(EXAMPLE), "--at", "dock"],
             stdout=subprocess.DEVNULL, stderr=stderr,
         )  # fmt: skip
     try:

@@ -11,6 +11,7 @@ from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
+from giraff_console.robot.localisation import PoseBasis
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.teleop import Teleop
 from giraff_console.sim_site import SimulatedSite
@@ -39,7 +40,8 @@ class Site:
                                    deadman=Deadman(self.clock), clock=self.clock)  # fmt: skip
         # As the front ends do: the simulated robot's casters are the simulator's to say.
         self.control.localisation.casters_turn_up_to(self.site.caster_drift)
-        self.control.odometry.reset(start)
+        # The rig puts the simulated robot on its dock and says so (robot/localisation.py).
+        self.control.place(start, PoseBasis.GIVEN)
         self.notes: list[str] = []
         self.control.subscribe(notes_into(self.notes))
         self.ended: list[str] = []

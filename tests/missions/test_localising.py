@@ -26,8 +26,8 @@ from giraff_console.motion.path import Drive, Rotation, Segment
 from giraff_console.planning.landmarks import marker_poses
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.planning.walls import wall_segments
-from giraff_console.robot.localisation import Estimate
-from giraff_console.robot.mission import DRIVING, Progress
+from giraff_console.robot.localisation import Estimate, PoseBasis
+from giraff_console.robot.mission import DRIVING, Outcome, Progress
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.sim.drive import TruePose
@@ -48,15 +48,17 @@ def navigator() -> Navigator:
 
 class LocalisingSite(Site):
     """The care home's simulated board with the plan's markers given to the localisation;
-    with `eye`, the synthetic camera finds them. The console assumes the robot starts
-    on its dock, wherever it really stands (`at`)."""
+    with `eye`, the synthetic camera finds them. The console takes the robot to start
+    on its dock: rightly when it was put there, only assuming so when it really stands
+    elsewhere (`at`)."""
 
     def __init__(self, navigator: Navigator, seed: int, *, eye: bool = True,
                  at: TruePose | None = None) -> None:  # fmt: skip
         super().__init__(navigator, imperfect=seed)
         if at is not None:
             self.board.place(at)
-        self.control.place(navigator.start_pose)
+        self.control.place(navigator.start_pose,
+                           PoseBasis.GIVEN if at is None else PoseBasis.ASSUMED)  # fmt: skip
         self.control.localisation.use_markers(MARKERS)
         if eye:
             camera = self.site.eye(self.control.localisation, self.clock, size=EYE_SIZE)
@@ -291,7 +293,8 @@ def go_with_markers_moving_it_aside(navigator: Navigator, aside: float) -> tuple
 
     def estimate() -> Estimate:
         return replace(site.control.estimate(), pose=pose(), found=True, corrected_at=0.0,
-                       sigma_m=0.01, sigma_heading=math.radians(0.5))  # fmt: skip
+                       sigma_m=0.01, sigma_heading=math.radians(0.5),
+                       since_fix_m=0.0)  # fmt: skip
 
     missions.append(go_mission(navigator, "room-101", pose, tick=TICK, limits=LIMITS,
                                sense=site.sense, notify=site.notes.append,
@@ -326,3 +329,26 @@ def test_a_robot_that_cannot_get_near_enough_says_so_rather_than_arrive(navigato
     assert site.ended and site.ended[0].startswith("stopped: could not get nearer")
     assert "0.15 m and 0° to the goal" in site.ended[0]
     assert aside == pytest.approx(0.15 * (ARRIVAL_TRIES + 1))
+
+
+def test_a_robot_whose_pose_is_only_assumed_does_not_set_off_without_markers(navigator):
+    # A daemon restarted from the pose it kept, say: nothing can confirm it.
+    site = LocalisingSite(navigator, seed=3, eye=False, at=TruePose(12.0, 10.9, 0.0))
+    site.control.localisation.use_markers({})
+    mission = site.go_with("room-101", site.control.estimate)
+    site.run(10)
+    assert site.ended and site.ended[0].startswith("stopped: not started: where the robot "
+                                                   "stands is only assumed")  # fmt: skip
+    assert "place ROOM" in site.ended[0] and mission.outcome is Outcome.UNVERIFIED
+    assert site.board.drive.wheel_travel == 0.0
+
+
+def test_a_robot_placed_by_the_operator_drives_by_the_odometry_and_says_it_is_unconfirmed(
+    navigator,
+):
+    site = LocalisingSite(navigator, seed=0, eye=False)
+    site.control.localisation.use_markers({})
+    mission = site.go_with("room-101", site.control.estimate)
+    site.run(120)
+    assert site.ended == ["done"] and mission.outcome is Outcome.ARRIVED_UNVERIFIED
+    assert "odometry alone" in mission.detail and error_m(site, "room-101") <= 0.03

@@ -148,9 +148,10 @@ def test_go_reaches_ten_rooms_in_the_simulator_within_3_cm(office):
         done = dict(zip(GOALS, drives, strict=True))
     errors = {}
     for room, (code, out, err) in done.items():
-        assert code == 0, err
+        # No markers on the imported plan: arrived by the odometry, unconfirmed (exit 3).
+        assert code == 3, err
         report = json.loads(out)
-        assert report["arrived"] and report["why"] == "done", (room, report)
+        assert report["outcome"] == "arrived_unverified" and report["why"] == "done", report
         errors[room] = report["error_m"]
     assert max(errors.values()) <= 0.03, errors
 

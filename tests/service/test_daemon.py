@@ -29,6 +29,7 @@ from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
+from giraff_console.robot.localisation import PoseBasis
 from giraff_console.robot.loop_events import LoopEvent, MissionChanged, Note
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.robot.teleop import Teleop
@@ -464,7 +465,7 @@ def test_status_shows_a_mission_running_or_how_it_ended_never_neither():
     navigator = Navigator(plan, walls_of(plan))
     start = navigator.start_pose
     assert start is not None
-    control.place(start)
+    control.place(start, PoseBasis.GIVEN)
     link.port.board.place(TruePose(start.x, start.y, start.heading))
     service = RobotService(control, DriveSetup.on_loop(control, navigator))
     seen: list[tuple[LoopEvent, Situation]] = []

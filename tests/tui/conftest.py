@@ -18,6 +18,7 @@ from giraff_console.planning.route_planner import walls_of
 from giraff_console.recording.session import RecordingSetup
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
+from giraff_console.robot.localisation import PoseBasis
 from giraff_console.robot.teleop import Teleop
 from giraff_console.service.robot_service import RobotService
 from giraff_console.sim.drive import TruePose
@@ -57,7 +58,7 @@ class Rig:
             self.navigator = Navigator(plan, walls_of(plan))
             start = self.navigator.start_pose
             assert start is not None
-            self.control.odometry.reset(start)
+            self.control.place(start, PoseBasis.GIVEN)
             self.board.place(TruePose(start.x, start.y, start.heading))
         self.camera = None
         if camera and plan is not None:
