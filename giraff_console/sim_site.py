@@ -15,9 +15,13 @@ does: the simulator itself knows nothing of floor plans.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 
+import numpy as np
+
+from giraff_console.camera.markers import Region
 from giraff_console.camera.processors import CameraIntrinsics
-from giraff_console.camera.source import SyntheticCamera
+from giraff_console.camera.source import CameraSource, Frame, SyntheticCamera
 from giraff_console.clock import Clock
 from giraff_console.planning.floorplan import FloorPlan
 from giraff_console.planning.grid import OCCUPIED, OccupancyGrid
@@ -26,11 +30,13 @@ from giraff_console.planning.route_planner import ROBOT_RADIUS_M, walls_of
 from giraff_console.planning.walls import WallSegment, doorway, wall_segments
 from giraff_console.robot.localisation import Localisation
 from giraff_console.robot.marker_eye import EYE_FPS, EYE_SIZE, MarkerEye
+from giraff_console.robot.marker_search import Building
 from giraff_console.robot.odometry import Pose
 from giraff_console.sim.board import GiraffBoard
-from giraff_console.sim.camera import WorldCamera
+from giraff_console.sim.camera import CAMERA_HEIGHT_M, WorldCamera
 from giraff_console.sim.collision import Solids, grid_edges
 from giraff_console.sim.drive import TruePose
+from giraff_console.sim.marker_windows import MarkerWindows
 from giraff_console.sim.range_finder import SimRangeFinder
 from giraff_console.sim.surroundings import Surroundings
 from giraff_console.sim.world import (
@@ -102,13 +108,23 @@ class SimulatedSite:
         return source, world_camera
 
     def eye(self, localisation: Localisation, clock: Clock, *, fps: float = EYE_FPS,
-            size: tuple[int, int] = EYE_SIZE) -> MarkerEye | None:  # fmt: skip
+            size: tuple[int, int] = EYE_SIZE,
+            whole_frames: bool = False) -> MarkerEye | None:  # fmt: skip
         """The synthetic camera as the localisation's eye, without a screen; None when
-        the plan has no markers to see."""
+        the plan has no markers to see.
+
+        Nobody sees its frames but the eye, so the camera draws only round the markers
+        (sim/marker_windows.py); `whole_frames` has it draw all of every frame and the
+        eye look through all of it, as before issue 25 (bench/sim_speed.py's baseline)."""
         landmarks = self.plan.landmarks
         if landmarks is None:
             return None
-        source, world_camera = self.camera(clock)
+        whole, world_camera = self.camera(clock)
+        board = self.board
+        source: CameraSource = (
+            whole if whole_frames
+            else _EyeCamera(MarkerWindows(world_camera), lambda: board.true_pose, clock.now)
+        )  # fmt: skip
 
         def intrinsics(width: int, height: int) -> CameraIntrinsics:
             # The simulator's class, field for field; the console has its own.
@@ -116,7 +132,15 @@ class SimulatedSite:
             return CameraIntrinsics(known.fx, known.fy, known.cx, known.cy, known.distortion)
 
         detector = marker_detector(landmarks, intrinsics)
-        return MarkerEye(source, detector, localisation, clock, fps=fps, size=size)
+        # What the console knows besides: the plan's walls and markers' heights, and the
+        # camera's height as its mount would be measured (as the intrinsics are given).
+        walls = building_walls(self.plan, self._grid)
+        building = Building(
+            CAMERA_HEIGHT_M, {marker.id: marker.height for marker in landmarks.markers},
+            np.array([(wall.a, wall.b) for wall in walls], dtype=float).reshape(-1, 2, 2),
+        )  # fmt: skip
+        return MarkerEye(source, detector, localisation, clock, fps=fps, size=size,
+                         building=building, whole_frames=whole_frames)  # fmt: skip
 
     def close_door(self, door_id: str) -> None:
         """Shut a door of the plan in the simulated building (KeyError if none)."""
@@ -143,6 +167,39 @@ def shut_doors(plan: FloorPlan, grid: OccupancyGrid | None) -> Surroundings:
         if not door.open:
             surroundings.close_door(door.id, *doorway(plan, door, grid))
     return surroundings
+
+
+class _EyeCamera:
+    """The synthetic camera as the eye alone sees it: drawn only round the markers
+    (sim/marker_windows.py), and only in the regions the eye reads out
+    (robot/marker_eye.py, RegionReadout)."""
+
+    name = "synthetic camera"
+
+    def __init__(self, windows: MarkerWindows, pose: Callable[[], TruePose],
+                 clock: Callable[[], float]) -> None:  # fmt: skip
+        self.windows = windows
+        self.pose = pose
+        self.clock = clock
+        self._size = EYE_SIZE
+
+    def open(self, width: int, height: int) -> tuple[int, int]:
+        self._size = (width, height)
+        return self._size
+
+    def read(self) -> Frame | None:
+        return self._read(None)
+
+    def read_regions(self, regions: Sequence[Region]) -> Frame | None:
+        return self._read([(r.left, r.top, r.right, r.bottom) for r in regions])
+
+    def _read(self, wanted: list[tuple[int, int, int, int]] | None) -> Frame:
+        # Stamped when the view is taken, as SyntheticCamera's frames are.
+        captured_at = self.clock()
+        return Frame(self.windows.render(self.pose(), *self._size, wanted), captured_at)
+
+    def close(self) -> None:
+        pass
 
 
 def building_walls(plan: FloorPlan, grid: OccupancyGrid | None = None) -> list[WallSegment]:

@@ -19,6 +19,7 @@ from dataclasses import dataclass, replace
 
 from giraff_console.planning.floorplan import FloorPlan, Point
 from giraff_console.planning.grid import Cell, OccupancyGrid
+from giraff_console.planning.landmarks import marker_walls
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.planning.route_planner import (
     CLEARANCE_M,
@@ -27,6 +28,7 @@ from giraff_console.planning.route_planner import (
     PlannedPath,
     RoutePlanner,
 )
+from giraff_console.planning.walls import WallSegment, doorway, wall_segments
 from giraff_console.robot.odometry import Pose
 
 
@@ -65,6 +67,18 @@ class Navigator:
             return None
         room = self.plan.rooms[self.plan.start]
         return Pose(room.at[0], room.at[1], math.radians(room.heading or 0.0))
+
+    def sight_walls(self) -> list[WallSegment]:
+        """What hides a marker from the camera now: the outlines' walls with the doors
+        shut; on a plan without outlines, the walls in its grid (landmarks.py's, which
+        markers are placed on) and the doorways of the doors shut."""
+        plan, closed = self.plan, self.state.closed
+        if any(room.outline for room in plan.rooms.values()) or plan.grid is None:
+            return wall_segments(plan, closed)
+        shut = {door.id for door in plan.doors if not door.open} | closed
+        doors = [WallSegment(*doorway(plan, door, self.walls), "door")
+                 for door in plan.doors if door.id in shut]  # fmt: skip
+        return [*marker_walls(plan).segments, *doors]
 
     def room_ids(self) -> list[str]:
         return sorted(self.plan.rooms)

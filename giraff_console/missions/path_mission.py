@@ -83,7 +83,6 @@ from giraff_console.planning.landmarks import marker_poses
 from giraff_console.planning.legs import Leg
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.planning.route_planner import PlannedPath
-from giraff_console.planning.walls import wall_segments
 from giraff_console.protocol.codec import Command
 from giraff_console.robot.localisation import Estimate
 from giraff_console.robot.mission import ARRIVED, DRIVING, PAUSED, Outcome, Progress
@@ -576,8 +575,7 @@ class PathMission:
     def _start_look(self, estimate: Estimate, prefer: float | None, kind: str) -> None:
         """LOOKING: `kind` "lost" until the estimate is back under the slow bound,
         "arrival" until it is within the arrival bounds."""
-        navigator = self.navigator
-        walls = wall_segments(navigator.plan, navigator.state.closed) if navigator else []
+        walls = self.navigator.sight_walls() if self.navigator is not None else []
         if kind == "arrival":
             why = f"arrived, known to ±{estimate.sigma_m:.2f} m: looking for a marker"
             enough = confirmed

@@ -430,24 +430,27 @@ def _read(path: Path) -> tuple[FloorPlan | None, list[Problem]]:
         _check_reachable(reader, list(rooms), good_doors, start)
     if grid is not None:
         _check_grid(reader, grid, rooms, doors)
+    # Markers are checked against the walls once those read well: every room, and the
+    # grid too when the walls are its (a plan without outlines).
+    walled = any(room.outline for room in rooms.values()) or top.get("grid") is None
+    whole = len(rooms) == len(raw_rooms) and (walled or grid is not None)
     landmarks = None
     if top.get("landmarks") is not None:
-        landmarks = _landmarks(reader, top["landmarks"], name, rooms, good_doors, len(raw_rooms))
+        walls = FloorPlan(name, rooms, good_doors, grid, None, path) if whole else None
+        landmarks = _landmarks(reader, top["landmarks"], walls)
     if reader.problems:
         return None, reader.problems
     return FloorPlan(name, rooms, good_doors, grid, start, path, landmarks), []
 
 
-def _landmarks(
-    reader: _Reader, value: Any, name: Any, rooms: dict[str, Room], doors: list[Door], count: int
-) -> Landmarks | None:
-    """The plan's markers, checked against its walls once every room has read well (a
-    broken room would leave its markers off every wall)."""
+def _landmarks(reader: _Reader, value: Any, walls: FloorPlan | None) -> Landmarks | None:
+    """The plan's markers, checked against the walls of `walls` (its rooms, doors and
+    grid), None when those did not all read well (a broken room, or a broken grid key,
+    would leave its markers off every wall)."""
     # Imported here: the checks need the plan's walls, and walls.py imports this module.
-    from giraff_console.planning.landmarks import landmark_problems
+    from giraff_console.planning.landmark_checks import landmark_problems
 
     family, size, markers = reader.landmarks(value)
-    walls = FloorPlan(name, rooms, doors, None, None, reader.path) if len(rooms) == count else None
     for where, message in landmark_problems(family, size, markers, walls):
         reader.add(where, message)
     if family is None or size is None:

@@ -3,9 +3,11 @@
 `giraff-console floorplan landmarks FILE` puts a marker beside every doorway on both
 sides, in each of the two rooms, where the robot sees one as it comes up to the door and
 as it leaves through it; then along every wall at least `every` metres long, so that no
-long stretch of wall is without one. Markers already in the plan stay where they are
-(staff may have put them up): new ones only fill in. The file is edited as text, so the
-user's comments and layout survive; only the `landmarks:` block is written anew.
+long stretch of wall is without one. The walls are the outlines' edges or, in a plan
+without outlines, the walls in its grid (marker_faces.py). Markers already in the plan
+stay where they are (staff may have put them up): new ones only fill in. The file is
+edited as text, so the user's comments and layout survive; only the `landmarks:` block
+is written anew.
 """
 
 from __future__ import annotations
@@ -13,13 +15,11 @@ from __future__ import annotations
 import math
 import os
 import tempfile
-from dataclasses import dataclass, field, replace
-from itertools import pairwise
+from dataclasses import dataclass, replace
 
 import yaml
 
 from giraff_console.planning.floorplan import (
-    DOOR_TOLERANCE_M,
     Door,
     FloorPlan,
     FloorPlanError,
@@ -27,19 +27,15 @@ from giraff_console.planning.floorplan import (
     Marker,
     Point,
     Problem,
-    Room,
     load_floorplan,
 )
 from giraff_console.planning.landmarks import (
     DEFAULT_FAMILY,
-    FACING_TOLERANCE_DEG,
-    WALL_TOLERANCE_M,
-    angle_between,
     id_count,
     paper_side,
     where_it_goes,
 )
-from giraff_console.planning.walls import FRAME_M
+from giraff_console.planning.marker_faces import Face, marker_faces
 
 DEFAULT_EVERY_M = 4.0
 # 16 cm: at 800 x 600 with the Giraff's 90° camera, AprilTag 36h11's 8 cells are still
@@ -48,90 +44,8 @@ DEFAULT_SIZE_M = 0.16
 # Centre 1.10 m above the floor: below the camera in the robot's head (1.3 m), so a
 # marker near the robot is still in view, and above chairs and handrails.
 DEFAULT_HEIGHT_M = 1.10
-# Clear wall kept between a marker's paper and a door frame, a corner, another marker.
-DOOR_GAP_M = 0.15
-CORNER_GAP_M = 0.10
-MARKER_GAP_M = 0.30
 # A doorway's marker is at most this far from it (its centre from the doorway's edge).
 BESIDE_DOOR_M = 1.0
-
-
-@dataclass
-class Face:
-    """One side of one wall: an edge of a room's outline, seen from inside the room.
-    Positions along it are metres from `a`."""
-
-    room: Room
-    a: Point
-    b: Point
-    paper: float  # the side of a marker's paper
-    blocked: list[tuple[float, float]] = field(default_factory=list)  # doorways, corners
-    taken: list[float] = field(default_factory=list)  # markers' centres
-
-    @property
-    def length(self) -> float:
-        return math.dist(self.a, self.b)
-
-    @property
-    def along(self) -> Point:
-        return (self.b[0] - self.a[0]) / self.length, (self.b[1] - self.a[1]) / self.length
-
-    @property
-    def facing(self) -> float:
-        """The normal into the room, degrees: outlines may run either way round."""
-        ux, uy = self.along
-        left = math.degrees(math.atan2(ux, -uy))
-        return left % 360.0 if _counter_clockwise(self.room.outline or ()) else (left + 180) % 360
-
-    def point(self, t: float) -> Point:
-        return self.a[0] + self.along[0] * t, self.a[1] + self.along[1] * t
-
-    def position(self, point: Point) -> float:
-        return (point[0] - self.a[0]) * self.along[0] + (point[1] - self.a[1]) * self.along[1]
-
-    def distance(self, point: Point) -> float:
-        ux, uy = self.along
-        off = abs((point[0] - self.a[0]) * uy - (point[1] - self.a[1]) * ux)
-        t = self.position(point)
-        return off if 0 <= t <= self.length else math.inf
-
-    def holds(self, marker: Marker) -> bool:
-        return (self.distance(marker.at) <= WALL_TOLERANCE_M
-                and angle_between(marker.facing, self.facing) <= FACING_TOLERANCE_DEG)  # fmt: skip
-
-    def free(self) -> list[tuple[float, float]]:
-        """Where a marker's centre may go: its paper clear of doorways, corners and
-        other markers, by the gaps above."""
-        half = self.paper / 2
-        walls = [(-math.inf, CORNER_GAP_M), (self.length - CORNER_GAP_M, math.inf), *self.blocked]
-        walls += [(t - half - MARKER_GAP_M, t + half + MARKER_GAP_M) for t in self.taken]
-        spans: list[tuple[float, float]] = []
-        start = -math.inf
-        for low, high in sorted((low - half, high + half) for low, high in walls):
-            if low > start:
-                spans.append((start, low))
-            start = max(start, high)
-        return [(low, high) for low, high in spans if math.isfinite(low) and math.isfinite(high)]
-
-    def nearest(self, t: float, side: int = 0, within: float = math.inf) -> float | None:
-        """The free position nearest `t`, only beyond it (`side` 1) or before it (-1)."""
-        best = None
-        for low, high in self.free():
-            if side > 0:
-                low = max(low, t)
-            elif side < 0:
-                high = min(high, t)
-            if low <= high:
-                here = min(max(t, low), high)
-                if abs(here - t) <= within and (best is None or abs(here - t) < abs(best - t)):
-                    best = here
-        return best
-
-
-def _counter_clockwise(outline: tuple[Point, ...]) -> bool:
-    area = sum(ax * by - bx * ay for (ax, ay), (bx, by)
-               in zip(outline, [*outline[1:], outline[0]], strict=True))  # fmt: skip
-    return area > 0
 
 
 @dataclass(frozen=True)
@@ -153,29 +67,27 @@ def place_markers(
     height: float = DEFAULT_HEIGHT_M,
     family: str = DEFAULT_FAMILY,
 ) -> Placement:
-    """The plan's markers with new ones beside its doorways and along its long walls.
-    The plan's own family and size win over those given. ValueError for a plan without
-    outlines, or more markers than the family has ids."""
+    """The plan's markers with new ones beside its doorways and along its long walls:
+    its outlines' edges, or without outlines its grid's walls (marker_faces.py). The
+    plan's own family and size win over those given. ValueError for a plan with no walls,
+    or more markers than the family has ids; OSError if its grid cannot be read."""
     if not (math.isfinite(every) and every > 0):
         raise ValueError("markers are placed every so many metres: --every must be positive")
     existing = plan.landmarks.markers if plan.landmarks else ()
     if plan.landmarks is not None:
         family, size = plan.landmarks.family, plan.landmarks.size
-    faces = _faces(plan, paper_side(family, size))
-    if not faces:
-        raise ValueError(f"{plan.path}: no room has an outline, so there are no walls to "
-                         "put markers on")  # fmt: skip
+    faces, doorways = marker_faces(plan, paper_side(family, size))
     for marker in existing:
         for face in faces:
             if face.holds(marker):
                 face.taken.append(face.position(marker.at))
     notes: list[str] = []
     added: list[tuple[Face, float]] = []
-    for door in plan.doors:
+    for door in doorways:
         for room_id in door.between:
-            place = _beside(door, [face for face in faces if face.room.id == room_id])
+            place = _beside(door, [face for face in faces if room_id in face.rooms])
             if place is None:
-                if plan.rooms[room_id].outline:
+                if any(room_id in face.rooms for face in faces):
                     notes.append(f"no room for a marker beside door {door.id!r} in {room_id!r}")
                 continue
             if place[1] is not None:
@@ -183,7 +95,7 @@ def place_markers(
                 added.append((place[0], place[1]))
     beside_doors = len(added)
     for face in faces:
-        for t in _along(face, every):
+        for t in _along(face, every) if face.wall else []:
             added.append((face, t))
     ids = _new_ids(family, existing, len(added))
     new = [
@@ -195,28 +107,11 @@ def place_markers(
     return Placement(landmarks, beside_doors, len(added) - beside_doors, notes)
 
 
-def _faces(plan: FloorPlan, paper: float) -> list[Face]:
-    faces = []
-    for room in plan.rooms.values():
-        outline = room.outline or ()
-        for a, b in pairwise([*outline, *outline[:1]]):
-            if math.dist(a, b) == 0:
-                continue
-            face = Face(room, a, b, paper)
-            for door in plan.doors:
-                if face.distance(door.at) <= DOOR_TOLERANCE_M:
-                    t = face.position(door.at)
-                    reach = door.width / 2 + FRAME_M + DOOR_GAP_M
-                    face.blocked.append((t - reach, t + reach))
-            faces.append(face)
-    return faces
-
-
 def _beside(door: Door, faces: list[Face]) -> tuple[Face, float | None] | None:
     """Where a doorway's marker goes in one of its rooms: on the doorway's own wall, to
     the right of it as seen from the room (on the other side if there is no room there),
     else on the room's nearest other wall; (face, None) if one is there already."""
-    own = [face for face in faces if face.distance(door.at) <= DOOR_TOLERANCE_M]
+    own = [face for face in faces if face.holds_door(door)]
     half = door.width / 2
     for face in faces:
         for taken in face.taken:
@@ -234,7 +129,8 @@ def _beside(door: Door, faces: list[Face]) -> tuple[Face, float | None] | None:
             spot = face.nearest(t + side * half, side, BESIDE_DOOR_M)
             if spot is not None:
                 return face, spot
-    others = [(face, face.nearest(face.position(door.at))) for face in faces if face not in own]
+    others = [(face, face.nearest(face.position(door.at)))
+              for face in faces if face not in own and face.wall]  # fmt: skip
     spots = [
         (math.dist(face.point(t), door.at), face, t)
         for face, t in others

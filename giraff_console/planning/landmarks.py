@@ -7,10 +7,9 @@ id, and the plan says where that id hangs. The marker families are OpenCV's pred
 dictionaries (AprilTag 36h11 by default), so that the image printed for the wall is
 exactly what the detector looks for.
 
-The checks here are the ones `floorplan check` runs on a plan's `landmarks:` key
-(floorplans/README.md, "Landmarks"): a marker must be on a wall, flat on it (its facing
-square to the wall) and facing into a room, with an id its family has and no other
-marker has.
+The walls a marker may hang on are the outlines' edges; in a plan without outlines,
+the edges of its grid's occupied cells, which are the simulator's walls too
+(grid_walls.py). `floorplan check` checks the markers against them (landmark_checks.py).
 """
 
 from __future__ import annotations
@@ -30,9 +29,9 @@ from giraff_console.planning.floorplan import (
     Marker,
     Point,
     Room,
-    Where,
     shown,
 )
+from giraff_console.planning.grid_walls import DOOR_IN_FACE_M, grid_walls
 from giraff_console.planning.walls import WallSegment, wall_segments
 from giraff_console.robot.odometry import Pose
 
@@ -111,7 +110,11 @@ def inside(point: Point, outline: Sequence[Point]) -> bool:
 
 
 def room_in_front(plan: FloorPlan, at: Point, facing: float) -> Room | None:
-    """The room a marker at `at` facing `facing` looks into, if any."""
+    """The room a marker at `at` facing `facing` looks into, if any: the outline holding
+    the point IN_FRONT_M ahead of it, or on a grid, the room of the free floor there."""
+    walls = grid_walls(plan)
+    if walls is not None:
+        return walls.room_ahead(at, facing, IN_FRONT_M)
     dx, dy = unit(facing)
     ahead = (at[0] + dx * IN_FRONT_M, at[1] + dy * IN_FRONT_M)
     for room in plan.rooms.values():
@@ -143,7 +146,11 @@ class MarkerWalls:
 
 def marker_walls(plan: FloorPlan) -> MarkerWalls:
     """The walls a marker may hang on: every wall and door frame; not a door, which
-    swings, and not a doorway."""
+    swings, and not a doorway. Without outlines, every edge of the grid's occupied cells.
+    OSError if the grid cannot be read."""
+    walls = grid_walls(plan)
+    if walls is not None:
+        return MarkerWalls(walls.segments)
     return MarkerWalls([segment for segment in wall_segments(plan) if segment.kind != "door"])
 
 
@@ -171,139 +178,6 @@ def fit_on_walls(at: Point, facing: float, walls: MarkerWalls) -> WallFit:
     near = [walls.segments[i] for i in np.flatnonzero(distances <= WALL_TOLERANCE_M)]
     best = min(near, key=lambda wall: facing_error(wall, facing), default=None)
     return WallFit(best, float(distances.min()))
-
-
-# The checks.
-
-
-def landmark_problems(
-    family: str | None,
-    size: float | None,
-    markers: Sequence[tuple[int, Marker]],
-    plan: FloorPlan | None,
-) -> list[tuple[Where, str]]:
-    """Every problem with a plan's markers, each at the key it is about. `markers` are
-    those that read well, each with its index in the file; `plan` has the rooms and doors
-    to check them against, or is None when those did not read well."""
-    problems: list[tuple[Where, str]] = []
-    count = None
-    if family is not None:
-        try:
-            count = id_count(family)
-        except ValueError as error:
-            problems.append((("landmarks", "family"), str(error)))
-    first: dict[int, int] = {}
-    for i, marker in markers:
-        where: Where = ("landmarks", "markers", i, "id")
-        if count is not None and marker.id >= count:
-            problems.append(
-                (
-                    where,
-                    f"marker id {shown(marker.id)} is beyond {family}'s {count} ids "
-                    f"(0 to {count - 1})",
-                )
-            )
-        if marker.id in first:
-            problems.append(
-                (
-                    where,
-                    f"duplicate marker id {shown(marker.id)} (also landmarks.markers"
-                    f"[{first[marker.id]}]): the robot tells markers apart by id alone",
-                )
-            )
-        first.setdefault(marker.id, i)
-    if plan is not None:
-        square = cells(family) if count is not None and family is not None else None
-        problems += _wall_problems(plan, size, markers, square)
-    return problems
-
-
-def _wall_problems(
-    plan: FloorPlan, size: float | None, markers: Sequence[tuple[int, Marker]], count: int | None
-) -> list[tuple[Where, str]]:
-    if not markers:
-        return []
-    walls = marker_walls(plan)
-    if not walls:
-        return [(("landmarks",), "markers hang on walls, and this plan has none: "
-                                 "give its rooms outlines")]  # fmt: skip
-    problems: list[tuple[Where, str]] = []
-    for i, marker in markers:
-        where: Where = ("landmarks", "markers", i)
-        problem = _wall_problem(plan, walls, marker, size)
-        if problem is not None:
-            problems.append(((*where, problem[0]), problem[1]))
-    if size is not None:
-        # The paper round each square must stay clear too, or the detector loses its edge.
-        reach = size * (count + 2) / count if count else size
-        problems += _overlaps(markers, reach)
-    return problems
-
-
-def _wall_problem(
-    plan: FloorPlan, walls: MarkerWalls, marker: Marker, size: float | None
-) -> tuple[str, str] | None:
-    """The first thing wrong with where a marker hangs, as (key, message), if any."""
-    name = f"marker {marker.id} at {list(marker.at)}"
-    fit = fit_on_walls(marker.at, marker.facing, walls)
-    if fit.wall is None:
-        for door in plan.doors:
-            if math.dist(door.at, marker.at) <= door.width / 2 + DOOR_TOLERANCE_M:
-                return "at", f"{name} is in the doorway of door {door.id!r}: put it beside it"
-        return "at", (
-            f"{name} is {fit.distance:.2f} m from the nearest wall (at most "
-            f"{WALL_TOLERANCE_M} m): markers hang on walls"
-        )
-    error = facing_error(fit.wall, marker.facing)
-    if error > FACING_TOLERANCE_DEG:
-        normal = (wall_direction(fit.wall) + 90.0) % 180.0
-        return "facing", (
-            f"marker {marker.id} faces {marker.facing:g}°, {error:.1f}° from square to its "
-            f"wall: it lies flat on it, facing {normal:g}° or {normal + 180:g}° "
-            f"(within {FACING_TOLERANCE_DEG:g}°)"
-        )
-    if room_in_front(plan, marker.at, marker.facing) is None:
-        other = room_in_front(plan, marker.at, marker.facing + 180.0)
-        turn = (
-            ""
-            if other is None
-            else (f": turn it round to face {(marker.facing + 180) % 360:g}°, into {other.id!r}")
-        )
-        return "facing", (f"marker {marker.id} faces {marker.facing:g}°, into no room{turn}")
-    if size is not None:
-        ux, uy = unit(wall_direction(fit.wall))
-        for side in (-1, 1):
-            end = (marker.at[0] + side * ux * size / 2, marker.at[1] + side * uy * size / 2)
-            if walls.distances(end).min() > WALL_TOLERANCE_M:
-                return "at", (
-                    f"{name} overhangs the end of its wall (a doorway or a corner): "
-                    f"its {size:g} m square must be on the wall"
-                )
-    return None
-
-
-def _overlaps(markers: Sequence[tuple[int, Marker]], reach: float) -> list[tuple[Where, str]]:
-    """Markers on the same side of a wall closer than their paper allows; swept in x, so
-    that a plan of thousands of markers costs little."""
-    problems: list[tuple[Where, str]] = []
-    ordered = sorted(markers, key=lambda item: item[1].at[0])
-    for k, (i, marker) in enumerate(ordered):
-        for j, other in ordered[k + 1 :]:
-            if other.at[0] - marker.at[0] >= reach:
-                break
-            gap = math.dist(marker.at, other.at)
-            if gap < reach and angle_between(marker.facing, other.facing) < 90.0:
-                first, second = (i, marker), (j, other)
-                if j < i:
-                    first, second = second, first
-                problems.append(
-                    (
-                        ("landmarks", "markers", second[0], "at"),
-                        f"marker {second[1].id} overlaps marker {first[1].id}: their centres are "
-                        f"{gap:.2f} m apart, their papers {reach:.2f} m wide",
-                    )
-                )
-    return problems
 
 
 # Where a marker goes, in words for the people who put it up.
@@ -339,14 +213,13 @@ def compass(degrees: float) -> str:
 def where_it_goes(plan: FloorPlan, marker: Marker) -> MarkerPlace | None:
     """The room a marker is in, which of its walls, and where along it, told from the
     nearest doorway on that wall or else its nearer corner, as seen facing the wall.
-    None for a marker that faces into no room."""
-    room = room_in_front(plan, marker.at, marker.facing)
-    if room is None or not room.outline:
+    None for a marker that faces into no room, or is on no wall of it."""
+    found = _wall_of(plan, marker)
+    if found is None:
         return None
+    room, rooms, (a, b), depth = found
     nx, ny = unit(marker.facing)
     right = (-ny, nx)  # along the wall, to the right of someone facing it
-    edges = list(zip(room.outline, [*room.outline[1:], room.outline[0]], strict=True))
-    a, b = min(edges, key=lambda edge: _to_segment(marker.at, *edge))
     wall = f"{compass(marker.facing + 180.0)} wall"
 
     def offset(point: Point) -> float:
@@ -355,7 +228,7 @@ def where_it_goes(plan: FloorPlan, marker: Marker) -> MarkerPlace | None:
 
     best = None
     for door in plan.doors:
-        if _to_segment(door.at, a, b) > DOOR_TOLERANCE_M or room.id not in door.between:
+        if _to_segment(door.at, a, b) > depth or len(rooms.intersection(door.between)) != 1:
             continue
         along = offset(door.at)
         gap = abs(along) - door.width / 2
@@ -363,7 +236,7 @@ def where_it_goes(plan: FloorPlan, marker: Marker) -> MarkerPlace | None:
             best = (gap, along, door)
     if best is not None:
         gap, along, door = best
-        other = plan.rooms[next(r for r in door.between if r != room.id)]
+        other = plan.rooms[next(r for r in door.between if r not in rooms)]
         side = "right" if along > 0 else "left"
         return MarkerPlace(room, wall, f"centre {gap:.2f} m {side} of the doorway to {other.label}")
     corner = min((a, b), key=lambda end: abs(offset(end)))
@@ -371,6 +244,28 @@ def where_it_goes(plan: FloorPlan, marker: Marker) -> MarkerPlace | None:
     return MarkerPlace(
         room, wall, f"centre {abs(offset(corner)):.2f} m from the {side}-hand corner"
     )
+
+
+def _wall_of(
+    plan: FloorPlan, marker: Marker
+) -> tuple[Room, frozenset[str], tuple[Point, Point], float] | None:
+    """The room a marker faces into, the rooms whose floor its wall faces, the wall's
+    ends, and how far from the wall a doorway's centre may lie and be in it: the edge
+    of the room's outline nearest the marker, or the face of the grid it hangs on."""
+    room = room_in_front(plan, marker.at, marker.facing)
+    if room is None:
+        return None
+    walls = grid_walls(plan)
+    if walls is not None:
+        face = walls.face_of(marker.at, marker.facing, WALL_TOLERANCE_M)
+        if face is None:
+            return None
+        return room, frozenset(face.rooms), (face.a, face.b), DOOR_IN_FACE_M
+    if not room.outline:
+        return None
+    edges = list(zip(room.outline, [*room.outline[1:], room.outline[0]], strict=True))
+    edge = min(edges, key=lambda edge: _to_segment(marker.at, *edge))
+    return room, frozenset([room.id]), edge, DOOR_TOLERANCE_M
 
 
 def _to_segment(p: Point, a: Point, b: Point) -> float:

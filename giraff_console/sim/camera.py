@@ -15,10 +15,14 @@ why the robot stopped at a doorway (§2.4), not only a dot on the map.
 
 Markers on the walls (issue 14) are drawn from their true cells, at their size, height
 and facing, so that OpenCV's detector finds them in the pixels as it would in a real
-camera's: nothing else tells the console where a marker is. A real sensor integrates
-the light over each pixel; the markers are supersampled likewise, so their edges fall
-between pixels where they should and a pose from their corners is as good as the
-pixels allow. The camera is an ideal pinhole whose intrinsics `intrinsics` gives.
+camera's: nothing else tells the console where a marker is. Their pages are
+supersampled as a sensor integrates light (sim/camera_pages.py). The camera is an ideal
+pinhole whose intrinsics `intrinsics` gives.
+
+Any box of the picture can be drawn alone (`draw`), each pixel exactly as the whole
+picture has it, since each column and each pixel is worked out from its own ray: what
+lets an eye that only looks for markers have just the boxes round them drawn
+(sim/marker_windows.py, issue 25).
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from giraff_console.sim.camera_pages import page_shades
 from giraff_console.sim.camera_textures import (
     BOX,
     BOX_LID,
@@ -57,7 +62,7 @@ from giraff_console.sim.surroundings import (
     Surroundings,
     cast_rays,
 )
-from giraff_console.sim.world import DOOR_FRAME, POSTER_WIDTH, QUIET_ZONE_CELLS, World
+from giraff_console.sim.world import DOOR_FRAME, POSTER_WIDTH, World
 
 # The Giraff's camera is a wide-angle one in its head (§4.4).
 FIELD_OF_VIEW_DEG = 90.0
@@ -69,16 +74,34 @@ MAX_RANGE_M = 50.0
 # A chair or a trolley: lower than the camera, so that its lid shows.
 BLOCK_HEIGHT_M = 0.8
 
-# A marker's page in grey: its ink and its paper (PALETTE's MARKER_PAGE is a placeholder).
-INK, PAPER = 25.0, 240.0
 # A marker is drawn where a column's wall lies within this of the marker's plane and
 # runs along it (within 10 degrees): it hangs on that wall, not on one round a corner.
 MARKER_ON_WALL_M = 0.10
 MARKER_ALONG_WALL_COS = math.cos(math.radians(80))
-# Fine samples per cell side, 2 to MAX_FINE per pixel side: small cells get the most, so that
-# an edge lands within a few hundredths of a pixel of where it should.
-FINE_SAMPLES_PER_CELL = 32
-MAX_FINE = 16
+# A box's wedge of rays is widened by this before walls outside it are left out, so that
+# rounding never leaves out one a ray grazes.
+WEDGE_SLACK_RAD = 1e-4
+
+
+@dataclass(frozen=True)
+class Box:
+    """Part of a picture `width` x `height`: columns `left` to `right` and rows `top` to
+    `bottom`, the ends excluded."""
+
+    width: int
+    height: int
+    left: int
+    top: int
+    right: int
+    bottom: int
+
+    @classmethod
+    def whole(cls, width: int, height: int) -> Box:
+        return cls(width, height, 0, 0, width, height)
+
+    def rows(self) -> np.ndarray:
+        """The box's rows' centres, a column vector, as the picture numbers them."""
+        return np.arange(self.top, self.bottom, dtype=np.float32)[:, None] + 0.5
 
 
 @dataclass(frozen=True)
@@ -129,45 +152,56 @@ class WorldCamera:
 
     def render(self, pose: TruePose, width: int, height: int) -> np.ndarray:
         """A BGR image of `height` x `width` pixels."""
+        # A real lens never draws a perfectly sharp step; without this slight blur FAST
+        # finds nothing on ideal corners.
+        return cv2.GaussianBlur(self.draw(pose, Box.whole(width, height)), (3, 3), 0)
+
+    def draw(self, pose: TruePose, box: Box) -> np.ndarray:
+        """The BGR pixels of `box` (a pixel or more) of the picture from `pose`, before
+        the lens's blur."""
+        width, height = box.width, box.height
         focal = self.focal(width)
         horizon = height / 2
-        offsets = np.arctan2(width / 2 - (np.arange(width) + 0.5), focal).astype(np.float32)
+        offsets = np.arctan2(width / 2 - (np.arange(box.left, box.right) + 0.5), focal)
+        offsets = offsets.astype(np.float32)
         angles = pose.heading + offsets
         dx, dy = np.cos(angles), np.sin(angles)
-        hit, distance, along = self._cast(pose, dx, dy)
+        # The box's rays span this wedge: only what stands in it is looked at.
+        wedge = (float(offsets[-1]) - WEDGE_SLACK_RAD, float(offsets[0]) + WEDGE_SLACK_RAD)
+        hit, distance, along = self._cast(pose, dx, dy, wedge)
         seen = np.isfinite(distance)
         # Where a column sees no wall its depth is never used; kept finite all the same.
         depth = np.where(seen, np.maximum(distance * np.cos(offsets), 1e-3), 1.0)
         depth = depth.astype(np.float32)
         # The ceiling above the horizon, the floor below it, the walls over both.
         first = math.ceil(horizon)
-        material = np.empty((height, width), dtype=np.uint8)
-        material[:first] = CEILING
-        material[first:] = self._floor(pose, width, height, first, focal)
-        self._walls(material, depth, hit, along, seen, focal)
-        pages = self._markers(material, pose, dx, dy, distance, depth, hit, focal)
+        material = np.empty((box.bottom - box.top, box.right - box.left), dtype=np.uint8)
+        sky = min(max(first - box.top, 0), len(material))
+        material[:sky] = CEILING
+        if sky < len(material):
+            material[sky:] = self._floor(pose, box, first, focal)
+        self._walls(material, depth, hit, along, seen, focal, box)
+        pages = self._markers(material, pose, dx, dy, distance, depth, hit, focal, box, wedge)
         if self.surroundings is not None:
             obstacles = self.surroundings.snapshot()
             if len(obstacles.kinds):
-                self._obstacles(
-                    material, obstacles, pose, dx, dy, distance, offsets, horizon, focal
-                )
+                self._obstacles(material, obstacles, pose, dx, dy, distance, offsets, focal, box)
         image = cv2.LUT(cv2.cvtColor(material, cv2.COLOR_GRAY2BGR), COLOURS)
         for rows, columns, grey in pages:
             # Where a box or a door now stands in front, it hides the page.
             shown = material[rows, columns] == MARKER_PAGE
             image[rows[shown], columns[shown]] = grey[shown, None]
-        # A real lens never draws a perfectly sharp step; without this slight blur FAST
-        # finds nothing on ideal corners.
-        return cv2.GaussianBlur(image, (3, 3), 0)
+        return image
 
-    def _cast(self, pose: TruePose, dx: np.ndarray, dy: np.ndarray):
+    def _cast(self, pose: TruePose, dx: np.ndarray, dy: np.ndarray, wedge=None):
         """Nearest wall along each ray: its index, the distance, and how far along it.
 
         Only the walls that can be in view are cast against: a building has hundreds,
-        and most lie wholly behind the camera or beyond an edge of its field of view."""
+        and most lie wholly behind the camera or beyond an edge of its field of view
+        (or of `wedge`, the directions from the heading, right to left, that the rays
+        span, if given)."""
         world = self.world
-        walls = self._in_view(pose)
+        walls = self._in_view(pose) if wedge is None else self._in_view(pose, *wedge)
         columns = np.arange(len(dx))
         if not len(walls):
             return np.zeros(len(dx), dtype=np.intp), np.full(len(dx), np.inf), np.zeros(len(dx))
@@ -179,25 +213,25 @@ class WorldCamera:
         along = s[columns, nearest] * world.length[hit]
         return hit, distance, along
 
-    def _in_view(self, pose: TruePose) -> np.ndarray:
+    def wall_distance(self, pose: TruePose, dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
+        """How far each ray from the camera along unit (`dx`, `dy`) runs before it meets
+        a wall: inf if none within MAX_RANGE_M."""
+        return self._cast(pose, dx, dy)[1]
+
+    def _in_view(self, pose: TruePose, right: float | None = None,
+                 left: float | None = None) -> np.ndarray:  # fmt: skip
         """The walls not wholly behind the camera nor wholly beyond one edge of its field
-        of view (the half-planes through the camera that bound it): no ray reaches the
-        others. Some walls out of view are kept; none in view is dropped."""
+        of view (or of the narrower wedge from `right` to `left`, radians from the
+        heading): no ray reaches the others. Some walls out of view are kept; none in
+        view is dropped."""
         world = self.world
         if self.fov >= math.pi:
             return np.arange(len(world.walls))
-        ahead = np.array([math.cos(pose.heading), math.sin(pose.heading)])
-        left = np.array([-ahead[1], ahead[0]])
-        cos, sin = math.cos(self.fov / 2), math.sin(self.fov / 2)
-        outside = []
-        for end in (world.start, world.end):
-            rel = end - [pose.x, pose.y]
-            forward, aside = rel @ ahead, rel @ left
-            outside.append(np.stack([forward < 0, aside * cos - forward * sin > 0,
-                                     -aside * cos - forward * sin > 0]))  # fmt: skip
-        return np.flatnonzero(~(outside[0] & outside[1]).any(axis=0))
+        right = -self.fov / 2 if right is None else right
+        left = self.fov / 2 if left is None else left
+        return np.flatnonzero(~_outside(pose, world.start, world.end, right, left))
 
-    def _walls(self, material, depth, hit, along, seen, focal) -> None:
+    def _walls(self, material, depth, hit, along, seen, focal, box) -> None:
         """The walls, each column painted from its kind of strip (WALL_STRIPS): the height
         each pixel sees on the wall picks the strip's row. Pixels above or below the wall
         fall off the strip and keep the ceiling or the floor."""
@@ -215,25 +249,29 @@ class WorldCamera:
         # No strip at all (off the table, so left alone) where a column sees no wall.
         strip = np.where(seen, strip, -1).astype(np.float32)
         # Row i of the strips from i to i + 1 millimetres: OpenCV takes the nearest row.
-        rows = _heights(depth, material.shape[0], focal)
+        rows = _heights(depth, box, focal)
         rows *= np.float32(1 / WALL_STRIP_STEP_M)
         rows -= np.float32(0.5)
         columns = np.broadcast_to(strip, rows.shape).copy()
         cv2.remap(WALL_STRIPS, columns, rows, cv2.INTER_NEAREST, dst=material,
                   borderMode=cv2.BORDER_TRANSPARENT)  # fmt: skip
 
-    def _markers(self, material, pose, dx, dy, distance, depth, hit, focal) -> list:
+    def _markers(self, material, pose, dx, dy, distance, depth, hit, focal, box, wedge) -> list:
         """The markers' pages where their walls are the nearest thing a column sees.
 
-        Returns, for each marker in view, its pixels (rows, columns) and their grey
-        levels, and marks those pixels MARKER_PAGE so that obstacles can still hide
+        Returns, for each marker in view, its pixels (rows, columns of `box`) and their
+        grey levels, and marks those pixels MARKER_PAGE so that obstacles can still hide
         them."""
         world = self.world
         seen = np.isfinite(distance)
         if not world.markers or not seen.any():
             return []
         camera = np.array([pose.x, pose.y])
-        candidates = self._facing_the_camera(pose)
+        candidates = self.facing_the_camera(pose)
+        # Those whose pages lie wholly outside the box's wedge have no column in it.
+        half_page = world.marker_right[candidates] * world.marker_outer[candidates, None] / 2
+        centre = world.marker_centre[candidates]
+        candidates = candidates[~_outside(pose, centre - half_page, centre + half_page, *wedge)]
         if not len(candidates):
             return []
         columns = np.flatnonzero(seen)
@@ -250,17 +288,20 @@ class WorldCamera:
         for which_candidate in np.flatnonzero(on.any(axis=0)):
             marker = world.markers[candidates[which_candidate]]
             cols = columns[on[:, which_candidate]]
-            z = _heights(depth[cols], material.shape[0], focal)
+            z = _heights(depth[cols], box, focal)
             rows, which = np.nonzero(np.abs(z - marker.height) <= marker.outer / 2)
             if not len(rows):
                 continue
             cols = cols[which]
-            grey = self._page(marker, pose, rows, cols, material.shape, focal)
+            grey = page_shades(
+                marker, np.array([pose.x, pose.y, CAMERA_HEIGHT_M]), pose.heading,
+                rows + box.top, cols + box.left, self.intrinsics(box.width, box.height).matrix(),
+            )  # fmt: skip
             material[rows, cols] = MARKER_PAGE
             pages.append((rows, cols, grey))
         return pages
 
-    def _facing_the_camera(self, pose: TruePose) -> np.ndarray:
+    def facing_the_camera(self, pose: TruePose) -> np.ndarray:
         """The markers that might be in view: their faces towards the camera (from the
         other side of its wall a marker is not there to see), within range and within
         the field of view give or take a page. Keeps the per-column work to a few of a
@@ -275,55 +316,8 @@ class WorldCamera:
         in_view = np.abs(aside) <= (ahead + page) * math.tan(self.fov / 2) + page
         return np.flatnonzero(front & near & (ahead > -page) & in_view)
 
-    def _page(self, marker, pose, rows, cols, shape, focal) -> np.ndarray:
-        """The grey level of each of a marker's pixels: the page warped into the picture
-        k times finer than its pixels, then averaged over each pixel, as a sensor would.
-
-        The page is a plane, so the picture of it is a homography of its cells; OpenCV
-        warps them, each fine sample taking the cell it falls in."""
-        top, left = rows.min(), cols.min()
-        height, width = rows.max() - top + 1, cols.max() - left + 1
-        centre = np.array([marker.x, marker.y, marker.height])
-        facing = marker.facing
-        right = np.array([-math.sin(facing), math.cos(facing), 0.0])
-        up = np.array([0.0, 0.0, 1.0])
-        camera = np.array([pose.x, pose.y, CAMERA_HEIGHT_M])
-        ahead = np.array([math.cos(pose.heading), math.sin(pose.heading), 0.0])
-        # The camera's axes in the world: x to the right, y down, z ahead.
-        axes = np.array([[ahead[1], -ahead[0], 0.0], [0.0, 0.0, -1.0], ahead])
-        # Page metres (across to the right, up) to picture pixels.
-        page_to_camera = np.column_stack([axes @ right, axes @ up, axes @ (centre - camera)])
-        page_to_picture = self.intrinsics(shape[1], shape[0]).matrix() @ page_to_camera
-        # Cells to sample: cell (i, j)'s centre at whole numbers, as OpenCV's remaps take
-        # them; the page's quiet zone around the pattern.
-        half, cell = marker.outer / 2, marker.cell
-        cells_to_page = np.array([[cell, 0.0, cell / 2 - half], [0.0, -cell, half - cell / 2],
-                                  [0.0, 0.0, 1.0]])  # fmt: skip
-        # How many pixels a cell spans at the page's centre: the finer, the fewer samples.
-        seen_from = camera - centre
-        gap = float(seen_from[:2] @ [math.cos(facing), math.sin(facing)])
-        cell_pixels = focal * cell * gap / max(float(seen_from @ seen_from), 1e-6)
-        k = int(np.clip(math.ceil(FINE_SAMPLES_PER_CELL / max(cell_pixels, 1e-3)), 2, MAX_FINE))
-        # Fine sample (i, j) of the box at pixel (left + (i + 0.5) / k - 0.5, ...).
-        fine_to_picture = np.array(
-            [[1 / k, 0.0, left + 0.5 / k - 0.5], [0.0, 1 / k, top + 0.5 / k - 0.5], [0, 0, 1.0]]
-        )
-        try:
-            fine_to_cells = np.linalg.inv(page_to_picture @ cells_to_page) @ fine_to_picture
-        except np.linalg.LinAlgError:  # seen exactly edge-on: no page to see
-            return np.full(len(rows), PAPER, dtype=np.uint8)
-        paper = np.pad(marker.pattern, QUIET_ZONE_CELLS, constant_values=True)
-        shade = np.where(paper, np.float32(PAPER), np.float32(INK))
-        fine = cv2.warpPerspective(
-            shade, fine_to_cells, (width * k, height * k),
-            flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
-            borderMode=cv2.BORDER_CONSTANT, borderValue=PAPER,
-        )  # fmt: skip
-        box = cv2.resize(fine, (width, height), interpolation=cv2.INTER_AREA)
-        return np.round(box[rows - top, cols - left]).astype(np.uint8)
-
     def _obstacles(
-        self, material, obstacles: Obstacles, pose, dx, dy, wall_distance, offsets, horizon, focal
+        self, material, obstacles: Obstacles, pose, dx, dy, wall_distance, offsets, focal, box
     ) -> None:
         """Boxes and closed doors, over the walls and the floor where they stand nearer.
 
@@ -348,7 +342,7 @@ class WorldCamera:
         meets_x = np.maximum.reduceat(met & along_x, firsts, axis=1)
         nearest_first = np.argsort(meet, axis=1, kind="stable")
         kind = obstacles.kinds[firsts]
-        below = np.arange(material.shape[0], dtype=np.float32)[:, None] + 0.5 - horizon
+        below = box.rows() - box.height / 2
         cos = np.cos(offsets)
 
         def z_at(distance: np.ndarray, columns: np.ndarray) -> np.ndarray:
@@ -372,13 +366,16 @@ class WorldCamera:
             painted = np.where(face, paint[None, :], material[:, columns])
             material[:, columns] = np.where(lid, np.uint8(BOX_LID), painted)
 
-    def _floor(self, pose: TruePose, width: int, height: int, first: int, focal: float):
-        """The floor's tiles from row `first` (the first below the horizon) down.
+    def _floor(self, pose: TruePose, box: Box, first: int, focal: float):
+        """The floor's tiles in `box`, from row `first` (the first below the horizon) of
+        the picture down.
 
         The floor is a plane, so where each pixel's ray meets it is a homography of the
         pixel: column c, row r sees the floor CAMERA_HEIGHT_M * focal / (r + 0.5 -
         horizon) metres ahead of the camera, and (width / 2 - 0.5 - c) / focal times as
         far to its left. OpenCV warps the repeating texture with it."""
+        width, height = box.width, box.height
+        top = max(box.top, first)
         ahead = np.array([math.cos(pose.heading), math.sin(pose.heading)])
         left = np.array([-ahead[1], ahead[0]])
         camera = np.array([pose.x, pose.y])
@@ -390,17 +387,38 @@ class WorldCamera:
         floor[:2, 2] = CAMERA_HEIGHT_M * (focal * ahead + (width / 2 - 0.5) * left)
         floor[:2, 2] += camera * below
         floor[2] = [0.0, 1.0, below]
+        if box.left or top > first:
+            # The box's pixel (0, 0) is the picture's (box.left, top).
+            floor = floor @ [[1.0, 0.0, box.left], [0.0, 1.0, top - first], [0.0, 0.0, 1.0]]
         # Metres to texels, texel i's square from i to i + 1 (OpenCV rounds to the nearest).
         to_texels = np.array([[1 / FLOOR_TEXEL_M, 0.0, -0.5], [0.0, 1 / FLOOR_TEXEL_M, -0.5],
                               [0.0, 0.0, 1.0]])  # fmt: skip
         return cv2.warpPerspective(
-            FLOOR_TEXTURE, to_texels @ floor, (width, height - first),
+            FLOOR_TEXTURE, to_texels @ floor, (box.right - box.left, box.bottom - top),
             flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_WRAP,
         )  # fmt: skip
 
 
-def _heights(depth: np.ndarray, height: int, focal: float) -> np.ndarray:
-    """The height above the floor that each pixel of a picture `height` rows high sees
-    on a wall `depth` ahead of the camera, a column per depth."""
-    rows = np.arange(height, dtype=np.float32)[:, None] + 0.5
-    return CAMERA_HEIGHT_M - (rows - height / 2) * (depth[None, :] / focal)
+def _outside(pose: TruePose, starts: np.ndarray, ends: np.ndarray, right: float,
+             left: float) -> np.ndarray:  # fmt: skip
+    """Which segments lie wholly behind the camera, or wholly beyond one edge of the wedge
+    of directions from `right` to `left` (radians from the heading, less than a half
+    turn apart): the half-planes through the camera that bound it."""
+    heading = pose.heading
+    middle = heading + (right + left) / 2
+    mx, my = math.cos(middle), math.sin(middle)
+    lx, ly = math.cos(heading + left), math.sin(heading + left)
+    rx, ry = math.cos(heading + right), math.sin(heading + right)
+
+    def tests(end: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        x, y = end[:, 0] - pose.x, end[:, 1] - pose.y
+        return x * mx + y * my < 0, lx * y - ly * x > 0, rx * y - ry * x < 0
+
+    (behind, beyond_left, beyond_right), ended = tests(starts), tests(ends)
+    return (behind & ended[0]) | (beyond_left & ended[1]) | (beyond_right & ended[2])
+
+
+def _heights(depth: np.ndarray, box: Box, focal: float) -> np.ndarray:
+    """The height above the floor that each pixel of the rows of `box` sees on a wall
+    `depth` ahead of the camera, a column per depth."""
+    return CAMERA_HEIGHT_M - (box.rows() - box.height / 2) * (depth[None, :] / focal)

@@ -208,11 +208,12 @@ def test_a_file_that_would_not_check_is_never_written(tmp_path, monkeypatch):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["care-home.pgm", "care-home.yaml"]
 
 
-def test_a_plan_without_outlines_has_no_walls_for_markers(tmp_path):
+def test_a_plan_with_neither_outlines_nor_a_grid_has_no_walls_for_markers(tmp_path):
+    # Without outlines the walls are the grid's (tests/planning/test_grid_markers.py).
     path = tmp_path / "plan.yaml"
     path.write_text("name: x\nrooms:\n  a: {at: [0, 0]}\n  b: {at: [2, 0]}\n"
                     "doors:\n  - {between: [a, b], at: [1, 0]}\n")  # fmt: skip
-    with pytest.raises(ValueError, match="no room has an outline"):
+    with pytest.raises(ValueError, match="no room has an outline, and there is no grid"):
         place_markers(load_floorplan(path))
     assert main(["floorplan", "landmarks", str(path)]) == 2
 
