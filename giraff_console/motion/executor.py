@@ -82,19 +82,12 @@ PLAN_PULL = 0.2
 JERK_SPARE = 0.85
 # The most the pull may run the profile's clock faster or slower, as a fraction of the
 # time passing (see _advance_plan).
-PULL_MAX = 0.08
+PULL_MAX = 0.04
 # Below this acceleration (m/s^2) a pull's change is bounded as if at this one: where
 # the profile cruises, moving its clock changes the speed by little, but not by nothing.
 PULL_ACCEL_FLOOR = 0.05
 # Values are sent to a tenth of a millimetre: finer changes are not worth a command.
 DECIMALS = 4
-# How fast the robot's place along the path may follow a jump of the pose it is given
-# (a marker's correction, issue 25): taken in at once, a few centimetres move the
-# profile's clock by a tenth of a second in one tick, which while speeding up or
-# slowing down is a step in the commanded acceleration (jerk of 3.8 m/s^3 against a
-# limit of 1, measured). At this rate a correction is a gentle ramp of the speed, and
-# the few centimetres a marker moves the estimate are taken up within half a second.
-ALONG_RATE = 0.1  # m/s
 
 
 @dataclass
@@ -155,9 +148,6 @@ class Executor:
         # When the wheels last turned, and where they were then: for stalls.
         self._still_since: tuple[float, tuple[float, float]] | None = None
         self._progress = 0.0
-        # How far ahead of the odometers' travel the pose puts the robot along the path,
-        # as taken up so far (ALONG_RATE), and when it was last taken up.
-        self._along: tuple[float, float] | None = None
         self._plan_time = 0.0  # where the present section's profile is, in its own time
         self._pull = 0.0  # how far the last tick moved the profile's clock towards the robot
         self._plan_clock: float | None = None  # when _plan_time was last advanced
@@ -273,7 +263,6 @@ class Executor:
                 self.trace.stops.append(now)
             self.index += 1
             self._t0 = self._plan_clock = self._creep_since = self._start_heading = None
-            self._along = None
             self._progress = self._plan_time = 0.0
             return []
         self._check_stall(now, state)
@@ -291,7 +280,7 @@ class Executor:
         # of or behind the path's point the pose is.
         near = drive.pose_at(travelled)
         dx, dy = pose.x - near.x, pose.y - near.y
-        along = self._taken_up(math.cos(near.heading) * dx + math.sin(near.heading) * dy, now)
+        along = math.cos(near.heading) * dx + math.sin(near.heading) * dy
         s = min(max(travelled + along, 0.0), drive.length)
         here = drive.pose_at(s)
         lateral = -math.sin(here.heading) * (pose.x - here.x) + math.cos(here.heading) * (
@@ -452,19 +441,6 @@ class Executor:
         eased = self.limits.j_max * JERK_SPARE * (now - self._creep_since) ** 2 / 2
         return min(CREEP_SPEED, eased, remaining)
 
-    def _taken_up(self, along: float, now: float) -> float:
-        """`along` (the pose's lead on the odometers' travel) as the robot's place is
-        allowed to follow it: from the first tick of a section at once, after that at
-        ALONG_RATE (see there)."""
-        if self._along is None:
-            self._along = (along, now)
-            return along
-        before, then = self._along
-        step = ALONG_RATE * max(now - then, 0.0)
-        taken = before + max(-step, min(step, along - before))
-        self._along = (taken, now)
-        return taken
-
     def _advance_plan(self, profile: Profile, done: float, now: float) -> float:
         """Where in its profile the section is: the clock's time since the last tick,
         nudged towards the moment the profile passes the robot's place. Following the
@@ -481,15 +457,16 @@ class Executor:
             wanted = PLAN_PULL * (profile.time_at(done) - self._plan_time)
             # The pull is a second clock on top of the profile's, and it adds jerk two
             # ways: running the clock a fraction f faster scales the profile's own jerk
-            # by (1 + f), and a pull that changes from one tick to the next changes the
-            # commanded acceleration by the profile's acceleration times that change.
-            # So the pull is held within PULL_MAX of the tick, and its change to what
-            # the jerk left spare (JERK_SPARE) then allows. Without this, a robot a
+            # by (1 + f)^2 (the speed's third derivative in the clock's time, twice
+            # over the tick), and a pull that changes from one tick to the next changes
+            # the commanded acceleration by the profile's acceleration times that
+            # change. So the pull is held within PULL_MAX of the tick, and its change to
+            # what the jerk left spare (JERK_SPARE) then allows. Without this, a robot a
             # centimetre ahead of its profile in the last decimetres before it stops (a
             # marker's correction, issue 25), where a millimetre is a long time, was
-            # pulled into a jerk of 3.8 m/s^3, and at the start of a drive into 1.04.
+            # pulled into a jerk of 3.8 m/s^3, and setting off into 1.04.
             _, _, accel = profile.at(self._plan_time)
-            spare = (1 - JERK_SPARE * (1 + PULL_MAX)) * self.limits.j_max * dt * dt
+            spare = (1 - JERK_SPARE * (1 + PULL_MAX) ** 2) * self.limits.j_max * dt * dt
             step = spare / max(abs(accel), PULL_ACCEL_FLOOR)
             bound = PULL_MAX * dt
             wanted = max(-bound, min(bound, wanted))

@@ -225,7 +225,8 @@ def test_go_publishes_its_progress_as_data_the_metres_left_falling_to_arrival(sh
     assert last.left_m is not None and last.left_m < 0.1
     for before, after in itertools.pairwise(driving):
         if after.total_m == before.total_m:
-            assert after.left_m <= before.left_m + 1e-9
+            # Within a micron: the board's last move settles to its own rounding.
+            assert after.left_m <= before.left_m + 1e-6
     # An ETA while driving, never sooner than the metres left at full speed.
     assert all(p.eta_s is not None and p.eta_s >= p.left_m / LIMITS.v_max for p in driving)
     assert driving[len(driving) // 2].eta_s < first.eta_s
