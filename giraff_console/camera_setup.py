@@ -26,7 +26,7 @@ from giraff_console.camera.processors import (
 from giraff_console.camera.source import DEFAULT_RESOLUTION, Frame, SyntheticCamera, open_camera
 from giraff_console.clock import Clock, RealClock
 from giraff_console.planning.floorplan import FloorPlan, Landmarks
-from giraff_console.planning.landmarks import marker_detector, marker_poses
+from giraff_console.planning.landmarks import marker_beliefs, marker_detector
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.marker_eye import hand_on
@@ -97,7 +97,7 @@ def find_the_robot(control: ControlLoop, camera: CameraFeed, plan: FloorPlan) ->
     believed to be (robot/localisation.py); a note for the status log when the plan
     has markers the camera cannot place. Only the live camera's frames count: a
     recording played back shows where the robot was then, not where it is."""
-    markers = marker_poses(plan)
+    markers = marker_beliefs(plan)
     detector = camera.pipeline.processors.get("markers")
     if not markers or not isinstance(detector, MarkerDetector):
         return None

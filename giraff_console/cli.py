@@ -90,6 +90,7 @@ from giraff_console.simulator_options import (
     add_firmware_option,
     simulator_url,
 )
+from giraff_console.survey_command import add_survey_parser, run_survey
 
 # Exit code: a mistake in the command line or the settings.
 EXIT_USAGE = 2
@@ -352,6 +353,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_go_parser(commands, EXAMPLE_FLOORPLAN)
     add_patrol_parser(commands, EXAMPLE_FLOORPLAN)
     add_serve_parser(commands, EXAMPLE_FLOORPLAN)
+    add_survey_parser(commands, EXAMPLE_FLOORPLAN)
     add_daemon_parsers(commands)
 
     add_send_parser(commands)
@@ -369,7 +371,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """The command `args` names."""
-    if args.command not in (None, "replay", "go", "patrol", "serve"):
+    if args.command not in (None, "replay", "go", "patrol", "serve", "survey"):
         # Nothing here drives by itself: signals end the command as usual. The program's
         # entry point blocked them for the console's own watcher (launch.py).
         signal.pthread_sigmask(signal.SIG_UNBLOCK, SIGNALS)
@@ -387,7 +389,7 @@ def run(args: argparse.Namespace) -> int:
         return run_stop(args)
     if args.command == "patrols":
         return run_patrols(args)
-    if args.command in ("go", "patrol", "serve"):
+    if args.command in ("go", "patrol", "serve", "survey"):
         try:
             settings, port = settings_and_port(args)
         except SettingsError as error:
@@ -395,6 +397,8 @@ def run(args: argparse.Namespace) -> int:
             return EXIT_USAGE
         if args.command == "serve":
             return run_serve(args, settings, port, EXAMPLE_FLOORPLAN)
+        if args.command == "survey":
+            return run_survey(args, settings, port, EXAMPLE_FLOORPLAN)
         attached = attach_if_running(args, "go" if args.command == "go" else "patrol")
         if isinstance(attached, int):
             return attached

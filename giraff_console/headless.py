@@ -39,8 +39,8 @@ from giraff_console.missions.docking import DOCK
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.path_mission import Sense
-from giraff_console.planning.floorplan import FloorPlan, FloorPlanError, load_floorplan
-from giraff_console.planning.landmarks import fit_on_walls, marker_poses, marker_walls
+from giraff_console.planning.floorplan import FloorPlan, FloorPlanError, Landmarks, load_floorplan
+from giraff_console.planning.landmarks import fit_on_walls, marker_beliefs, marker_walls
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.robot.last_stop import LastStop
 from giraff_console.robot.localisation import PoseBasis
@@ -62,7 +62,8 @@ EXIT_ARRIVED, EXIT_FAILED, EXIT_USAGE, EXIT_UNVERIFIED = 0, 1, 2, 3
 # Seconds of real time to wait for the board's first answer.
 CONNECT_TIMEOUT_S = 10.0
 # The options that only mean something in the simulated building.
-SIM_ONLY = ("imperfect", "block", "sim_start", "move_marker", "eye_fps", "eye_size")
+SIM_ONLY = ("imperfect", "block", "sim_start", "move_marker", "eye_fps", "eye_size",
+            "sim_markers")
 
 
 class UsageError(Exception):
@@ -191,12 +192,15 @@ class HeadlessRobot:
     until `run`."""
 
     def __init__(self, args: argparse.Namespace, settings: Settings, port: str | None,
-                 example: Path, *, print_notes: bool = True) -> None:  # fmt: skip
+                 example: Path, *, print_notes: bool = True,
+                 surveying: Landmarks | None = None) -> None:  # fmt: skip
         """`print_notes`: the loop's notes on standard error, as the operator's only way
         of being told (`go`, `patrol`), so that the robot stops if that fails. The daemon
-        says them otherwise (serve_command.py)."""
+        says them otherwise (serve_command.py). `surveying`: a survey's markers are to
+        be found afresh (the plan's family and size, else these; none known yet)."""
         if port is not None:
-            given = [f"--{name.replace('_', '-')}" for name in SIM_ONLY if getattr(args, name)]
+            given = [f"--{name.replace('_', '-')}" for name in SIM_ONLY
+                     if getattr(args, name, None)]  # fmt: skip
             if given:
                 raise UsageError(f"{', '.join(given)}: only with the simulator (--sim)")
         if not args.sim_speed > 0:  # NaN too
@@ -206,6 +210,10 @@ class HeadlessRobot:
                              "and --sim-start puts it elsewhere")  # fmt: skip
         try:
             self.plan = load_floorplan(args.floorplan or example)
+            if surveying is not None:
+                looked_for = self.plan.landmarks or surveying
+                self.plan = replace(self.plan, landmarks=replace(looked_for, markers=()))
+            hung = _hung_markers(self.plan, getattr(args, "sim_markers", None))
             self.navigator = Navigator(self.plan, walls_of(self.plan), settings.robot_radius)
             self.limits = settings.motion.limits()
             self.patience = settings.motion.patience()
@@ -231,9 +239,9 @@ class HeadlessRobot:
                                              settings.motion.sensing_range)  # fmt: skip
             for x, y in blocks:
                 site.surroundings.block(x, y)
-            if moved is not None:
+            if moved is not None or hung is not None:
                 # The building's markers, not the plan's: the console still goes by these.
-                site.world = plan_world(moved)
+                site.world = plan_world(hung or moved or self.plan)
             if args.sim_start is not None:
                 room = self.plan.rooms[args.sim_start]
                 site.board.place(TruePose(*room.at, math.radians(room.heading or 0.0)))
@@ -279,7 +287,7 @@ class HeadlessRobot:
         self.drives = DriveSetup.on_loop(control, self.navigator, limits=self.limits,
                                          sense=self.sense, patience=self.patience)  # fmt: skip
         if self.eye is not None:
-            control.localisation.use_markers(marker_poses(self.plan))
+            control.localisation.use_markers(marker_beliefs(self.plan))
             eye = self.eye
 
             def look(event: LoopEvent) -> None:
@@ -433,6 +441,18 @@ def built_in_simulator(firmware: str | None, seed: int | None, faults: bool) -> 
     simulator.board = GiraffBoard(simulator.clock, config)
     simulator.open()
     return simulator
+
+
+def _hung_markers(plan: FloorPlan, path: Path | None) -> FloorPlan | None:
+    """The plan with the markers of the floor plan at `path` (`--sim-markers`), for the
+    simulated building; None without one. FloorPlanError for a plan that cannot be read,
+    ValueError for one without markers."""
+    if path is None:
+        return None
+    other = load_floorplan(path)
+    if other.landmarks is None or not other.landmarks.markers:
+        raise ValueError(f"--sim-markers {path}: the floor plan has no markers to hang")
+    return replace(plan, landmarks=other.landmarks)
 
 
 def placed_at(plan: FloorPlan, text: str) -> Pose:

@@ -231,7 +231,8 @@ class PathMission:
         self._leg_index = -1
         self._estimate = estimate
         self._touched = touched
-        self._markers = marker_poses(navigator.plan) if navigator is not None else {}
+        # The markers a look turns to: those known well enough to find the robot by.
+        self._markers = marker_poses(navigator.plan, known_only=True) if navigator else {}
         self._look: Look | None = None
         self._look_kind = "lost"
         self._begun = False  # the first step has judged whether it may set off
@@ -597,7 +598,9 @@ class PathMission:
     def _contact(self, tick: Tick) -> list[Command]:
         """A stall: stop at once, then back off, find the pose again and try again."""
         navigator = self.navigator
-        contact = self._recovery.touched(tick.pose, navigator.walls if navigator else None)
+        doorways = [door.at for door in navigator.plan.doors] if navigator else []
+        contact = self._recovery.touched(tick.pose, navigator.walls if navigator else None,
+                                         doorways)  # fmt: skip
         self._touched()  # the estimate is less sure than the filter thinks
         where = f"({contact.point[0]:.1f}, {contact.point[1]:.1f})"
         if self._recovery.exhausted:

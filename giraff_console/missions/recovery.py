@@ -18,7 +18,8 @@ named steps (path_mission.py's stages):
    not know is there. Not on the first: a momentary stall of the wheels, or a frame
    clipped by a pose error, is passed on a retry, and a phantom obstacle in a
    corridor or a doorway would send the robot round it, or the long way. Never where
-   a wall of the plan is: then the pose was off, not the map;
+   a wall of the plan is, nor in a doorway, whose frames are what a robot a few
+   centimetres off its line clips: then the pose was off, not the map;
 4. know where it is again: the contact widens the estimate's uncertainty
    (localisation.touched), and with markers a look follows if it is no longer sure;
 5. plan again from there, and drive.
@@ -32,6 +33,7 @@ from __future__ import annotations
 
 import collections
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -64,6 +66,8 @@ SAME_PLACE_M = 0.5
 # A wall of the plan this near to where the robot touched explains the contact: the
 # grid's cells are 5 cm, and a frame is drawn to within a cell of where it stands.
 WALL_EXPLAINS_M = 0.10
+# ...and so does a doorway's centre this near: the robot's disc reaches its frames.
+DOORWAY_EXPLAINS_M = 0.6
 # The trail of the robot's own recent poses, behind it, that backing off may follow.
 TRAIL_M = 1.0
 # A trail point this far off the straight line behind the robot ends the straight stretch.
@@ -117,14 +121,18 @@ class Recovery:
         """A new plan of `left` metres: progress is measured along it from here."""
         self._best_left = left
 
-    def touched(self, pose: Pose, walls: OccupancyGrid | None) -> Contact:
-        """The robot, at `pose`, has stalled against something: the contact, counted."""
+    def touched(self, pose: Pose, walls: OccupancyGrid | None,
+                doorways: Sequence[Point] = ()) -> Contact:  # fmt: skip
+        """The robot, at `pose`, has stalled against something: the contact, counted.
+        `doorways`: the plan's doors' centres."""
         self._in_a_row += 1
         point = (pose.x + self.radius * math.cos(pose.heading),
                  pose.y + self.radius * math.sin(pose.heading))  # fmt: skip
         recent = self.contacts[len(self.contacts) - self._in_a_row + 1 :]
         again = any(math.dist(point, before.point) <= SAME_PLACE_M for before in recent)
-        contact = Contact(pose, point, _wall_near_front(pose, self.radius, walls), again)
+        in_doorway = any(math.dist(point, door) <= DOORWAY_EXPLAINS_M for door in doorways)
+        explained = in_doorway or _wall_near_front(pose, self.radius, walls)
+        contact = Contact(pose, point, explained, again)
         self.contacts.append(contact)
         return contact
 

@@ -47,7 +47,10 @@ _DOOR = {"between": True, "at": True, "width": False, "open": False, "id": False
 _GRID = {"image": True, "resolution": True, "origin": False, "negate": False}
 _GRID |= {"occupied_thresh": False, "free_thresh": False}
 _LANDMARKS = {"family": True, "size": True, "markers": True}
-_MARKER = {"id": True, "at": True, "height": True, "facing": True}
+_MARKER = {"id": True, "at": True, "height": True, "facing": True, "sigma": False}
+# A marker's uncertainty, as a survey writes it: metres and degrees, standard deviations.
+MARKER_SIGMA_M = (0.0, 10.0)
+MARKER_SIGMA_DEG = (0.0, 180.0)
 # A marker's printed side and the height of its centre, metres. Below 5 cm the robot's
 # camera resolves a marker only from a metre or so; above 30 cm it no longer fits on a
 # page to print. Its centre at 0.3 to 2.2 m keeps the whole of it between the skirting
@@ -95,6 +98,9 @@ class Marker:
     at: Point  # its centre on the wall, metres in the map frame
     height: float  # its centre above the floor, metres
     facing: float  # the way its face looks (its normal), degrees counter-clockwise from +x
+    # How well `at` (metres, along the worst direction) and `facing` (degrees) are known,
+    # as a survey found them (missions/survey.py); None: put up with a tape measure.
+    sigma: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -356,7 +362,7 @@ class _Reader(ProblemLog):
     def marker(self, i: int, value: Any) -> Marker | None:
         where: Where = ("landmarks", "markers", i)
         raw = self.mapping(value, where, _MARKER)
-        if raw is None or any(key not in raw for key in _MARKER):
+        if raw is None or any(required and key not in raw for key, required in _MARKER.items()):
             return None
         before = len(self.problems)
         marker_id = raw["id"]
@@ -365,9 +371,19 @@ class _Reader(ProblemLog):
         at = self.point(raw["at"], (*where, "at"))
         height = self.number(raw["height"], (*where, "height"), *MARKER_HEIGHT_M)
         facing = self.number(raw["facing"], (*where, "facing"), -360.0, 360.0)
+        sigma = None
+        if "sigma" in raw:
+            sigma = self.numbers(raw["sigma"], (*where, "sigma"), 2,
+                                 "[metres, degrees]: how well `at` and `facing` are known")
+            (low_m, high_m), (low_deg, high_deg) = MARKER_SIGMA_M, MARKER_SIGMA_DEG
+            if sigma is not None and not (low_m < sigma[0] <= high_m
+                                          and low_deg < sigma[1] <= high_deg):  # fmt: skip
+                self.add((*where, "sigma"), f"{dotted((*where, 'sigma'))} is {list(sigma)}: "
+                         f"metres in ({low_m:g}, {high_m:g}] and degrees in "
+                         f"({low_deg:g}, {high_deg:g}]")  # fmt: skip
         if len(self.problems) > before:
             return None
-        return Marker(marker_id, at, height, facing % 360.0)
+        return Marker(marker_id, at, height, facing % 360.0, sigma)
 
 
 def load_yaml(path: Path) -> tuple[yaml.Node | None, Any]:

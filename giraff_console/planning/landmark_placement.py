@@ -224,8 +224,11 @@ def landmarks_block(plan: FloorPlan, landmarks: Landmarks) -> str:
     ]
     for marker in landmarks.markers:
         place = where_it_goes(plan, marker)
-        line = (f"  - {{id: {marker.id}, at: [{number(marker.at[0])}, {number(marker.at[1])}], "
-                f"height: {number(marker.height)}, facing: {number(marker.facing)}}}")  # fmt: skip
+        sigma = "" if marker.sigma is None else (
+            f", sigma: [{number(marker.sigma[0])}, {number(marker.sigma[1])}]")  # fmt: skip
+        at = f"[{number(marker.at[0])}, {number(marker.at[1])}]"
+        line = (f"  - {{id: {marker.id}, at: {at}, height: {number(marker.height)}, "
+                f"facing: {number(marker.facing)}{sigma}}}")  # fmt: skip
         lines.append(f"{line}  # {place}" if place else line)
     return "\n".join(lines) + "\n"
 

@@ -33,6 +33,13 @@ from giraff_console.planning.floorplan import (
 )
 from giraff_console.planning.grid_walls import DOOR_IN_FACE_M, grid_walls
 from giraff_console.planning.walls import WallSegment, wall_segments
+from giraff_console.robot.marker_map import (
+    USE_SIGMA_FACING,
+    USE_SIGMA_M,
+    MarkerBelief,
+    MarkerState,
+    hand_covariance,
+)
 from giraff_console.robot.odometry import Pose
 
 # OpenCV's predefined dictionaries by the names a floor plan uses: DICT_APRILTAG_36h11
@@ -275,14 +282,42 @@ def _to_segment(p: Point, a: Point, b: Point) -> float:
     return math.hypot(p[0] - a[0] - t * dx, p[1] - a[1] - t * dy)
 
 
-def marker_poses(plan: FloorPlan) -> dict[int, Pose]:
+def marker_poses(plan: FloorPlan, known_only: bool = False) -> dict[int, Pose]:
     """Each of the plan's markers as the pose filter takes it: its centre on the wall,
     and the way its face looks in radians (robot/localisation.py); none without
-    landmarks."""
+    landmarks. `known_only`: not those a survey left too loosely known to use."""
     if plan.landmarks is None:
         return {}
     return {marker.id: Pose(marker.at[0], marker.at[1], math.radians(marker.facing))
-            for marker in plan.landmarks.markers}  # fmt: skip
+            for marker in plan.landmarks.markers
+            if not known_only or _well_known(marker)}  # fmt: skip
+
+
+def _well_known(marker: Marker) -> bool:
+    sigma = marker.sigma
+    return sigma is None or (sigma[0] <= USE_SIGMA_M and math.radians(sigma[1]) <= USE_SIGMA_FACING)
+
+
+def marker_beliefs(plan: FloorPlan) -> dict[int, MarkerBelief]:
+    """Each of the plan's markers as the localisation finds the robot by it: its pose
+    (marker_poses) and how well that is known (robot/marker_map.py): as a survey wrote
+    it, else a tape measure's. A marker the survey left loosely known is learnt, not
+    used, until sightings make it known well enough."""
+    beliefs = {}
+    markers = markers_by_id(plan)
+    for marker_id, pose in marker_poses(plan).items():
+        sigma = markers[marker_id].sigma
+        covariance = hand_covariance() if sigma is None else hand_covariance(
+            sigma[0], math.radians(sigma[1]))  # fmt: skip
+        belief = MarkerBelief(pose, covariance)
+        if not belief.well_known:
+            belief = MarkerBelief(pose, covariance, MarkerState.LEARNING)
+        beliefs[marker_id] = belief
+    return beliefs
+
+
+def markers_by_id(plan: FloorPlan) -> dict[int, Marker]:
+    return {marker.id: marker for marker in plan.landmarks.markers} if plan.landmarks else {}
 
 
 def marker_detector(

@@ -108,6 +108,9 @@ CHI_SQUARE = {
 _SETTLED_RAD2 = 1e-12
 # The pose's part of the state (x, y, heading, the casters' turn to come).
 _POSE = np.eye(3, 4)
+# How well a marker is known, where the map says: the 3x3 covariance of its centre and
+# facing (metres, radians); None for the tape measure's (FilterNoise).
+Sigma = np.ndarray | None
 
 
 @dataclass(frozen=True)
@@ -427,16 +430,30 @@ class PoseFilter:
 
     # Sightings.
 
-    def _measurement_noise(self, distance: float, facing: bool) -> np.ndarray:
+    def _measurement_noise(self, distance: float, facing: bool,
+                           sigma: Sigma = None) -> np.ndarray:  # fmt: skip
+        """The sighting's noise, and the marker's own on its wall: the tape measure's
+        (FilterNoise), unless `sigma` (the marker's covariance, where the map says how
+        well it is known) is given, which the caller carries through its own model."""
         n = self.noise
         distance = max(distance, 1e-3)
+        position, turned = (n.marker_position, n.marker_facing) if sigma is None else (0.0, 0.0)
         r = [
-            (n.distance + n.distance_fraction * distance) ** 2 + n.marker_position**2,
-            n.bearing**2 + (n.marker_position / distance) ** 2,
+            (n.distance + n.distance_fraction * distance) ** 2 + position**2,
+            n.bearing**2 + (position / distance) ** 2,
         ]
         if facing:
-            r.append(n.facing**2 + n.marker_facing**2)
+            r.append(n.facing**2 + turned**2)
         return np.diag(r)
+
+    def _marker_noise(self, sigma: np.ndarray, by_marker: np.ndarray) -> np.ndarray:
+        """A marker's own covariance `sigma`, no better than the tape measure's, through
+        `by_marker` (the Jacobian of what is measured by the marker's x, y, facing)."""
+        n = self.noise
+        floor = np.diag([n.marker_position**2, n.marker_position**2, n.marker_facing**2])
+        known = np.asarray(sigma, dtype=float)
+        known = known + np.diag(np.maximum(np.diag(floor) - np.diag(known), 0.0))
+        return by_marker @ known @ by_marker.T
 
     def expected(self, marker: Any, pose: Pose | None = None) -> Observation:
         """What a camera on the robot at `pose` (the estimate by default) would see of
@@ -478,7 +495,7 @@ class PoseFilter:
         """The squared Mahalanobis distance beyond which a sighting is rejected."""
         return CHI_SQUARE[self.gate_confidence][dof]
 
-    def mahalanobis(self, sighting: Observation, marker: Any) -> float:
+    def mahalanobis(self, sighting: Observation, marker: Any, sigma: Sigma = None) -> float:
         """The sighting's squared Mahalanobis distance from what the estimate expects, as
         the gate computes it (3 degrees of freedom with a facing, 2 without)."""
         seen = usable(sighting)
@@ -486,22 +503,23 @@ class PoseFilter:
             return math.inf
         at = marker_pose(marker)
         if seen.facing_rad is not None:
-            v, s, _ = self._pose_innovation(seen, at)
+            v, s, _ = self._pose_innovation(seen, at, sigma)
         else:
-            v, s, _ = self._range_bearing_innovation(seen, at, self._x)
+            v, s, _ = self._range_bearing_innovation(seen, at, self._x, sigma)
         return float(v @ np.linalg.solve(s, v))
 
-    def correct(self, sighting: Observation, marker: Any) -> bool:
+    def correct(self, sighting: Observation, marker: Any, sigma: Sigma = None) -> bool:
         """Correct the estimate by one sighting of `marker` (its pose in the map, or a
-        floor plan's marker). False, and the filter untouched, when the gate rejects it
-        or the filter is not placed yet (see place_from)."""
+        floor plan's marker), known to `sigma` (metres, radians; the tape measure's by
+        default). False, and the filter untouched, when the gate rejects it or the
+        filter is not placed yet (see place_from)."""
         seen = usable(sighting)
         if not self.placed or seen is None:
             return False
         at = marker_pose(marker)
         if seen.facing_rad is not None:
-            return self._correct_pose(seen, at)
-        return self._correct_range_bearing(seen, at)
+            return self._correct_pose(seen, at, sigma)
+        return self._correct_range_bearing(seen, at, sigma)
 
     def _accept(self, v: np.ndarray, s: np.ndarray) -> bool:
         d2 = float(v @ np.linalg.solve(s, v))
@@ -518,16 +536,16 @@ class PoseFilter:
         self.corrected_at = sighting.time
 
     def _pose_innovation(
-        self, sighting: Observation, at: Pose
+        self, sighting: Observation, at: Pose, sigma: Sigma
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The pose the sighting implies less the estimate, its covariance, and the
         sighting's own covariance in pose space."""
-        measured, noise = self._implied_pose(sighting, at)
+        measured, noise = self._implied_pose(sighting, at, sigma)
         v = measured - self._x[:3]
         v[2] = wrap(v[2])
         return v, self._p[:3, :3] + noise, noise
 
-    def _correct_pose(self, sighting: Observation, at: Pose) -> bool:
+    def _correct_pose(self, sighting: Observation, at: Pose, sigma: Sigma) -> bool:
         """A sighting with its facing gives the whole pose (place_from's inverse), so the
         update is made in pose space, where the measurement is the pose itself (H = [I 0])
         with the noise mapped through the inverse's Jacobian at the measured values. In
@@ -536,7 +554,7 @@ class PoseFilter:
         about the estimate, which after a long blind stretch with the casters' heading
         error can be a metre and tens of degrees off, where the linearised gate would
         reject every good sighting and the robot would stay lost."""
-        v, s, noise = self._pose_innovation(sighting, at)
+        v, s, noise = self._pose_innovation(sighting, at, sigma)
         if not self._accept(v, s):
             return False
         p = self._p
@@ -548,35 +566,46 @@ class PoseFilter:
         return True
 
     def _range_bearing_innovation(
-        self, sighting: Observation, at: Pose, state: np.ndarray
+        self, sighting: Observation, at: Pose, state: np.ndarray, sigma: Sigma
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Measured less expected distance and bearing at `state`, the innovation's
         covariance, and the Jacobian."""
         z = np.array([sighting.distance_m, sighting.bearing_rad])
         h, jac = self._model(state, at, facing=False)
-        noise = self._measurement_noise(sighting.distance_m, facing=False)
+        noise = self._range_bearing_noise(sighting, at, state, sigma)
         return self._innovation(z, h), jac @ self._p @ jac.T + noise, jac
 
-    def _correct_range_bearing(self, sighting: Observation, at: Pose) -> bool:
+    def _range_bearing_noise(self, sighting: Observation, at: Pose, state: np.ndarray,
+                             sigma: Sigma) -> np.ndarray:  # fmt: skip
+        """Distance and bearing's noise, the marker's own carried through the model."""
+        noise = self._measurement_noise(sighting.distance_m, False, sigma)
+        if sigma is None:
+            return noise
+        # The distance and bearing move with the marker as they move against the robot.
+        _, jac = self._model(state, at, facing=False)
+        return noise + self._marker_noise(sigma, -jac[:, :3] @ np.diag([1.0, 1.0, 0.0]))
+
+    def _correct_range_bearing(self, sighting: Observation, at: Pose, sigma: Sigma) -> bool:
         """Distance and bearing only: an iterated EKF update (Gauss-Newton), relinearising
         the measurement about the latest state x_i, each time from the prior x_0:
         x_i+1 = x_0 + K_i (z - h(x_i) - H_i (x_0 - x_i))."""
         prior, p = self._x, self._p
-        v, s, jac = self._range_bearing_innovation(sighting, at, prior)
+        v, s, jac = self._range_bearing_innovation(sighting, at, prior, sigma)
         if not self._accept(v, s):
             return False
         state = prior
         for i in range(self.iterations):
             if i > 0:
-                v, s, jac = self._range_bearing_innovation(sighting, at, state)
+                v, s, jac = self._range_bearing_innovation(sighting, at, state, sigma)
             gain = p @ jac.T @ np.linalg.inv(s)
             state = prior + gain @ (v - jac @ (prior - state))
-        noise = self._measurement_noise(sighting.distance_m, facing=False)
+        noise = self._range_bearing_noise(sighting, at, state, sigma)
         keep = np.eye(4) - gain @ jac
         self._update(state, keep @ p @ keep.T + gain @ noise @ gain.T, sighting)
         return True
 
-    def _implied_pose(self, sighting: Observation, at: Pose) -> tuple[np.ndarray, np.ndarray]:
+    def _implied_pose(self, sighting: Observation, at: Pose,
+                      sigma: Sigma = None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
         """The robot's pose as one sighting with its facing says, and its covariance."""
         assert sighting.facing_rad is not None
         r, bearing, facing = sighting.distance_m, sighting.bearing_rad, sighting.facing_rad
@@ -596,9 +625,19 @@ class PoseFilter:
                 [0.0, 0.0, -1.0],
             ]
         )
-        return pose, jac @ self._measurement_noise(r, facing=True) @ jac.T
+        noise = jac @ self._measurement_noise(r, True, sigma) @ jac.T
+        if sigma is not None:
+            # The pose implied moves with the marker: its centre one for one, and round
+            # it as its facing turns.
+            by_marker = np.array([
+                [1.0, 0.0, r * sin_t + forward * sin_h],
+                [0.0, 1.0, -r * cos_t - forward * cos_h],
+                [0.0, 0.0, 1.0],
+            ])  # fmt: skip
+            noise = noise + self._marker_noise(sigma, by_marker)
+        return pose, noise
 
-    def place_from(self, sighting: Observation, marker: Any) -> Pose:
+    def place_from(self, sighting: Observation, marker: Any, sigma: Sigma = None) -> Pose:
         """Put the robot where one sighting of `marker` says it is, whatever was known
         before: the inverse of the marker's pose as seen, with the covariance the
         sighting's noise gives it. Needs the sighting's facing: without it the heading,
@@ -609,7 +648,7 @@ class PoseFilter:
         if checked.facing_rad is None:
             raise ValueError("placing the robot needs the marker's facing")
         sighting = checked
-        pose, covariance = self._implied_pose(sighting, marker_pose(marker))
+        pose, covariance = self._implied_pose(sighting, marker_pose(marker), sigma)
         # The sighting says nothing of the casters: a robot that turned to find a
         # marker still has their turn to come.
         self._set_pose(Pose(*pose), covariance, float(self._x[3]), float(self._p[3, 3]))

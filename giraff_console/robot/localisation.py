@@ -49,13 +49,24 @@ import collections
 import enum
 import math
 import queue
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from giraff_console.robot.ekf import FilterNoise, Observation, PoseFilter, wrap
+from giraff_console.robot.marker_map import (
+    LEARN_FROM_SIGMA_M,
+    MarkerBelief,
+    MarkerMap,
+    Point,
+    hand_covariance,
+)
 from giraff_console.robot.odometry import Odometry, Pose
+
+if TYPE_CHECKING:  # the survey's log builds on this module's starting covariance
+    from giraff_console.robot.survey_log import SurveyLog
 
 # Sightings older than this are dropped (see the module docstring).
 HISTORY_S = 1.0
@@ -77,6 +88,9 @@ PLACE_REACH_M = 4.0
 # A step whose centre moves less than this fraction of what its wheels turn is a turn
 # in place, which leaves the casters out of line (§3.2.1.5).
 IN_PLACE_FRACTION = 0.1
+# Another marker corrected the pose this recently: it vouches for where the robot is,
+# against a marker the gate keeps rejecting (marker_map.py, MOVED).
+VOUCHED_S = 1.0
 
 
 # After a contact (a stall against something) the pose may be off by what the robot was
@@ -166,9 +180,12 @@ class Localisation:
         self.odometry = odometry
         self.now = now
         self.report = report
-        # Each marker's centre on its wall and the way its face looks (planning's
-        # landmarks.marker_poses): the robot layer knows nothing of floor plans.
-        self.markers: dict[int, Pose] = {}
+        # Each marker's centre on its wall, the way its face looks, and how well both
+        # are known (marker_map.py; planning's landmarks.marker_beliefs): the robot
+        # layer knows nothing of floor plans.
+        self.map = MarkerMap()
+        # A survey under way (missions/survey.py): the wheels and the markers logged.
+        self.survey: SurveyLog | None = None
         self.filter = PoseFilter(odometry.pose, start_covariance())
         self._noise = self.filter.noise
         self.found = False
@@ -199,18 +216,49 @@ class Localisation:
         scale = worst / thesis.caster_worst
         self._noise = replace(self._noise, caster_worst=worst,
                               caster_sigma=thesis.caster_sigma * scale)  # fmt: skip
-        self.use_markers(self.markers)
+        self.use_markers(self.map.beliefs)
 
-    def use_markers(self, markers: Mapping[int, Pose]) -> None:
-        """Find the robot by these markers from now on (none: by the odometry alone).
+    @property
+    def markers(self) -> dict[int, Pose]:
+        """The markers known well enough to find the robot by, and where they hang."""
+        return self.map.known()
+
+    def use_markers(self, markers: Mapping[int, Pose | MarkerBelief]) -> None:
+        """Find the robot by these markers from now on (none: by the odometry alone);
+        a bare pose is a marker put up with a tape measure.
 
         Without markers the casters' turn is expected to be none on average, only
         uncertain: nothing would ever check the turn expected after each turn on the
         spot, and a robot whose casters pull less than the thesis's (or the ideal
         simulator's, which has none) would be steered off by it for good. The estimate
         is then the odometry's, and missions drive as they did before the filter."""
-        self.markers = dict(markers)
-        share = self._noise.caster_share if self.markers else 0.0
+        beliefs = {marker_id: marker if isinstance(marker, MarkerBelief)
+                   else MarkerBelief(marker, hand_covariance())
+                   for marker_id, marker in markers.items()}  # fmt: skip
+        self.map = MarkerMap(beliefs, noise=self._noise, learn_new=self.survey is not None)
+        self._expect_casters()
+
+    def start_survey(self, log: SurveyLog, walls: Sequence[tuple[Point, Point]] = ()) -> None:
+        """Log the wheels and every marker seen into `log` from now on, and learn the
+        markers the map does not have (missions/survey.py), held to the plan's `walls`
+        (their ends) where they hang on one (marker_map.py)."""
+        self.survey = log
+        self.map.learn_new = True
+        self.map.walls = np.array(walls, dtype=float).reshape(-1, 2, 2)
+        self._expect_casters()
+
+    def end_survey(self) -> SurveyLog | None:
+        """Stop logging; the log, if a survey was under way."""
+        log, self.survey = self.survey, None
+        self.map.learn_new = False
+        self._expect_casters()
+        return log
+
+    def _expect_casters(self) -> None:
+        """The casters' turn expected after a turn on the spot: the thesis's share while
+        markers (or a survey's graph) can check it, else none (see use_markers)."""
+        checked = bool(self.map) or self.survey is not None
+        share = self._noise.caster_share if checked else 0.0
         self.filter.noise = replace(self._noise, caster_share=share)
 
     # -- from any thread ----------------------------------------------------------------
@@ -260,6 +308,8 @@ class Localisation:
             self.filter.predict(left, right, base, turned_in_place=in_place)
             self._odometry_pose = _step(self._odometry_pose, left, right, base)
             self.since_fix_m += abs(left + right) / 2
+            if self.survey is not None:
+                self.survey.wheels(left, right, turned_in_place=in_place)
         jump = _between(self._odometry_pose, odometry.pose)
         if math.hypot(jump.x, jump.y) > 1e-6 or abs(jump.heading) > 1e-6:
             self.filter.move_to(_compose(self.filter.pose, jump))
@@ -280,36 +330,58 @@ class Localisation:
                 frame = self._sightings.get_nowait()
             except queue.Empty:
                 return
-            for sighting in frame:
-                self._take(sighting)
+            present = [seen for seen in map(self._take, frame) if seen is not None]
+            if self.survey is not None and present:
+                self.survey.frame(present)
 
-    def _take(self, sighting: Observation) -> None:
-        marker = self.markers.get(sighting.marker_id)
-        if marker is None:
-            if sighting.marker_id not in self._unknown_reported and self.markers:
-                self._unknown_reported.add(sighting.marker_id)
-                self.report(f"marker {sighting.marker_id} seen, but the floor plan has no "
-                            "such marker: ignored")  # fmt: skip
-            return
+    def _take(self, sighting: Observation) -> Observation | None:
+        """One sighting, moved to the present: it corrects the pose (a known marker),
+        places it (not found yet), or refines the marker (one being learnt). Returns it
+        as moved, for a survey's log; None for one that says nothing."""
+        marker_id = sighting.marker_id
+        belief = self.map.beliefs.get(marker_id)
+        if belief is None and not self.map.learn_new:
+            if marker_id not in self._unknown_reported and self.map:
+                self._unknown_reported.add(marker_id)
+                self.report(f"marker {marker_id} seen, but the floor plan has no such "
+                            "marker: ignored")  # fmt: skip
+            return None
         now = self.now()
         present = self._to_present(sighting, now)
         if present is None:
-            return
-        marker_id = sighting.marker_id
+            return None
+        known = self.map.usable(marker_id)
+        if known is None:
+            # Not to find the robot by (yet): learnt from where the robot is known to be.
+            note = self.map.learn(marker_id, self.filter.pose, self.filter.covariance, present)
+            if note is not None:
+                self.report(note)
+            return present
         near = present.distance_m <= PLACE_REACH_M
         if not self.found and not near:
-            return  # too weak to confirm the assumed start by, or to place the robot
-        if self.filter.correct(present, marker):
+            return present  # too weak to confirm the assumed start by, or to place the robot
+        sigma = known.covariance
+        if self.filter.correct(present, known.pose, sigma):
+            self.map.accepted(marker_id)
             self._fixed(marker_id, now)
-            return
-        if not self.found and present.facing_rad is not None:
+            return present
+        if not self.found and present.facing_rad is not None and known.placeable:
             # Not found yet: the assumed start is no evidence; this marker is.
-            pose = self.filter.place_from(present, marker)
+            pose = self.filter.place_from(present, known.pose, sigma)
             self._fixed(marker_id, now)
             self.report(f"found by marker {marker_id}: at x={pose.x:.2f} y={pose.y:.2f}")
-            return
+            return present
         self._rejected[marker_id] = now
         self.rejections[marker_id] += 1
+        note = self.map.rejected(marker_id, self._vouched_for(marker_id, now))
+        if note is not None:
+            self.report(note)
+        return present
+
+    def _vouched_for(self, marker_id: int, now: float) -> bool:
+        """Other markers have just corrected the pose, and it is known well."""
+        others = any(at >= now - VOUCHED_S for i, at in self._seen.items() if i != marker_id)
+        return others and self.filter.sigma_m <= LEARN_FROM_SIGMA_M
 
     def _fixed(self, marker_id: int, now: float) -> None:
         """A marker has placed or corrected the pose: it is found, and fixed afresh."""
@@ -371,7 +443,7 @@ class Localisation:
             sigma_m=f.sigma_m,
             sigma_heading=f.sigma_heading,
             ellipse=f.ellipse(),
-            landmarks=bool(self.markers),
+            landmarks=bool(self.map.known()),
             found=self.found,
             seen=seen,
             rejected=rejected,

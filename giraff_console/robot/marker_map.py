@@ -23,13 +23,22 @@ what was known. The robot's error at the moment is shared by every sighting from
 about there, and would not average out: a marker is never taken to be known better
 than the robot was when it was seen. The survey's pose graph does this properly, all
 at once; this is for the robot to go on meanwhile.
+
+Markers hang on walls, and the plan knows its walls. Learnt from a robot that has come
+a long way, a marker is off by what the robot's heading drifted: 14 cm across a
+corridor 35 m from the dock, measured on the imperfect simulator, enough to clip the
+next 0.9 m doorway. So a marker being learnt within WALL_SNAP_M of a wall of the plan
+that it faces out of (`walls`) is held to it, as the survey's solver holds it
+(robot/survey_walls.py): on its line to WALL_SIGMA_M, facing its normal to
+WALL_SIGMA_FACING. Across the wall is then known from the plan; along it, from the
+sightings.
 """
 
 from __future__ import annotations
 
 import enum
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -38,17 +47,37 @@ from giraff_console.robot.ekf import FilterNoise, Observation, wrap
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.pose_graph import marker_from_sighting
 
-# Known this well, a marker finds the robot: a marker known to 5 cm puts a robot 2 m
-# away no worse than the filter's own 5 cm look bound, and within the slow bound when
-# combined with what the robot knew.
-USE_SIGMA_M = 0.05
-USE_SIGMA_FACING = math.radians(5.0)
+Point = tuple[float, float]
+
+# Known this well, a marker finds the robot: a marker 2 m away known to 8 cm and 6
+# degrees puts the robot within the slow bound (certainty.py's 0.10 m), and the filter
+# takes the marker's own uncertainty into the sighting's (ekf.py), so it is never
+# surer of the robot than of the marker. A survey starting on the dock (5 cm) learns
+# its first markers a little looser than that, and must be able to go by them.
+USE_SIGMA_M = 0.08
+USE_SIGMA_FACING = math.radians(6.0)
 # The robot must be known this well to learn a marker from where it stands: a little
-# looser than the dock's 5 cm, so that a survey can start learning from there.
+# looser than the dock's 5 cm, so that a survey can start learning from there...
 LEARN_FROM_SIGMA_M = 0.06
 LEARN_FROM_SIGMA_HEADING = math.radians(4.0)
+# ...or this well, for a marker that lands on a wall of the plan, which then says where
+# it is across the wall and which way it faces: what holds the robot's heading, whose
+# drift is what loses it (the casters' unseen turns, §3.2.1.5). Along the wall it is
+# known only as well as the robot was.
+LEARN_ON_WALL_SIGMA_M = 0.5
+LEARN_ON_WALL_SIGMA_HEADING = math.radians(30.0)
+# A marker known this loosely along its worst direction is not used at all, however
+# well across it: the gate round it would let anything through.
+LOOSEST_M = 1.0
 # Rejected this many times in a row while other markers confirm the robot: moved.
 MOVED_AFTER = 5
+# A marker this near a wall of the plan, facing out of it within WALL_SNAP_FACING, is
+# held to it (module docstring): further than a corridor's drift, nearer than a
+# corridor's width.
+WALL_SNAP_M = 0.3
+WALL_SNAP_FACING = math.radians(20.0)
+WALL_SIGMA_M = 0.02
+WALL_SIGMA_FACING = math.radians(2.0)
 # How the plan's own markers are taken to be known when it says nothing: put up with a
 # tape measure (robot/ekf.py, FilterNoise's marker_position and marker_facing).
 HAND_SIGMA_M = 0.01
@@ -81,6 +110,17 @@ class MarkerBelief:
 
     @property
     def well_known(self) -> bool:
+        """Known well enough to correct the robot by: its facing, and its place along
+        at least one direction (across its wall); the filter takes its covariance in
+        (robot/ekf.py), so a marker known well across its wall and loosely along it
+        corrects the heading and the distance from the wall, and little else."""
+        values = np.linalg.eigvalsh(self.covariance[:2, :2])
+        return (self.sigma_facing <= USE_SIGMA_FACING and values[0] <= USE_SIGMA_M**2
+                and values[-1] <= LOOSEST_M**2)  # fmt: skip
+
+    @property
+    def placeable(self) -> bool:
+        """Known well enough every way to place a robot that does not know where it is."""
         return self.sigma_m <= USE_SIGMA_M and self.sigma_facing <= USE_SIGMA_FACING
 
 
@@ -94,10 +134,13 @@ class MarkerMap:
     map is added as LEARNING when first seen (a survey); else it is ignored."""
 
     def __init__(self, markers: Mapping[int, MarkerBelief] | None = None, *,
-                 noise: FilterNoise | None = None, learn_new: bool = False) -> None:  # fmt: skip
+                 noise: FilterNoise | None = None, learn_new: bool = False,
+                 walls: Sequence[tuple[Point, Point]] = ()) -> None:  # fmt: skip
+        """`walls`: the plan's walls (their ends), which markers being learnt are held to."""
         self.beliefs: dict[int, MarkerBelief] = dict(markers or {})
         self.noise = noise or FilterNoise()
         self.learn_new = learn_new
+        self.walls = np.array(walls, dtype=float).reshape(-1, 2, 2)
         self._rejected: dict[int, int] = {}
 
     def __bool__(self) -> bool:
@@ -119,7 +162,8 @@ class MarkerMap:
         """A sighting of a marker not to be used (new, LEARNING or MOVED) from a robot
         at `robot`, known to `robot_covariance`: refine the marker if the robot is known
         well enough (module docstring). A note when it becomes KNOWN."""
-        if seen.facing_rad is None or not _known_well(robot_covariance):
+        if seen.facing_rad is None or not _known(robot_covariance, LEARN_ON_WALL_SIGMA_M,
+                                                  LEARN_ON_WALL_SIGMA_HEADING):  # fmt: skip
             return None
         belief = self.beliefs.get(marker_id)
         if belief is None and not self.learn_new:
@@ -132,6 +176,9 @@ class MarkerMap:
             fused = MarkerBelief(guess.pose, guess.covariance, MarkerState.LEARNING, 1)
         else:
             fused = _fuse(belief, guess.pose, guess.covariance, floor)
+        fused, on_wall = self._on_wall(fused)
+        if not (on_wall or _known(robot_covariance, LEARN_FROM_SIGMA_M, LEARN_FROM_SIGMA_HEADING)):
+            return None  # a robot this unsure learns only what a wall pins down
         if fused.well_known and fused.sightings >= 3:
             fused = replace(fused, state=MarkerState.KNOWN)
             self.beliefs[marker_id] = fused
@@ -165,15 +212,56 @@ class MarkerMap:
                 "the robot, and learnt again from where it is seen")  # fmt: skip
 
 
-def _known_well(covariance: np.ndarray) -> bool:
+    def _on_wall(self, belief: MarkerBelief) -> tuple[MarkerBelief, bool]:
+        """`belief` held to the wall of the plan it hangs on, if one is near enough and
+        it faces out of it (module docstring), and whether it was."""
+        walls = self.walls
+        if not len(walls):
+            return belief, False
+        a, b = walls[:, 0], walls[:, 1]
+        d = b - a
+        length = np.hypot(d[:, 0], d[:, 1])
+        ok = length > 0
+        along = d / np.where(ok, length, 1.0)[:, None]
+        rel = np.array([belief.pose.x, belief.pose.y]) - a
+        t = np.einsum("ij,ij->i", rel, along)
+        across = rel[:, 0] * along[:, 1] - rel[:, 1] * along[:, 0]
+        # The normal on the wall's right; a marker faces out of one side or the other.
+        normal = np.arctan2(-along[:, 0], along[:, 1])
+        facing_off = np.abs(np.angle(np.exp(1j * (belief.pose.heading - normal))))
+        right = facing_off <= WALL_SNAP_FACING
+        left = np.pi - facing_off <= WALL_SNAP_FACING
+        near = ok & (np.abs(across) <= WALL_SNAP_M) & (t >= -0.1) & (t <= length + 0.1)
+        candidates = np.flatnonzero(near & (left | right))
+        if not len(candidates):
+            return belief, False
+        wall = candidates[np.argmin(np.abs(across[candidates]))]
+        ux, uy = along[wall]
+        on_line = a[wall] + t[wall] * along[wall]
+        facing = float(normal[wall]) if right[wall] else wrap(float(normal[wall]) + math.pi)
+        # Along the wall as the sightings say; across it and its facing as the plan does.
+        rotation = np.array([[ux, -uy], [uy, ux]])
+        local = rotation.T @ belief.covariance[:2, :2] @ rotation
+        local[1, 1] = min(local[1, 1], WALL_SIGMA_M**2)
+        local[0, 1] = local[1, 0] = 0.0
+        covariance = np.zeros((3, 3))
+        covariance[:2, :2] = rotation @ local @ rotation.T
+        covariance[2, 2] = min(belief.covariance[2, 2], WALL_SIGMA_FACING**2)
+        pose = Pose(float(on_line[0]), float(on_line[1]), float(facing))
+        return replace(belief, pose=pose, covariance=covariance), True
+
+
+def _known(covariance: np.ndarray, sigma_m: float, sigma_heading: float) -> bool:
+    """A robot's covariance within these standard deviations."""
     position = float(np.linalg.eigvalsh(covariance[:2, :2])[-1])
-    return position <= LEARN_FROM_SIGMA_M**2 and covariance[2, 2] <= LEARN_FROM_SIGMA_HEADING**2
+    return position <= sigma_m**2 and covariance[2, 2] <= sigma_heading**2
 
 
 def _fuse(belief: MarkerBelief, pose: Pose, covariance: np.ndarray,
           floor: float) -> MarkerBelief:  # fmt: skip
     """`belief` and a new guess of the marker's pose combined, no surer of its position
-    than `floor` (a variance: the robot's, shared by the sightings from about there)."""
+    along its worst direction than `floor` (a variance: the robot's, shared by the
+    sightings from about there)."""
     prior = belief.covariance
     total = prior + covariance
     gain = prior @ np.linalg.inv(total)
@@ -182,8 +270,9 @@ def _fuse(belief: MarkerBelief, pose: Pose, covariance: np.ndarray,
     x = np.array([belief.pose.x, belief.pose.y, belief.pose.heading]) + gain @ v
     p = (np.eye(3) - gain) @ prior
     p = (p + p.T) / 2
-    smallest = float(np.linalg.eigvalsh(p[:2, :2])[0])
-    if smallest < floor:
-        p[:2, :2] += np.eye(2) * (floor - smallest)
+    # Along its worst direction at least: across a wall the plan may know it better.
+    largest = float(np.linalg.eigvalsh(p[:2, :2])[-1])
+    if largest < floor:
+        p[:2, :2] += np.eye(2) * (floor - largest)
     return MarkerBelief(Pose(float(x[0]), float(x[1]), wrap(float(x[2]))), p, belief.state,
                         belief.sightings + 1)  # fmt: skip

@@ -3,6 +3,7 @@ on the markers (each reported at its line)."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -15,13 +16,17 @@ from giraff_console.planning.floorplan import (
     check_floorplan,
     load_floorplan,
 )
+from giraff_console.planning.landmark_placement import write_landmarks
 from giraff_console.planning.landmarks import (
     FACING_TOLERANCE_DEG,
     aruco_dictionary,
     id_count,
+    marker_beliefs,
     marker_image,
+    marker_poses,
     where_it_goes,
 )
+from giraff_console.robot.marker_map import MarkerState
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "giraff_console/floorplans/care-home.yaml"
@@ -255,3 +260,34 @@ def test_where_a_marker_goes_is_told_from_the_nearest_doorway_or_corner():
     assert str(place) == "room-102, north wall, centre 2.00 m from the right-hand corner"
     assert where_it_goes(plan, Marker(99, (6.0, 17.0), 1.1, 0.0)) is None
     assert all(where_it_goes(plan, marker) is not None for marker in by_id.values())
+
+
+def test_a_surveyed_marker_says_how_well_it_is_known_and_a_loose_one_is_learnt_not_used(
+    tmp_path,
+):
+    text = with_marker("{id: 2, at: [6, 4], height: 1.1, facing: 270, sigma: [0.2, 9]}")
+    text = text.replace("      facing: 270\n", "      facing: 270\n      sigma: [0.02, 1.5]\n", 1)
+    plan = load_text(tmp_path, text)
+    assert plan.landmarks is not None
+    sigmas = {marker.id: marker.sigma for marker in plan.landmarks.markers}
+    assert sigmas == {1: (0.02, 1.5), 2: (0.2, 9.0)}
+    beliefs = marker_beliefs(plan)
+    assert beliefs[1].state is MarkerState.KNOWN and beliefs[1].sigma_m == pytest.approx(0.02)
+    assert beliefs[2].state is MarkerState.LEARNING
+    assert set(marker_poses(plan, known_only=True)) == {1}
+
+
+@pytest.mark.parametrize("sigma", ["[0, 1]", "[0.01, 200]", "[0.01]", "0.02", "[a, 1]"])
+def test_a_bad_sigma_is_reported_at_its_line(tmp_path, sigma):
+    problems = problems_in(tmp_path, with_marker(
+        f"{{id: 2, at: [6, 4], height: 1.1, facing: 270, sigma: {sigma}}}"))  # fmt: skip
+    assert any(problem.startswith("20:") and "sigma" in problem for problem in problems), problems
+
+
+def test_markers_written_with_their_sigma_read_back_as_written(tmp_path):
+    plan = load_text(tmp_path, TWO_ROOMS)
+    assert plan.landmarks is not None
+    surveyed = replace(plan.landmarks.markers[0], at=(2.013, 4.0), sigma=(0.021, 1.2))
+    written = write_landmarks(plan, replace(plan.landmarks, markers=(surveyed,)))
+    assert written.landmarks is not None and written.landmarks.markers == (surveyed,)
+    assert "sigma: [0.021, 1.2]" in written.path.read_text()

@@ -1,0 +1,249 @@
+"""A survey: the robot maps the markers staff put up, and writes them into the plan
+(issue 25, item 2; thesis §2.3.4).
+
+"Staff stick printed markers where it suits them and write nothing down." A survey
+starts on the dock (a pose the operator vouches for: the dock is the plan's start
+room) and goes through the building: driven by the robot itself (`Tour`: a room at a
+time, nearest first, looking round on the spot in each, back to the dock at the end)
+or by the operator with the keys. Meanwhile the localisation logs the wheels and every
+marker it sees (robot/survey_log.py) and learns the markers it does not know
+(robot/marker_map.py), so that the robot finds its way by them as it goes. At the end
+the pose graph (robot/pose_graph.py) estimates every marker's pose jointly with the
+robot's path, each held to the plan's wall it hangs on (robot/survey_walls.py), and
+the markers are written into the plan with their uncertainty (`sigma`), where `go`
+and patrols find the robot by them from then on.
+
+A marker seen fewer than MIN_SIGHTINGS times, or never square enough to see which way
+it faces, is left out and named: one glimpse could be a misread id.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from giraff_console.link.motor_state import MotorState
+from giraff_console.missions.go_to import GoTo
+from giraff_console.missions.path_mission import PathMission
+from giraff_console.motion.executor import Executor
+from giraff_console.motion.path import Rotation
+from giraff_console.motion.speed_profile import MotionLimits
+from giraff_console.planning.floorplan import FloorPlan, Landmarks, Marker
+from giraff_console.planning.landmark_placement import DEFAULT_HEIGHT_M, write_landmarks
+from giraff_console.planning.landmarks import marker_walls
+from giraff_console.planning.room_graph import PlanningError
+from giraff_console.protocol.codec import Command
+from giraff_console.robot.mission import Outcome, Progress
+from giraff_console.robot.odometry import Pose
+from giraff_console.robot.pose_graph import SurveyResult, Wall
+from giraff_console.robot.survey_log import SurveyLog
+from giraff_console.robot.survey_walls import solve_on_walls
+
+# Sightings a marker needs to be written: one could be a misread id.
+MIN_SIGHTINGS = 3
+# A look round on the spot in each room: quarter turns, still between them long enough
+# for a few sharp frames (missions/localising.py's PAUSE_S and then some).
+LOOK_ROUND_STEP = math.pi / 2
+STILL_S = 1.0
+
+
+def tour(plan: FloorPlan, rooms: list[str] | None = None) -> list[str]:
+    """Every room (or `rooms`), nearest first (straight-line) from the start room, and
+    back to it at the end."""
+    start = plan.start
+    assert start is not None, "a survey starts on the dock: the plan needs a start room"
+    left = [room for room in (rooms or list(plan.rooms)) if room != start]
+    here = plan.rooms[start].at
+    order = []
+    while left:
+        room = min(left, key=lambda name: math.dist(here, plan.rooms[name].at))
+        left.remove(room)
+        order.append(room)
+        here = plan.rooms[room].at
+    return [*order, start]
+
+
+class LookRound:
+    """A Mission: a full turn on the spot in quarter turns, still for STILL_S after each,
+    so that the camera sees every wall of the room (the survey's graph is best held
+    where each room's markers are seen from one place: pose_graph's docs)."""
+
+    def __init__(self, pose: Callable[[], Pose], limits: MotionLimits, tick: float) -> None:
+        self.name = "look round"
+        self.problem: str | None = None
+        self._pose, self._limits, self._tick = pose, limits, tick
+        self._turns = round(math.tau / LOOK_ROUND_STEP)
+        self._executor: Executor | None = None
+        self._still_since: float | None = None
+
+    @property
+    def finished(self) -> bool:
+        return self._turns == 0 and self._executor is None
+
+    def step(self, now: float, state: MotorState | None) -> list[Command]:
+        if state is None or self.finished:
+            return []
+        if self._executor is not None:
+            commands = self._executor.step(now, state, self._pose())
+            if self._executor.problem is not None:
+                self.problem = self._executor.problem
+            if self._executor.finished and not state.moving:
+                self._executor, self._still_since = None, now
+            return commands
+        if state.moving:
+            return []
+        if self._still_since is None:
+            self._still_since = now
+        if now - self._still_since < STILL_S:
+            return []
+        self._turns -= 1
+        if self._turns == 0:
+            return []
+        here = self._pose()
+        self._executor = Executor([Rotation(here, LOOK_ROUND_STEP)], self._limits, self._tick)
+        return self._executor.step(now, state, here)
+
+    def next_due(self) -> float | None:
+        return None
+
+    def pause(self, now: float) -> None:
+        pass
+
+    def resume(self, now: float) -> None:
+        self._still_since = None
+
+    @property
+    def progress(self) -> Progress:
+        return Progress(self.name, f"{self._turns} quarter turns left")
+
+
+# The mission that drives to a room for the tour: a `go` that steers by the pose as the
+# markers learnt so far correct it, without looking for markers when unsure (the map is
+# being made: there may be none to look for yet).
+GoToRoom = Callable[[str], GoTo | PathMission]
+
+
+@dataclass(frozen=True)
+class Leg:
+    """One room of the tour and how it went."""
+
+    room: str
+    outcome: Outcome | None
+    why: str
+
+
+class Tour:
+    """A Mission: to each room of `rooms` in turn, looking round in each; a room that
+    cannot be reached is left out and the tour goes on (`legs` says how each went)."""
+
+    def __init__(self, rooms: list[str], go: GoToRoom, pose: Callable[[], Pose],
+                 limits: MotionLimits, tick: float,
+                 notify: Callable[[str], None] = lambda text: None) -> None:  # fmt: skip
+        self.name = "survey"
+        self.problem: str | None = None
+        self.legs: list[Leg] = []
+        self._rooms = list(rooms)
+        self._go, self._pose, self._limits, self._tick = go, pose, limits, tick
+        self._notify = notify
+        self._leg: GoTo | PathMission | LookRound = LookRound(pose, limits, tick)
+        self._room: str | None = None  # the room driven to, or None looking round
+
+    @property
+    def finished(self) -> bool:
+        return not self._rooms and self._room is None and self._leg.finished
+
+    def step(self, now: float, state: MotorState | None) -> list[Command]:
+        if self.finished or self.problem is not None:
+            return []
+        leg = self._leg
+        commands = leg.step(now, state)
+        if isinstance(leg, LookRound):
+            if leg.problem is not None:
+                self.problem = f"looking round: {leg.problem}"
+            elif leg.finished:
+                self._next()
+            return commands
+        if leg.finished or leg.problem is not None:
+            self.legs.append(Leg(str(self._room), leg.outcome, leg.problem or leg.detail))
+            if leg.problem is not None:
+                self._notify(f"survey: {self._room} not reached ({leg.problem}); on to the next")
+                if leg.outcome not in (Outcome.STALLED, Outcome.BLOCKED):
+                    self.problem = f"{self._room}: {leg.problem}"
+                    return commands
+            self._room = None
+            self._leg = LookRound(self._pose, self._limits, self._tick)
+        return commands
+
+    def _next(self) -> None:
+        while self._rooms:
+            room = self._rooms.pop(0)
+            try:
+                self._leg, self._room = self._go(room), room
+                return
+            except PlanningError as error:
+                self.legs.append(Leg(room, Outcome.BLOCKED, str(error)))
+                self._notify(f"survey: no way to {room} ({error}); on to the next")
+
+    def next_due(self) -> float | None:
+        return None
+
+    def pause(self, now: float) -> None:
+        self._leg.pause(now)
+
+    def resume(self, now: float) -> None:
+        self._leg.resume(now)
+
+    @property
+    def progress(self) -> Progress:
+        done = len(self.legs)
+        where = f"to {self._room}" if self._room is not None else "looking round"
+        state = f"{where}, {done} of {done + len(self._rooms) + (self._room is not None)} rooms"
+        return Progress(self.name, state, detail=self._leg.progress)
+
+
+@dataclass(frozen=True)
+class Surveyed:
+    """What a survey found: the markers to write (with their uncertainty), those left
+    out and why, and the solve's own figures."""
+
+    landmarks: Landmarks
+    left_out: dict[int, str]
+    outliers: int
+    result: SurveyResult
+
+
+def plan_walls(plan: FloorPlan) -> list[Wall]:
+    """The plan's walls a marker may hang on, as the survey's solver takes them."""
+    return [Wall(segment.a, segment.b) for segment in marker_walls(plan).segments]
+
+
+def surveyed(plan: FloorPlan, log: SurveyLog, family: str, size: float) -> Surveyed:
+    """The markers of a finished survey: solved on the plan's walls (a few seconds of
+    CPU for a large building: not for the control loop's thread)."""
+    result = solve_on_walls(log.survey(), plan_walls(plan))
+    heights = {marker.id: marker.height for marker in plan.landmarks.markers} \
+        if plan.landmarks else {}  # fmt: skip
+    markers, left_out = [], {}
+    for marker_id, found in sorted(result.markers.items()):
+        if found.sightings < MIN_SIGHTINGS:
+            left_out[marker_id] = f"seen {found.sightings} times (at least {MIN_SIGHTINGS})"
+            continue
+        if not found.facing_seen:
+            left_out[marker_id] = "never seen square enough to tell which way it faces"
+            continue
+        pose = found.pose
+        markers.append(Marker(
+            marker_id, (round(pose.x, 3), round(pose.y, 3)),
+            heights.get(marker_id, DEFAULT_HEIGHT_M), round(math.degrees(pose.heading) % 360, 1),
+            (round(max(found.sigma_m, 0.001), 3),
+             round(max(math.degrees(found.sigma_facing), 0.1), 1)),
+        ))  # fmt: skip
+    return Surveyed(Landmarks(family, size, tuple(markers)), left_out, len(result.outliers),
+                    result)  # fmt: skip
+
+
+def write_surveyed(plan: FloorPlan, found: Surveyed) -> FloorPlan:
+    """The surveyed markers written into the plan's file (its other markers replaced:
+    the survey saw what is on the walls now); the plan read back."""
+    return write_landmarks(plan, found.landmarks)

@@ -1,0 +1,168 @@
+"""`giraff-console survey`: the robot maps the markers on the walls and writes them into
+the floor plan, without the console's screen (issue 25, item 2; missions/survey.py).
+
+The robot starts on its dock (the plan's start room: the simulator's robot is put
+there, a real robot's operator says so with `--at dock`), drives to every room (or
+`--rooms`), nearest first, looks round in each, and comes back to the dock. Then the
+markers are estimated with the robot's path (a few seconds) and written into the plan,
+each with its uncertainty; `--dry-run` only prints them. Progress goes to standard
+error; `--json` prints the markers found as JSON. The plan's `landmarks:` key gives
+the markers' family and size (its markers, if any, are surveyed afresh); a plan without
+one takes `--family` and `--size`.
+
+For trying it in the simulator: `--sim-markers FILE` hangs FILE's markers in the
+simulated building instead of the plan's, so that a plan with no markers can be
+surveyed against a building that has them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+from giraff_console.headless import (
+    EXIT_ARRIVED,
+    EXIT_FAILED,
+    EXIT_USAGE,
+    HeadlessRobot,
+    UsageError,
+    add_robot_options,
+    fail,
+)
+from giraff_console.missions.survey import (
+    Surveyed,
+    Tour,
+    plan_walls,
+    surveyed,
+    tour,
+    write_surveyed,
+)
+from giraff_console.planning.floorplan import FloorPlanError, Landmarks
+from giraff_console.planning.landmark_placement import DEFAULT_SIZE_M
+from giraff_console.planning.landmarks import DEFAULT_FAMILY
+from giraff_console.robot.localisation import start_covariance
+from giraff_console.robot.survey_log import SurveyLog
+from giraff_console.settings import Settings
+
+
+def add_survey_parser(commands: argparse._SubParsersAction, example: Path) -> None:
+    survey = commands.add_parser(
+        "survey",
+        help="map the markers on the walls and write them into the floor plan",
+        description="From the dock, drive to every room of the floor plan (or --rooms), "
+        "look round in each, and come back; meanwhile find every marker the camera sees, "
+        "then estimate each one's place with the robot's path and write them, with how "
+        "well each is known, into the plan's landmarks (floorplans/README.md). The "
+        "robot starts on its dock: on a real robot say so with --at dock. Exits 0 when "
+        "every room was reached and the plan written, 1 when rooms were left out or "
+        "nothing was found (the plan is written with what was), 2 for a mistake in the "
+        "command.",
+    )
+    survey.add_argument(
+        "--rooms", metavar="A,B,...",
+        help="the rooms to visit (default: every room of the plan)",
+    )  # fmt: skip
+    survey.add_argument("--dry-run", action="store_true",
+                        help="print the markers found; do not write the plan")  # fmt: skip
+    survey.add_argument(
+        "--family", default=DEFAULT_FAMILY,
+        help="the markers' family, for a plan without landmarks (default: %(default)s)",
+    )  # fmt: skip
+    survey.add_argument(
+        "--size", type=float, default=DEFAULT_SIZE_M, metavar="M",
+        help="the markers' printed side in metres, for a plan without landmarks "
+        "(default: %(default)s)",
+    )  # fmt: skip
+    survey.add_argument(
+        "--sim-markers", type=Path, metavar="FILE",
+        help="simulator: hang FILE's markers (a floor plan's landmarks) in the simulated "
+        "building instead of the plan's",
+    )  # fmt: skip
+    add_robot_options(survey, example)
+
+
+def run_survey(args: argparse.Namespace, settings: Settings, port: str | None,
+               example: Path) -> int:  # fmt: skip
+    """Survey, then write or print the markers; the exit code says how it went."""
+    try:
+        robot = HeadlessRobot(args, settings, port, example, surveying=_surveying(args))
+    except UsageError as error:
+        return fail(str(error), EXIT_USAGE)
+    plan = robot.plan
+    assert plan.landmarks is not None  # HeadlessRobot gave it the markers to look for
+    if plan.start is None:
+        return fail(f"{plan.path}: a survey starts on the dock: the plan names no start room",
+                    EXIT_USAGE)  # fmt: skip
+    rooms = [room.strip() for room in args.rooms.split(",")] if args.rooms else None
+    unknown = sorted(set(rooms or []) - set(plan.rooms))
+    if unknown:
+        return fail(f"--rooms: no room called {', '.join(map(repr, unknown))}", EXIT_USAGE)
+    if robot.eye is None and robot.camera is None:
+        return fail("a survey needs a camera that can place markers: --camera and "
+                    "--calibration on a real robot", EXIT_USAGE)  # fmt: skip
+    control = robot.control
+    start = robot.control.estimate().pose
+    log = SurveyLog(start, control.odometry.wheel_base, start_cov=start_covariance())
+    control.localisation.start_survey(log, [(wall.a, wall.b) for wall in plan_walls(plan)])
+    limits = settings.motion.limits()
+    # The way to each room steers by the pose the markers learnt so far correct, and
+    # does not stop to look for markers: the map is being made (missions/survey.py).
+    mission = Tour(tour(plan, rooms), lambda room: robot.drives.go(room, minding=False),
+                   lambda: control.pose, limits, control.period, control.note)  # fmt: skip
+    ended: list[str] = []
+    if not robot.run(mission, ended.append):
+        return fail("no answer from the board", EXIT_FAILED)
+    control.localisation.end_survey()
+    found = surveyed(plan, log, plan.landmarks.family, plan.landmarks.size)
+    left_out = [leg.room for leg in mission.legs if leg.outcome is None or not leg.outcome.arrived]
+    written = None
+    if not args.dry_run and found.landmarks.markers:
+        try:
+            written = write_surveyed(plan, found).path
+        except (FloorPlanError, OSError, ValueError) as error:
+            return fail(f"the markers were found but not written: {error}", EXIT_FAILED)
+    report = _report(found, ended[0] if ended else "not run", left_out, written)
+    print(json.dumps(report) if args.json else _words(report))
+    complete = ended == ["done"] and not left_out and found.landmarks.markers
+    return EXIT_ARRIVED if complete else EXIT_FAILED
+
+
+def _surveying(args: argparse.Namespace) -> Landmarks:
+    """The markers to look for, for a plan that has no `landmarks:` key: the options'
+    family and size (HeadlessRobot takes the plan's own where it has them)."""
+    if not (args.size > 0 and math.isfinite(args.size)):
+        raise UsageError("--size must be a positive number of metres")
+    return Landmarks(args.family, args.size, ())
+
+
+def _report(found: Surveyed, why: str, left_out: list[str], written: Path | None) -> dict:
+    markers = [
+        {"id": m.id, "at": list(m.at), "facing": m.facing,
+         "sigma_m": m.sigma[0] if m.sigma else None, "sigma_deg": m.sigma[1] if m.sigma else None}
+        for m in found.landmarks.markers
+    ]  # fmt: skip
+    return {
+        "why": why,
+        "markers": markers,
+        "left_out": {str(marker_id): why for marker_id, why in found.left_out.items()},
+        "outliers": found.outliers,
+        "rooms_left_out": left_out,
+        "written": str(written) if written is not None else None,
+    }
+
+
+def _words(report: dict) -> str:
+    lines = [f"survey {report['why']}: {len(report['markers'])} markers found"]
+    for marker in report["markers"]:
+        lines.append(f"  marker {marker['id']} at ({marker['at'][0]:.3f}, {marker['at'][1]:.3f}) "
+                     f"facing {marker['facing']:.1f}°, ±{marker['sigma_m'] * 100:.1f} cm and "
+                     f"±{marker['sigma_deg']:.1f}°")  # fmt: skip
+    for marker_id, why in report["left_out"].items():
+        lines.append(f"  marker {marker_id} left out: {why}")
+    if report["rooms_left_out"]:
+        lines.append(f"rooms not reached: {', '.join(report['rooms_left_out'])}")
+    lines.append(f"written into {report['written']}" if report["written"] else "not written")
+    return "\n".join(lines)
+
