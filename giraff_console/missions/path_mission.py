@@ -120,6 +120,10 @@ CAUSE_NEAR_M = 1.5
 # Halting after a contact, the stop is sent again this often while the board still
 # says it moves: once is enough on a board that answers, and never a flood.
 HALT_EVERY_S = 0.5
+# A stop along the path takes at most a few seconds (a full turn on the spot finishing
+# first, at the limits); one still going after this long is held by wheels that do not
+# turn, and is stopped at once instead.
+STOP_WAIT_S = 10.0
 # A board whose stop has not run out after this long is pushing its wheels against what
 # they touch (the move's ramp waits on wheels that do not turn: 0.4 m/s at 0.5 m/s^2
 # ramps down in 0.8 s): the recovery goes on, and its move back replaces the stop.
@@ -224,6 +228,7 @@ class PathMission:
         self._then: Then = lambda tick: []  # what STOPPING, HALTING, BACKING_OFF lead to
         self._halted_at: float | None = None  # the last stop sent while halting
         self._halt_began: float | None = None
+        self._stopping_since: float | None = None
         self._failing = False  # coming to rest to end (`_fail`)
         # The traces of the plans driven before the present one (after replanning).
         self._traces: list[Trace] = []
@@ -424,14 +429,19 @@ class PathMission:
 
     def _stopping(self, tick: Tick) -> list[Command]:
         """A jerk-limited stop along the path; once the robot is still, what is next."""
+        if self._stopping_since is None:
+            self._stopping_since = tick.now
         commands = self.executor.step(tick.now, tick.state, tick.pose)
-        if self.executor.stalled:
-            # Touching something while braking: the board holds the move; at once.
-            self._stage = Stage.HALTING
+        overdue = tick.now - self._stopping_since > STOP_WAIT_S
+        if self.executor.stalled or overdue:
+            # Touching something while braking, or a stop that does not run out: the
+            # board holds a move its wheels cannot finish. Stopped at once.
+            self._stage, self._stopping_since = Stage.HALTING, None
             return self._halting(tick)
         done = self.executor.finished or self.executor.problem is not None
         if not done or tick.state.moving:
             return commands
+        self._stopping_since = None
         return [*commands, *self._then(tick)]
 
     def _halting(self, tick: Tick) -> list[Command]:
@@ -518,6 +528,7 @@ class PathMission:
         """STOPPING: brake along the path (a turn on the spot finishes first), then `then`."""
         self.executor.brake(now)
         self._stage, self._stopping_why, self._then = Stage.STOPPING, why, then
+        self._stopping_since = None
 
     def _fail(self, tick: Tick, outcome: Outcome, why: str) -> list[Command]:
         """Bring the robot to rest, then end with `outcome` (module docstring): at once

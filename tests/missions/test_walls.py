@@ -49,8 +49,9 @@ def test_the_building_is_solid_where_the_plan_has_walls_and_open_at_its_doorways
 def test_a_go_into_a_wall_stops_against_it_backs_off_and_then_gives_up(shared_navigator):
     """The console thinks the robot is on its dock; it is really 0.8 m east of it, so the
     way north through the dock's doorway runs it into the wall beside the doorway. It
-    backs off and tries again; touched there twice, the contact goes on the grid, which
-    leaves the dock room no way out: the mission ends and says so."""
+    backs off and tries again, three times in all: a doorway's frames are what a robot
+    off its line clips, so nothing goes on the grid (the dock room would have no way
+    out), and the mission ends and says so."""
     site = Site(shared_navigator)
     site.board.place(TruePose(2.8, 7.0, math.pi / 2))
     mission = site.go("kitchen")
@@ -61,8 +62,8 @@ def test_a_go_into_a_wall_stops_against_it_backs_off_and_then_gives_up(shared_na
         furthest = max(furthest, site.true_pose().y)
         if site.ended:
             break
-    assert site.ended and "no way to kitchen any more" in site.ended[0]
-    assert mission.contacts == 2 and mission.outcome is Outcome.BLOCKED
+    assert site.ended and "touched something 3 times in a row" in site.ended[0]
+    assert mission.contacts == 3 and mission.outcome is Outcome.STALLED
     # Against the wall at y = 10, not a millimetre into it.
     assert furthest == pytest.approx(10.0 - ROBOT_RADIUS_M, abs=1e-9)
     # The robot is at rest where it stopped, and what it felt is no longer on the grid.
@@ -118,8 +119,8 @@ def test_a_door_shut_unseen_is_as_solid_as_a_wall(shared_navigator):
     while site.clock.now() < 60 and not site.ended:
         site.run(TICK)
         furthest = max(furthest, site.true_pose().y)
-    # Against the door, twice, and never through it.
-    assert site.ended and mission.contacts == 2
+    # Against the door, three times, and never through it.
+    assert site.ended and mission.contacts == 3 and mission.outcome is Outcome.STALLED
     assert furthest == pytest.approx(10.0 - ROBOT_RADIUS_M, abs=1e-9)
     # Opened again, the way is clear: the robot goes on where it left off.
     site.site.open_door("dock-corridor")
