@@ -21,6 +21,7 @@ from pathlib import Path
 from giraff_console.data_folders import patrol_runs
 from giraff_console.missions.patrol_log import list_runs
 from giraff_console.robot.loop_events import MissionChanged, Note
+from giraff_console.robot.mission import Outcome
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
 from giraff_console.service.events import ServiceEvent
@@ -29,6 +30,9 @@ from giraff_console.service.runtime_folder import socket_path
 from giraff_console.service.transport import NoDaemon, TransportError
 
 EXIT_DONE, EXIT_FAILED, EXIT_NO_DAEMON = 0, 1, 3
+# `go` through a daemon ends as `go` does on its own (headless.py): 3, arrived with a
+# pose nothing confirmed. (`status` and `stop` have no mission: their 3 is no daemon.)
+EXIT_UNVERIFIED = 3
 # Seconds between lines of progress when standard error is not a terminal.
 PROGRESS_EVERY_S = 5.0
 
@@ -85,12 +89,13 @@ def run_status(args: argparse.Namespace) -> int:
     consoles = [name for name in situation.consoles if name != robot.console]
     if args.json:
         data = asdict(situation) | {"consoles": consoles, "socket": str(socket_path())}
-        print(json.dumps(data))
+        # An outcome is printed as `go --json` prints it: its value.
+        print(json.dumps(data, default=lambda value: value.value))
         return EXIT_DONE
     last = situation.last_mission
     print(f"mission: {situation.mission or 'none'}")
     print(f"controls: {situation.holder or 'free'}; consoles: {', '.join(consoles) or 'none'}")
-    print(f"last mission: {f'{last.name}: {last.why}' if last is not None else 'none'}")
+    print(f"last mission: {f'{last.name}: {last.detail or last.why}' if last else 'none'}")
     if situation.recording or situation.playing:
         print("recording" if situation.recording else "playing back")
     return EXIT_DONE
@@ -162,14 +167,24 @@ def run_mission(robot: RemoteRobot, request: c.Go | c.RunPatrol, as_json: bool) 
     if ended is None:
         print("giraff-console: the daemon has gone before the mission ended", file=sys.stderr)
         return EXIT_FAILED
+    outcome = ended.outcome
+    if isinstance(request, c.Go):
+        # A go says how it ended: arrived only with its pose confirmed (issue 25).
+        arrived = outcome is Outcome.ARRIVED
+        code = EXIT_DONE if arrived else EXIT_UNVERIFIED if outcome is not None and \
+            outcome.arrived else EXIT_FAILED  # fmt: skip
+    else:
+        arrived = ended.why == "done"
+        code = EXIT_DONE if arrived else EXIT_FAILED
     if as_json:
         # What the daemon tells of a mission: not the poses and errors `go` measures on
         # its own (docs/daemon.md).
-        print(json.dumps({"mission": ended.name, "arrived": ended.why == "done",
-                          "why": ended.why}))  # fmt: skip
+        print(json.dumps({"mission": ended.name, "arrived": arrived,
+                          "outcome": outcome.value if outcome is not None else None,
+                          "why": ended.why, "detail": ended.detail}))  # fmt: skip
     else:
-        print(f"{ended.name}: {ended.why}")
-    return EXIT_DONE if ended.why == "done" else EXIT_FAILED
+        print(f"{ended.name}: {ended.detail or ended.why}")
+    return code
 
 
 def _print_notes(events: queue.Queue[ServiceEvent]) -> None:

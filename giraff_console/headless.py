@@ -177,6 +177,11 @@ def add_robot_options(parser: argparse.ArgumentParser, example: Path, *,
         "to your right as you face it), leaving the floor plan as it is (repeatable)",
     )  # fmt: skip
     parser.add_argument(
+        "--sim-markers", type=Path, metavar="FILE",
+        help="hang FILE's markers (a floor plan's landmarks) in the simulated building "
+        "instead of the plan's: a plan without them, or surveyed, against the true ones",
+    )  # fmt: skip
+    parser.add_argument(
         "--eye-fps", type=float, metavar="F",
         help=f"frames a second the simulated camera looks for markers (default: {EYE_FPS:g})",
     )  # fmt: skip
@@ -199,8 +204,7 @@ class HeadlessRobot:
         says them otherwise (serve_command.py). `surveying`: a survey's markers are to
         be found afresh (the plan's family and size, else these; none known yet)."""
         if port is not None:
-            given = [f"--{name.replace('_', '-')}" for name in SIM_ONLY
-                     if getattr(args, name, None)]  # fmt: skip
+            given = [f"--{name.replace('_', '-')}" for name in SIM_ONLY if getattr(args, name)]
             if given:
                 raise UsageError(f"{', '.join(given)}: only with the simulator (--sim)")
         if not args.sim_speed > 0:  # NaN too
@@ -213,7 +217,7 @@ class HeadlessRobot:
             if surveying is not None:
                 looked_for = self.plan.landmarks or surveying
                 self.plan = replace(self.plan, landmarks=replace(looked_for, markers=()))
-            hung = _hung_markers(self.plan, getattr(args, "sim_markers", None))
+            hung = _hung_markers(self.plan, args.sim_markers)
             self.navigator = Navigator(self.plan, walls_of(self.plan), settings.robot_radius)
             self.limits = settings.motion.limits()
             self.patience = settings.motion.patience()

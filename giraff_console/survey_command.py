@@ -75,11 +75,6 @@ def add_survey_parser(commands: argparse._SubParsersAction, example: Path) -> No
         help="the markers' printed side in metres, for a plan without landmarks "
         "(default: %(default)s)",
     )  # fmt: skip
-    survey.add_argument(
-        "--sim-markers", type=Path, metavar="FILE",
-        help="simulator: hang FILE's markers (a floor plan's landmarks) in the simulated "
-        "building instead of the plan's",
-    )  # fmt: skip
     add_robot_options(survey, example)
 
 

@@ -61,7 +61,7 @@ from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.localisation import Estimate, Localisation, PoseBasis
 from giraff_console.robot.loop_events import Listener, LoopEvent, MissionChanged, Note
-from giraff_console.robot.mission import Mission
+from giraff_console.robot.mission import Judged, Mission
 from giraff_console.robot.odometry import Odometry, Pose
 from giraff_console.robot.odometry_feed import OdometryFeed
 from giraff_console.robot.realtime import run_promptly
@@ -579,7 +579,10 @@ class ControlLoop:
             return
         # Told first: whoever says what runs must not see it gone and its end not yet
         # known while the stop is being sent.
-        self._tell(MissionChanged(mission.name, running=False, why=why))
+        outcome, detail = (mission.outcome, mission.detail) if isinstance(mission, Judged) \
+            else (None, "")  # fmt: skip
+        self._tell(MissionChanged(mission.name, running=False, why=why, outcome=outcome,
+                                  detail=detail))  # fmt: skip
         if stop:
             self._stop_robot()
         self.note(f"{mission.name} {why}")

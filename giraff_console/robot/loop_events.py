@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import TypeAlias
 
 from giraff_console.link import Exchange, Observer
+from giraff_console.robot.mission import Outcome
 from giraff_console.robot.telemetry import Telemetry
 
 
@@ -35,6 +36,10 @@ class MissionChanged:
     name: str
     running: bool
     why: str = ""
+    # How a mission that judges its own end ended (robot/mission.py, Judged), and its
+    # words: an arrival unconfirmed is "done" too, and only this tells it apart.
+    outcome: Outcome | None = None
+    detail: str = ""
 
 
 LoopEvent: TypeAlias = Telemetry | Exchange | Note | MissionChanged

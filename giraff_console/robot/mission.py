@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 from giraff_console.link.motor_state import MotorState
 from giraff_console.protocol.codec import Command
@@ -159,3 +159,15 @@ class Mission(Protocol):
     def progress(self) -> Progress:
         """Where the mission is and how long it has left."""
         ...
+
+
+@runtime_checkable
+class Judged(Protocol):
+    """A mission that says how it ended (a path mission: go, dock, a route followed),
+    for whoever reports the end: the loop's MissionChanged carries it."""
+
+    @property
+    def outcome(self) -> Outcome | None: ...
+
+    @property
+    def detail(self) -> str: ...

@@ -50,7 +50,7 @@ from giraff_console.robot.battery import Battery
 from giraff_console.robot.deadman import Intent
 from giraff_console.robot.localisation import Estimate, PoseBasis
 from giraff_console.robot.loop_events import MissionChanged, Note
-from giraff_console.robot.mission import Progress
+from giraff_console.robot.mission import Outcome, Progress
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.replay import PlaybackStatus
 from giraff_console.robot.telemetry import LinkState, Telemetry
@@ -268,6 +268,23 @@ class Daemon:
             return unique
 
 
+def daemon_alive(path: Path) -> bool:
+    """Whether a daemon serves the socket at `path` still: its lock is held (a daemon
+    killed with -9 lets go of it with its last breath; a daemon that only hung up on a
+    console keeps it)."""
+    try:
+        lock = os.open(path.with_suffix(".lock"), os.O_RDWR)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    finally:
+        os.close(lock)  # closing releases a lock this took
+    return False
+
+
 def _lock_beside(path: Path) -> int:
     """A lock held for the daemon's lifetime; DaemonRunning if another holds it."""
     lock = os.open(path.with_suffix(".lock"), os.O_RDWR | os.O_CREAT, 0o600)
@@ -285,7 +302,7 @@ wire.register(
     Hello, Welcome, Asked, Answered, Reply, Controls, RouteShown, RoomRenamed, Situation,
     *c.REQUESTS,
     Telemetry, LinkState, MotorState, Pose, Intent, PlaybackStatus, Progress, Battery,
-    ChargeStatus, BoardFeatures, Estimate, PoseBasis, Exchange, Note, MissionChanged,
+    ChargeStatus, BoardFeatures, Estimate, PoseBasis, Exchange, Note, MissionChanged, Outcome,
     GiraffError, CommandError, ProtocolError, BoardRebootedError, BoardError,
     UnknownNameError, QueueRolloverError, ArgumentError, LinkError, LinkTimeout,
     LinkDisconnected,

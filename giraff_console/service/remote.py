@@ -15,11 +15,12 @@ import itertools
 import logging
 import os
 import threading
+import time
 from pathlib import Path
 
 from giraff_console.robot.loop_events import Note
 from giraff_console.service import commands as c
-from giraff_console.service.daemon import Answered, Asked, Hello, Welcome
+from giraff_console.service.daemon import Answered, Asked, Hello, Welcome, daemon_alive
 from giraff_console.service.events import Answered as Callback
 from giraff_console.service.events import Reply, ServiceEvent, ServiceListener
 from giraff_console.service.transport import Connection, ConnectionClosed, connect
@@ -33,6 +34,8 @@ WELCOME_TIMEOUT_S = 5.0
 ANSWER_TIMEOUT_S = 10.0
 # Seconds between heartbeats while nothing else is sent.
 HEARTBEAT_S = 0.5
+# Seconds a closed connection's daemon is given to let go of its lock, if it is dying.
+GONE_WAIT_S = 0.5
 
 
 class DaemonGone(Exception):
@@ -43,6 +46,7 @@ class RemoteRobot:
     """The daemon's robot, attached as `console`; `take` asks for the controls if free."""
 
     def __init__(self, path: Path, console: str, *, take: bool = True) -> None:
+        self._path = path
         self._connection: Connection = connect(path)
         self._listeners: tuple[ServiceListener, ...] = ()
         self._lock = threading.Lock()
@@ -134,8 +138,7 @@ class RemoteRobot:
             try:
                 message = self._connection.receive(0.2)
             except ConnectionClosed:
-                self._hung_up("the daemon has gone: the robot comes to rest within the "
-                              "short distance it was last sent ahead")
+                self._hung_up(self._why_closed())
                 return
             except WireError:
                 continue  # one line garbled; the next may be whole
@@ -146,6 +149,25 @@ class RemoteRobot:
                     answered(message.reply)
             elif message is not None:
                 self._tell(message)  # type: ignore[arg-type]
+
+    def _why_closed(self) -> str:
+        """What the end of the connection means for the robot, said only as it is: a
+        daemon that died leaves the robot to stop within the reach it was last sent
+        (robot/safety.py); one that only hung up on this console drives on with
+        whatever it was doing."""
+        # A daemon killed outright closes its sockets and lets go of its lock in the
+        # same moment, not always in that order: a little time to tell which it was.
+        deadline = time.monotonic() + GONE_WAIT_S
+        alive = daemon_alive(self._path)
+        while alive and time.monotonic() < deadline:
+            time.sleep(0.02)
+            alive = daemon_alive(self._path)
+        if alive:
+            return ("the daemon hung up on this console; it still runs, and the robot goes "
+                    "on with what it was doing (`giraff-console status` says what; "
+                    "`giraff-console stop` stops it)")  # fmt: skip
+        return ("the daemon has gone: the robot comes to rest within the short distance "
+                "it was last sent ahead")  # fmt: skip
 
     def _tell(self, event: ServiceEvent) -> None:
         for listener in self._listeners:

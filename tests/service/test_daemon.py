@@ -35,7 +35,7 @@ from giraff_console.robot.telemetry import Telemetry
 from giraff_console.robot.teleop import Teleop
 from giraff_console.service import commands as c
 from giraff_console.service import wire
-from giraff_console.service.daemon import Answered, Asked, Hello, Welcome
+from giraff_console.service.daemon import Answered, Asked, Hello, Welcome, daemon_alive
 from giraff_console.service.events import Controls, RoomRenamed, Situation
 from giraff_console.service.remote import RemoteRobot
 from giraff_console.service.robot_service import RobotService
@@ -359,14 +359,16 @@ def test_stop_daemon_ends_the_daemon_and_removes_its_socket(serve):
 def test_go_asks_the_running_daemon_and_reports_the_end(serve):
     daemon = serve(*SIM, "--sim-speed", "16")
     result = run_cli("go", "room-101")
-    assert result.returncode == 0, f"{result.stdout}\n{result.stderr}\n{daemon.notes()}"
-    assert result.stdout.splitlines()[-1] == "go room-101: done"
+    # No markers: arrived by the odometry, said to be unconfirmed, exit 3, as `go` alone.
+    assert result.returncode == 3, f"{result.stdout}\n{result.stderr}\n{daemon.notes()}"
+    assert result.stdout.splitlines()[-1].startswith("go room-101: arrived by the odometry")
     assert f"asking the daemon at {daemon.socket}" in result.stderr
     # The daemon drove it, and keeps how it ended.
     status = run_cli("status", "--json")
     assert status.returncode == 0, status.stderr
     last = json.loads(status.stdout)["last_mission"]
-    assert last == {"name": "go room-101", "running": False, "why": "done"}
+    assert (last["name"], last["running"], last["why"], last["outcome"]) == (
+        "go room-101", False, "done", "arrived_unverified")  # fmt: skip
 
 
 # -- what does not disturb it ---------------------------------------------------------
@@ -495,3 +497,16 @@ def test_status_shows_a_mission_running_or_how_it_ended_never_neither():
     said = [getattr(event, "command", None) or getattr(event, "text", None) or event
             for event in neither]  # fmt: skip
     assert said == [], f"the situation showed no mission and no last one during {said}"
+
+
+def test_a_console_told_the_daemon_has_gone_only_when_it_has(serve, attach):
+    # The lock says it: held while the daemon lives, let go with its last breath.
+    daemon = serve(*SIM)
+    console = attach(daemon, "watching", take=False)
+    assert daemon_alive(daemon.socket)
+    kill_daemon(daemon)
+    deadline = time.monotonic() + WAIT_S
+    while console.gone is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not daemon_alive(daemon.socket)
+    assert console.gone is not None and console.gone.startswith("the daemon has gone")
