@@ -124,8 +124,12 @@ def main() -> None:
     names = ["care-home", *BUILDINGS]
     parser.add_argument("--buildings", default=",".join(names), metavar="A,B",
                         help="the buildings (default %(default)s)")  # fmt: skip
-    parser.add_argument("--seeds", default="1-8", metavar="A-B|A,B,..",
-                        help="seeds of the patrols on the surveyed plans (default 1-8)")
+    parser.add_argument(
+        "--seeds",
+        default="1-8",
+        metavar="A-B|A,B,..",
+        help="seeds of the patrols on the surveyed plans (default 1-8)",
+    )
     parser.add_argument("--survey-seed", type=int, default=1, metavar="N",
                         help="the imperfection seed of the survey (default 1)")  # fmt: skip
     parser.add_argument("--rooms", type=int, default=10, help="stops a patrol (default 10)")
@@ -160,8 +164,12 @@ def main() -> None:
             for future in as_completed(futures):
                 name = futures[future]
                 surveys[name] = future.result()
-                print(f"  surveyed {name}: {surveys[name].get('why', surveys[name].get('problem'))}"
-                      f", {surveys[name].get('wall_s', 0):.0f} s", file=sys.stderr, flush=True)
+                print(
+                    f"  surveyed {name}: {surveys[name].get('why', surveys[name].get('problem'))}"
+                    f", {surveys[name].get('wall_s', 0):.0f} s",
+                    file=sys.stderr,
+                    flush=True,
+                )
         runs: list[Run] = []
         for name, path in copies.items():
             if "problem" in surveys[name] or not surveys[name].get("markers"):
@@ -213,9 +221,17 @@ def main() -> None:
         results[name] = {"survey": report, "score": score, "kinds": dict(kinds)}
     print(f"benchmark {(time.perf_counter() - began) / 60:.0f} min")
     if args.save is not None:
-        args.save.write_text(json.dumps({"machine": machine(), "source": source(),
-                                         "results": results,
-                                         "runs": [asdict(run) for run in runs]}, indent=1))
+        args.save.write_text(
+            json.dumps(
+                {
+                    "machine": machine(),
+                    "source": source(),
+                    "results": results,
+                    "runs": [asdict(run) for run in runs],
+                },
+                indent=1,
+            )
+        )
 
 
 if __name__ == "__main__":

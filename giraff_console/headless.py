@@ -44,7 +44,7 @@ from giraff_console.planning.landmarks import fit_on_walls, marker_beliefs, mark
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.robot.last_stop import LastStop
 from giraff_console.robot.localisation import PoseBasis
-from giraff_console.robot.loop_events import LoopEvent, Note
+from giraff_console.robot.loop_events import Listener, LoopEvent, Note
 from giraff_console.robot.marker_eye import EYE_FPS, EYE_SIZE, MarkerEye
 from giraff_console.robot.mission import TEXT_BAR, Mission
 from giraff_console.robot.odometry import Pose
@@ -62,8 +62,7 @@ EXIT_ARRIVED, EXIT_FAILED, EXIT_USAGE, EXIT_UNVERIFIED = 0, 1, 2, 3
 # Seconds of real time to wait for the board's first answer.
 CONNECT_TIMEOUT_S = 10.0
 # The options that only mean something in the simulated building.
-SIM_ONLY = ("imperfect", "block", "sim_start", "move_marker", "eye_fps", "eye_size",
-            "sim_markers")
+SIM_ONLY = ("imperfect", "block", "sim_start", "move_marker", "eye_fps", "eye_size", "sim_markers")
 
 
 class UsageError(Exception):
@@ -197,12 +196,13 @@ class HeadlessRobot:
     until `run`."""
 
     def __init__(self, args: argparse.Namespace, settings: Settings, port: str | None,
-                 example: Path, *, print_notes: bool = True,
+                 example: Path, *, notes: Listener | None = None,
                  surveying: Landmarks | None = None) -> None:  # fmt: skip
-        """`print_notes`: the loop's notes on standard error, as the operator's only way
-        of being told (`go`, `patrol`), so that the robot stops if that fails. The daemon
-        says them otherwise (serve_command.py). `surveying`: a survey's markers are to
-        be found afresh (the plan's family and size, else these; none known yet)."""
+        """`notes`: who hears the loop's notes from the start (the daemon's journal,
+        serve_command.py); by default they go to standard error, as the operator's only
+        way of being told (`go`, `patrol`), so that the robot stops if that fails.
+        `surveying`: a survey's markers are to be found afresh (the plan's family and
+        size, else these; none known yet)."""
         if port is not None:
             given = [f"--{name.replace('_', '-')}" for name in SIM_ONLY if getattr(args, name)]
             if given:
@@ -266,8 +266,10 @@ class HeadlessRobot:
             # "No starting guess").
             told = self.site is not None and args.sim_start is None
             control.place(self.start, PoseBasis.GIVEN if told else PoseBasis.ASSUMED)
-        if print_notes:
+        if notes is None:
             control.subscribe(_print_note, vital=True)
+        else:
+            control.subscribe(notes)
         # A real robot: where it was last believed to be, read back as an assumption, and
         # kept from now on (robot/pose_keeper.py).
         self.keeper = None

@@ -101,13 +101,15 @@ def add_serve_parser(commands: argparse._SubParsersAction, example: Path) -> Non
 def run_serve(args: argparse.Namespace, settings: Settings, port: str | None,
               example: Path) -> int:  # fmt: skip
     """Serve the robot until a signal ends the daemon."""
+    journal = Journal()
     try:
-        robot = HeadlessRobot(args, settings, port, example, print_notes=False)
+        # The journal hears the notes from the start: where the robot is taken to be,
+        # and what the camera can do, are said as it is set up.
+        robot = HeadlessRobot(args, settings, port, example, notes=journal.hear)
     except UsageError as error:
+        journal.close()
         return fail(str(error), EXIT_USAGE)
     control = robot.control
-    journal = Journal()
-    control.subscribe(journal.hear)
     recordings = data_folder(getattr(args, "recordings", None), settings.recordings,
                              default_recordings())  # fmt: skip
     sessions = Sessions(control, None, recordings, RecordingSetup(port=port or "simulator",
@@ -134,8 +136,12 @@ def run_serve(args: argparse.Namespace, settings: Settings, port: str | None,
         # The operator's stop wins (§4.5): the program may not move the robot again
         # until a console says `release`.
         held = port_for_others.hold
-        service.on_stop.append(lambda: held("the operator stopped the robot; `release` in "
-                                            "a console lets the program move it again"))
+        service.on_stop.append(
+            lambda: held(
+                "the operator stopped the robot; `release` in "
+                "a console lets the program move it again"
+            )
+        )
         service.on_release.append(lambda: held(None))
     # Before any thread starts: a signal stops the robot from the loop's own thread,
     # then the daemon stops taking consoles and ends.

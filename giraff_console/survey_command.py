@@ -160,4 +160,3 @@ def _words(report: dict) -> str:
         lines.append(f"rooms not reached: {', '.join(report['rooms_left_out'])}")
     lines.append(f"written into {report['written']}" if report["written"] else "not written")
     return "\n".join(lines)
-

@@ -565,8 +565,14 @@ class PathMission:
     def _plan_again(self, tick: Tick) -> list[Command]:
         """From a stop: a new way from here, unless too many came to nothing."""
         if self._progress_watch.out_of_replans():
-            self._end(Outcome.BLOCKED, self._stuck(tick.pose, f"stuck near {{}} after "
-                      f"{self._progress_watch.replans} new ways in a row that got no nearer"))
+            self._end(
+                Outcome.BLOCKED,
+                self._stuck(
+                    tick.pose,
+                    f"stuck near {{}} after "
+                    f"{self._progress_watch.replans} new ways in a row that got no nearer",
+                ),
+            )
             return []
         first = not self._set_off
         if self._replan(tick.pose, tick.estimate) and not first:
@@ -618,8 +624,10 @@ class PathMission:
             why = self._stuck(tick.pose, f"stalled: touched something {self._recovery.in_a_row} "
                                          "times in a row near {}")  # fmt: skip
             return self._fail(tick, Outcome.STALLED, why)
-        self.notify(f"{self.name}: touched something at {where}; backing off to try again "
-                    f"(contact {self._recovery.in_a_row} of {MAX_CONTACTS})")
+        self.notify(
+            f"{self.name}: touched something at {where}; backing off to try again "
+            f"(contact {self._recovery.in_a_row} of {MAX_CONTACTS})"
+        )
         self._approach_anew()
         self._progress_watch.restart(tick.now)
         self._stage, self._then = Stage.HALTING, self._back_off
@@ -752,16 +760,20 @@ class PathMission:
         raw = self._estimate() if self._estimate is not None else None
         if raw is None:
             return "arrived by the odometry alone"
-        return (f"arrived by the odometry alone: {raw.since_fix_m:.1f} m driven since "
-                f"{'a marker' if raw.found else 'the start'} last said where it was")
+        return (
+            f"arrived by the odometry alone: {raw.since_fix_m:.1f} m driven since "
+            f"{'a marker' if raw.found else 'the start'} last said where it was"
+        )
 
     @staticmethod
     def _unconfirmed(estimate: Estimate) -> str:
         contact = ", touched something since" if estimate.contact else ""
-        return (f"arrived, unconfirmed: known to ±{estimate.sigma_m:.2f} m and "
-                f"±{math.degrees(estimate.sigma_heading):.1f}°, "
-                f"{estimate.since_fix_m:.1f} m driven since a marker last corrected it"
-                f"{contact}")
+        return (
+            f"arrived, unconfirmed: known to ±{estimate.sigma_m:.2f} m and "
+            f"±{math.degrees(estimate.sigma_heading):.1f}°, "
+            f"{estimate.since_fix_m:.1f} m driven since a marker last corrected it"
+            f"{contact}"
+        )
 
     def _approach_anew(self) -> None:
         """A way round, or from wherever it was driven by hand, is a new approach: its

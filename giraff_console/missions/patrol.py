@@ -118,7 +118,10 @@ def load_patrol(path: Path) -> Patrol:
     if not isinstance(stops, list) or not stops:
         file.fail("stops should be a list of {route: NAME} or {room: ROOM}, at least one", "stops")
     return Patrol(
-        name, rounds, snapshots, [_stop(file, s, f"stops[{i}]") for i, s in enumerate(stops)],
+        name,
+        rounds,
+        snapshots,
+        [_stop(file, s, f"stops[{i}]") for i, s in enumerate(stops)],
         carry_on,
     )
 

@@ -185,8 +185,6 @@ def dotted(where: Where) -> str:
     return text or "the file"
 
 
-
-
 def _node_lines(node: yaml.Node, where: Where, lines: dict, duplicates: list) -> None:
     """Record the line of every key and list item under `node`, and duplicate keys,
     which PyYAML's loader would silently drop (it keeps the last)."""
@@ -373,8 +371,12 @@ class _Reader(ProblemLog):
         facing = self.number(raw["facing"], (*where, "facing"), -360.0, 360.0)
         sigma = None
         if "sigma" in raw:
-            sigma = self.numbers(raw["sigma"], (*where, "sigma"), 2,
-                                 "[metres, degrees]: how well `at` and `facing` are known")
+            sigma = self.numbers(
+                raw["sigma"],
+                (*where, "sigma"),
+                2,
+                "[metres, degrees]: how well `at` and `facing` are known",
+            )
             (low_m, high_m), (low_deg, high_deg) = MARKER_SIGMA_M, MARKER_SIGMA_DEG
             if sigma is not None and not (low_m < sigma[0] <= high_m
                                           and low_deg < sigma[1] <= high_deg):  # fmt: skip

@@ -265,9 +265,12 @@ class GridWalls:
         res = self.grid.resolution
         faces = []
         for group in groups:
-            alongside = (other for step in (-1, 1)
-                         for other in parts.get((group.line + step, group.piece), [])
-                         if min(group.stop, other.stop) > max(group.start, other.start))
+            alongside = (
+                other
+                for step in (-1, 1)
+                for other in parts.get((group.line + step, group.piece), [])
+                if min(group.stop, other.stop) > max(group.start, other.start)
+            )
             if any(other.support > group.support for other in alongside):
                 continue
             # Metres from the face's first cell.

@@ -378,9 +378,10 @@ class GridLegs:
         if self.blocked[row, col].any():
             return False
         diagonal = (np.diff(row) != 0) & (np.diff(col) != 0)
-        beside = self.blocked[row[1:][diagonal], col[:-1][diagonal]] | self.blocked[
-            row[:-1][diagonal], col[1:][diagonal]
-        ]
+        beside = (
+            self.blocked[row[1:][diagonal], col[:-1][diagonal]]
+            | self.blocked[row[:-1][diagonal], col[1:][diagonal]]
+        )
         return not beside.any()
 
     def shorten(self, points: list[Point]) -> list[Point]:

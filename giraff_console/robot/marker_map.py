@@ -211,7 +211,6 @@ class MarkerMap:
                 "sightings disagreed with the markers round it; no longer used to find "
                 "the robot, and learnt again from where it is seen")  # fmt: skip
 
-
     def _on_wall(self, belief: MarkerBelief) -> tuple[MarkerBelief, bool]:
         """`belief` held to the wall of the plan it hangs on, if one is near enough and
         it faces out of it (module docstring), and whether it was."""

@@ -395,7 +395,9 @@ def _result(survey: Survey, graph: Graph, x: np.ndarray, active: np.ndarray,
             iterations: int, converged: bool) -> SurveyResult:  # fmt: skip
     keyframes, casters, markers = graph.split(x)
     joint = marker_covariance(graph, x, active)
-    covariances = [joint[3 * i:3 * i + 3, 3 * i:3 * i + 3] for i in range(len(graph.marker_ids))]
+    covariances = [
+        joint[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] for i in range(len(graph.marker_ids))
+    ]
     used = np.bincount(graph.sighting_marker, weights=active[graph.rows["sightings"]][::3],
                        minlength=len(graph.marker_ids))  # fmt: skip
     with_facing = [s for i, s in enumerate(sightings)

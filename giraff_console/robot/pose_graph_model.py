@@ -57,8 +57,10 @@ def whiteners(covariances: np.ndarray, what: str) -> np.ndarray:
         return np.asarray(np.linalg.inv(np.linalg.cholesky(c)))
     except np.linalg.LinAlgError:
         singular = np.flatnonzero(np.linalg.eigvalsh(c)[:, 0] <= 0)
-        raise ValueError(f"{what} {singular[0] if len(singular) else ''}: its covariance "
-                         "is not positive definite") from None
+        raise ValueError(
+            f"{what} {singular[0] if len(singular) else ''}: its covariance "
+            "is not positive definite"
+        ) from None
 
 
 # PRIVATE COPY of ekf.PoseFilter._measurement_noise's camera part (distance, bearing,
@@ -206,7 +208,7 @@ class Graph:
     def split(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Keyframes (K, 3), casters' turns (C,), markers (M, 3): views of `x`."""
         k3 = 3 * self.keyframes
-        return x[:k3].reshape(-1, 3), x[k3:self.pose_size], x[self.pose_size:].reshape(-1, 3)
+        return x[:k3].reshape(-1, 3), x[k3 : self.pose_size], x[self.pose_size :].reshape(-1, 3)
 
     def _column(self, kind: str, index: np.ndarray) -> np.ndarray:
         """The first column of each keyframe, casters' turn or marker in `index`."""

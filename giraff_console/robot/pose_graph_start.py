@@ -69,7 +69,8 @@ def starting_point(graph: Graph, start: Pose, start_covariance: np.ndarray,
     branches, weights, mapped = _branches(graph, start, start_covariance, sightings, expected,
                                           wall_facings, known)  # fmt: skip
     headings, caster_turns, facings, weights = _headings(
-        graph, start, start_covariance, branches, weights, wall_facings, known, mapped)
+        graph, start, start_covariance, branches, weights, wall_facings, known, mapped
+    )
     keyframes[:, 2] = headings
     casters[:] = caster_turns
     for i, facing in facings.items():
@@ -249,7 +250,7 @@ def _positions(graph: Graph, x: np.ndarray, start: Pose, start_covariance: np.nd
     rows.pairs(2 * (k_count + graph.sighting_marker), 2 * graph.sighting_keyframe,
                scale[:, :, None] * np.swapaxes(towards, 1, 2), offset)  # fmt: skip
     solution, _ = rows.solve(robust_from, np.repeat(weights, 2))
-    return solution[:2 * k_count].reshape(-1, 2), solution[2 * k_count:].reshape(-1, 2)
+    return solution[: 2 * k_count].reshape(-1, 2), solution[2 * k_count :].reshape(-1, 2)
 
 
 def _rotations(angles: np.ndarray) -> np.ndarray:
@@ -288,8 +289,13 @@ class _Rows:
         """Two rows per item: whiten @ (the x, y at `later` less those at `earlier`, if
         any) = whiten @ value."""
         terms = [(later, whiten)] + ([] if earlier is None else [(earlier, -whiten)])
-        cols = np.concatenate([np.broadcast_to((first[:, None] + np.arange(2))[:, None, :],
-                                               (len(first), 2, 2)) for first, _ in terms], 2)
+        cols = np.concatenate(
+            [
+                np.broadcast_to((first[:, None] + np.arange(2))[:, None, :], (len(first), 2, 2))
+                for first, _ in terms
+            ],
+            2,
+        )
         coefficients = np.concatenate([w for _, w in terms], 2)
         values = np.einsum("nij,nj->ni", whiten, value)
         for r in range(2):

@@ -146,7 +146,8 @@ def test_every_doorway_in_a_wall_of_an_import_gets_a_marker_on_both_sides(import
                 for marker in placement.landmarks.markers
                 if math.dist(marker.at, door.at) <= BESIDE_DOOR_M + door.width / 2 + 0.3
                 and unit(marker.facing)[0] * (rx - door.at[0])
-                + unit(marker.facing)[1] * (ry - door.at[1]) > 0
+                + unit(marker.facing)[1] * (ry - door.at[1])
+                > 0
             ]
             assert beside, (door.id, room_id)
 
@@ -287,8 +288,13 @@ def test_the_simulated_camera_shows_every_marker_placed_on_a_scan(scanned):
     for marker in plan.landmarks.markers:
         nx, ny = unit(marker.facing)
         off = 0.0
-        while off < 1.0 and grid.cells[grid.cell_of(marker.at[0] + nx * (off + 0.05),
-                                                    marker.at[1] + ny * (off + 0.05))] == FREE:
+        while (
+            off < 1.0
+            and grid.cells[
+                grid.cell_of(marker.at[0] + nx * (off + 0.05), marker.at[1] + ny * (off + 0.05))
+            ]
+            == FREE
+        ):
             off += 0.05  # as far out as the floor is free
         pose = TruePose(marker.at[0] + nx * off, marker.at[1] + ny * off,
                         math.radians(marker.facing + 180))  # fmt: skip

@@ -656,8 +656,18 @@ def bad_surveys() -> Iterator[tuple[str, Survey]]:
                                                           *survey.odometry[1:]])  # fmt: skip
     yield "sigma must be positive", replace(survey, caster_turns=[CasterTurn(0.1, 0.0)])
     yield "no length", replace(survey, sightings=[good], walls={1: Wall((1.0, 1.0), (1.0, 1.0))})
-    yield "not symmetric", replace(survey, odometry=[OdometryEdge(
-        Pose(0.25, 0.0, 0.0), np.array([[1e-4, 1e-5, 0], [0, 1e-4, 0], [0, 0, 1e-4]]))] * 3)
+    yield (
+        "not symmetric",
+        replace(
+            survey,
+            odometry=[
+                OdometryEdge(
+                    Pose(0.25, 0.0, 0.0), np.array([[1e-4, 1e-5, 0], [0, 1e-4, 0], [0, 0, 1e-4]])
+                )
+            ]
+            * 3,
+        ),
+    )
 
 
 @pytest.mark.parametrize(("message", "survey"), list(bad_surveys()),

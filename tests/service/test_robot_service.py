@@ -129,7 +129,8 @@ def test_a_rename_waits_for_a_mission_being_planned_and_is_then_refused(tmp_path
     def go_while_an_operator_renames(room: str):
         mission = plan_go(room)
         renaming = threading.Thread(
-            target=lambda: answers.append(service.execute(c.Name("kitchen", "cookhouse"))))
+            target=lambda: answers.append(service.execute(c.Name("kitchen", "cookhouse")))
+        )
         renaming.start()
         renaming.join(0.3)
         answers.append("still waiting" if renaming.is_alive() else "done")
