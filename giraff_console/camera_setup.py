@@ -105,7 +105,7 @@ def find_the_robot(control: ControlLoop, camera: CameraFeed, plan: FloorPlan) ->
         # Markers the console cannot place would leave every mission looking for one.
         return ("markers: the plan has markers, but this camera has no calibration "
                 "(--calibration), so they are outlined but not used to find the robot")  # fmt: skip
-    control.localisation.use_markers(markers)
+    control.localisation.use_markers(markers, detector.size)
     live, hand = camera.source, hand_on(control.localisation)
 
     def listener(frame: Frame, data: dict[str, object]) -> None:

@@ -294,18 +294,26 @@ def build_parser() -> argparse.ArgumentParser:
     landmarks = floorplan_commands.add_parser(
         "landmarks", help="place markers on a floor plan's walls, or print them",
         description="Place fiducial markers (AprilTag 36h11) on FILE's walls, for the robot "
-        "to find itself by: beside every doorway on both sides and along walls at least M "
-        "metres long, and write them into FILE (floorplans/README.md, \"Landmarks\"). The "
-        "walls are the rooms' outlines, or in a plan without outlines (an import, rooms "
-        "found in a scan) the walls in its grid, where the robot sees them. Markers already "
-        "there stay. With --print, write one page per marker to DIR instead, to print at "
-        "actual size and put up. Exits 2 for a bad floor plan.",
+        "to find itself by: beside every doorway on both sides, along walls at least M "
+        "metres long, and on the wall nearest any room's stop that would read too few to "
+        "confirm an arrival there; and write them into FILE (floorplans/README.md, "
+        "\"Landmarks\"). The walls are the rooms' outlines, or in a plan without outlines "
+        "(an import, rooms found in a scan) the walls in its grid, where the robot sees "
+        "them. Markers already there stay, at the plan's size. A plan without markers gets "
+        "them 0.16 m across, or larger where a room's stop is far from every wall (up to "
+        "0.26 m), unless --size says. With --print, write one page per marker to DIR "
+        "instead, to print at actual size and put up. Exits 2 for a bad floor plan.",
     )  # fmt: skip
     landmarks.add_argument("file", type=Path, metavar="FILE")
     landmarks_action = landmarks.add_mutually_exclusive_group()
     landmarks_action.add_argument(
         "--every", type=float, default=DEFAULT_EVERY_M, metavar="M",
         help="metres between markers along a long wall (default: %(default)s)",
+    )  # fmt: skip
+    landmarks.add_argument(
+        "--size", type=float, metavar="M",
+        help="the side of the markers' black squares in metres, for a plan without markers "
+        "(default: the least that every room's stop reads, 0.16 to 0.26)",
     )  # fmt: skip
     landmarks_action.add_argument(
         "--print", type=Path, metavar="DIR", dest="print_to",
@@ -761,7 +769,7 @@ def run_floorplan_landmarks(args: argparse.Namespace) -> int:
             print(f"wrote {pages} to {args.print_to}, and all of them in "
                   f"{written[-1]}: print them at actual size (100 %)")  # fmt: skip
             return 0
-        placement = place_markers(plan, args.every)
+        placement = place_markers(plan, args.every, args.size)
         if placement.added:
             write_landmarks(plan, placement.landmarks)
     except (FloorPlanError, ValueError, OSError) as error:
@@ -771,7 +779,8 @@ def run_floorplan_landmarks(args: argparse.Namespace) -> int:
         print(f"giraff-console: {args.file}: {note}", file=sys.stderr)
     total = len(placement.landmarks.markers)
     print(f"{args.file}: placed {placement.added} markers ({placement.beside_doors} beside "
-          f"doorways, {placement.along_walls} along walls); it has {total} in all")  # fmt: skip
+          f"doorways, {placement.along_walls} along walls, {placement.for_stops} for rooms' "
+          f"stops); it has {total} in all, {placement.landmarks.size:g} m across")  # fmt: skip
     return 0
 
 

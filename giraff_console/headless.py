@@ -292,8 +292,8 @@ class HeadlessRobot:
         # its tick, the settings' limits and patience, and the simulator's range finder.
         self.drives = DriveSetup.on_loop(control, self.navigator, limits=self.limits,
                                          sense=self.sense, patience=self.patience)  # fmt: skip
-        if self.eye is not None:
-            control.localisation.use_markers(marker_beliefs(self.plan))
+        if self.eye is not None and self.plan.landmarks is not None:
+            control.localisation.use_markers(marker_beliefs(self.plan), self.plan.landmarks.size)
             eye = self.eye
 
             def look(event: LoopEvent) -> None:

@@ -22,6 +22,7 @@ import json
 import math
 from pathlib import Path
 
+from giraff_console.camera.marker_reach import STANDARD_SIZE_M
 from giraff_console.headless import (
     EXIT_ARRIVED,
     EXIT_FAILED,
@@ -40,7 +41,6 @@ from giraff_console.missions.survey import (
     write_surveyed,
 )
 from giraff_console.planning.floorplan import FloorPlanError, Landmarks
-from giraff_console.planning.landmark_placement import DEFAULT_SIZE_M
 from giraff_console.planning.landmarks import DEFAULT_FAMILY
 from giraff_console.robot.localisation import start_covariance
 from giraff_console.robot.survey_log import SurveyLog
@@ -71,7 +71,7 @@ def add_survey_parser(commands: argparse._SubParsersAction, example: Path) -> No
         help="the markers' family, for a plan without landmarks (default: %(default)s)",
     )  # fmt: skip
     survey.add_argument(
-        "--size", type=float, default=DEFAULT_SIZE_M, metavar="M",
+        "--size", type=float, default=STANDARD_SIZE_M, metavar="M",
         help="the markers' printed side in metres, for a plan without landmarks "
         "(default: %(default)s)",
     )  # fmt: skip

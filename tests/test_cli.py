@@ -85,13 +85,15 @@ def test_console_script_is_installed():
 
 def test_floorplan_landmarks_places_and_prints_from_the_shell(tmp_path):
     help_text = run("floorplan", "landmarks", "--help").stdout
-    assert "--every M" in help_text and "--print DIR" in help_text
+    assert "--every M" in help_text and "--print DIR" in help_text and "--size M" in help_text
     plan = tmp_path / "plan.yaml"
     room = "{at: [2, 1], outline: [[0, 0], [4, 0], [4, 2], [0, 2]]}"
     plan.write_text(f"name: x\nrooms:\n  a: {room}\ndoors: []\n")
     placed = run("floorplan", "landmarks", str(plan))
     assert placed.returncode == 0, placed.stderr
-    assert "placed 2 markers (0 beside doorways, 2 along walls)" in placed.stdout
+    assert (
+        "placed 2 markers (0 beside doorways, 2 along walls, 0 for rooms' stops)" in placed.stdout
+    )
     printed = run("floorplan", "landmarks", str(plan), "--print", str(tmp_path / "pages"))
     assert printed.returncode == 0, printed.stderr
     assert sorted(p.name for p in (tmp_path / "pages").iterdir()) == [

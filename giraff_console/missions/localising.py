@@ -17,9 +17,9 @@ checks them with the one guard. They are measured by the odometry's heading, not
 estimate's, which jumps when a marker corrects it part-way through a turn.
 
 Which way to look first
-    The markers in reach (LOOK_REACH_M), facing the robot (MAX_OBLIQUE) and not behind a
-    wall of the plan, in the order that turns the robot least: from where it faces now
-    to the marker, and from the marker to the way it will set off (`prefer`). Ending a
+    The markers it could read (planning/marker_sight.py), in the order that turns the
+    robot least: from where it faces now to the marker, and from the marker to the way
+    it will set off (`prefer`). Ending a
     look facing the way the path goes matters: the casters, swung round by the look's
     turns, turn the robot unseen over the first decimetres it drives (§3.2.1.5), and a
     marker still in view then corrects that; a small turn afterwards also charges them
@@ -32,23 +32,17 @@ import enum
 import math
 from collections.abc import Callable, Mapping, Sequence
 
-import numpy as np
-
+from giraff_console.camera.marker_reach import STANDARD_SIZE_M
 from giraff_console.link.motor_state import MotorState
 from giraff_console.motion.executor import Executor, Trace
 from giraff_console.motion.path import Rotation, wrap
 from giraff_console.motion.speed_profile import MotionLimits
+from giraff_console.planning.marker_sight import visible_markers
 from giraff_console.planning.walls import WallSegment
 from giraff_console.protocol.codec import Command
 from giraff_console.robot.localisation import Estimate
 from giraff_console.robot.odometry import Pose
 
-# Markers further than this are not looked for: a 16 cm marker is 16 pixels wide at 4 m
-# on an 800-pixel image over the camera's 90 degrees, about the least the detector
-# decodes (two pixels a cell of 36h11's eight).
-LOOK_REACH_M = 4.0
-# Seen more obliquely than this, a marker's square is too foreshortened to decode.
-MAX_OBLIQUE = math.radians(60.0)
 # The marker directions tried before sweeping the circle: more, and a robot whose
 # estimate is wrong would turn back and forth between places that are not there.
 CANDIDATES = 3
@@ -67,54 +61,12 @@ MIN_TURN = math.radians(3.0)
 # board whose every move misses by a few millimetres (§5.5) can hunt back and forth
 # round that for many seconds.
 AIM = math.radians(2.0)
-# The line of sight is tested for walls up to this short of the marker's own wall.
-OFF_WALL_M = 0.05
 
 
 class Outcome(enum.Enum):
     FOUND = "found"  # a marker brought the estimate within the bound
     CORRECTED = "corrected"  # markers corrected it, but not within the bound
     NOT_FOUND = "not found"  # no marker seen all the way round
-
-
-def visible_markers(markers: Mapping[int, Pose], walls: Sequence[WallSegment], here: Pose,
-                    reach: float = LOOK_REACH_M) -> list[tuple[int, float]]:  # fmt: skip
-    """The markers the camera could see from `here` (facing any way): within `reach`,
-    their faces turned towards it, and no wall of `walls` between. Each as its id and
-    its direction from `here` (radians, map frame), nearest first."""
-    found = []
-    for marker_id, marker in markers.items():
-        dx, dy = here.x - marker.x, here.y - marker.y
-        distance = math.hypot(dx, dy)
-        if not 0 < distance <= reach:
-            continue
-        off_normal = abs(wrap(math.atan2(dy, dx) - marker.heading))
-        if off_normal > MAX_OBLIQUE:
-            continue
-        front = (marker.x + OFF_WALL_M * math.cos(marker.heading),
-                 marker.y + OFF_WALL_M * math.sin(marker.heading))  # fmt: skip
-        if _crosses(walls, (here.x, here.y), front):
-            continue
-        found.append((distance, marker_id, math.atan2(-dy, -dx)))
-    return [(marker_id, bearing) for _, marker_id, bearing in sorted(found)]
-
-
-def _crosses(walls: Sequence[WallSegment], p: tuple[float, float],
-             q: tuple[float, float]) -> bool:  # fmt: skip
-    """Whether the segment p-q crosses any of `walls`."""
-    if not walls:
-        return False
-    a = np.array([wall.a for wall in walls], dtype=float)
-    b = np.array([wall.b for wall in walls], dtype=float)
-    d = np.subtract(q, p)
-    e = b - a
-    ap = a - p
-    denominator = d[0] * e[:, 1] - d[1] * e[:, 0]
-    parallel = np.abs(denominator) < 1e-12
-    safe = np.where(parallel, 1.0, denominator)
-    t = (ap[:, 0] * e[:, 1] - ap[:, 1] * e[:, 0]) / safe
-    u = (ap[:, 0] * d[1] - ap[:, 1] * d[0]) / safe
-    return bool(np.any(~parallel & (t > 0) & (t < 1) & (u >= 0) & (u <= 1)))
 
 
 class Look:
@@ -126,9 +78,10 @@ class Look:
     def __init__(self, estimate: Estimate, markers: Mapping[int, Pose],
                  walls: Sequence[WallSegment], *, limits: MotionLimits, tick: float,
                  enough: Callable[[Estimate], bool], prefer: float | None = None,
-                 why: str = "looking for a marker") -> None:  # fmt: skip
+                 why: str = "looking for a marker",
+                 size: float = STANDARD_SIZE_M) -> None:  # fmt: skip
         """`prefer`: the heading (map frame) the robot will set off in afterwards;
-        `why` what the mission's progress says it is doing."""
+        `why` what the mission's progress says it is doing; `size`: the markers'."""
         self.limits = limits
         self.tick = tick
         self.enough = enough
@@ -142,8 +95,9 @@ class Look:
         heading = estimate.odometry.heading
         to_odometry = heading - estimate.pose.heading
         after = heading if prefer is None else prefer + to_odometry
+        here = (estimate.pose.x, estimate.pose.y)
         directions = [bearing + to_odometry
-                      for _, bearing in visible_markers(markers, walls, estimate.pose)]  # fmt: skip
+                      for _, bearing in visible_markers(markers, walls, here, size)]  # fmt: skip
         directions.sort(key=lambda d: abs(wrap(d - heading)) + abs(wrap(after - d)))
         # Where it faces comes first, without turning: a marker may be in view already.
         self._stops = directions[:CANDIDATES]

@@ -50,6 +50,7 @@ from typing import Protocol
 
 import numpy as np
 
+from giraff_console.camera.marker_reach import STANDARD_SIZE_M
 from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.certainty import (
     AFTER_REAPPROACH_M,
@@ -238,6 +239,8 @@ class PathMission:
         self._touched = touched
         # The markers a look turns to: those known well enough to find the robot by.
         self._markers = marker_poses(navigator.plan, known_only=True) if navigator else {}
+        landmarks = navigator.plan.landmarks if navigator else None
+        self._marker_size = landmarks.size if landmarks else STANDARD_SIZE_M
         self._look: Look | None = None
         self._look_kind = "lost"
         self._begun = False  # the first step has judged whether it may set off
@@ -549,13 +552,17 @@ class PathMission:
         self._stop_then(tick.now, why, end)
         return self._stopping(tick)
 
+    def _forget_felt(self) -> None:
+        """Take off the grid the contacts this mission put there."""
+        if self._felt and self.navigator is not None:
+            self.navigator.forget_obstacles(self._felt, margin=FELT_EXTENT_M)
+        self._felt = []
+
     def _end(self, outcome: Outcome, why: str) -> None:
         self._stage = Stage.ENDED
-        if self._felt and self.navigator is not None:
-            # What this mission only felt is its own belief: the next mission tries
-            # afresh, and the range finder, where there is one, says what is really there.
-            self.navigator.forget_obstacles(self._felt, margin=FELT_EXTENT_M)
-            self._felt = []
+        # What this mission only felt is its own belief: the next mission tries afresh,
+        # and the range finder, where there is one, says what is really there.
+        self._forget_felt()
         self.outcome, self.detail = outcome, why
         if outcome.arrived:
             self._ended = self._now
@@ -602,7 +609,8 @@ class PathMission:
             enough = sure
         self._look_kind = kind
         self._look = Look(estimate, self._markers, walls, limits=self.limits, tick=self.tick,
-                          enough=enough, prefer=prefer, why=why)  # fmt: skip
+                          enough=enough, prefer=prefer, why=why,
+                          size=self._marker_size)  # fmt: skip
         self._stage = Stage.LOOKING
 
     def _drop_look(self) -> None:
@@ -796,8 +804,15 @@ class PathMission:
         try:
             self.executor = self._plan(pose)
         except PlanningError as error:
-            self._end(Outcome.BLOCKED, str(error))
-            return False
+            if not self._felt:
+                self._end(Outcome.BLOCKED, str(error))
+                return False
+            # What it felt closed the only way: a frame clipped on a pose error reads
+            # as something unknown there. The way is tried again (recovery.py's
+            # MAX_CONTACTS bounds the tries), never given up for a belief of its own.
+            self._forget_felt()
+            self.notify(f"{self.name}: no other way; trying the same way again")
+            return self._replan(pose, estimate, turned)
         self._stage = Stage.DRIVING
         self._recovery.replanned(self.executor.remaining())
         if first:

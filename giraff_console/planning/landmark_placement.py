@@ -19,6 +19,7 @@ from dataclasses import dataclass, replace
 
 import yaml
 
+from giraff_console.camera.marker_reach import STANDARD_SIZE_M
 from giraff_console.planning.floorplan import (
     Door,
     FloorPlan,
@@ -32,15 +33,15 @@ from giraff_console.planning.floorplan import (
 from giraff_console.planning.landmarks import (
     DEFAULT_FAMILY,
     id_count,
+    marker_poses,
+    marker_walls,
     paper_side,
     where_it_goes,
 )
 from giraff_console.planning.marker_faces import Face, marker_faces
+from giraff_console.planning.stop_markers import place_for_stops, size_for_stops
 
 DEFAULT_EVERY_M = 4.0
-# 16 cm: at 800 x 600 with the Giraff's 90° camera, AprilTag 36h11's 8 cells are still
-# 3 pixels each at 4 m, about as far as a corridor lets the robot see one square on.
-DEFAULT_SIZE_M = 0.16
 # Centre 1.10 m above the floor: below the camera in the robot's head (1.3 m), so a
 # marker near the robot is still in view, and above chairs and handrails.
 DEFAULT_HEIGHT_M = 1.10
@@ -53,35 +54,48 @@ class Placement:
     landmarks: Landmarks
     beside_doors: int
     along_walls: int
+    for_stops: int
     notes: list[str]
 
     @property
     def added(self) -> int:
-        return self.beside_doors + self.along_walls
+        return self.beside_doors + self.along_walls + self.for_stops
 
 
 def place_markers(
     plan: FloorPlan,
     every: float = DEFAULT_EVERY_M,
-    size: float = DEFAULT_SIZE_M,
+    size: float | None = None,
     height: float = DEFAULT_HEIGHT_M,
     family: str = DEFAULT_FAMILY,
 ) -> Placement:
-    """The plan's markers with new ones beside its doorways and along its long walls:
-    its outlines' edges, or without outlines its grid's walls (marker_faces.py). The
-    plan's own family and size win over those given. ValueError for a plan with no walls,
-    or more markers than the family has ids; OSError if its grid cannot be read."""
+    """The plan's markers with new ones beside its doorways, along its long walls and
+    where a room's stop would read too few (stop_markers.py): on its outlines' edges, or
+    without outlines its grid's walls (marker_faces.py). The plan's own family and size
+    win over those given; without either, the size is the least that every stop reads.
+    ValueError for a plan with no walls, or more markers than the family has ids;
+    OSError if its grid cannot be read."""
     if not (math.isfinite(every) and every > 0):
         raise ValueError("markers are placed every so many metres: --every must be positive")
+    if size is not None and not (math.isfinite(size) and size > 0):
+        raise ValueError("a marker's size is in metres: --size must be positive")
     existing = plan.landmarks.markers if plan.landmarks else ()
+    sight = marker_walls(plan).segments
+    notes: list[str] = []
     if plan.landmarks is not None:
         family, size = plan.landmarks.family, plan.landmarks.size
+    elif size is None:
+        standard, _ = marker_faces(plan, paper_side(family, STANDARD_SIZE_M))
+        size = size_for_stops(plan, standard, sight)
+        if size > STANDARD_SIZE_M:
+            notes.append(f"markers are {size:g} m across, not the usual {STANDARD_SIZE_M:g} "
+                         "m, so that every room's stop can read them; print them at that "
+                         "size, or give --size")  # fmt: skip
     faces, doorways = marker_faces(plan, paper_side(family, size))
     for marker in existing:
         for face in faces:
             if face.holds(marker):
                 face.taken.append(face.position(marker.at))
-    notes: list[str] = []
     added: list[tuple[Face, float]] = []
     for door in doorways:
         for room_id in door.between:
@@ -97,6 +111,12 @@ def place_markers(
     for face in faces:
         for t in _along(face, every) if face.wall else []:
             added.append((face, t))
+    along_walls = len(added) - beside_doors
+    placed = marker_poses(plan)
+    placed.update({-1 - i: face.pose(t) for i, (face, t) in enumerate(added)})
+    for_stops, uncovered = place_for_stops(plan, faces, placed, sight, size)
+    added += for_stops
+    notes += uncovered
     ids = _new_ids(family, existing, len(added))
     new = [
         Marker(marker_id, _rounded(face.point(t)), height, round(face.facing, 1) % 360)
@@ -104,7 +124,7 @@ def place_markers(
     ]
     markers = tuple(sorted((*existing, *new), key=lambda marker: marker.id))
     landmarks = Landmarks(family, size, markers)
-    return Placement(landmarks, beside_doors, len(added) - beside_doors, notes)
+    return Placement(landmarks, beside_doors, along_walls, len(for_stops), notes)
 
 
 def _beside(door: Door, faces: list[Face]) -> tuple[Face, float | None] | None:

@@ -22,6 +22,7 @@ from giraff_console.planning.landmarks import (
     angle_between,
 )
 from giraff_console.planning.walls import FRAME_M
+from giraff_console.robot.odometry import Pose
 
 # Clear wall kept between a marker's paper and a door frame, a corner, another marker.
 DOOR_GAP_M = 0.15
@@ -60,6 +61,11 @@ class Face:
 
     def point(self, t: float) -> Point:
         return self.a[0] + self.along[0] * t, self.a[1] + self.along[1] * t
+
+    def pose(self, t: float) -> Pose:
+        """A marker's pose at `t`, as the pose filter takes it (its normal in radians)."""
+        x, y = self.point(t)
+        return Pose(x, y, math.radians(self.facing))
 
     def position(self, point: Point) -> float:
         return (point[0] - self.a[0]) * self.along[0] + (point[1] - self.a[1]) * self.along[1]

@@ -55,6 +55,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from giraff_console.camera.marker_reach import STANDARD_SIZE_M, facing_reach, read_reach
 from giraff_console.robot.ekf import FilterNoise, Observation, PoseFilter, wrap
 from giraff_console.robot.marker_map import (
     LEARN_FROM_SIGMA_M,
@@ -81,13 +82,12 @@ START_SIGMA_HEADING = math.radians(3.0)
 # required to stay within 0.10 m (issue 14); a 2-sigma 0.10 m is a sigma of 0.05 m.
 SLOW_SIGMA_M = 0.10
 LOOK_SIGMA_M = 0.20
-# Until the robot is found, only a marker this near confirms or places it: a 16 cm
-# marker's facing, which placing needs, is good to a few degrees at 2-3 m, and a degree
-# is 7 cm at 4 m. A farther one waits for a nearer (a look turns to them, nearer first).
-PLACE_REACH_M = 4.0
-# Beyond this a marker's facing is not used to correct the pose, only its distance and
-# bearing (see _take): at 3 m a 16 cm marker is 40 pixels wide at 800 x 600.
-FACING_REACH_M = 3.0
+# Until the robot is found, only a marker near enough to be read well confirms or
+# places it (camera/marker_reach.py's read_reach: 4 m for a 16 cm marker): placing
+# needs its facing, good to a few degrees at 2-3 m, and a degree is 7 cm at 4 m. A
+# farther one waits for a nearer (a look turns to them, nearer first). Beyond
+# facing_reach a marker's facing is not used to correct the pose, only its distance and
+# bearing (see _take).
 # A step whose centre moves less than this fraction of what its wheels turn is a turn
 # in place, which leaves the casters out of line (§3.2.1.5).
 IN_PLACE_FRACTION = 0.1
@@ -219,16 +219,18 @@ class Localisation:
         scale = worst / thesis.caster_worst
         self._noise = replace(self._noise, caster_worst=worst,
                               caster_sigma=thesis.caster_sigma * scale)  # fmt: skip
-        self.use_markers(self.map.beliefs)
+        self.use_markers(self.map.beliefs, self.marker_size)
 
     @property
     def markers(self) -> dict[int, Pose]:
         """The markers known well enough to find the robot by, and where they hang."""
         return self.map.known()
 
-    def use_markers(self, markers: Mapping[int, Pose | MarkerBelief]) -> None:
-        """Find the robot by these markers from now on (none: by the odometry alone);
-        a bare pose is a marker put up with a tape measure.
+    def use_markers(self, markers: Mapping[int, Pose | MarkerBelief],
+                    size: float = STANDARD_SIZE_M) -> None:  # fmt: skip
+        """Find the robot by these markers, printed `size` metres across, from now on
+        (none: by the odometry alone); a bare pose is a marker put up with a tape
+        measure.
 
         Without markers the casters' turn is expected to be none on average, only
         uncertain: nothing would ever check the turn expected after each turn on the
@@ -239,6 +241,8 @@ class Localisation:
                    else MarkerBelief(marker, hand_covariance())
                    for marker_id, marker in markers.items()}  # fmt: skip
         self.map = MarkerMap(beliefs, noise=self._noise, learn_new=self.survey is not None)
+        self.marker_size = size
+        self._place_reach, self._facing_reach = read_reach(size), facing_reach(size)
         self._expect_casters()
 
     def start_survey(self, log: SurveyLog, walls: Sequence[tuple[Point, Point]] = ()) -> None:
@@ -360,14 +364,12 @@ class Localisation:
             if note is not None:
                 self.report(note)
             return present
-        if present.distance_m > FACING_REACH_M and present.facing_rad is not None:
+        if present.distance_m > self._facing_reach and present.facing_rad is not None:
             # Far off, a marker's facing is the weak part of its pose, and not only
-            # noisy: a few pixels' slant bias it the same way frame after frame, which
-            # the filter cannot average out (issue 25: a robot 5 m from the day room's
-            # walls was put 10 cm off, known to 4 cm). Its distance and bearing are
-            # good to centimetres and hundredths of a degree there.
+            # noisy (camera/marker_reach.py); its distance and bearing are good to
+            # centimetres and hundredths of a degree there.
             present = replace(present, facing_rad=None)
-        near = present.distance_m <= PLACE_REACH_M
+        near = present.distance_m <= self._place_reach
         if not self.found and not near:
             return present  # too weak to confirm the assumed start by, or to place the robot
         sigma = known.covariance

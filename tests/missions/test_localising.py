@@ -19,13 +19,11 @@ from giraff_console.missions.certainty import (
     slow_stretches,
 )
 from giraff_console.missions.docking import go_mission
-from giraff_console.missions.localising import LOOK_REACH_M, visible_markers
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.path_mission import PathMission
 from giraff_console.motion.path import Drive, Rotation, Segment
 from giraff_console.planning.landmarks import marker_poses
 from giraff_console.planning.route_planner import walls_of
-from giraff_console.planning.walls import wall_segments
 from giraff_console.robot.localisation import Estimate, PoseBasis
 from giraff_console.robot.mission import DRIVING, Outcome, Progress
 from giraff_console.robot.odometry import Pose
@@ -253,19 +251,6 @@ def test_an_arrival_not_known_well_enough_looks_then_turns_back_to_the_rooms_hea
     assert any("no marker in sight to confirm the arrival" in note for note in site.notes)
     assert error_m(site, "room-101") <= 0.10
     assert heading_error_deg(site, "room-101") <= 3.0
-
-
-def test_markers_behind_walls_facing_away_or_out_of_reach_are_not_looked_for():
-    walls = wall_segments(PLAN)
-    here = Pose(2.0, 7.0, math.pi / 2)  # on the dock
-    seen = dict(visible_markers(MARKERS, walls, here))
-    # The dock's own markers, and the corridor's beside its door is behind the wall.
-    assert {16, 105, 106, 107} <= set(seen)
-    assert 17 not in seen  # in the corridor, facing away and behind the wall
-    assert all(math.dist((here.x, here.y), (MARKERS[i].x, MARKERS[i].y)) <= LOOK_REACH_M
-               for i in seen)  # fmt: skip
-    # Marker 16 hangs north of the dock's point, a little to the east.
-    assert seen[16] == pytest.approx(math.atan2(3.0, 0.95))
 
 
 def go_with_markers_moving_it_aside(navigator: Navigator, aside: float) -> tuple[Site, float]:

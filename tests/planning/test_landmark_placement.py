@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from giraff_console.camera.marker_reach import STANDARD_SIZE_M
 from giraff_console.cli import main
 from giraff_console.planning import landmark_placement
 from giraff_console.planning.floorplan import (
@@ -20,7 +21,6 @@ from giraff_console.planning.floorplan import (
 from giraff_console.planning.landmark_placement import (
     BESIDE_DOOR_M,
     DEFAULT_HEIGHT_M,
-    DEFAULT_SIZE_M,
     place_markers,
     with_landmarks,
     write_landmarks,
@@ -80,7 +80,7 @@ def test_every_doorway_gets_a_marker_in_each_of_its_rooms(tmp_path, maker):
 def test_placed_markers_have_unique_ids_and_sit_square_on_walls(tmp_path):
     plan = load_floorplan(bare_example(tmp_path))
     landmarks = place_markers(plan).landmarks
-    assert (landmarks.family, landmarks.size) == ("apriltag_36h11", DEFAULT_SIZE_M)
+    assert (landmarks.family, landmarks.size) == ("apriltag_36h11", STANDARD_SIZE_M)
     ids = [marker.id for marker in landmarks.markers]
     assert ids == list(range(len(ids)))
     walls = marker_walls(plan)
@@ -103,12 +103,17 @@ def test_long_walls_get_markers_every_few_metres(tmp_path):
     assert max(gaps[1:-1]) <= 1.25 * 4.0 and gaps[0] <= 4.0 and gaps[-1] <= 4.0
     sparse = place_markers(plan, every=8.0)
     assert sparse.along_walls < place_markers(plan, every=4.0).along_walls
-    # Rooms of 4 m by 5 m: no wall is 6 m long, so none gets markers along it.
-    assert all(
-        getattr(room_in_front(plan, m.at, m.facing), "id", "")[:5] != "room-"
-        for m in place_markers(plan, every=6.0).landmarks.markers
-        if not any(math.dist(m.at, door.at) < 1.5 for door in plan.doors)
-    )
+    # Rooms of 4 m by 5 m: no wall is 6 m long, so none gets markers along it; only one
+    # for its stop, which reads just the marker beside its door (stop_markers.py).
+    placement = place_markers(plan, every=6.0)
+    markers = placement.landmarks.markers
+    for_stops = markers[len(markers) - placement.for_stops :]
+    in_rooms = [
+        m for m in markers
+        if getattr(room_in_front(plan, m.at, m.facing), "id", "")[:5] == "room-"
+        and not any(math.dist(m.at, door.at) < 1.5 for door in plan.doors)
+    ]  # fmt: skip
+    assert in_rooms and set(in_rooms) <= set(for_stops)
 
 
 def test_the_plan_round_trips_through_the_file(tmp_path):
@@ -226,8 +231,9 @@ def test_the_command_places_writes_and_says_how_many(tmp_path, capsys):
     assert out.startswith(f"{path}: placed {count} markers (")
     assert main(["floorplan", "check", str(path)]) == 0
     assert main(["floorplan", "landmarks", "--every", "4", str(path)]) == 0
-    assert f"placed 0 markers (0 beside doorways, 0 along walls); it has {count} in all" in (
-        capsys.readouterr().out
+    assert (
+        f"placed 0 markers (0 beside doorways, 0 along walls, 0 for rooms' stops); it has "
+        f"{count} in all, 0.16 m across" in capsys.readouterr().out
     )
 
 

@@ -109,7 +109,7 @@ def test_the_example_plans_markers_are_on_its_map():
     grid = walls_of(plan)
     assert plan.landmarks is not None and grid is not None
     scene = plan_scene(plan, grid)
-    assert len(scene.markers) == len(plan.landmarks.markers) == 172
+    assert len(scene.markers) == len(plan.landmarks.markers) == 176
     first = plan.landmarks.markers[0]
     assert scene.markers[0] == MarkerMark(first.id, first.at, math.radians(first.facing))
 
