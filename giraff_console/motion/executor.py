@@ -45,6 +45,7 @@ from giraff_console.motion.speed_profile import (
     Profile,
     SlowZone,
     drive_profile,
+    move_profile,
     rotation_profile,
 )
 from giraff_console.protocol.codec import Command, Number, format_number
@@ -152,6 +153,7 @@ class Executor:
         self._pull = 0.0  # how far the last tick moved the profile's clock towards the robot
         self._plan_clock: float | None = None  # when _plan_time was last advanced
         self._creep_since: float | None = None  # when the profile ran out short of the end
+        self._creep_plan: Profile | None = None  # the move over what it left
         # A turn on the spot: the odometry's heading at its start, and the angle to turn.
         self._start_heading: float | None = None
         self._turn = 0.0
@@ -263,6 +265,7 @@ class Executor:
                 self.trace.stops.append(now)
             self.index += 1
             self._t0 = self._plan_clock = self._creep_since = self._start_heading = None
+            self._creep_plan = None
             self._progress = self._plan_time = 0.0
             return []
         self._check_stall(now, state)
@@ -304,8 +307,8 @@ class Executor:
         if self._brake is not None:
             began, curve, _, _ = self._brake
             v_cmd = curve.at_time(min(now - began + self.tick, curve.duration))[1][0]
-        elif t >= profile.duration and remaining > DONE_M:
-            # Behind the plan at its end: creep the rest at the speed it ended with.
+        elif t >= profile.duration:
+            # Behind the plan at its end: creep the rest.
             v_cmd = max(v_cmd, self._creep(now, remaining))
         self._record(now, v_cmd)
         v_cmd = max(v_cmd, MIN_SPEED)
@@ -378,7 +381,7 @@ class Executor:
         ):
             return None
         _, v_cmd, _ = profile.at(self._advance_plan(profile, s, now) + self.tick)
-        if t >= profile.duration and remaining > DONE_M:
+        if t >= profile.duration:
             v_cmd = max(v_cmd, self._creep(now, remaining))
         self._record(now, v_cmd)
         v_cmd = max(v_cmd, MIN_SPEED)
@@ -435,11 +438,19 @@ class Executor:
 
     def _creep(self, now: float, remaining: float) -> float:
         """The speed to cover what the profile left over (a robot that fell behind it):
-        up to CREEP_SPEED, eased in within the jerk limit, and down towards the end."""
-        if self._creep_since is None:
+        a move of its own from rest over what is left, at most CREEP_SPEED and within
+        the jerk limit all the way (a creep eased in and then held to the distance left
+        changed its acceleration at once: 1.05 m/s^3 over the last 5 mm), followed to
+        its end, and planned anew if the robot is still short once it has run out."""
+        creep = self._creep_plan
+        if creep is None or self._creep_since is None or now - self._creep_since > creep.duration:
+            if remaining <= DONE_M:
+                return 0.0
+            limits = replace(self.limits, j_max=self.limits.j_max * JERK_SPARE)
+            creep = self._creep_plan = move_profile(remaining, CREEP_SPEED, limits)
             self._creep_since = now
-        eased = self.limits.j_max * JERK_SPARE * (now - self._creep_since) ** 2 / 2
-        return min(CREEP_SPEED, eased, remaining)
+            self.trace.starts.append(len(self.trace.times))  # a move of its own, from rest
+        return creep.at(now - self._creep_since + self.tick)[1]
 
     def _advance_plan(self, profile: Profile, done: float, now: float) -> float:
         """Where in its profile the section is: the clock's time since the last tick,

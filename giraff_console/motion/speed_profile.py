@@ -271,3 +271,11 @@ def rotation_profile(rotation: Rotation, limits: MotionLimits) -> Profile:
     if length <= _MERGE_M:
         return Profile((0.0,), (), ())
     return _plan((0.0, length), (limits.rotation_speed,), limits)
+
+
+def move_profile(distance: float, cap: float, limits: MotionLimits) -> Profile:
+    """The jerk-limited profile of a move of `distance` metres from rest to rest, at
+    most `cap` m/s."""
+    if distance <= _MERGE_M:
+        return Profile((0.0,), (), ())
+    return _plan((0.0, distance), (min(cap, limits.v_max),), limits)

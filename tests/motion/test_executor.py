@@ -66,3 +66,22 @@ def test_a_drive_steers_against_the_turn_the_casters_are_expected_to_make() -> N
     assert first_gear(-1.0) == pytest.approx(gear_of(1.0), abs=1e-3)
     # Never past the board's gear ratio limit, whatever the casters.
     assert first_gear(10.0) == pytest.approx(MAX_GEAR)
+
+
+def test_a_robot_left_behind_its_profile_creeps_the_rest_within_the_jerk_limit() -> None:
+    # The wheels make 90 % of every speed asked for: at the profile's end the robot is
+    # short of the end, and creeps the rest, as a move of its own from rest.
+    limits = MotionLimits()
+    executor = Executor([Drive((Segment(Pose(0, 0, 0), 1.0),))], limits, TICK)
+    travelled, speed, now = 0.0, 0.0, 0.0
+    while now < 30.0 and not executor.finished:
+        for command in executor.step(now, state(travelled, speed, now), Pose(travelled, 0, 0)):
+            if command.kind == "set" and command.name == "v":
+                speed = 0.9 * float(command.value)  # type: ignore[arg-type]
+        travelled = min(1.0, travelled + speed * TICK)
+        speed = speed if travelled < 1.0 else 0.0
+        now += TICK
+    assert executor.finished
+    assert travelled == pytest.approx(1.0, abs=0.01)
+    assert executor.trace.max_jerk() <= limits.j_max
+    assert len(executor.trace.starts) >= 2  # the profile, then at least one creep
