@@ -285,7 +285,8 @@ def table(runs: list[Run], buildings: dict[str, Building]) -> None:
             planned = sum(run.planned for run in mine)
             made = [stop for run in mine for stop in run.stops if claimed(stop)]
             headings = [s["heading_error_deg"] for s in made if has_heading(s, plan)]
-            jerks = [s["max_jerk"] for run in mine for s in run.stops if "max_jerk" in s]
+            jerks = [s["max_jerk"] for run in mine for s in run.stops
+                     if s.get("max_jerk") is not None]  # fmt: skip
             jerk = f"{max(jerks):>8.2f}" if jerks else f"{'-':>8}"
             errors = figures([stop["error_m"] for stop in made])
             print(f"{name:<14}{mode:<16}{planned:>6}{tally['within']:>8}"

@@ -173,7 +173,7 @@ class StopLog:
     def reached(self, stop: StopReached) -> None:
         """A stop's leg ended: arrived (confirmed or not), or failed and skipped."""
         why = "done" if stop.reached else f"failed: {stop.detail}"
-        self._record(stop.round, stop.stop_index, stop.outcome, why, stop.detail)
+        self._record(stop.round, stop.stop_index, stop.outcome, why, stop.detail, stop.max_jerk)
         dwell = self.patrol.stops[stop.stop_index - 1].dwell if stop.reached else 0.0
         self._leg_from = self.robot.control.clock.now() + dwell
 
@@ -187,7 +187,7 @@ class StopLog:
             self._record(leg // count + 1, leg % count + 1, None, why, why)
 
     def _record(self, round_number: int, index: int, outcome: Outcome | None, why: str,
-                detail: str) -> None:  # fmt: skip
+                detail: str, max_jerk: float | None = None) -> None:  # fmt: skip
         control, now = self.robot.control, self.robot.control.clock.now()
         stop = self.patrol.stops[index - 1]
         started = self.run.started_at if self.run is not None else None
@@ -226,6 +226,7 @@ class StopLog:
             "basis": estimate.basis.value,
             "duration_s": measured["duration_s"],
             "t_s": round(now - started, 3),
+            "max_jerk": None if max_jerk is None else round(max_jerk, 3),
         }
         self.all_arrived = self.all_arrived and report.arrived
         self.all_reached = self.all_reached and outcome is not None and outcome.arrived

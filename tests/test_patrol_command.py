@@ -17,7 +17,7 @@ SMALL_EYE = ("--eye-size", "400x300", "--eye-fps", "5")
 STOP_KEYS = {
     "stop", "round", "room", "route", "arrived", "outcome", "why", "detail", "pose_estimate",
     "pose_true", "error_m", "heading_error_deg", "sigma_m", "sigma_heading_deg", "found",
-    "seen", "rejected", "since_fix_m", "basis", "duration_s", "t_s",
+    "seen", "rejected", "since_fix_m", "basis", "duration_s", "t_s", "max_jerk",
 }  # fmt: skip
 
 
@@ -51,6 +51,7 @@ def test_a_patrol_of_rooms_reports_each_stop_and_the_patrol_as_json_lines(tmp_pa
         assert stop["error_m"] <= 0.03 and stop["heading_error_deg"] <= 1.0
         assert len(stop["pose_true"]) == 3 and len(stop["pose_estimate"]) == 3
         assert stop["found"] and stop["sigma_m"] > 0
+        assert 0 < stop["max_jerk"] <= 1.0  # the settings' limit, markers or not
     assert stops[1]["t_s"] > stops[0]["t_s"] > 0
     assert summary["patrol"] == "two" and summary["why"] == "done"
     assert (summary["rounds"], summary["stops"], summary["arrived"]) == (1, 2, 2)

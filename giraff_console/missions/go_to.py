@@ -114,7 +114,7 @@ class GoTo(PathMission):
     def _course(self, pose: Pose) -> Course:
         assert self.navigator is not None
         try:
-            planned = self.navigator.go(self.room, pose)
+            planned = self.navigator.go(self.room, pose, afresh=not self.replanning)
         except PlanningError as error:
             if self.replanning:
                 raise PlanningError(f"no way to {self.room} any more: {error}") from None

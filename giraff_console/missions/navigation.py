@@ -86,11 +86,12 @@ class Navigator:
     def door_ids(self) -> list[str]:
         return sorted(door.id for door in self.plan.doors)
 
-    def go(self, room_id: str, pose: Pose) -> PlannedPath:
+    def go(self, room_id: str, pose: Pose, afresh: bool = False) -> PlannedPath:
         """Plan from `pose` to `room_id` and make it the route shown; PlanningError with
-        a message for the operator if there is none."""
+        a message for the operator if there is none. `afresh`: a new mission's first
+        plan, which what was sensed before it does not stop (see _set_goal)."""
         with self._lock:
-            return self._set_goal(room_id, None, pose)
+            return self._set_goal(room_id, None, pose, afresh)
 
     def arrive(self, goal: str, arrival: Arrival, pose: Pose) -> PlannedPath:
         """Plan from `pose` to `arrival` (shown as `goal`, such as "dock") and make it the
@@ -180,6 +181,14 @@ class Navigator:
                 self.planner.graph.forget_legs()
             self.state = replace(self.state, obstacles=tuple(legs.sensed.values()))
 
+    def _forget_sensed(self) -> bool:
+        legs = self.planner.legs
+        if legs is None or not legs.forget_sensed():
+            return False
+        self.planner.graph.forget_legs()
+        self.state = replace(self.state, obstacles=())
+        return True
+
     def _replan(self, pose: Pose) -> NavigationState:
         closed = frozenset(self.planner.graph.closed)
         goal, planned, problem = self.state.goal, None, None
@@ -191,8 +200,20 @@ class Navigator:
         self.state = NavigationState(goal, planned, closed, problem, self.state.obstacles)
         return self.state
 
-    def _set_goal(self, goal: str, arrival: Arrival | None, pose: Pose) -> PlannedPath:
-        planned = self._plan_to(goal, arrival, pose)
+    def _set_goal(self, goal: str, arrival: Arrival | None, pose: Pose,
+                  afresh: bool = False) -> PlannedPath:  # fmt: skip
+        try:
+            planned = self._plan_to(goal, arrival, pose)
+        except PlanningError:
+            # What was sensed before closes every way: a new mission clears it (Nav2's
+            # answer, clearing the costmap) and tries. A robot a few centimetres off
+            # its estimate sees a narrow doorway's own frames in it, which would keep
+            # the doorway shut for every mission after (issue 25). What is really
+            # there the range finder sees again, and the mission then plans round it
+            # or ends blocked.
+            if not (afresh and self._forget_sensed()):
+                raise
+            planned = self._plan_to(goal, arrival, pose)
         self._arrival = arrival
         self.state = NavigationState(goal, planned, self.state.closed,
                                      obstacles=self.state.obstacles)  # fmt: skip

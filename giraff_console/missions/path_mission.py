@@ -643,7 +643,8 @@ class PathMission:
 
     def _back_off(self, tick: Tick) -> list[Command]:
         """BACKING_OFF straight back the way it came, then on with the recovery."""
-        distance = self._recovery.back_off(tick.pose)
+        walls = self.navigator.walls if self.navigator is not None else None
+        distance = self._recovery.back_off(tick.pose, walls)
         if distance <= 0:
             return self._after_contact(tick)
         self._traces.append(self.executor.trace)

@@ -90,6 +90,8 @@ class StopReached:
     route_name: str
     outcome: Outcome = Outcome.ARRIVED_UNVERIFIED
     detail: str = ""
+    # The leg's largest jerk (m/s^3) as commanded, where it was a path mission's.
+    max_jerk: float | None = None
 
     @property
     def reached(self) -> bool:
@@ -273,7 +275,10 @@ class PatrolRun:
 
     def _reached(self, outcome: Outcome, detail: str) -> None:
         round_number, index = self._legs[self._leg]
-        self._on_stop(StopReached(round_number, index + 1, self._stop().place, outcome, detail))
+        path = self._mission if isinstance(self._mission, PathMission) else None
+        jerk = path.merged_trace().max_jerk() if path is not None else None
+        self._on_stop(StopReached(round_number, index + 1, self._stop().place, outcome,
+                                  detail, jerk))  # fmt: skip
 
     def _failed(self, outcome: Outcome, why: str) -> None:
         """The stop under way failed and the patrol carries on (the robot is at rest:

@@ -13,7 +13,7 @@ named steps (path_mission.py's stages):
 1. stop at once: the board still holds the move that pushes against the frame;
 2. back off the way it came: straight back along the last stretch it drove, which is
    free (the robot was just there), BACK_OFF_M or as far as that stretch runs
-   straight behind it;
+   straight behind it; with none behind it, as far as the plan's walls leave room;
 3. on a second contact near the first, put it on the grid: something the plan does
    not know is there. Not on the first: a momentary stall of the wheels, or a frame
    clipped by a pose error, is passed on a retry, and a phantom obstacle in a
@@ -145,9 +145,13 @@ class Recovery:
     def in_a_row(self) -> int:
         return self._in_a_row
 
-    def back_off(self, pose: Pose) -> float:
+    def back_off(self, pose: Pose, walls: OccupancyGrid | None = None) -> float:
         """How far to back straight up from `pose`: BACK_OFF_M, or as far as the trail
-        it came along runs straight behind it (0 if there is none to follow)."""
+        it came along runs straight behind it. With no trail behind it (it touched as it
+        set off, or turned since), as far as the plan's `walls` leave the robot's disc
+        no nearer a wall than it stands now: a robot pinned against a wall by the
+        casters' turn otherwise stayed there and touched it again from the same place
+        on every try. 0 if it cannot back at all."""
         h = pose.heading
         behind = (-math.cos(h), -math.sin(h))
         reach = 0.0
@@ -158,12 +162,49 @@ class Recovery:
             if off > TRAIL_TOLERANCE_M or along < reach - TRAIL_TOLERANCE_M:
                 break
             reach = max(reach, along)
+        if reach < MIN_BACK_OFF_M and walls is not None:
+            reach = _free_behind(pose, behind, self.radius, walls)
         distance = min(BACK_OFF_M, reach)
         return distance if distance >= MIN_BACK_OFF_M else 0.0
 
 
 def _length(points: collections.deque[Point]) -> float:
     return sum(math.dist(a, b) for a, b in zip(points, list(points)[1:], strict=False))
+
+
+def _free_behind(pose: Pose, behind: Point, radius: float, walls: OccupancyGrid) -> float:
+    """How far straight back along `behind` the robot's disc comes no nearer the plan's
+    walls than at `pose` (nor nearer than `radius`), in steps of half a cell."""
+    step = walls.resolution / 2
+    now = min(radius, _clearance((pose.x, pose.y), radius + step, walls))
+    reach = 0.0
+    for distance in np.arange(step, BACK_OFF_M + step / 2, step):
+        point = (pose.x + distance * behind[0], pose.y + distance * behind[1])
+        if _clearance(point, radius + step, walls) < now - 1e-9:
+            break
+        reach = float(distance)
+    return reach
+
+
+def _clearance(point: Point, reach: float, walls: OccupancyGrid) -> float:
+    """The distance from `point` to the nearest occupied cell of `walls` (its centre,
+    less half a cell), looked for within `reach`; `reach` if there is none."""
+    cells = math.ceil(reach / walls.resolution)
+    try:
+        row, col = walls.cell_of(*point)
+    except ValueError:
+        return 0.0  # off the map: not known to be free
+    rows, cols = walls.cells.shape
+    top, left = max(0, row - cells), max(0, col - cells)
+    window = walls.cells[top : min(rows, row + cells + 1), left : min(cols, col + cells + 1)]
+    occupied = np.argwhere(window == OCCUPIED)
+    if not occupied.size:
+        return reach
+    x, y = walls.centre_of(0, 0)
+    xs = x + (occupied[:, 1] + left) * walls.resolution
+    ys = y - (occupied[:, 0] + top) * walls.resolution
+    nearest = float(np.hypot(xs - point[0], ys - point[1]).min()) - walls.resolution / 2
+    return min(reach, max(0.0, nearest))
 
 
 def _wall_near_front(pose: Pose, radius: float, walls: OccupancyGrid | None) -> bool:

@@ -143,6 +143,11 @@ class GridLegs:
         # disc stands on, so that a disc can be taken away when its cell is seen clear.
         self.sensed: dict[Cell, Point] = {}
         self._sensed_cells = np.zeros_like(self.blocked)
+        # How far each sensed point's disc reaches: a contact's reaches further than a
+        # range finder's hit (path_mission.py's FELT_EXTENT_M), and freeing it by the
+        # smaller left its outer ring blocked for good, with nothing sensed to clear it:
+        # a doorway stayed shut for every mission after (issue 25).
+        self._radii: dict[Cell, float] = {}
         # The points of each room without an outline, round which its legs plan.
         self._extent = {room.id: [room.at] for room in plan.rooms.values()}
         for door in plan.doors:
@@ -169,6 +174,7 @@ class GridLegs:
                 continue
             self.sensed[cell] = (x, y)
             self._sensed_cells[cell] = True
+            self._radii[cell] = radius
             rows, cols, near = self._disc(cell, (x, y), radius)
             view = self.blocked[rows, cols]
             new = near & ~view
@@ -193,10 +199,12 @@ class GridLegs:
         if not seen.size:
             return []  # nearly every sweep: nothing sensed before lies on a beam
         gone = np.stack(np.divmod(np.unique(seen), self.blocked.shape[1]), axis=1)
+        reach = radius
         for row, col in gone.tolist():
             del self.sensed[(row, col)]
             self._sensed_cells[row, col] = False
-        changes = self._free_round(gone, radius)
+            reach = max(reach, self._radii.pop((row, col), radius))
+        changes = self._free_round(gone, reach)
         if changes:
             self._paths.clear()
         return changes
@@ -205,7 +213,7 @@ class GridLegs:
         """What was sensed at `points` is no longer believed (a contact a mission put
         there, path_mission.py): their cells are forgotten and freed as see_through
         frees them. Returns the cells freed, as (cell, False) pairs."""
-        gone = []
+        gone, reach = [], radius
         for x, y in points:
             try:
                 cell = self.grid.cell_of(x, y)
@@ -213,13 +221,26 @@ class GridLegs:
                 continue
             if self.sensed.pop(cell, None) is not None:
                 self._sensed_cells[cell] = False
+                reach = max(reach, self._radii.pop(cell, radius))
                 gone.append(cell)
         if not gone:
             return []
-        changes = self._free_round(np.array(gone), radius)
+        changes = self._free_round(np.array(gone), reach)
         if changes:
             self._paths.clear()
         return changes
+
+    def forget_sensed(self) -> bool:
+        """Forget all that sensing blocked: the plan's own cells only. True if there was
+        anything to forget."""
+        if not self.sensed:
+            return False
+        self.sensed.clear()
+        self._radii.clear()
+        self._sensed_cells[:] = False
+        self.blocked[...] = self._plan_blocked
+        self._paths.clear()
+        return True
 
     def _disc(self, cell: Cell, point: Point, radius: float) -> tuple[slice, slice, np.ndarray]:
         """The window of cells round `cell` that a disc of `radius` at `point` can reach,
@@ -259,8 +280,8 @@ class GridLegs:
         return (rows - 1 - up[inside]) * cols + col[inside]
 
     def _free_round(self, gone: np.ndarray, radius: float) -> list[tuple[Cell, bool]]:
-        """Free the cells round the sensed cells `gone` that no sensed point left within
-        `radius` keeps blocked, and that the plan does not block."""
+        """Free the cells within `radius` of the sensed cells `gone` that no sensed point
+        left keeps blocked (within its own disc), and that the plan does not block."""
         grid, (rows, cols) = self.grid, self.blocked.shape
         reach = math.ceil(radius / grid.resolution)
         (top, left), (bottom, right) = gone.min(axis=0), gone.max(axis=0)
@@ -270,15 +291,17 @@ class GridLegs:
         if not candidates.any():
             return []
         # What is still sensed within reach of the window keeps its discs.
+        reach = math.ceil(max([radius, *self._radii.values()]) / grid.resolution)
         top, left = max(0, window[0].start - reach), max(0, window[1].start - reach)
         around = self._sensed_cells[top : window[0].stop + reach, left : window[1].stop + reach]
         kept = np.argwhere(around) + np.array([top, left])
         points = np.array([self.sensed[(r, c)] for r, c in kept.tolist()]).reshape(-1, 2)
+        radii = np.array([self._radii[(r, c)] for r, c in kept.tolist()], dtype=float)
         x, y = self._centres(*window)
         at = np.argwhere(candidates)
         cx, cy = x[0, at[:, 1]], y[at[:, 0], 0]
         near = np.hypot(cx[:, None] - points[None, :, 0], cy[:, None] - points[None, :, 1])
-        free = at[~(near <= radius).any(axis=1)]
+        free = at[~(near <= radii[None, :]).any(axis=1)]
         free += (window[0].start, window[1].start)
         self.blocked[free[:, 0], free[:, 1]] = False
         return [((r, c), False) for r, c in free.tolist()]

@@ -117,3 +117,17 @@ def test_something_unseen_touched_twice_goes_on_the_grid_and_is_driven_round(nav
     assert math.dist((end.x, end.y), PLAN.rooms["kitchen"].at) <= 0.03
     # What it felt is forgotten with the mission: the next one tries afresh.
     assert not navigator.state.obstacles
+
+
+def test_a_robot_pinned_against_a_wall_backs_off_into_the_plans_free_floor():
+    # A wall along y = 0; the robot touches it with its side (radius 0.3 m, 0.3 m off)
+    # facing into it at 45 degrees, with no trail behind it: straight back is away from
+    # the wall, as far as BACK_OFF_M.
+    cells = np.full((60, 60), FREE, dtype=np.uint8)
+    cells[-1, :] = OCCUPIED  # the bottom row: y from 0 to 0.05
+    walls = OccupancyGrid(cells, 0.05, (0.0, 0.0))
+    facing_in = Pose(1.5, 0.35, -math.pi / 4)
+    assert Recovery().back_off(facing_in, walls) == BACK_OFF_M
+    # Facing away from it, straight back is into it: it does not back at all.
+    facing_out = Pose(1.5, 0.35, math.pi / 4)
+    assert Recovery().back_off(facing_out, walls) == 0.0

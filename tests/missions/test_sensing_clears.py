@@ -14,7 +14,9 @@ import numpy as np
 import pytest
 
 from giraff_console.missions.navigation import Navigator
+from giraff_console.planning.room_graph import PlanningError
 from giraff_console.planning.route_planner import walls_of
+from giraff_console.robot.odometry import Pose
 from tests.missions.site import PLAN, Site
 
 # Across the corridor, as in test_go_to: a trolley the corridor's width.
@@ -145,3 +147,17 @@ def test_a_door_shut_on_the_route_stays_blocked_while_the_robot_looks_at_it(navi
     assert not plan_blocked()[doorway]
     assert legs.blocked[doorway]
     assert any(math.dist(point, (36.0, 12.0)) < 0.5 for point in navigator.state.obstacles)
+
+
+def test_what_was_sensed_before_does_not_stop_a_new_mission_setting_off(navigator):
+    # Something sensed across the dock's only doorway (a trolley, or the doorway's own
+    # frames seen by a robot a few centimetres off its estimate): a way planned during
+    # a mission goes round it or fails; a new mission clears it and sets off, to see
+    # again what is really there (Nav2's clearing of the costmap).
+    dock = Pose(2.0, 7.0, math.pi / 2)
+    navigator.report_obstacles([(x, 10.3) for x in np.arange(1.4, 2.65, 0.05)])
+    with pytest.raises(PlanningError):
+        navigator.go("kitchen", dock)
+    assert navigator.state.obstacles  # still believed
+    planned = navigator.go("kitchen", dock, afresh=True)
+    assert planned.path and not navigator.state.obstacles

@@ -86,3 +86,22 @@ def test_a_straight_line_does_not_slip_between_two_cells_that_touch_at_a_corner(
     legs = GridLegs(plan, OccupancyGrid(cells, 0.1))
     assert not legs.clear((0.05, 0.35), (0.35, 0.05))
     assert legs.clear((0.05, 0.05), (0.05, 0.35))
+
+
+def test_a_contact_seen_through_by_the_range_finder_leaves_nothing_of_its_disc(legs):
+    # A contact is blocked with a wider disc than a range finder's hit; the beams that
+    # later cross its cell free all of that disc, not only a hit's worth of it.
+    before = legs.blocked.copy()
+    legs.block([(3.0, 3.0)], 0.3 + 0.2)
+    assert (legs.blocked & ~before).sum() > 0
+    legs.see_through((1.0, 3.0), [(5.0, 3.0)], [False], 0.3)
+    assert not legs.sensed
+    assert (legs.blocked == before).all()
+
+
+def test_forgetting_what_was_sensed_leaves_the_plans_own_cells(legs):
+    before = legs.blocked.copy()
+    legs.block([(3.0, 3.0), (7.0, 2.0)], 0.3)
+    assert legs.forget_sensed()
+    assert (legs.blocked == before).all() and not legs.sensed
+    assert not legs.forget_sensed()  # nothing left to forget
