@@ -92,19 +92,21 @@ def camera_feed(
     return feed
 
 
-def find_the_robot(control: ControlLoop, camera: CameraFeed, plan: FloorPlan) -> str | None:
+def find_the_robot(control: ControlLoop, camera: CameraFeed, plan: FloorPlan,
+                   surveying: bool = False) -> str | None:  # fmt: skip
     """Let the plan's markers, as the camera finds them, correct where the robot is
-    believed to be (robot/localisation.py); a note for the status log when the plan
-    has markers the camera cannot place. Only the live camera's frames count: a
-    recording played back shows where the robot was then, not where it is."""
+    believed to be (robot/localisation.py), or, `surveying`, every marker of their
+    family be mapped (missions/survey.py); a note for the status log, also when the
+    camera cannot place them. Only the live camera's frames count: a recording played
+    back shows where the robot was then, not where it is."""
     markers = marker_beliefs(plan)
     detector = camera.pipeline.processors.get("markers")
-    if not markers or not isinstance(detector, MarkerDetector):
+    if not (markers or surveying) or not isinstance(detector, MarkerDetector):
         return None
     if detector.intrinsics(*camera.size) is None:
         # Markers the console cannot place would leave every mission looking for one.
-        return ("markers: the plan has markers, but this camera has no calibration "
-                "(--calibration), so they are outlined but not used to find the robot")  # fmt: skip
+        return ("markers: this camera has no calibration (--calibration), so markers are "
+                "outlined but not placed")  # fmt: skip
     control.localisation.use_markers(markers, detector.size)
     live, hand = camera.source, hand_on(control.localisation)
 
@@ -113,6 +115,8 @@ def find_the_robot(control: ControlLoop, camera: CameraFeed, plan: FloorPlan) ->
             hand(frame, data)
 
     camera.listeners.append(listener)
+    if surveying:
+        return f"markers: mapping every {detector.family} marker the camera sees"
     return f"markers: finding the robot by the plan's {len(markers)} markers"
 
 

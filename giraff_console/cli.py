@@ -451,7 +451,8 @@ def attach_if_running(args: argparse.Namespace, kind: str,
         return EXIT_USAGE
     signal.pthread_sigmask(signal.SIG_UNBLOCK, SIGNALS)
     print(f"giraff-console: asking the daemon at {socket_path()}", file=sys.stderr)
-    ignored = [f"--{name}" for name in ("floorplan", "routes", "recordings")
+    ignored = [f"--{name}" for name in ("floorplan", "routes", "recordings", "at", "camera",
+                                        "calibration")
                if getattr(args, name, None) is not None]  # fmt: skip
     if ignored:
         print(f"giraff-console: {', '.join(ignored)} ignored: the daemon's are used",

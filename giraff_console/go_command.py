@@ -5,8 +5,9 @@
 The same mission the console's `go` runs (missions/go_to.py), on the same control loop:
 from the shell, a script or a test. Progress (a bar, the distance left and an ETA) goes
 to standard error; `--json` prints how it went on standard output. The exit code says
-whether the robot arrived: 0 yes, 1 no (stall, ESTOP, lost link, no way, interrupted),
-2 a mistake in the command (an unknown room, a bad floor plan or settings).
+whether the robot arrived: 0 yes, 3 there but not confirmed by a marker (arrived
+unverified), 1 no (stall, ESTOP, lost link, no way, lost, interrupted), 2 a mistake in
+the command (an unknown room, a bad floor plan or settings).
 
 The set-up it shares with `patrol` (the plan, the simulator, the control loop, the
 markers and the camera that sees them, the virtual clock) is headless.py's.

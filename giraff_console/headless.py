@@ -114,10 +114,11 @@ def add_board_options(parser: argparse.ArgumentParser, example: Path, *,
     parser.add_argument(
         "--at", metavar="ROOM[:DEG]", default=default(None),
         help="the robot stands at ROOM's point (dock: on its dock), facing the room's "
-        "heading or DEG degrees: you say so, and it drives from there without a marker to "
-        "confirm it. Without it, a real robot's pose is only assumed (the one it was last "
-        "believed at, or the dock) until a marker confirms it, and no mission drives "
-        "from an assumed pose. Never put it in a service unit that restarts the daemon",
+        "heading or DEG degrees: you say so, and missions set off from there (with "
+        "markers in the plan they still look for one first, to confirm it). Without it, a "
+        "real robot's pose is only assumed (the one it was last believed at, or the dock) "
+        "until a marker confirms it, and no mission drives from an assumed pose. Never "
+        "put it in a service unit that restarts the daemon",
     )  # fmt: skip
     add_firmware_option(parser, after_command=after_command)
 
@@ -212,6 +213,7 @@ class HeadlessRobot:
         if port is None and args.at is not None:
             raise UsageError("--at: only on a real robot; the simulator's starts on its dock, "
                              "and --sim-start puts it elsewhere")  # fmt: skip
+        self.surveying = surveying is not None
         try:
             self.plan = load_floorplan(args.floorplan or example)
             if surveying is not None:
@@ -314,9 +316,9 @@ class HeadlessRobot:
             raise UsageError(f"--calibration: {error}") from None
         feed.shown = False  # nothing to draw: only the markers are wanted
         feed.pipeline.toggle("fast")  # on for the screen by default
-        found = find_the_robot(self.control, feed, self.plan)
-        self.control.note(f"camera: {feed.note}; {found}")
-        if not self.control.localisation.markers:
+        found = find_the_robot(self.control, feed, self.plan, self.surveying)
+        self.control.note(f"camera: {feed.note}" + (f"; {found}" if found else ""))
+        if not feed.listeners:  # nothing it could place
             feed.stop()
             return None
         return feed

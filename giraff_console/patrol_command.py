@@ -102,7 +102,8 @@ def run_patrol(args: argparse.Namespace, settings: Settings, port: str | None,
     try:
         # The first leg is planned here, before the loop starts (as `go` plans).
         run = _TimedPatrol(patrol, routes, log.reached, go=robot.drives.go,
-                           follow=robot.drives.follow, notify=robot.control.note)  # fmt: skip
+                           follow=robot.drives.follow, notify=robot.control.note,
+                           estimate=robot.control.estimate)  # fmt: skip
     except PatrolError as error:
         return fail(str(error), EXIT_USAGE)
     log.run = run

@@ -40,10 +40,12 @@ from giraff_console.missions.survey import (
     tour,
     write_surveyed,
 )
-from giraff_console.planning.floorplan import FloorPlanError, Landmarks
+from giraff_console.planning.floorplan import FloorPlanError, Landmarks, load_floorplan
 from giraff_console.planning.landmarks import DEFAULT_FAMILY
-from giraff_console.robot.localisation import start_covariance
+from giraff_console.robot.localisation import PoseBasis, start_covariance
 from giraff_console.robot.survey_log import SurveyLog
+from giraff_console.service.daemon import daemon_alive
+from giraff_console.service.runtime_folder import socket_path
 from giraff_console.settings import Settings
 
 
@@ -81,9 +83,15 @@ def add_survey_parser(commands: argparse._SubParsersAction, example: Path) -> No
 def run_survey(args: argparse.Namespace, settings: Settings, port: str | None,
                example: Path) -> int:  # fmt: skip
     """Survey, then write or print the markers; the exit code says how it went."""
+    if port is not None and daemon_alive(socket_path()):
+        return fail(f"the daemon at {socket_path()} has the robot: stop it first "
+                    "(giraff-console stop --daemon), then survey", EXIT_USAGE)  # fmt: skip
     try:
         robot = HeadlessRobot(args, settings, port, example, surveying=_surveying(args))
-    except UsageError as error:
+        # The plan as its file has it: the markers a survey of some rooms keeps, and
+        # their heights, which the camera cannot measure well.
+        given = load_floorplan(robot.plan.path)
+    except (UsageError, FloorPlanError) as error:
         return fail(str(error), EXIT_USAGE)
     plan = robot.plan
     assert plan.landmarks is not None  # HeadlessRobot gave it the markers to look for
@@ -98,6 +106,11 @@ def run_survey(args: argparse.Namespace, settings: Settings, port: str | None,
         return fail("a survey needs a camera that can place markers: --camera and "
                     "--calibration on a real robot", EXIT_USAGE)  # fmt: skip
     control = robot.control
+    if control.estimate().basis is PoseBasis.ASSUMED:
+        # Every marker is placed from where the robot is believed to be: a pose only
+        # read back from before a restart would put them all wrong.
+        return fail(f"a survey maps the markers from where the robot stands: put it on "
+                    f"its dock and say so with --at {plan.start}", EXIT_USAGE)  # fmt: skip
     start = robot.control.estimate().pose
     log = SurveyLog(start, control.odometry.wheel_base, start_cov=start_covariance())
     control.localisation.start_survey(log, [(wall.a, wall.b) for wall in plan_walls(plan)])
@@ -110,12 +123,14 @@ def run_survey(args: argparse.Namespace, settings: Settings, port: str | None,
     if not robot.run(mission, ended.append):
         return fail("no answer from the board", EXIT_FAILED)
     control.localisation.end_survey()
-    found = surveyed(plan, log, plan.landmarks.family, plan.landmarks.size)
+    found = surveyed(given, log, plan.landmarks.family, plan.landmarks.size)
     left_out = [leg.room for leg in mission.legs if leg.outcome is None or not leg.outcome.arrived]
     written = None
-    if not args.dry_run and found.landmarks.markers:
+    # A survey stopped part-way (Ctrl-C, the board gone) writes nothing: the markers it
+    # had seen are printed, and the plan stays as it was.
+    if not args.dry_run and ended == ["done"] and found.landmarks.markers:
         try:
-            written = write_surveyed(plan, found).path
+            written = write_surveyed(given, found, whole=rooms is None).path
         except (FloorPlanError, OSError, ValueError) as error:
             return fail(f"the markers were found but not written: {error}", EXIT_FAILED)
     report = _report(found, ended[0] if ended else "not run", left_out, written)

@@ -152,9 +152,10 @@ def _fit(points: np.ndarray, taken: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     squares): a point and a unit direction, a row each.
 
     The direction is the principal axis of the points' scatter, in closed form for two
-    dimensions (what an SVD gives)."""
+    dimensions (what an SVD gives). A row with none taken (a refit asks for every side,
+    and uses only those it needs) gets a line through the origin."""
     points = np.where(taken[..., None], points, 0.0)
-    middle = points.sum(axis=1) / taken.sum(axis=1)[:, None]
+    middle = points.sum(axis=1) / np.maximum(taken.sum(axis=1), 1)[:, None]
     x, y = np.moveaxis(np.where(taken[..., None], points - middle[:, None], 0.0), 2, 0)
     angle = 0.5 * np.arctan2(2 * (x * y).sum(axis=1), (x * x - y * y).sum(axis=1))
     return middle, np.stack([np.cos(angle), np.sin(angle)], axis=1)

@@ -154,6 +154,19 @@ def unverified(estimate: Estimate | None, retry: str) -> str | None:
             f"room's point, then {retry} again")  # fmt: skip
 
 
+def blind(estimate: Estimate | None, retry: str) -> str | None:
+    """Why a taught route replayed as it was driven must not start from this pose, if
+    it must not: no pose steers a replay, so a robot that is not where the route starts
+    drives it wherever it is (a daemon restarted from the pose it kept would have
+    replayed a night patrol from there). None once a marker has found the robot or the
+    operator has placed it."""
+    if estimate is None or estimate.found or estimate.basis.verified:
+        return None
+    return ("where the robot stands is only assumed, and a taught route replayed as it was "
+            "driven follows no pose: drive the robot to the route's start, type `place "
+            f"ROOM` there (or let a marker find it), then {retry} again")  # fmt: skip
+
+
 def moved(before: Pose, after: Pose) -> bool:
     """Whether a robot at `after` no longer stands where a plan made at `before` starts:
     further off than the executor's steering takes up without a swerve."""

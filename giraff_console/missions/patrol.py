@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from giraff_console.link.motor_state import MotorState
+from giraff_console.missions.certainty import blind
 from giraff_console.missions.docking import ChargingDetour, Recharge
 from giraff_console.missions.path_mission import PathMission
 from giraff_console.missions.route import Route
@@ -35,6 +36,7 @@ from giraff_console.missions.yaml_file import YamlFile, shown
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.protocol.codec import Command
 from giraff_console.protocol.errors import GiraffError
+from giraff_console.robot.localisation import Estimate
 from giraff_console.robot.mission import Mission, Outcome, Progress
 from giraff_console.robot.odometry import Pose
 
@@ -179,6 +181,7 @@ class PatrolRun:
         recharge: Recharge | None = None,
         pose: Callable[[], Pose] | None = None,
         notify: Callable[[str], None] = lambda text: None,
+        estimate: Callable[[], Estimate] | None = None,
     ) -> None:
         needed = {stop.route for stop in patrol.stops if stop.route is not None}
         missing = sorted(needed - routes.keys())
@@ -196,6 +199,7 @@ class PatrolRun:
         self._on_stop = on_stop
         self._go, self._follow = go, follow
         self._recharge, self._pose, self._notify = recharge, pose, notify
+        self._estimate = estimate
         # (round, stop index) for every stop of every round, in the order they are made.
         self._legs = [(n, i) for n in range(1, patrol.rounds + 1) for i in range(len(patrol.stops))]
         self._leg = 0
@@ -240,6 +244,9 @@ class PatrolRun:
         if stop.follow:
             assert self._follow is not None
             return self._follow(route)
+        refusal = blind(self._estimate() if self._estimate else None, f"patrol {self.name}")
+        if refusal is not None:
+            raise PlanningError(f"route {route.name}: {refusal}")
         return RouteReplay(route)
 
     def step(self, now: float, state: MotorState | None) -> list[Command]:

@@ -237,7 +237,8 @@ class RouteBook:
             control = self.control
             run = PatrolRun(patrol, routes, lambda stop: log.reached(stop, control.pose),
                             go=go, follow=self.drives.follow, recharge=self._recharge(),
-                            pose=lambda: control.pose, notify=self.report)  # fmt: skip
+                            pose=lambda: control.pose, notify=self.report,
+                            estimate=control.estimate)  # fmt: skip
         except PatrolError as error:
             self.report(str(error))
             return False

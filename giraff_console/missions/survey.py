@@ -65,9 +65,10 @@ def tour(plan: FloorPlan, rooms: list[str] | None = None) -> list[str]:
 
 
 class LookRound:
-    """A Mission: a full turn on the spot in quarter turns, still for STILL_S after each,
-    so that the camera sees every wall of the room (the survey's graph is best held
-    where each room's markers are seen from one place: pose_graph's docs)."""
+    """A Mission: looking four ways on the spot, three quarter turns apart, still for
+    STILL_S at each, so that the camera's 90 degrees see every wall of the room (the
+    survey's graph is best held where each room's markers are seen from one place:
+    pose_graph's docs)."""
 
     def __init__(self, pose: Callable[[], Pose], limits: MotionLimits, tick: float) -> None:
         self.name = "look round"
@@ -220,7 +221,8 @@ def plan_walls(plan: FloorPlan) -> list[Wall]:
 
 def surveyed(plan: FloorPlan, log: SurveyLog, family: str, size: float) -> Surveyed:
     """The markers of a finished survey: solved on the plan's walls (a few seconds of
-    CPU for a large building: not for the control loop's thread)."""
+    CPU for a large building: not for the control loop's thread). A marker the plan
+    has keeps its height, which the camera cannot measure well."""
     result = solve_on_walls(log.survey(), plan_walls(plan))
     heights = {marker.id: marker.height for marker in plan.landmarks.markers} \
         if plan.landmarks else {}  # fmt: skip
@@ -233,9 +235,10 @@ def surveyed(plan: FloorPlan, log: SurveyLog, family: str, size: float) -> Surve
             left_out[marker_id] = "never seen square enough to tell which way it faces"
             continue
         pose = found.pose
+        # As a file holds them: millimetres, tenths of a degree in [0, 360), no -0.
         markers.append(Marker(
-            marker_id, (round(pose.x, 3), round(pose.y, 3)),
-            heights.get(marker_id, DEFAULT_HEIGHT_M), round(math.degrees(pose.heading) % 360, 1),
+            marker_id, (round(pose.x, 3) + 0.0, round(pose.y, 3) + 0.0),
+            heights.get(marker_id, DEFAULT_HEIGHT_M), round(math.degrees(pose.heading), 1) % 360,
             (round(max(found.sigma_m, 0.001), 3),
              round(max(math.degrees(found.sigma_facing), 0.1), 1)),
         ))  # fmt: skip
@@ -243,7 +246,14 @@ def surveyed(plan: FloorPlan, log: SurveyLog, family: str, size: float) -> Surve
                     result)  # fmt: skip
 
 
-def write_surveyed(plan: FloorPlan, found: Surveyed) -> FloorPlan:
-    """The surveyed markers written into the plan's file (its other markers replaced:
-    the survey saw what is on the walls now); the plan read back."""
-    return write_landmarks(plan, found.landmarks)
+def write_surveyed(plan: FloorPlan, found: Surveyed, whole: bool) -> FloorPlan:
+    """The surveyed markers written into the plan's file; the plan read back. A survey
+    of the `whole` building replaces the plan's other markers (it saw what is on the
+    walls now); one of some rooms keeps those it did not see."""
+    landmarks = found.landmarks
+    if not whole and plan.landmarks is not None:
+        seen = {marker.id for marker in landmarks.markers}
+        kept = [marker for marker in plan.landmarks.markers if marker.id not in seen]
+        markers = tuple(sorted((*landmarks.markers, *kept), key=lambda marker: marker.id))
+        landmarks = Landmarks(landmarks.family, landmarks.size, markers)
+    return write_landmarks(plan, landmarks)

@@ -150,7 +150,7 @@ class Executor:
         self._still_since: tuple[float, tuple[float, float]] | None = None
         self._progress = 0.0
         self._plan_time = 0.0  # where the present section's profile is, in its own time
-        self._pull = 0.0  # how far the last tick moved the profile's clock towards the robot
+        self._pull = 0.0  # how much faster than time the profile's clock runs, towards the robot
         self._plan_clock: float | None = None  # when _plan_time was last advanced
         self._creep_since: float | None = None  # when the profile ran out short of the end
         self._creep_plan: Profile | None = None  # the move over what it left
@@ -462,10 +462,9 @@ class Executor:
         if self._plan_clock is None:
             self._plan_time = 0.0
             self._pull = 0.0
-        else:
+        elif now > self._plan_clock:
             dt = now - self._plan_clock
-            self._plan_time += dt
-            wanted = PLAN_PULL * (profile.time_at(done) - self._plan_time)
+            wanted = PLAN_PULL * (profile.time_at(done) - self._plan_time - dt) / dt
             # The pull is a second clock on top of the profile's, and it adds jerk two
             # ways: running the clock a fraction f faster scales the profile's own jerk
             # by (1 + f)^2 (the speed's third derivative in the clock's time, twice
@@ -475,14 +474,15 @@ class Executor:
             # what the jerk left spare (JERK_SPARE) then allows. Without this, a robot a
             # centimetre ahead of its profile in the last decimetres before it stops (a
             # marker's correction, issue 25), where a millimetre is a long time, was
-            # pulled into a jerk of 3.8 m/s^3, and setting off into 1.04.
+            # pulled into a jerk of 3.8 m/s^3, and setting off into 1.04. The pull is a
+            # rate, not so much a tick: a tick the executor was not stepped (its mission
+            # busy with something else) would otherwise halve it, a step of 1.03.
             _, _, accel = profile.at(self._plan_time)
-            spare = (1 - JERK_SPARE * (1 + PULL_MAX) ** 2) * self.limits.j_max * dt * dt
+            spare = (1 - JERK_SPARE * (1 + PULL_MAX) ** 2) * self.limits.j_max * dt
             step = spare / max(abs(accel), PULL_ACCEL_FLOOR)
-            bound = PULL_MAX * dt
-            wanted = max(-bound, min(bound, wanted))
+            wanted = max(-PULL_MAX, min(PULL_MAX, wanted))
             self._pull = max(self._pull - step, min(self._pull + step, wanted))
-            self._plan_time += self._pull
+            self._plan_time += dt * (1 + self._pull)
         self._plan_clock = now
         return self._plan_time
 

@@ -18,8 +18,8 @@ Why a frame is moved to the present before it corrects anything
 
 No starting guess
     Where the robot starts is only ever as good as whoever said so, and the estimate
-    says who did (`PoseBasis`): a marker, the dock's charging contacts, the operator
-    (`place`, or a simulator started on its dock), or nobody (the pose kept on disk by
+    says who did (`PoseBasis`): a marker, the operator (`place`, or a simulator
+    started on its dock), or nobody (the pose kept on disk by
     a daemon that was restarted, or the dock merely assumed: `ASSUMED`). An assumed
     pose is never driven on beyond a look for a marker (missions/path_mission.py,
     issue 25). With markers, a start is not evidence either: until a marker has
@@ -108,7 +108,6 @@ class PoseBasis(enum.Enum):
     """Who last said where the robot is; see the module docstring."""
 
     MARKER = "marker"  # a marker placed or confirmed it
-    DOCK = "dock"  # the charger's contacts: the robot stands on its dock
     GIVEN = "given"  # the operator: `place`, or a simulator started on its dock
     ASSUMED = "assumed"  # nobody: kept on disk by a restarted daemon, or the dock assumed
 
@@ -280,7 +279,7 @@ class Localisation:
 
     def place(self, pose: Pose, covariance: np.ndarray | None = None,
               basis: PoseBasis = PoseBasis.ASSUMED) -> None:  # fmt: skip
-        """The robot is at `pose`, as `basis` says (the operator, the dock, or only an
+        """The robot is at `pose`, as `basis` says (the operator, or only an
         assumption: the console starting, a daemon restarted from the pose it kept): the
         odometry and the estimate start again from there."""
         self.odometry.reset(pose, self.odometry.reference)

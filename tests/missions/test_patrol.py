@@ -17,6 +17,8 @@ from giraff_console.missions.patrol import (
 from giraff_console.missions.route import Route, TimedCommand
 from giraff_console.protocol.codec import parse_command
 from giraff_console.protocol.mode import ModeBit
+from giraff_console.robot.localisation import Estimate, PoseBasis
+from giraff_console.robot.odometry import Pose
 
 TICK = 0.1
 # The made-up robot keeps moving this long after each `set p`.
@@ -238,3 +240,28 @@ def test_a_paused_patrol_pauses_the_route_it_is_driving(tmp_path):
     assert run.next_due() == pytest.approx(32.0)
     assert [c.text for c in run.step(31.0, None)] == ["set v 0.3"]  # the settings, restored
     assert [c.text for c in run.step(32.0, None)] == ["set p 0.2"]
+
+
+def estimate(basis: PoseBasis, found: bool = False) -> Estimate:
+    pose = Pose(0.0, 0.0, 0.0)
+    covariance = ((0.0025, 0.0, 0.0), (0.0, 0.0025, 0.0), (0.0, 0.0, 0.003))
+    return Estimate(pose, pose, covariance, 0.05, 0.05, (0.05, 0.05, 0.0), found=found,
+                    basis=basis)  # fmt: skip
+
+
+@pytest.mark.parametrize(("basis", "found", "drives"), [
+    (PoseBasis.ASSUMED, False, False),  # a daemon restarted from the pose it kept
+    (PoseBasis.ASSUMED, True, True),  # a marker has found it since
+    (PoseBasis.GIVEN, False, True),  # the operator placed it
+])  # fmt: skip
+def test_a_taught_route_is_never_replayed_from_a_pose_only_assumed(tmp_path, basis, found,
+                                                                  drives):  # fmt: skip
+    run = PatrolRun(rounds(tmp_path, 1), ROUTES, estimate=lambda: estimate(basis, found))
+    robot = Robot(run)
+    robot.run_until(30.0)
+    if drives:
+        assert run.finished and run.problem is None and robot.sent
+    else:
+        assert not robot.sent
+        assert run.problem is not None and "only assumed" in run.problem
+        assert "hall-to-kitchen" in run.problem
