@@ -121,6 +121,12 @@ def sure(estimate: Estimate) -> bool:
     return estimate.sigma_m <= SLOW_SIGMA_M
 
 
+def found_again(estimate: Estimate) -> bool:
+    """Known well enough to drive on, by a marker seen since the robot touched
+    something: what a look after a contact is for."""
+    return sure(estimate) and not estimate.contact
+
+
 def confirmed(estimate: Estimate) -> bool:
     """Known well enough to say the robot has arrived: within the arrival bounds, on a
     marker's fix no staler than FIX_FRESH_M, with no contact since."""

@@ -60,6 +60,7 @@ from giraff_console.missions.certainty import (
     REAPPROACH_M,
     SLOW_FRACTION,
     confirmed,
+    found_again,
     how_lost,
     lost,
     lost_again,
@@ -141,6 +142,14 @@ class Stage(enum.Enum):
     LOOKING = "looking for a marker"
     TURNING = "turning to the room's heading"
     ENDED = "ended"
+
+
+class LookFor(enum.Enum):
+    """Why a mission looks for a marker, and so when it has seen enough."""
+
+    LOST = "lost"  # known too loosely to drive on: until it is sure again
+    CONTACT = "contact"  # touched something: until a marker has fixed the pose since
+    ARRIVAL = "arrival"  # at the goal: until the estimate is within the arrival bounds
 
 
 # The stages the progress watch's time limit ends: a look for a marker and a recovery
@@ -242,7 +251,7 @@ class PathMission:
         landmarks = navigator.plan.landmarks if navigator else None
         self._marker_size = landmarks.size if landmarks else STANDARD_SIZE_M
         self._look: Look | None = None
-        self._look_kind = "lost"
+        self._look_for = LookFor.LOST
         self._begun = False  # the first step has judged whether it may set off
         self._set_off = False  # the robot has been commanded to move
         # With markers to find the robot by, plans are slowed where it will be unsure:
@@ -479,14 +488,18 @@ class PathMission:
         if look.outcome is LookOutcome.NOT_FOUND and estimate.lost:
             self._end(Outcome.LOST, lost(estimate, self.retry))
             return []
-        if self._look_kind == "arrival":
+        if self._look_for is LookFor.ARRIVAL:
             if look.outcome is LookOutcome.NOT_FOUND:
                 self.notify(f"{self.name}: no marker in sight to confirm the arrival "
                             f"(±{estimate.sigma_m:.2f} m)")  # fmt: skip
             self._as_known = look.outcome is not LookOutcome.FOUND  # no use looking again
             return [*commands, *self._arrive(tick)]
-        seen = ", ".join(str(i) for i in estimate.seen) or "a marker"
-        self.notify(f"{self.name}: found by {seen}, ±{estimate.sigma_m:.2f} m; carrying on")
+        if look.outcome is LookOutcome.NOT_FOUND:
+            self.notify(f"{self.name}: no marker in sight, ±{estimate.sigma_m:.2f} m; "
+                        "carrying on")  # fmt: skip
+        else:
+            seen = ", ".join(str(i) for i in estimate.seen) or "a marker"
+            self.notify(f"{self.name}: found by {seen}, ±{estimate.sigma_m:.2f} m; carrying on")
         if not self._set_off and self._arrived_already(tick.pose):
             self._started = self._ended = tick.now
             self._end(Outcome.ARRIVED if trusted(estimate) else Outcome.ARRIVED_UNVERIFIED,
@@ -594,20 +607,22 @@ class PathMission:
         if self._progress_watch.out_of_looks():
             self._end(Outcome.LOST, lost_again(tick.pose, self._progress_watch.looks, self.retry))
             return []
-        self._start_look(estimate, None, "lost")
+        self._start_look(estimate, None, LookFor.LOST)
         return self._looking(tick)
 
-    def _start_look(self, estimate: Estimate, prefer: float | None, kind: str) -> None:
-        """LOOKING: `kind` "lost" until the estimate is back under the slow bound,
-        "arrival" until it is within the arrival bounds."""
+    def _start_look(self, estimate: Estimate, prefer: float | None, kind: LookFor) -> None:
+        """LOOKING, until what `kind` looks for has been seen (LookFor)."""
         walls = self.navigator.sight_walls() if self.navigator is not None else []
-        if kind == "arrival":
+        if kind is LookFor.ARRIVAL:
             why = f"arrived, known to ±{estimate.sigma_m:.2f} m: looking for a marker"
             enough = confirmed
+        elif kind is LookFor.CONTACT:
+            why = "touched something: looking for a marker to know where it is again"
+            enough = found_again
         else:
             why = f"{how_lost(estimate)}: looking for a marker"
             enough = sure
-        self._look_kind = kind
+        self._look_for = kind
         self._look = Look(estimate, self._markers, walls, limits=self.limits, tick=self.tick,
                           enough=enough, prefer=prefer, why=why,
                           size=self._marker_size)  # fmt: skip
@@ -654,15 +669,19 @@ class PathMission:
 
     def _after_contact(self, tick: Tick) -> list[Command]:
         """Clear of the contact: put it on the grid if something unknown is there
-        (recovery.py), look for a marker if the estimate is no longer sure, then plan
-        again."""
+        (recovery.py), look for a marker until one has fixed the pose since (with
+        markers in the plan), then plan again. A contact is something the filter did
+        not see coming: most often the casters turned the robot further than expected
+        after a turn on the spot (§3.2.1.5), and a robot whose heading was 23 degrees
+        off what it believed touched the same box three times over, planning each try
+        from the heading it believed (issue 25's scanned home)."""
         contact = self._recovery.contacts[-1]
         if contact.unknown_obstacle and self.navigator is not None:
             self.navigator.report_obstacles([contact.point], margin=FELT_EXTENT_M)
             self._felt.append(contact.point)
         estimate = tick.estimate
-        if estimate is not None and not sure(estimate):
-            self._start_look(estimate, None, "lost")
+        if estimate is not None and self._markers and estimate.contact:
+            self._start_look(estimate, None, LookFor.CONTACT)
             return self._looking(tick)
         return self._plan_again(tick)
 
@@ -750,7 +769,7 @@ class PathMission:
         # The look or the new approach is not the way getting no nearer.
         self._progress_watch.restart(tick.now)
         if not known:
-            self._start_look(estimate, heading, "arrival")
+            self._start_look(estimate, heading, LookFor.ARRIVAL)
             return self._looking(tick)
         if off > near:
             self.notify(f"{self.name}: {off:.2f} m off the goal by the markers; coming in again")

@@ -363,10 +363,12 @@ class Localisation:
             if note is not None:
                 self.report(note)
             return present
-        if present.distance_m > self._facing_reach and present.facing_rad is not None:
+        far = present.distance_m > self._facing_reach
+        if far and self.found and present.facing_rad is not None:
             # Far off, a marker's facing is the weak part of its pose, and not only
             # noisy (camera/marker_reach.py); its distance and bearing are good to
-            # centimetres and hundredths of a degree there.
+            # centimetres and hundredths of a degree there. A robot not found yet keeps
+            # it: placing the robot needs it, and only a marker within reach places.
             present = replace(present, facing_rad=None)
         near = present.distance_m <= self._place_reach
         if not self.found and not near:
