@@ -37,8 +37,8 @@ from giraff_console.clock import Clock, RealClock
 from giraff_console.data_folders import default_recordings, default_routes
 from giraff_console.missions.docking import DOCK
 from giraff_console.missions.drive_setup import DriveSetup
+from giraff_console.missions.lookout import Sense
 from giraff_console.missions.navigation import Navigator
-from giraff_console.missions.path_mission import Sense
 from giraff_console.planning.floorplan import FloorPlan, FloorPlanError, Landmarks, load_floorplan
 from giraff_console.planning.landmarks import fit_on_walls, marker_beliefs, marker_walls
 from giraff_console.planning.route_planner import walls_of

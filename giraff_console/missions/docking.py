@@ -25,8 +25,9 @@ from dataclasses import dataclass
 from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.certainty import trusted, unverified
 from giraff_console.missions.go_to import GoReport, GoTo, go_report
+from giraff_console.missions.lookout import Sense
 from giraff_console.missions.navigation import Navigator
-from giraff_console.missions.path_mission import Course, PathMission, Sense
+from giraff_console.missions.path_mission import Course, PathMission
 from giraff_console.missions.progress_watch import Patience
 from giraff_console.motion.shaping import TurnLimits
 from giraff_console.motion.speed_profile import MotionLimits

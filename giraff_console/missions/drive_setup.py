@@ -16,8 +16,8 @@ from dataclasses import KW_ONLY, dataclass
 from giraff_console.missions.docking import GoToPose, go_mission
 from giraff_console.missions.follow_route import FollowRoute
 from giraff_console.missions.go_to import GoTo
+from giraff_console.missions.lookout import Sense
 from giraff_console.missions.navigation import Navigator
-from giraff_console.missions.path_mission import Sense
 from giraff_console.missions.progress_watch import Patience
 from giraff_console.missions.route import Route
 from giraff_console.motion.speed_profile import MotionLimits

@@ -15,8 +15,9 @@ import math
 from collections.abc import Callable
 from itertools import pairwise
 
+from giraff_console.missions.lookout import LOOKOUT_M, Sense
 from giraff_console.missions.navigation import Navigator
-from giraff_console.missions.path_mission import LOOKOUT_M, Course, PathMission, Sense
+from giraff_console.missions.path_mission import Course, PathMission
 from giraff_console.missions.progress_watch import Patience
 from giraff_console.missions.route import Route
 from giraff_console.motion.shaping import TurnLimits

@@ -13,8 +13,9 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from giraff_console.missions.lookout import Sense
 from giraff_console.missions.navigation import Navigator
-from giraff_console.missions.path_mission import Course, PathMission, Sense
+from giraff_console.missions.path_mission import Course, PathMission
 from giraff_console.missions.progress_watch import Patience
 from giraff_console.motion.path import wrap
 from giraff_console.motion.shaping import TurnLimits

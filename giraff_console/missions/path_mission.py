@@ -11,12 +11,13 @@ The mission is a small state machine (issue 25, item 4): at every moment it is i
 recoveries.
 
 - DRIVING: the executor drives the plan. The range finder's obstacles go into the grid
-  and the D* Lite planner of the leg under way replans incrementally (§2.6.4).
+  and the D* Lite planner of the leg under way replans incrementally (§2.6.4;
+  lookout.py). At the plan's end, arrival.py says whether it has arrived.
 - STOPPING: a jerk-limited stop along the path, then what comes next: a new plan round
   something in the way or a door shut on the route, a look for a marker, or the end.
 - HALTING: a stop at once, after a contact (a stall: §2.3.2); then BACKING_OFF.
-- BACKING_OFF: straight back the way it came, then, with markers, a look if the contact
-  left the estimate unsure, and a new plan (recovery.py says why in that order).
+- BACKING_OFF: straight back the way it came, then, with markers, a look until one has
+  fixed the pose again, and a new plan (recovery.py says why in that order).
 - LOOKING: turning on the spot to find a marker (localising.py): before setting off from
   a pose no marker has confirmed, when lost, and before claiming an arrival.
 - TURNING: at the goal, on the spot to the room's heading.
@@ -28,7 +29,7 @@ never sets off from a pose that only an assumption vouches for (a restarted daem
 a console's first): with markers it looks first, without any it does not start. Unsure,
 it drives slower; lost, it stops, looks, and plans again from where the marker says it
 is; and it claims ARRIVED only on a fresh marker fix within the arrival bounds, else
-ARRIVED_UNVERIFIED, with the metres driven on the odometry alone. Its turns on the spot
+ARRIVED_UNVERIFIED, with the metres driven on the odometry alone (arrival.py). Its turns on the spot
 are steered as steady_turn.py says.
 
 A mission that fails brings the robot to rest first and then reports its problem, so
@@ -45,19 +46,11 @@ import enum
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from itertools import pairwise
-from typing import Protocol
-
-import numpy as np
 
 from giraff_console.camera.marker_reach import STANDARD_SIZE_M
 from giraff_console.link.motor_state import MotorState
+from giraff_console.missions.arrival import Arrival, Verdict, by_odometry
 from giraff_console.missions.certainty import (
-    AFTER_REAPPROACH_M,
-    ARRIVAL_TRIES,
-    NEAR_ENOUGH_HEADING,
-    NEAR_ENOUGH_M,
-    REAPPROACH_M,
     SLOW_FRACTION,
     confirmed,
     found_again,
@@ -73,16 +66,16 @@ from giraff_console.missions.certainty import (
 )
 from giraff_console.missions.localising import Look
 from giraff_console.missions.localising import Outcome as LookOutcome
+from giraff_console.missions.lookout import Lookout, Sense
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.progress_watch import Patience, ProgressWatch
 from giraff_console.missions.recovery import FELT_EXTENT_M, MAX_CONTACTS, Recovery
 from giraff_console.missions.steady_turn import SteadyTurn
 from giraff_console.motion.executor import Executor, Trace
 from giraff_console.motion.path import Drive, Reverse, Rotation, Section, wrap
-from giraff_console.motion.shaping import ALIGNED_RAD, TurnLimits, shape
+from giraff_console.motion.shaping import TurnLimits, shape
 from giraff_console.motion.speed_profile import MotionLimits, SlowZone
 from giraff_console.planning.landmarks import marker_poses
-from giraff_console.planning.legs import Leg
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.planning.route_planner import PlannedPath
 from giraff_console.protocol.codec import Command
@@ -94,29 +87,10 @@ from giraff_console.robot.safety import stop_commands
 Point = tuple[float, float]
 
 
-class Scan(Protocol):
-    """One sweep of a range finder, as a LIDAR's scan message has it: each beam's
-    (distance, bearing) in the robot's frame, bearing positive left; a distance beyond
-    `range_max` (ROS REP 117's +inf) says the beam met nothing within range."""
-
-    @property
-    def range_max(self) -> float: ...
-
-    @property
-    def beams(self) -> Sequence[tuple[float, float]]: ...
-
-
-Sense = Callable[[], Scan]
-
-# How far along the path ahead sensed obstacles are looked for.
-LOOKOUT_M = 3.0
 # A doorway is passed slowly this far either side of its centre.
 DOOR_ZONE_M = 0.4
 # After this long without progress, the progress line says so instead of an ETA.
 SHOW_STILL_S = 5.0
-# Leaving the margin round a sensed obstacle, the path may come this much closer to it:
-# the samples of a path along the obstacle's side wobble by a few millimetres.
-MARGIN_TOLERANCE_M = 0.01
 # Sensed obstacles this close to the robot are what a stuck mission names as the cause.
 CAUSE_NEAR_M = 1.5
 # Halting after a contact, the stop is sent again this often while the board still
@@ -223,7 +197,7 @@ class PathMission:
         self.turn_limits = turn_limits or TurnLimits()
         self.tick = tick
         self._pose = pose
-        self._sense = sense if navigator is not None else None
+        self._lookout = Lookout(navigator, sense) if navigator and sense else None
         self.problem: str | None = None
         # How it ended, once it has (robot/mission.py), and the words for it.
         self.outcome: Outcome | None = None
@@ -242,8 +216,6 @@ class PathMission:
         self._failing = False  # coming to rest to end (`_fail`)
         # The traces of the plans driven before the present one (after replanning).
         self._traces: list[Trace] = []
-        self._leg: Leg | None = None
-        self._leg_index = -1
         self._estimate = estimate
         self._touched = touched
         # The markers a look turns to: those known well enough to find the robot by.
@@ -260,11 +232,7 @@ class PathMission:
         self._minding = False
         self._unsure_start = False
         self._turned = False
-        self._arrival_tries = 0
-        self._came_in_again = False  # so it settles within AFTER_REAPPROACH_M
-        # Arriving, the estimate is taken as it is: a look found no better, or the plan
-        # under way is the turn to the goal's heading after one.
-        self._as_known = False
+        self._arrival = Arrival()
         self._steady_turn = SteadyTurn()
         self._recovery = Recovery(navigator.planner.robot_radius if navigator else 0.3)
         self._felt: list[Point] = []  # contacts it put on the grid (recovery.py)
@@ -323,7 +291,7 @@ class PathMission:
         estimate = raw if raw is not None and raw.landmarks else None
         self._mind_the_estimate(estimate)
         tick = Tick(now, state, pose, estimate)
-        if self._sense is not None:
+        if self._lookout is not None:
             self._watch(tick)
         if self._stage is Stage.DRIVING:
             self._interrupt(tick)
@@ -349,7 +317,7 @@ class PathMission:
             return
         self._drop_look()  # a look, if it still must, starts again from the stop
         self.executor.abandon()
-        self._approach_anew()  # it may have been driven anywhere by hand meanwhile
+        self._arrival.anew()  # it may have been driven anywhere by hand meanwhile
         self._progress_watch.restart(now)
         self._stop_then(now, "resuming", self._plan_again)
 
@@ -492,7 +460,7 @@ class PathMission:
             if look.outcome is LookOutcome.NOT_FOUND:
                 self.notify(f"{self.name}: no marker in sight to confirm the arrival "
                             f"(±{estimate.sigma_m:.2f} m)")  # fmt: skip
-            self._as_known = look.outcome is not LookOutcome.FOUND  # no use looking again
+            self._arrival.looked(look.outcome is LookOutcome.FOUND)
             return [*commands, *self._arrive(tick)]
         if look.outcome is LookOutcome.NOT_FOUND:
             self.notify(f"{self.name}: no marker in sight, ±{estimate.sigma_m:.2f} m; "
@@ -651,7 +619,7 @@ class PathMission:
             f"{self.name}: touched something at {where}; backing off to try again "
             f"(contact {self._recovery.in_a_row} of {MAX_CONTACTS})"
         )
-        self._approach_anew()
+        self._arrival.anew()
         self._progress_watch.restart(tick.now)
         self._stage, self._then = Stage.HALTING, self._back_off
         return self._halting(tick)
@@ -697,7 +665,7 @@ class PathMission:
                 # The operator shut a door on the route: round it, from a stop.
                 self.notify(f"{self.name}: {', '.join(sorted(closed & set(self._doors)))} "
                             "closed on the route; stopping to go round")  # fmt: skip
-                self._approach_anew()
+                self._arrival.anew()
                 self._stop_then(tick.now, "a door closed on the route", self._plan_again)
                 return
         estimate = tick.estimate
@@ -727,87 +695,40 @@ class PathMission:
     # -- arriving -----------------------------------------------------------------------
 
     def _arrive(self, tick: Tick) -> list[Command]:
-        """The plan is driven. With markers the robot has arrived once the estimate is
-        confirmed (certainty.py) and at the goal (else it looks, comes in again, or
-        turns to the goal's heading); having come in again, it settles within
-        AFTER_REAPPROACH_M; after ARRIVAL_TRIES of those it settles for what it has,
-        unconfirmed, and says so. Without markers it arrives unconfirmed at once."""
+        """The plan is driven: arrived, or what arrival.py says to do first."""
         estimate, pose = tick.estimate, tick.pose
-        goal, heading = self._goal
-        off = math.dist((pose.x, pose.y), goal)
-        near = AFTER_REAPPROACH_M if self._came_in_again else REAPPROACH_M
-        turned = heading is not None and abs(wrap(heading - pose.heading)) > ALIGNED_RAD
         if estimate is None:
-            self._end(Outcome.ARRIVED_UNVERIFIED, self._by_odometry())
+            raw = self._estimate() if self._estimate is not None else None
+            self._end(Outcome.ARRIVED_UNVERIFIED, by_odometry(raw))
             return []
-        # The turn to the goal's heading after a look adds only the wheels' error over
-        # that turn, which looking again, turning away and back, would not take out.
-        known = self._as_known or confirmed(estimate)
-        if known and off <= near and not turned:
-            if trusted(estimate):
-                self._end(Outcome.ARRIVED, "arrived")
-            else:
-                self._end(Outcome.ARRIVED_UNVERIFIED, self._unconfirmed(estimate))
+        goal, heading = self._goal
+        judged = self._arrival.judge(pose, estimate, goal, heading)
+        verdict = judged.verdict
+        if verdict is Verdict.GIVE_UP:
+            return self._fail(tick, Outcome.BLOCKED, f"{judged.detail}; drive the robot "
+                              f"there by hand, or type {self.retry} again")  # fmt: skip
+        if verdict in (Verdict.ARRIVED, Verdict.UNCONFIRMED):
+            if judged.settled:
+                self.notify(f"{self.name}: arrived as near as it could, {judged.off:.2f} m "
+                            f"off by the estimate, known to ±{estimate.sigma_m:.2f} m")  # fmt: skip
+            outcome = Outcome.ARRIVED if verdict is Verdict.ARRIVED else Outcome.ARRIVED_UNVERIFIED
+            self._end(outcome, judged.detail)
             return []
-        if self._arrival_tries >= ARRIVAL_TRIES:
-            askew = 0.0 if heading is None else abs(wrap(heading - pose.heading))
-            if off > NEAR_ENOUGH_M or askew > NEAR_ENOUGH_HEADING:
-                return self._fail(tick, Outcome.BLOCKED, (
-                    f"could not get nearer than {off:.2f} m and {math.degrees(askew):.0f}° "
-                    f"to the goal (by the estimate, known to ±{estimate.sigma_m:.2f} m) "
-                    f"after {ARRIVAL_TRIES} tries; drive the robot there by hand, or type "
-                    f"{self.retry} again"))  # fmt: skip
-            self.notify(f"{self.name}: arrived as near as it could, {off:.2f} m off by the "
-                        f"estimate, known to ±{estimate.sigma_m:.2f} m")  # fmt: skip
-            if trusted(estimate):
-                self._end(Outcome.ARRIVED, "arrived as near as it could")
-            else:
-                self._end(Outcome.ARRIVED_UNVERIFIED, self._unconfirmed(estimate))
-            return []
-        self._arrival_tries += 1
-        self._as_known = False
         # The look or the new approach is not the way getting no nearer.
         self._progress_watch.restart(tick.now)
-        if not known:
+        if verdict is Verdict.LOOK:
             self._start_look(estimate, heading, LookFor.ARRIVAL)
             return self._looking(tick)
-        if off > near:
-            self.notify(f"{self.name}: {off:.2f} m off the goal by the markers; coming in again")
-            self._came_in_again = True
+        if verdict is Verdict.COME_IN_AGAIN:
+            self.notify(f"{self.name}: {judged.detail}; coming in again")
             self._replan(pose, estimate, turned=True)
             return []
-        assert heading is not None
+        assert heading is not None  # Verdict.TURN
         self._traces.append(self.executor.trace)
         turn = Rotation(pose, wrap(heading - pose.heading))
         self.executor = Executor([turn], self.limits, self.tick)
         self._stage = Stage.TURNING
-        self._as_known = True
         return []
-
-    def _by_odometry(self) -> str:
-        raw = self._estimate() if self._estimate is not None else None
-        if raw is None:
-            return "arrived by the odometry alone"
-        return (
-            f"arrived by the odometry alone: {raw.since_fix_m:.1f} m driven since "
-            f"{'a marker' if raw.found else 'the start'} last said where it was"
-        )
-
-    @staticmethod
-    def _unconfirmed(estimate: Estimate) -> str:
-        contact = ", touched something since" if estimate.contact else ""
-        return (
-            f"arrived, unconfirmed: known to ±{estimate.sigma_m:.2f} m and "
-            f"±{math.degrees(estimate.sigma_heading):.1f}°, "
-            f"{estimate.since_fix_m:.1f} m driven since a marker last corrected it"
-            f"{contact}"
-        )
-
-    def _approach_anew(self) -> None:
-        """A way round, or from wherever it was driven by hand, is a new approach: its
-        arrival is judged afresh, with all its tries."""
-        self._arrival_tries = 0
-        self._came_in_again = False
 
     # -- planning -----------------------------------------------------------------------
 
@@ -848,15 +769,10 @@ class PathMission:
     def _stuck(self, pose: Pose, how: str) -> str:
         """Why the mission gives up (`how`, where `{}` is put where the robot is), and
         what the operator can do about it."""
-        near = self._sensed_near(pose, CAUSE_NEAR_M)
+        near = self._lookout is not None and self._lookout.sensed_near(pose, CAUSE_NEAR_M)
         cause = "something blocks the way" if near else "nothing seen, but no progress"
         where = how.format(f"({pose.x:.1f}, {pose.y:.1f})")
         return f"{where}: {cause}; clear the way and type {self.retry} again, or drive by hand"
-
-    def _sensed_near(self, pose: Pose, reach: float) -> bool:
-        """Whether the range finder has seen anything within `reach` of `pose`."""
-        sensed = self.navigator.state.obstacles if self.navigator is not None else ()
-        return any(math.dist((pose.x, pose.y), point) <= reach for point in sensed)
 
     def _plan(self, pose: Pose) -> Executor:
         course = self._course(pose)
@@ -869,7 +785,8 @@ class PathMission:
         self._goal = (course.points[-1], course.goal_heading)
         self._doors = course.doors
         self._closed = self.navigator.state.closed if self.navigator is not None else frozenset()
-        self._leg, self._leg_index = None, -1
+        if self._lookout is not None:
+            self._lookout.new_plan(course.planned)
         plan = self.navigator.plan if self.navigator is not None else None
         doors = [door.at for door in plan.doors if door.id in course.doors] if plan else []
         self._sections, self._door_points = sections, doors
@@ -893,114 +810,20 @@ class PathMission:
         self._total = executor.remaining()
         return executor
 
-    # -- sensing ------------------------------------------------------------------------
+    # -- sensing (lookout.py) -----------------------------------------------------------
 
     def _watch(self, tick: Tick) -> None:
-        """Put what the range finder sees into the grid, and take out what its beams now
-        see through (while stopping too, so that the new plan knows all it can); if the
-        grid now blocks the path ahead, stop and plan again (D* Lite across this room,
-        else the room graph)."""
-        assert self._sense is not None and self.navigator is not None
+        """The range finder's sweep into the grid (while stopping too, so that the new
+        plan knows all it can); if the grid now blocks the path ahead, stop and plan
+        again (D* Lite across this room, else the room graph)."""
+        assert self._lookout is not None
         pose = tick.pose
-        scan = self._sense()
-        hits: list[Point] = []
-        free: list[Point] = []
-        for distance, bearing in scan.beams:
-            if math.isnan(distance):
-                continue  # a failed measurement (REP 117) says nothing either way
-            seen = distance <= scan.range_max
-            reach = distance if seen else scan.range_max
-            angle = pose.heading + bearing
-            end = (pose.x + reach * math.cos(angle), pose.y + reach * math.sin(angle))
-            (hits if seen else free).append(end)
-        changes = self.navigator.report_obstacles(hits, (pose.x, pose.y), free)
-        if changes:
-            leg = self._current_leg(pose)
-            if leg is not None:
-                leg.update(changes)
-        if self._stage is not Stage.DRIVING or not self.navigator.state.obstacles:
-            return
-        if self._blocks_path_ahead():
+        self._lookout.sweep(pose)
+        if self._stage is Stage.DRIVING and self._lookout.blocks(self.executor):
             self.notify(f"{self.name}: something in the way ahead of ({pose.x:.1f}, "
                         f"{pose.y:.1f}); stopping to plan again")  # fmt: skip
-            self._approach_anew()
+            self._arrival.anew()
             self._stop_then(tick.now, "something in the way", self._plan_again)
-
-    def _blocks_path_ahead(self) -> bool:
-        """Whether the grid, as it now is, blocks the path within LOOKOUT_M ahead: of
-        the drive under way, or of the next one after a turn on the spot."""
-        legs = self.navigator.planner.legs if self.navigator is not None else None
-        executor = self.executor
-        if legs is None or executor.finished:
-            return False
-        drives = [s for s in executor.sections[executor.index :] if isinstance(s, Drive)]
-        if not drives:
-            return False
-        section = drives[0]
-        start = executor.progress if section is executor.sections[executor.index] else 0.0
-        end = min(section.length, start + LOOKOUT_M)
-        samples = max(2, math.ceil((end - start) / 0.05) + 1)
-        points = []
-        for i in range(samples):
-            p = section.pose_at(start + (end - start) * i / (samples - 1))
-            points.append((p.x, p.y))
-        return not all(legs.clear(a, b) for a, b in pairwise(self._past_margin(points)))
-
-    def _past_margin(self, points: list[Point]) -> list[Point]:
-        """The path ahead from where it leaves the margin round what was sensed, when
-        the robot stands in that margin and the path takes it no closer.
-
-        A box put down beside the robot blocks the grid's cells under the robot itself
-        (they are grown by its radius and the clearance), so every new plan would look
-        blocked at once and be given up: the robot stopped and replanned for ever. A
-        path that heads away from the box, or past it no closer, is the way out; one
-        that heads closer is still blocked."""
-        assert self.navigator is not None
-        legs = self.navigator.planner.legs
-        sensed = self.navigator.state.obstacles
-        if legs is None or not sensed:
-            return points
-
-        seen = np.asarray(sensed)
-
-        def nearest(point: Point) -> float:
-            return float(np.hypot(seen[:, 0] - point[0], seen[:, 1] - point[1]).min())
-
-        # Measured from where the path starts, not sample to sample: a path may not
-        # creep in a little at a time.
-        floor = nearest(points[0]) - MARGIN_TOLERANCE_M
-        for i, point in enumerate(points):
-            if legs.clear(point, point) or nearest(point) < floor:
-                return points[i:]  # out of the margin, or closer in: the grid decides
-        return points[-1:]
-
-    def _current_leg(self, pose: Pose) -> Leg | None:
-        """The D* Lite planner of the leg the robot is on, kept from one sighting to the
-        next so that each replans incrementally."""
-        if self.navigator is None or self.planned is None:
-            return None
-        legs = self.navigator.planner.legs
-        route = self.planned.route
-        if legs is None or len(route.path) < 2:
-            return None
-        here = (pose.x, pose.y)
-        index = min(
-            range(len(route.path) - 1),
-            key=lambda i: _distance_to_segment(here, route.path[i], route.path[i + 1]),
-        )
-        if self._leg is None or index != self._leg_index:
-            self._leg = legs.leg(here, route.path[index + 1], route.leg_rooms[index])
-            self._leg_index = index
-        self._leg.move_to(here)
-        return self._leg
-
-
-def _distance_to_segment(p: tuple[float, float], a: tuple[float, float],
-                         b: tuple[float, float]) -> float:  # fmt: skip
-    dx, dy = b[0] - a[0], b[1] - a[1]
-    span = dx * dx + dy * dy
-    t = 0.0 if span == 0 else max(0.0, min(1.0, ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / span))
-    return math.hypot(p[0] - a[0] - t * dx, p[1] - a[1] - t * dy)
 
 
 def _door_zones(drive: Drive, doors: list[tuple[float, float]], speed: float) -> list[SlowZone]:

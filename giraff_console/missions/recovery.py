@@ -21,7 +21,8 @@ named steps (path_mission.py's stages):
    a wall of the plan is, nor in a doorway, whose frames are what a robot a few
    centimetres off its line clips: then the pose was off, not the map;
 4. know where it is again: the contact widens the estimate's uncertainty
-   (localisation.touched), and with markers a look follows if it is no longer sure;
+   (localisation.touched), and with markers a look follows until one has fixed the
+   pose since: the contact says the filter was wrong, most often about the casters;
 5. plan again from there, and drive.
 
 Bounded: MAX_CONTACTS contacts without getting PROGRESS_M nearer in between end the

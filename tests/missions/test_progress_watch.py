@@ -13,8 +13,10 @@ import math
 import pytest
 
 from giraff_console.missions.go_to import GoTo
+from giraff_console.missions.lookout import Lookout
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.progress_watch import PROGRESS_M, Patience, ProgressWatch
+from giraff_console.motion.executor import Executor
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.robot.odometry import Pose
 from giraff_console.settings import SettingsError, load_settings
@@ -27,25 +29,36 @@ def navigator() -> Navigator:
     return Navigator(PLAN, walls_of(PLAN))
 
 
+class HemmedLookout(Lookout):
+    """A lookout that finds the path ahead blocked at every sweep while `hemmed`."""
+
+    hemmed = False
+
+    def blocks(self, executor: Executor) -> bool:
+        return self.hemmed or super().blocks(executor)
+
+
 class Hemmed(GoTo):
     """A `go` whose path ahead is blocked at every look while `hemmed` is set."""
 
-    _hemmed = False
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        assert self.navigator is not None and self._lookout is not None
+        self._lookout = HemmedLookout(self.navigator, self._lookout.sense)
+        self._lookout.new_plan(self.planned)
 
     @property
     def hemmed(self) -> bool:
-        return self._hemmed
+        assert isinstance(self._lookout, HemmedLookout)
+        return self._lookout.hemmed
 
     @hemmed.setter
     def hemmed(self, value: bool) -> None:
         # The path is looked at only once the range finder has seen something: let it
         # have seen a chair in room 101, far from every way driven here.
-        assert self.navigator is not None
+        assert self.navigator is not None and isinstance(self._lookout, HemmedLookout)
         self.navigator.report_obstacles([(2.0, 16.5)])
-        self._hemmed = value
-
-    def _blocks_path_ahead(self) -> bool:
-        return self._hemmed or super()._blocks_path_ahead()
+        self._lookout.hemmed = value
 
 
 def hemmed_go(site: Site, room: str, patience: Patience) -> Hemmed:

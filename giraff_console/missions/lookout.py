@@ -1,0 +1,163 @@
+"""What the range finder sees of the way ahead, for a path mission (§2.6.4, issue 12).
+
+Each sweep puts what the beams meet into the grid and takes out what they now see
+through (navigation.py's report_obstacles), and the D* Lite planner of the leg the
+robot is on replans incrementally from the cells that changed. Then the path ahead is
+checked against the grid as it now is: within LOOKOUT_M of the drive under way, or of
+the next one after a turn on the spot. A path mission (path_mission.py) stops and
+plans again when it is blocked.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from itertools import pairwise
+from typing import Protocol
+
+import numpy as np
+
+from giraff_console.missions.navigation import Navigator
+from giraff_console.motion.executor import Executor
+from giraff_console.motion.path import Drive
+from giraff_console.planning.legs import Leg
+from giraff_console.planning.route_planner import PlannedPath
+from giraff_console.robot.odometry import Pose
+
+Point = tuple[float, float]
+
+
+class Scan(Protocol):
+    """One sweep of a range finder, as a LIDAR's scan message has it: each beam's
+    (distance, bearing) in the robot's frame, bearing positive left; a distance beyond
+    `range_max` (ROS REP 117's +inf) says the beam met nothing within range."""
+
+    @property
+    def range_max(self) -> float: ...
+
+    @property
+    def beams(self) -> Sequence[tuple[float, float]]: ...
+
+
+Sense = Callable[[], Scan]
+
+# How far along the path ahead sensed obstacles are looked for.
+LOOKOUT_M = 3.0
+# Leaving the margin round a sensed obstacle, the path may come this much closer to it:
+# the samples of a path along the obstacle's side wobble by a few millimetres.
+MARGIN_TOLERANCE_M = 0.01
+
+
+class Lookout:
+    """The range finder's sweeps for one path mission: into the grid, and the path
+    ahead checked against it."""
+
+    def __init__(self, navigator: Navigator, sense: Sense) -> None:
+        self.navigator = navigator
+        self.sense = sense
+        self._planned: PlannedPath | None = None
+        self._leg: Leg | None = None
+        self._leg_index = -1
+
+    def new_plan(self, planned: PlannedPath | None) -> None:
+        """The mission drives a new plan (its route, for the legs' D* Lite planners)."""
+        self._planned = planned
+        self._leg, self._leg_index = None, -1
+
+    def sweep(self, pose: Pose) -> None:
+        """Put what the range finder sees from `pose` into the grid, and take out what
+        its beams now see through; the leg under way replans from the cells changed."""
+        scan = self.sense()
+        hits: list[Point] = []
+        free: list[Point] = []
+        for distance, bearing in scan.beams:
+            if math.isnan(distance):
+                continue  # a failed measurement (REP 117) says nothing either way
+            seen = distance <= scan.range_max
+            reach = distance if seen else scan.range_max
+            angle = pose.heading + bearing
+            end = (pose.x + reach * math.cos(angle), pose.y + reach * math.sin(angle))
+            (hits if seen else free).append(end)
+        changes = self.navigator.report_obstacles(hits, (pose.x, pose.y), free)
+        if changes:
+            leg = self._current_leg(pose)
+            if leg is not None:
+                leg.update(changes)
+
+    def blocks(self, executor: Executor) -> bool:
+        """Whether the grid, as it now is, blocks the path within LOOKOUT_M ahead: of
+        the drive under way, or of the next one after a turn on the spot."""
+        legs = self.navigator.planner.legs
+        if legs is None or executor.finished or not self.navigator.state.obstacles:
+            return False
+        drives = [s for s in executor.sections[executor.index :] if isinstance(s, Drive)]
+        if not drives:
+            return False
+        section = drives[0]
+        start = executor.progress if section is executor.sections[executor.index] else 0.0
+        end = min(section.length, start + LOOKOUT_M)
+        samples = max(2, math.ceil((end - start) / 0.05) + 1)
+        points = []
+        for i in range(samples):
+            p = section.pose_at(start + (end - start) * i / (samples - 1))
+            points.append((p.x, p.y))
+        return not all(legs.clear(a, b) for a, b in pairwise(self._past_margin(points)))
+
+    def sensed_near(self, pose: Pose, reach: float) -> bool:
+        """Whether the range finder has seen anything within `reach` of `pose`."""
+        sensed = self.navigator.state.obstacles
+        return any(math.dist((pose.x, pose.y), point) <= reach for point in sensed)
+
+    def _past_margin(self, points: list[Point]) -> list[Point]:
+        """The path ahead from where it leaves the margin round what was sensed, when
+        the robot stands in that margin and the path takes it no closer.
+
+        A box put down beside the robot blocks the grid's cells under the robot itself
+        (they are grown by its radius and the clearance), so every new plan would look
+        blocked at once and be given up: the robot stopped and replanned for ever. A
+        path that heads away from the box, or past it no closer, is the way out; one
+        that heads closer is still blocked."""
+        legs = self.navigator.planner.legs
+        sensed = self.navigator.state.obstacles
+        if legs is None or not sensed:
+            return points
+
+        seen = np.asarray(sensed)
+
+        def nearest(point: Point) -> float:
+            return float(np.hypot(seen[:, 0] - point[0], seen[:, 1] - point[1]).min())
+
+        # Measured from where the path starts, not sample to sample: a path may not
+        # creep in a little at a time.
+        floor = nearest(points[0]) - MARGIN_TOLERANCE_M
+        for i, point in enumerate(points):
+            if legs.clear(point, point) or nearest(point) < floor:
+                return points[i:]  # out of the margin, or closer in: the grid decides
+        return points[-1:]
+
+    def _current_leg(self, pose: Pose) -> Leg | None:
+        """The D* Lite planner of the leg the robot is on, kept from one sighting to the
+        next so that each replans incrementally."""
+        legs = self.navigator.planner.legs
+        if legs is None or self._planned is None:
+            return None
+        route = self._planned.route
+        if len(route.path) < 2:
+            return None
+        here = (pose.x, pose.y)
+        index = min(
+            range(len(route.path) - 1),
+            key=lambda i: _distance_to_segment(here, route.path[i], route.path[i + 1]),
+        )
+        if self._leg is None or index != self._leg_index:
+            self._leg = legs.leg(here, route.path[index + 1], route.leg_rooms[index])
+            self._leg_index = index
+        self._leg.move_to(here)
+        return self._leg
+
+
+def _distance_to_segment(p: Point, a: Point, b: Point) -> float:
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    span = dx * dx + dy * dy
+    t = 0.0 if span == 0 else max(0.0, min(1.0, ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / span))
+    return math.hypot(p[0] - a[0] - t * dx, p[1] - a[1] - t * dy)
