@@ -130,7 +130,7 @@ def run_survey(args: argparse.Namespace, settings: Settings, port: str | None,
     # had seen are printed, and the plan stays as it was.
     if not args.dry_run and ended == ["done"] and found.landmarks.markers:
         try:
-            written = write_surveyed(given, found, whole=rooms is None).path
+            written = write_surveyed(given, found, whole=rooms is None and not left_out).path
         except (FloorPlanError, OSError, ValueError) as error:
             return fail(f"the markers were found but not written: {error}", EXIT_FAILED)
     report = _report(found, ended[0] if ended else "not run", left_out, written)

@@ -5,10 +5,11 @@ With markers the robot has arrived once the estimate is confirmed (certainty.py)
 at the goal; else it looks for a marker, comes in again, or turns on the spot to the
 goal's heading. Having come in again, it settles within AFTER_REAPPROACH_M. After
 ARRIVAL_TRIES of those it settles for what it has, within the bounds every stop must
-keep, or gives up and says how far off it is. The claim itself is honest (issue 25):
-ARRIVED only on a trusted estimate, a fresh marker fix within the arrival bounds;
-otherwise ARRIVED_UNVERIFIED, with the metres driven since a marker last said where the
-robot was. Without markers there is only the odometry: arrived, unverified, at once.
+keep (claimed only with two sigma to spare), or gives up and says how far off it is.
+The claim itself is honest (issue 25): ARRIVED only on a trusted estimate, a fresh
+marker fix within the arrival bounds; otherwise ARRIVED_UNVERIFIED, with the metres
+driven since a marker last said where the robot was. Without markers there is only the
+odometry: arrived, unverified, at once.
 """
 
 from __future__ import annotations
@@ -93,6 +94,8 @@ class Arrival:
                     f"could not get nearer than {off:.2f} m and {math.degrees(askew):.0f}° "
                     f"to the goal (by the estimate, known to ±{estimate.sigma_m:.2f} m) "
                     f"after {ARRIVAL_TRIES} tries"), off)  # fmt: skip
+            if not _surely_within(estimate, off, askew):
+                return Judgement(Verdict.UNCONFIRMED, unconfirmed(estimate), off, settled=True)
             return _claim(estimate, "arrived as near as it could", off, settled=True)
         self.tries += 1
         self.as_known = False
@@ -104,6 +107,14 @@ class Arrival:
                              off)  # fmt: skip
         self.as_known = True
         return Judgement(Verdict.TURN, "at the goal", off)
+
+
+def _surely_within(estimate: Estimate, off: float, askew: float) -> bool:
+    """A robot settling for what it has, `off` metres and `askew` radians from its goal
+    by the estimate, is within the bounds every stop must keep in truth with two sigma
+    to spare (95 %): at the arrival bound's 2.5 cm, 5 cm off is the most it may claim."""
+    return (off + 2 * estimate.sigma_m <= NEAR_ENOUGH_M
+            and askew + 2 * estimate.sigma_heading <= NEAR_ENOUGH_HEADING)  # fmt: skip
 
 
 def _claim(estimate: Estimate, words: str, off: float, settled: bool = False) -> Judgement:

@@ -23,7 +23,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from giraff_console.link.motor_state import MotorState
-from giraff_console.missions.certainty import trusted, unverified
+from giraff_console.missions.certainty import NEAR_ENOUGH_HEADING, trusted, unverified
 from giraff_console.missions.go_to import GoReport, GoTo, go_report
 from giraff_console.missions.lookout import Sense
 from giraff_console.missions.navigation import Navigator
@@ -102,8 +102,8 @@ class GoToPose(PathMission):
 
     def _there(self, here: Pose) -> bool:
         arrival = self.arrival
-        off = math.degrees(abs(math.remainder(here.heading - arrival.heading, math.tau)))
-        return math.dist((here.x, here.y), arrival.point) <= ON_DOCK_M and off <= ON_DOCK_DEG
+        return (math.dist((here.x, here.y), arrival.point) <= ON_DOCK_M
+                and _askew(here, arrival) <= math.radians(ON_DOCK_DEG))  # fmt: skip
 
     def step(self, now: float, state: MotorState | None) -> list[Command]:
         if self._there_already and state is not None:
@@ -114,7 +114,14 @@ class GoToPose(PathMission):
             if unverified(estimate, self.retry) is None and (estimate is None or not estimate.lost):
                 # Out and back in again would only turn the robot round twice on the spot.
                 self._started = self._now = now
-                sure = estimate is not None and estimate.landmarks and trusted(estimate)
+                # A claimed arrival keeps the 3 degrees every stop must (certainty.py),
+                # tighter than the charger's contacts need.
+                sure = (
+                    estimate is not None
+                    and estimate.landmarks
+                    and trusted(estimate)
+                    and _askew(estimate.pose, self.arrival) <= NEAR_ENOUGH_HEADING
+                )
                 self._end(Outcome.ARRIVED if sure else Outcome.ARRIVED_UNVERIFIED,
                           "on the dock already")  # fmt: skip
                 return []
@@ -122,7 +129,7 @@ class GoToPose(PathMission):
 
     def _course(self, pose: Pose) -> Course:
         assert self.navigator is not None
-        planned = self.navigator.arrive(self.goal, self.arrival, pose)
+        planned = self.navigator.arrive(self.goal, self.arrival, pose, afresh=not self.replanning)
         points, pins = planned.path, planned.doorways
         if self.arrival.straight > 0 and len(points) >= 2:
             (ax, ay), (bx, by) = points[-2], points[-1]
@@ -320,3 +327,8 @@ class ChargingDetour:
             return Progress("charging at the dock", f"{level} % of {charged:.0f} %")
         mission = self._mission
         return mission.progress if mission is not None else Progress(self._phase.value, "")
+
+
+def _askew(pose: Pose, arrival: Arrival) -> float:
+    """How far, in radians, `pose` is turned from `arrival`'s heading."""
+    return abs(math.remainder(pose.heading - arrival.heading, math.tau))

@@ -103,11 +103,6 @@ class Lookout:
             points.append((p.x, p.y))
         return not all(legs.clear(a, b) for a, b in pairwise(self._past_margin(points)))
 
-    def sensed_near(self, pose: Pose, reach: float) -> bool:
-        """Whether the range finder has seen anything within `reach` of `pose`."""
-        sensed = self.navigator.state.obstacles
-        return any(math.dist((pose.x, pose.y), point) <= reach for point in sensed)
-
     def _past_margin(self, points: list[Point]) -> list[Point]:
         """The path ahead from where it leaves the margin round what was sensed, when
         the robot stands in that margin and the path takes it no closer.

@@ -93,11 +93,12 @@ class Navigator:
         with self._lock:
             return self._set_goal(room_id, None, pose, afresh)
 
-    def arrive(self, goal: str, arrival: Arrival, pose: Pose) -> PlannedPath:
+    def arrive(self, goal: str, arrival: Arrival, pose: Pose, afresh: bool = False) -> PlannedPath:
         """Plan from `pose` to `arrival` (shown as `goal`, such as "dock") and make it the
-        route shown; PlanningError with a message for the operator if there is none."""
+        route shown; PlanningError with a message for the operator if there is none.
+        `afresh` as for `go`."""
         with self._lock:
-            return self._set_goal(goal, arrival, pose)
+            return self._set_goal(goal, arrival, pose, afresh)
 
     def close(self, door_id: str, pose: Pose) -> NavigationState:
         """Shut a door; the route, if any, is planned again from `pose`."""

@@ -542,8 +542,12 @@ class PathMission:
     def _end(self, outcome: Outcome, why: str) -> None:
         self._stage = Stage.ENDED
         # What this mission only felt is its own belief: the next mission tries afresh,
-        # and the range finder, where there is one, says what is really there.
-        self._forget_felt()
+        # and the range finder, where there is one, says what is really there. Not
+        # after contacts ended it: a patrol's next stop, planned through the same
+        # unseen thing, would push into it again; a new mission that then finds no way
+        # forgets it (Navigator.go's `afresh`).
+        if outcome is not Outcome.STALLED:
+            self._forget_felt()
         self.outcome, self.detail = outcome, why
         if outcome.arrived:
             self._ended = self._now
@@ -620,7 +624,7 @@ class PathMission:
             f"(contact {self._recovery.in_a_row} of {MAX_CONTACTS})"
         )
         self._arrival.anew()
-        self._progress_watch.restart(tick.now)
+        self._progress_watch.recovering(tick.now)
         self._stage, self._then = Stage.HALTING, self._back_off
         return self._halting(tick)
 
@@ -769,7 +773,10 @@ class PathMission:
     def _stuck(self, pose: Pose, how: str) -> str:
         """Why the mission gives up (`how`, where `{}` is put where the robot is), and
         what the operator can do about it."""
-        near = self._lookout is not None and self._lookout.sensed_near(pose, CAUSE_NEAR_M)
+        # What is on the grid near it: the range finder's, or what it felt (a robot
+        # without one has only the latter).
+        sensed = self.navigator.state.obstacles if self.navigator is not None else ()
+        near = any(math.dist((pose.x, pose.y), point) <= CAUSE_NEAR_M for point in sensed)
         cause = "something blocks the way" if near else "nothing seen, but no progress"
         where = how.format(f"({pose.x:.1f}, {pose.y:.1f})")
         return f"{where}: {cause}; clear the way and type {self.retry} again, or drive by hand"

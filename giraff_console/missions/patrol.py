@@ -27,11 +27,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from giraff_console.link.motor_state import MotorState
-from giraff_console.missions.certainty import blind
 from giraff_console.missions.docking import ChargingDetour, Recharge
 from giraff_console.missions.path_mission import PathMission
 from giraff_console.missions.route import Route
-from giraff_console.missions.route_replay import RouteReplay
+from giraff_console.missions.route_replay import RouteReplay, replay_refusal
 from giraff_console.missions.yaml_file import YamlFile, shown
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.protocol.codec import Command
@@ -244,7 +243,8 @@ class PatrolRun:
         if stop.follow:
             assert self._follow is not None
             return self._follow(route)
-        refusal = blind(self._estimate() if self._estimate else None, f"patrol {self.name}")
+        estimate = self._estimate() if self._estimate else None
+        refusal = replay_refusal(route, estimate, f"patrol {self.name}")
         if refusal is not None:
             raise PlanningError(f"route {route.name}: {refusal}")
         return RouteReplay(route)

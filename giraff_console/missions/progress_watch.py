@@ -74,6 +74,11 @@ class ProgressWatch:
         """The operator held the mission (pause): what came before does not count."""
         self._since, self.replans = now, 0
 
+    def recovering(self, now: float) -> None:
+        """A contact's recovery begins at `now` (recovery.py): backing off and looking
+        are not time stuck, but a replan after it is one without progress."""
+        self._since = now
+
     def still_for(self, now: float) -> float:
         """Seconds since the last progress."""
         return now - self._since

@@ -25,9 +25,11 @@ named steps (path_mission.py's stages):
    pose since: the contact says the filter was wrong, most often about the casters;
 5. plan again from there, and drive.
 
-Bounded: MAX_CONTACTS contacts without getting PROGRESS_M nearer in between end the
-mission as STALLED; the progress watch's time limit holds all along, and every move is
-the executor's, within the same limits and guard as any other (0.3 m, the deadman).
+Bounded: MAX_CONTACTS contacts without getting PROGRESS_M past the last in between, or
+MISSION_CONTACTS in all, end the mission as STALLED; each contact gives the progress
+watch's time limit a fresh start (backing off and looking take time) but not its count
+of replans, and every move is the executor's, within the same limits and guard as any
+other (0.3 m, the deadman).
 """
 
 from __future__ import annotations
@@ -55,6 +57,9 @@ MIN_BACK_OFF_M = 0.05
 # a second try passes a frame clipped by a pose error once the pose is known again; a
 # third that touches too says the way is narrower than the map.
 MAX_CONTACTS = 3
+# Contacts in one mission, however far it got in between: each is a push of a second
+# against something (the stall's time) and a fresh start of the progress watch's time.
+MISSION_CONTACTS = 2 * MAX_CONTACTS
 # Where the robot touched: ahead of its centre by its radius, within this many degrees
 # either side of the way it was going, which a disc can only touch with its front.
 CONTACT_SPREAD_DEG = 60.0
@@ -99,7 +104,7 @@ class Recovery:
         self.radius = radius
         self.contacts: list[Contact] = []
         self._in_a_row = 0
-        self._best_left = math.inf
+        self._best_left = math.inf  # at the last progress, or the last plan's start
         self._trail: collections.deque[Point] = collections.deque()
 
     def trail(self, pose: Pose) -> None:
@@ -112,15 +117,16 @@ class Recovery:
             self._trail.popleft()
 
     def driven(self, left: float) -> None:
-        """The plan under way has `left` metres to go: PROGRESS_M nearer than at the
-        last contact, and the contacts before it no longer count as in a row."""
+        """The plan under way has `left` metres to go: PROGRESS_M nearer than where the
+        robot touched, and the contacts before no longer count as in a row."""
         if left <= self._best_left - PROGRESS_M:
             self._in_a_row = 0
-        self._best_left = min(self._best_left, left)
+            self._best_left = left
 
     def replanned(self, left: float) -> None:
-        """A new plan of `left` metres: progress is measured along it from here."""
-        self._best_left = left
+        """A new plan of `left` metres: progress is measured along it from here, and
+        after a back-off only past where the robot touched (BACK_OFF_M further on)."""
+        self._best_left = left - BACK_OFF_M
 
     def touched(self, pose: Pose, walls: OccupancyGrid | None,
                 doorways: Sequence[Point] = ()) -> Contact:  # fmt: skip
@@ -139,8 +145,8 @@ class Recovery:
 
     @property
     def exhausted(self) -> bool:
-        """Too many contacts in a row to try again."""
-        return self._in_a_row >= MAX_CONTACTS
+        """Too many contacts in a row, or in all, to try again."""
+        return self._in_a_row >= MAX_CONTACTS or len(self.contacts) >= MISSION_CONTACTS
 
     @property
     def in_a_row(self) -> int:
@@ -178,6 +184,10 @@ def _free_behind(pose: Pose, behind: Point, radius: float, walls: OccupancyGrid)
     walls than at `pose` (nor nearer than `radius`), in steps of half a cell."""
     step = walls.resolution / 2
     now = min(radius, _clearance((pose.x, pose.y), radius + step, walls))
+    if now < walls.resolution:
+        # Its centre on a wall (within a cell), or off the map, by the estimate: the
+        # estimate is wrong, and nothing behind is known to be free.
+        return 0.0
     reach = 0.0
     for distance in np.arange(step, BACK_OFF_M + step / 2, step):
         point = (pose.x + distance * behind[0], pose.y + distance * behind[1])

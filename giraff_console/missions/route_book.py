@@ -32,10 +32,11 @@ from giraff_console.missions.route import (
     load_route,
     save_route,
 )
-from giraff_console.missions.route_replay import RouteReplay
+from giraff_console.missions.route_replay import RouteReplay, replay_refusal
 from giraff_console.missions.sessions import Sessions
 from giraff_console.missions.undock import Undock
 from giraff_console.planning.room_graph import PlanningError
+from giraff_console.protocol.charger import ChargeStatus
 from giraff_console.recording.session import SessionRecorder
 from giraff_console.robot.battery import Battery
 from giraff_console.robot.control_loop import ControlLoop
@@ -176,6 +177,10 @@ class RouteBook:
         route = self._load(name)
         if route is None or not self._free():
             return False
+        refusal = replay_refusal(route, self.control.estimate(), f"replay-route {name}")
+        if refusal is not None:
+            self.report(f"not replaying {name}: {refusal}")
+            return False
         self.control.run_mission(RouteReplay(route))
         return True
 
@@ -195,8 +200,17 @@ class RouteBook:
 
     def undock(self, distance: float) -> bool:
         """Back out of the dock `distance` metres and turn round, in steps the console
-        streams (missions/undock.py), never with the board's own `set undock`."""
+        streams (missions/undock.py), never with the board's own `set undock`. Backing
+        out drives blind, so the robot must be on its charger by the board's word, or
+        stand where someone or a marker says (a daemon restarted off its dock would
+        otherwise reverse into whatever is behind it)."""
         if not self._free():
+            return False
+        docked = self._battery is not None and self._battery.status is not ChargeStatus.NOT_DOCKED
+        estimate = self.control.estimate()
+        if not (docked or estimate.found or estimate.basis.verified):
+            self.report("not undocking: the board does not say the robot is on its charger, "
+                        "and where it stands is only assumed; drive it by hand")  # fmt: skip
             return False
         self.control.run_mission(Undock(distance, self.limits))
         return True
@@ -318,6 +332,7 @@ class _RunLog:
         self.report = report
         self.sessions = sessions
         self.reached_count = 0
+        self.all_reached = True  # every stop so far arrived (a failed one is logged as such)
 
     def start(self, patrol: str, *, scheduled: bool, by: str) -> None:
         if self.log is not None:
@@ -327,6 +342,7 @@ class _RunLog:
         """On the loop's thread, as the robot comes to rest: the snapshot is encoded and
         written on another."""
         self.reached_count += stop.reached
+        self.all_reached = self.all_reached and stop.reached
         if self.log is not None:
             self._told(self.log.stop({
                 "round": stop.round, "stop": stop.stop_index, "place": stop.route_name,
@@ -351,7 +367,8 @@ class _RunLog:
 
     def end(self, why: str, stops: int) -> None:
         if self.log is not None:
-            self._told(self.log.end(why, arrived=why == "done", stops=stops))
+            arrived = why == "done" and self.all_reached
+            self._told(self.log.end(why, arrived=arrived, stops=stops))
 
     def _told(self, problem: str | None) -> None:
         # The first problem only: a full disk would otherwise say so at every stop.

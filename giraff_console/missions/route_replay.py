@@ -13,12 +13,44 @@ a shorter one changes nothing of the route while the console lives.
 
 from __future__ import annotations
 
+import math
+
 from giraff_console.link.motor_state import MotorState
+from giraff_console.missions.certainty import blind
 from giraff_console.missions.route import MOTION_SETTINGS, Route
+from giraff_console.motion.path import wrap
 from giraff_console.protocol.codec import Command, format_number, parse_number
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M
+from giraff_console.robot.localisation import Estimate
 from giraff_console.robot.mission import Progress
 from giraff_console.robot.safety import REACH_M
+
+# A replay follows no pose, so it drives the taught shape from wherever the robot
+# stands: it starts only this near where the route did, by the estimate (follow-route's
+# reach), and turned no further from the route's first heading. 15 degrees off is 0.26 m
+# sideways after a metre, about the most a doorway leaves either side of the robot.
+REPLAY_REACH_M = 1.0
+REPLAY_TURN = math.radians(15.0)
+
+
+def replay_refusal(route: Route, estimate: Estimate | None, retry: str) -> str | None:
+    """Why `route` must not be replayed from where the robot stands, if it must not: the
+    pose is only assumed (certainty.blind), or a localised robot stands away from, or
+    turned from, the route's start (a patrol's stop before failed, or the robot was
+    moved). None without localisation (no floor plan): the odometry then is the route's
+    own frame only within one session, and the thesis's replay is all there is."""
+    refusal = blind(estimate, retry)
+    if refusal is not None or estimate is None or not route.path:
+        return refusal
+    start, pose = route.path[0], estimate.pose
+    away = math.dist((pose.x, pose.y), (start.x, start.y))
+    turned = abs(wrap(pose.heading - start.heading))
+    if away <= REPLAY_REACH_M and turned <= REPLAY_TURN:
+        return None
+    return (f"the robot stands {away:.1f} m and {math.degrees(turned):.0f}° from where route "
+            f"{route.name} starts, and a replay follows no pose: drive it there (within "
+            f"{REPLAY_REACH_M:.0f} m and {math.degrees(REPLAY_TURN):.0f}°), or follow-route "
+            f"{route.name}, then {retry} again")  # fmt: skip
 
 
 class RouteReplay:

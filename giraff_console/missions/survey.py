@@ -14,7 +14,11 @@ the markers are written into the plan with their uncertainty (`sigma`), where `g
 and patrols find the robot by them from then on.
 
 A marker seen fewer than MIN_SIGHTINGS times, or never square enough to see which way
-it faces, is left out and named: one glimpse could be a misread id.
+it faces, is left out and named: one glimpse could be a misread id. A marker lies flat
+on its wall, so one found on a wall of the plan faces square to it: its facing is the
+wall's, which the plan's own checks ask for within 2 degrees (a solve held to a wall
+only softly left one 2.2 degrees off, and the whole survey unwritten). One the plan's
+checks still refuse is left out with their reason, and the others are written.
 """
 
 from __future__ import annotations
@@ -30,8 +34,15 @@ from giraff_console.motion.executor import Executor
 from giraff_console.motion.path import Rotation
 from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.planning.floorplan import FloorPlan, Landmarks, Marker
+from giraff_console.planning.landmark_checks import landmark_problems
 from giraff_console.planning.landmark_placement import DEFAULT_HEIGHT_M, write_landmarks
-from giraff_console.planning.landmarks import marker_walls
+from giraff_console.planning.landmarks import (
+    MarkerWalls,
+    angle_between,
+    fit_on_walls,
+    marker_walls,
+    wall_direction,
+)
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.protocol.codec import Command
 from giraff_console.robot.mission import Outcome, Progress
@@ -39,6 +50,8 @@ from giraff_console.robot.odometry import Pose
 from giraff_console.robot.pose_graph import SurveyResult, Wall
 from giraff_console.robot.survey_log import SurveyLog
 from giraff_console.robot.survey_walls import solve_on_walls
+
+Point = tuple[float, float]
 
 # Sightings a marker needs to be written: one could be a misread id.
 MIN_SIGHTINGS = 3
@@ -226,6 +239,7 @@ def surveyed(plan: FloorPlan, log: SurveyLog, family: str, size: float) -> Surve
     result = solve_on_walls(log.survey(), plan_walls(plan))
     heights = {marker.id: marker.height for marker in plan.landmarks.markers} \
         if plan.landmarks else {}  # fmt: skip
+    walls = marker_walls(plan)
     markers, left_out = [], {}
     for marker_id, found in sorted(result.markers.items()):
         if found.sightings < MIN_SIGHTINGS:
@@ -235,15 +249,42 @@ def surveyed(plan: FloorPlan, log: SurveyLog, family: str, size: float) -> Surve
             left_out[marker_id] = "never seen square enough to tell which way it faces"
             continue
         pose = found.pose
+        at = (pose.x, pose.y)
+        facing = _square_to_wall(at, math.degrees(pose.heading), walls)
         # As a file holds them: millimetres, tenths of a degree in [0, 360), no -0.
         markers.append(Marker(
-            marker_id, (round(pose.x, 3) + 0.0, round(pose.y, 3) + 0.0),
-            heights.get(marker_id, DEFAULT_HEIGHT_M), round(math.degrees(pose.heading), 1) % 360,
+            marker_id, (round(at[0], 3) + 0.0, round(at[1], 3) + 0.0),
+            heights.get(marker_id, DEFAULT_HEIGHT_M), round(facing, 1) % 360,
             (round(max(found.sigma_m, 0.001), 3),
              round(max(math.degrees(found.sigma_facing), 0.1), 1)),
         ))  # fmt: skip
-    return Surveyed(Landmarks(family, size, tuple(markers)), left_out, len(result.outliers),
+    refused = _refused(plan, family, size, markers)
+    left_out.update(refused)
+    kept = tuple(marker for marker in markers if marker.id not in refused)
+    return Surveyed(Landmarks(family, size, kept), left_out, len(result.outliers),
                     result)  # fmt: skip
+
+
+def _square_to_wall(at: Point, facing: float, walls: MarkerWalls) -> float:
+    """`facing` (degrees) made square to the wall of the plan the marker at `at` is on,
+    on the side it faces; as it is if it is on none."""
+    fit = fit_on_walls(at, facing, walls)
+    if fit.wall is None:
+        return facing
+    normal = wall_direction(fit.wall) + 90.0
+    return min((normal, normal + 180.0), key=lambda side: angle_between(facing, side))
+
+
+def _refused(plan: FloorPlan, family: str, size: float,
+             markers: list[Marker]) -> dict[int, str]:  # fmt: skip
+    """The markers the plan's own checks refuse (the file would not load with them), by
+    id, with why; of two that overlap, the second."""
+    problems = landmark_problems(family, size, list(enumerate(markers)), plan)
+    refused: dict[int, str] = {}
+    for where, why in problems:
+        if len(where) > 2 and where[:2] == ("landmarks", "markers") and isinstance(where[2], int):
+            refused.setdefault(markers[where[2]].id, why)
+    return refused
 
 
 def write_surveyed(plan: FloorPlan, found: Surveyed, whole: bool) -> FloorPlan:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 import yaml
 
@@ -14,7 +16,7 @@ from giraff_console.missions.patrol import (
     list_patrols,
     load_patrol,
 )
-from giraff_console.missions.route import Route, TimedCommand
+from giraff_console.missions.route import PathSample, Route, TimedCommand
 from giraff_console.protocol.codec import parse_command
 from giraff_console.protocol.mode import ModeBit
 from giraff_console.robot.localisation import Estimate, PoseBasis
@@ -265,3 +267,21 @@ def test_a_taught_route_is_never_replayed_from_a_pose_only_assumed(tmp_path, bas
         assert not robot.sent
         assert run.problem is not None and "only assumed" in run.problem
         assert "hall-to-kitchen" in run.problem
+
+
+@pytest.mark.parametrize(("start", "drives"), [
+    (PathSample(0.0, 0.5, 0.0, 0.0), True),  # half a metre off: within the reach
+    (PathSample(0.0, 3.0, 0.0, 0.0), False),  # where a stop before it failed, say
+    (PathSample(0.0, 0.0, 0.0, 0.6), False),  # there, but turned 34 degrees away
+])  # fmt: skip
+def test_a_taught_route_is_replayed_only_from_near_where_it_starts(tmp_path, start, drives):
+    taught = {name: replace(one, path=[start]) for name, one in ROUTES.items()}
+    run = PatrolRun(rounds(tmp_path, 1), taught,
+                    estimate=lambda: estimate(PoseBasis.MARKER, found=True))  # fmt: skip
+    robot = Robot(run)
+    robot.run_until(30.0)
+    if drives:
+        assert run.problem is None and robot.sent
+    else:
+        assert not robot.sent
+        assert run.problem is not None and "from where route" in run.problem

@@ -10,7 +10,12 @@ import pytest
 
 from giraff_console.missions.go_to import GoTo
 from giraff_console.missions.navigation import Navigator
-from giraff_console.missions.recovery import BACK_OFF_M, MAX_CONTACTS, Recovery
+from giraff_console.missions.recovery import (
+    BACK_OFF_M,
+    MAX_CONTACTS,
+    MISSION_CONTACTS,
+    Recovery,
+)
 from giraff_console.motion.executor import Executor
 from giraff_console.motion.path import Reverse
 from giraff_console.motion.speed_profile import MotionLimits
@@ -76,6 +81,38 @@ def test_contacts_in_a_row_are_bounded_and_progress_between_them_resets_the_coun
     assert recovery.exhausted
 
 
+def test_progress_counts_as_driven_tick_by_tick_only_past_where_it_touched():
+    recovery = Recovery()
+    recovery.replanned(5.0)
+    recovery.touched(Pose(), None)
+    # Backed off and planned again: the new plan is longer by the back-off, and driving
+    # back over that stretch is no progress.
+    recovery.replanned(5.0 + BACK_OFF_M)
+    for left in np.arange(5.0 + BACK_OFF_M, 4.9, -0.01):
+        recovery.driven(float(left))
+    recovery.touched(Pose(), None)
+    assert recovery.in_a_row == 2
+    # Driven on, a centimetre a tick, well past where it touched: a new place.
+    recovery.replanned(5.0 + BACK_OFF_M)
+    for left in np.arange(5.0 + BACK_OFF_M, 4.5, -0.01):
+        recovery.driven(float(left))
+    recovery.touched(Pose(), None)
+    assert recovery.in_a_row == 1
+
+
+def test_contacts_in_one_mission_are_bounded_however_far_it_gets_between_them():
+    recovery = Recovery()
+    left = 50.0
+    for _ in range(MISSION_CONTACTS):
+        assert not recovery.exhausted
+        recovery.replanned(left)
+        left -= 1.0
+        recovery.driven(left)  # a metre nearer each time
+        recovery.touched(Pose(), None)
+        assert recovery.in_a_row == 1
+    assert recovery.exhausted
+
+
 def test_backing_off_is_a_jerk_limited_move_straight_back_within_the_reach(navigator):
     site = Site(navigator)
     start = site.true_pose()
@@ -131,3 +168,6 @@ def test_a_robot_pinned_against_a_wall_backs_off_into_the_plans_free_floor():
     # Facing away from it, straight back is into it: it does not back at all.
     facing_out = Pose(1.5, 0.35, math.pi / 4)
     assert Recovery().back_off(facing_out, walls) == 0.0
+    # On the wall by the estimate, or off the map: nothing behind is known to be free.
+    assert Recovery().back_off(Pose(1.5, 0.02, -math.pi / 2), walls) == 0.0
+    assert Recovery().back_off(Pose(-1.0, 1.0, 0.0), walls) == 0.0

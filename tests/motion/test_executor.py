@@ -85,3 +85,27 @@ def test_a_robot_left_behind_its_profile_creeps_the_rest_within_the_jerk_limit()
     assert travelled == pytest.approx(1.0, abs=0.01)
     assert executor.trace.max_jerk() <= limits.j_max
     assert len(executor.trace.starts) >= 2  # the profile, then at least one creep
+
+
+@pytest.mark.parametrize(("share", "length"), [(0.9, 1.0), (0.95, 6.0), (0.97, 3.0)])
+def test_the_creep_begins_where_the_profile_ends_and_keeps_the_jerk_limit(
+    share: float, length: float
+) -> None:
+    # A board that makes a little less than every speed asked for: the profile's own
+    # clock, pulled by where the robot is, runs behind the wall clock, and the creep
+    # must not begin while the profile's tail still moves (a kink of 3.9 m/s^3). The
+    # jerk is taken over every tick, the creep's start included: it begins from rest.
+    limits = MotionLimits()
+    executor = Executor([Drive((Segment(Pose(0, 0, 0), length),))], limits, TICK)
+    travelled, speed, now = 0.0, 0.0, 0.0
+    while now < 60.0 and not executor.finished:
+        for command in executor.step(now, state(travelled, speed, now), Pose(travelled, 0, 0)):
+            if command.kind == "set" and command.name == "v":
+                speed = share * float(command.value)  # type: ignore[arg-type]
+        travelled = min(length, travelled + speed * TICK)
+        speed = speed if travelled < length else 0.0
+        now += TICK
+    assert executor.finished
+    assert travelled == pytest.approx(length, abs=0.01)
+    executor.trace.starts[1:] = []  # every tick counts after the first
+    assert executor.trace.max_jerk() <= limits.j_max
