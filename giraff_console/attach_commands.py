@@ -148,13 +148,16 @@ def run_mission(robot: RemoteRobot, request: c.Go | c.RunPatrol, as_json: bool) 
     robot.subscribe(events.put)
     try:
         reply = robot.execute(request)
+        name = f"go {request.room}" if isinstance(request, c.Go) else request.name
         if not reply.ok:
             _print_notes(events)  # why, if the daemon said it in a note
             print(f"giraff-console: {reply.text}", file=sys.stderr)
+            if as_json:  # never started: no outcome, and why
+                print(json.dumps({"mission": name, "arrived": False, "outcome": None,
+                                  "why": "refused", "detail": reply.text}))  # fmt: skip
             return EXIT_FAILED
         if reply.text:
             print(f"giraff-console: {reply.text}", file=sys.stderr)
-        name = f"go {request.room}" if isinstance(request, c.Go) else request.name
         ended = _follow(events, robot, name)
     except KeyboardInterrupt:
         # A stop, which also ends a mission still being planned (RobotService).

@@ -333,23 +333,32 @@ class _RunLog:
         self.sessions = sessions
         self.reached_count = 0
         self.all_reached = True  # every stop so far arrived (a failed one is logged as such)
+        # Stops reported before the log's first line: a first stop whose way cannot be
+        # planned fails as the run is made, and is logged once the run has started.
+        self._early: list[dict[str, object]] | None = []
 
     def start(self, patrol: str, *, scheduled: bool, by: str) -> None:
+        early, self._early = self._early or [], None
         if self.log is not None:
             self._told(self.log.start(patrol, scheduled=scheduled, by=by))
+            for record in early:
+                self._told(self.log.stop(record))
 
     def reached(self, stop: StopReached, pose: Pose) -> None:
         """On the loop's thread, as the robot comes to rest: the snapshot is encoded and
         written on another."""
         self.reached_count += stop.reached
         self.all_reached = self.all_reached and stop.reached
-        if self.log is not None:
-            self._told(self.log.stop({
-                "round": stop.round, "stop": stop.stop_index, "place": stop.route_name,
-                "outcome": stop.outcome.value, "detail": stop.detail,
-                "pose_estimate": [round(pose.x, 3), round(pose.y, 3),
-                                  round(math.degrees(pose.heading), 1)],
-            }))  # fmt: skip
+        record: dict[str, object] = {
+            "round": stop.round, "stop": stop.stop_index, "place": stop.route_name,
+            "outcome": stop.outcome.value, "detail": stop.detail,
+            "pose_estimate": [round(pose.x, 3), round(pose.y, 3),
+                              round(math.degrees(pose.heading), 1)],
+        }  # fmt: skip
+        if self._early is not None:
+            self._early.append(record)
+        elif self.log is not None:
+            self._told(self.log.stop(record))
         sessions = self.sessions
         if sessions is None or not stop.reached:
             return

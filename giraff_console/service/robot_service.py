@@ -23,6 +23,7 @@ from dataclasses import replace
 from typing import Protocol
 
 from giraff_console.link import BoardLink
+from giraff_console.missions.certainty import unverified
 from giraff_console.missions.docking import DOCK
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import NavigationState
@@ -347,6 +348,10 @@ class RobotService:
             return Reply(False, "go: no floor plan (start the console with --floorplan FILE)")
         if self.control.playback is not None:
             return Reply(False, "go: playing back; p returns to live first")
+        # Refused here, not by the mission's first tick after a reply that says it goes.
+        refusal = unverified(self.control.estimate(), f"go {request.room}")
+        if refusal is not None:
+            return Reply(False, f"go: {refusal}")
         try:
             mission = self.drives.go(request.room)
         except (PlanningError, ValueError) as error:  # ValueError: a pose off the map

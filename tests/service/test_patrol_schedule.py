@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime as dt
+import json
 from pathlib import Path
 
 from giraff_console.missions.drive_setup import DriveSetup
@@ -96,3 +97,19 @@ def test_a_slot_is_skipped_while_the_operator_drives(tmp_path):
     assert night.site.control.mission is None
     [run] = list_runs(night.runs)
     assert run.state == "skipped" and "driven by the keys" in (run.why or "")
+
+
+def test_a_first_stop_that_cannot_be_planned_is_logged_and_the_run_is_not_arrived(tmp_path):
+    night = Night(tmp_path)
+    (tmp_path / "routes" / "rounds.patrol.yaml").write_text(
+        "rounds: 1\nsnapshots: false\nstops:\n  - {room: no-such-room}\n  - {room: room-101}\n"
+    )
+    night.at(22, 0)
+    night.site.run(300.0, until_ended=False)
+    assert night.site.control.mission is None
+    [run] = list_runs(night.runs)
+    lines = [json.loads(line) for line in Path(run.file).read_text().splitlines()]
+    stops = [line for line in lines if line["event"] == "stop"]
+    assert [stop["place"] for stop in stops] == ["no-such-room", "room-101"]
+    assert stops[0]["outcome"] != "arrived" and "no-such-room" in stops[0]["detail"]
+    assert run.state == "ended" and run.arrived is False
