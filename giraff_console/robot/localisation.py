@@ -374,6 +374,12 @@ class Localisation:
         if not self.found and not near:
             return present  # too weak to confirm the assumed start by, or to place the robot
         sigma = known.covariance
+        placeable = present.facing_rad is not None and known.placeable
+        if not self.found and not self.basis.verified and placeable:
+            # Only assumed (a restart's kept pose, or the dock taken for granted): no
+            # evidence to weigh the marker against, and fused with it the assumption
+            # would pull the first fix its way and vouch for it. The marker places it.
+            return self._placed_by(marker_id, present, known.pose, sigma, now)
         if self.filter.correct(present, known.pose, sigma):
             self.map.accepted(marker_id)
             if not self.found:
@@ -382,17 +388,22 @@ class Localisation:
                             "where it was believed to be")  # fmt: skip
             self._fixed(marker_id, now)
             return present
-        if not self.found and present.facing_rad is not None and known.placeable:
-            # Not found yet: the assumed start is no evidence; this marker is.
-            pose = self.filter.place_from(present, known.pose, sigma)
-            self._fixed(marker_id, now)
-            self.report(f"found by marker {marker_id}: at x={pose.x:.2f} y={pose.y:.2f}")
-            return present
+        if not self.found and placeable:
+            # Not found yet, and the start it was given disagrees: this marker places it.
+            return self._placed_by(marker_id, present, known.pose, sigma, now)
         self._rejected[marker_id] = now
         self.rejections[marker_id] += 1
         note = self.map.rejected(marker_id, self._vouched_for(marker_id, now))
         if note is not None:
             self.report(note)
+        return present
+
+    def _placed_by(self, marker_id: int, present: Observation, at: Pose,
+                   sigma: np.ndarray, now: float) -> Observation:  # fmt: skip
+        """The robot placed where marker `marker_id`, hanging at `at`, says it is."""
+        pose = self.filter.place_from(present, at, sigma)
+        self._fixed(marker_id, now)
+        self.report(f"found by marker {marker_id}: at x={pose.x:.2f} y={pose.y:.2f}")
         return present
 
     def _vouched_for(self, marker_id: int, now: float) -> bool:
