@@ -130,6 +130,12 @@ class LookFor(enum.Enum):
 # from a contact have bounds of their own, and a stop that is already ending the
 # mission is let finish.
 WATCHED = frozenset({Stage.DRIVING, Stage.TURNING, Stage.STOPPING})
+# Those bounds, in seconds of the stage, and how a mission that overstays one ends: a
+# look's sweep is six turns of 60 degrees with a pause and a gather at each, and a few
+# turns to the best markers seen, under a minute; backing off is BACK_OFF_M at a creep,
+# a few seconds. A turn that hunts round its end, or a reverse that never gets there,
+# is ended here rather than left to run.
+STAGE_LIMITS = {Stage.LOOKING: (120.0, Outcome.LOST), Stage.BACKING_OFF: (30.0, Outcome.STALLED)}
 
 
 @dataclass(frozen=True)
@@ -208,6 +214,7 @@ class PathMission:
         self._now = 0.0
         self._paused = False
         self._stage = Stage.DRIVING
+        self._timed: tuple[Stage, float] | None = None  # the stage under way, and since
         self._stopping_why = ""  # what a STOPPING stage says it stops for
         self._then: Then = lambda tick: []  # what STOPPING, HALTING, BACKING_OFF lead to
         self._halted_at: float | None = None  # the last stop sent while halting
@@ -298,9 +305,22 @@ class PathMission:
         if self._progress_watch.stuck(now) and self._stage in WATCHED:
             how = f"stuck for {self._progress_watch.still_for(now):.0f} s near {{}}"
             return self._fail(tick, Outcome.BLOCKED, self._stuck(pose, how))
+        overstayed = self._overstayed(now)
+        if overstayed is not None:
+            return self._fail(tick, *overstayed)
         commands = self._steps[self._stage](self, tick)
         self._recovery.trail(pose)
         return commands
+
+    def _overstayed(self, now: float) -> tuple[Outcome, str] | None:
+        """How the mission ends if its stage has run past its limit (STAGE_LIMITS)."""
+        if self._timed is None or self._timed[0] is not self._stage:
+            self._timed = (self._stage, now)
+        limit = STAGE_LIMITS.get(self._stage)
+        if limit is None or now - self._timed[1] <= limit[0] or self._failing:
+            return None
+        return limit[1], (f"{self._stage.value} took over {limit[0]:.0f} s; drive the robot "
+                          f"by hand, then type {self.retry} again")  # fmt: skip
 
     def next_due(self) -> float | None:
         return None

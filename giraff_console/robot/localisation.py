@@ -82,12 +82,6 @@ START_SIGMA_HEADING = math.radians(3.0)
 # required to stay within 0.10 m (issue 14); a 2-sigma 0.10 m is a sigma of 0.05 m.
 SLOW_SIGMA_M = 0.10
 LOOK_SIGMA_M = 0.20
-# Until the robot is found, only a marker near enough to be read well confirms or
-# places it (camera/marker_reach.py's read_reach: 4 m for a 16 cm marker): placing
-# needs its facing, good to a few degrees at 2-3 m, and a degree is 7 cm at 4 m. A
-# farther one waits for a nearer (a look turns to them, nearer first). Beyond
-# facing_reach a marker's facing is not used to correct the pose, only its distance and
-# bearing (see _take).
 # A step whose centre moves less than this fraction of what its wheels turn is a turn
 # in place, which leaves the casters out of line (§3.2.1.5).
 IN_PLACE_FRACTION = 0.1
@@ -370,6 +364,9 @@ class Localisation:
             # centimetres and hundredths of a degree there. A robot not found yet keeps
             # it: placing the robot needs it, and only a marker within reach places.
             present = replace(present, facing_rad=None)
+        # Until the robot is found, only a marker near enough to be read well confirms
+        # or places it (camera/marker_reach.py's read_reach: 4 m for a 16 cm marker): a
+        # farther one waits for a nearer (a look turns to them, nearer first).
         near = present.distance_m <= self._place_reach
         if not self.found and not near:
             return present  # too weak to confirm the assumed start by, or to place the robot

@@ -69,7 +69,6 @@ FIELD_OF_VIEW_DEG = 90.0
 # The mount: on the robot's centre line, above the middle of the wheel axle, looking
 # level along the robot's heading (the head's tilt is not simulated).
 CAMERA_HEIGHT_M = 1.3
-CAMERA_FORWARD_M = 0.0
 MAX_RANGE_M = 50.0
 # A chair or a trolley: lower than the camera, so that its lid shows.
 BLOCK_HEIGHT_M = 0.8

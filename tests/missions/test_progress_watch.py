@@ -15,9 +15,11 @@ import pytest
 from giraff_console.missions.go_to import GoTo
 from giraff_console.missions.lookout import Lookout
 from giraff_console.missions.navigation import Navigator
+from giraff_console.missions.path_mission import STAGE_LIMITS, Stage
 from giraff_console.missions.progress_watch import PROGRESS_M, Patience, ProgressWatch
 from giraff_console.motion.executor import Executor
 from giraff_console.planning.route_planner import walls_of
+from giraff_console.robot.mission import Outcome
 from giraff_console.robot.odometry import Pose
 from giraff_console.settings import SettingsError, load_settings
 from giraff_console.sim.drive import TruePose
@@ -208,3 +210,19 @@ def test_the_settings_file_sets_the_patience(tmp_path):
     path = tmp_path / "config.toml"
     path.write_text("[motion]\nstuck_s = 45\nmax_replans = 8\n", encoding="utf-8")
     assert load_settings(path).motion.patience() == Patience(45, 8)
+
+
+@pytest.mark.parametrize(("stage", "outcome"), [
+    (Stage.LOOKING, Outcome.LOST),
+    (Stage.BACKING_OFF, Outcome.STALLED),
+])  # fmt: skip
+def test_a_look_or_a_back_off_that_never_ends_is_ended_at_its_limit(navigator, stage, outcome):
+    # The progress watch does not time these stages; each has a limit of its own, so
+    # that a turn hunting round its end, or a reverse that never gets there, ends.
+    mission = GoTo(navigator, "room-101", lambda: navigator.start_pose, tick=TICK, limits=LIMITS)
+    limit, _ = STAGE_LIMITS[stage]
+    mission._stage = stage
+    assert mission._overstayed(10.0) is None
+    assert mission._overstayed(10.0 + limit) is None
+    ended = mission._overstayed(10.0 + limit + TICK)
+    assert ended is not None and ended[0] is outcome and "took over" in ended[1]
