@@ -199,7 +199,8 @@ def scenario(kind: str, seed: int, folder: Path) -> Result:
                                     env=env, timeout=MISSION_TIMEOUT_S)  # fmt: skip
             report = json.loads(second.stdout.strip().splitlines()[-1]) if second.stdout else {}
             result.told = report.get("detail") or second.stderr.strip()[-200:]
-            result.outcomes.append(str(report.get("outcome")))
+            # A go refused before it started has no outcome: why it was refused instead.
+            result.outcomes.append(str(report.get("outcome") or report.get("why")))
             time.sleep(1.0)
             if report.get("outcome") == "arrived":
                 goal = load_floorplan(PLAN).rooms[GOAL].at

@@ -130,16 +130,19 @@ def found_again(estimate: Estimate) -> bool:
 def confirmed(estimate: Estimate) -> bool:
     """Known well enough to say the robot has arrived: within the arrival bounds, on a
     marker's fix no staler than FIX_FRESH_M, with no contact since."""
-    return (estimate.found and fresh(estimate)
-            and estimate.sigma_m <= ARRIVE_SIGMA_M
-            and estimate.sigma_heading <= ARRIVE_SIGMA_HEADING)  # fmt: skip
+    return _fixed_within(estimate, ARRIVE_SIGMA_HEADING)
 
 
 def trusted(estimate: Estimate) -> bool:
     """Known well enough to claim the arrival (CLAIM_SIGMA_HEADING)."""
+    return _fixed_within(estimate, CLAIM_SIGMA_HEADING)
+
+
+def _fixed_within(estimate: Estimate, sigma_heading: float) -> bool:
+    """Found, freshly fixed, within ARRIVE_SIGMA_M and `sigma_heading` (radians)."""
     return (estimate.found and fresh(estimate)
             and estimate.sigma_m <= ARRIVE_SIGMA_M
-            and estimate.sigma_heading <= CLAIM_SIGMA_HEADING)  # fmt: skip
+            and estimate.sigma_heading <= sigma_heading)  # fmt: skip
 
 
 def fresh(estimate: Estimate) -> bool:
