@@ -229,7 +229,9 @@ class Surveyed:
 
 def plan_walls(plan: FloorPlan) -> list[Wall]:
     """The plan's walls a marker may hang on, as the survey's solver takes them."""
-    return [Wall(segment.a, segment.b) for segment in marker_walls(plan).segments]
+    return [Wall(segment.a, segment.b,
+                 facing=None if segment.facing is None else math.radians(segment.facing))
+            for segment in marker_walls(plan).segments]  # fmt: skip
 
 
 def surveyed(plan: FloorPlan, log: SurveyLog, family: str, size: float) -> Surveyed:

@@ -124,7 +124,7 @@ class GridWalls:
         self.segments = []
         for facing, dr, dc in _FACINGS:
             edges = self.occupied & ~_ahead(self.occupied, dr, dc)
-            self.segments += [WallSegment(*self._ends(facing, line, start, stop))
+            self.segments += [WallSegment(*self._ends(facing, line, start, stop), facing=facing)
                               for line, start, stop, _ in _runs(_lines(edges, dc))]  # fmt: skip
 
     def in_wall(self, door: Door) -> bool:

@@ -35,6 +35,9 @@ class WallSegment:
     a: Point
     b: Point
     kind: str = "wall"  # "wall", "frame" (beside a doorway) or "door" (a closed one)
+    # Degrees: the way the floor in front of it lies, where that is known (a face of a
+    # grid's wall: grid_walls.py); None for an outline's edge, seen from either side.
+    facing: float | None = None
 
     @property
     def length(self) -> float:

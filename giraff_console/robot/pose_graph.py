@@ -111,6 +111,9 @@ class Wall:
     b: tuple[float, float]
     sigma_m: float = WALL_SIGMA_M
     sigma_facing: float = WALL_SIGMA_FACING
+    # Radians: the side a marker on it faces out of, where the plan knows it (a grid's
+    # face); None: either side.
+    facing: float | None = None
 
 
 @dataclass(frozen=True)

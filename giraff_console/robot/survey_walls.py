@@ -55,6 +55,10 @@ def assign_walls(markers: Mapping[int, SurveyedMarker], walls: Sequence[Wall]) -
     b = np.array([w.b for w in walls], dtype=float)
     sigmas = np.array([(w.sigma_m, w.sigma_facing) for w in walls], dtype=float)
     length = np.linalg.norm(b - a, axis=1)
+    # A face of a wall a grid holds is seen from one side only: a marker facing the
+    # other way cannot hang on it (it is the far face of the wall behind the marker,
+    # which with the near one would leave the marker held to neither).
+    sides = np.array([math.nan if w.facing is None else w.facing for w in walls], dtype=float)
     usable = length > 0
     along = (b - a) / np.where(usable, length, 1.0)[:, None]
     left = np.stack([-along[:, 1], along[:, 0]], 1)
@@ -64,6 +68,7 @@ def assign_walls(markers: Mapping[int, SurveyedMarker], walls: Sequence[Wall]) -
         p = np.array([marker.pose.x, marker.pose.y])
         cov = marker.covariance
         facing = np.array([math.cos(marker.pose.heading), math.sin(marker.pose.heading)])
+        side_ok = np.isnan(sides) | (np.cos(sides - marker.pose.heading) > 0)
         normal = np.where((left @ facing >= 0)[:, None], left, -left)
         across = np.einsum("wi,wi->w", normal, p - a)
         off = wrap_angles(marker.pose.heading - np.arctan2(normal[:, 1], normal[:, 0]))
@@ -75,7 +80,8 @@ def assign_walls(markers: Mapping[int, SurveyedMarker], walls: Sequence[Wall]) -
         d2 = (across**2 * var_facing - 2 * across * off * cross + off**2 * var_across) / det
         t = np.einsum("wi,wi->w", along, p - a)
         spread = ALONG_SIGMAS * np.sqrt(np.einsum("wi,ij,wj->w", along, cov[:2, :2], along))
-        passing = np.flatnonzero(usable & (d2 <= gate) & (t >= -spread) & (t <= length + spread))
+        passing = np.flatnonzero(usable & side_ok & (d2 <= gate) & (t >= -spread)
+                                 & (t <= length + spread))  # fmt: skip
         if not len(passing):
             continue
         nearest = int(passing[np.argmin(d2[passing])])

@@ -572,6 +572,21 @@ def test_a_marker_gets_its_wall_when_only_one_line_can_be_it() -> None:
     assert assign_walls({1: askew}, walls) == {}
 
 
+def test_a_marker_on_a_grids_wall_is_held_to_the_face_it_faces_out_of() -> None:
+    # A grid's wall 0.1 m thick: its two faces, each seen from one side only. A marker
+    # on the lower face, facing down, known to 5 cm: both lines pass its gate, but the
+    # upper face looks the other way, so the lower one is its own (not held by its
+    # facing only, which left an imported clinic's markers at 21 cm).
+    marker = Pose(1.0, 0.99, -math.pi / 2)
+    lower = Wall((0.0, 1.0), (4.0, 1.0), facing=-math.pi / 2)
+    upper = Wall((0.0, 1.1), (4.0, 1.1), facing=math.pi / 2)
+    loose = SurveyedMarker(1, marker, np.diag([0.05**2, 0.05**2, math.radians(3) ** 2]), 10, True)
+    assert assign_walls({1: loose}, [lower, upper])[1] == lower
+    # Seen either way (an outline's edge), the two lines leave only the facing held.
+    either = [replace(lower, facing=None), replace(upper, facing=None)]
+    assert math.isinf(assign_walls({1: loose}, either)[1].sigma_m)
+
+
 def test_a_misread_from_beyond_its_wall_does_not_turn_a_marker_round() -> None:
     """A marker on an end wall, seen from in front, and its id misread once from far
     beyond the wall: the marker still faces the way it was seen from, and its wall
