@@ -529,6 +529,9 @@ def run_console(args: argparse.Namespace) -> int:
         # starts where the plan says. The simulator's robot is put there, so that is
         # where it stands; a real robot's is only assumed to (robot/localisation.py).
         control.place(start, PoseBasis.GIVEN if simulator is not None else PoseBasis.ASSUMED)
+    elif simulator is not None:
+        # A plan with no start room: the simulated robot stands where it starts.
+        control.place(control.pose, PoseBasis.GIVEN)
     # A real robot's last estimate, read back as an assumption, and kept from now on;
     # unless the operator says where it stands (--at).
     keeper = keep_the_pose(control, plan.path.resolve()) if port is not None else None

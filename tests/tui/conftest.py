@@ -60,6 +60,10 @@ class Rig:
             assert start is not None
             self.control.place(start, PoseBasis.GIVEN)
             self.board.place(TruePose(start.x, start.y, start.heading))
+        else:
+            # The simulated robot stands where it starts, as `giraff-console --sim`
+            # has it (cli.py): a pose given, not assumed.
+            self.control.place(self.control.pose, PoseBasis.GIVEN)
         self.camera = None
         if camera and plan is not None:
             # The camera sees the plan's building and its markers, which the detector
