@@ -44,7 +44,8 @@ import yaml
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import giraff_console
-from giraff_console.planning.floorplan import FloorPlan, load_floorplan
+from giraff_console.missions.survey import tour
+from giraff_console.planning.floorplan import load_floorplan
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "giraff_console/floorplans/care-home.yaml"
 # Beside the kitchen door, on the dining room's east wall: the patrol passes it going
@@ -65,20 +66,6 @@ class Run:
     code: int | None = None
     wall_s: float = 0.0
     problem: str | None = None  # the process failed: usage error, timeout, crash
-
-
-def tour(plan: FloorPlan) -> list[str]:
-    """Every room, nearest first (straight-line) from the start room, then back to it."""
-    assert plan.start is not None
-    left = [room for room in plan.rooms if room != plan.start]
-    here = plan.rooms[plan.start].at
-    order = []
-    while left:
-        room = min(left, key=lambda name: math.dist(here, plan.rooms[name].at))
-        left.remove(room)
-        order.append(room)
-        here = plan.rooms[room].at
-    return [*order, plan.start]
 
 
 def patrol_command(path: Path, seed: int, args: argparse.Namespace, *extra: str) -> list[str]:

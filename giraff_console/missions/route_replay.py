@@ -17,6 +17,7 @@ import math
 
 from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.certainty import blind
+from giraff_console.missions.follow_route import START_REACH_M
 from giraff_console.missions.route import MOTION_SETTINGS, Route
 from giraff_console.motion.path import wrap
 from giraff_console.protocol.codec import Command, format_number, parse_number
@@ -26,10 +27,9 @@ from giraff_console.robot.mission import Progress
 from giraff_console.robot.safety import REACH_M
 
 # A replay follows no pose, so it drives the taught shape from wherever the robot
-# stands: it starts only this near where the route did, by the estimate (follow-route's
-# reach), and turned no further from the route's first heading. 15 degrees off is 0.26 m
-# sideways after a metre, about the most a doorway leaves either side of the robot.
-REPLAY_REACH_M = 1.0
+# stands: it starts only as near where the route did as follow-route does (by the
+# estimate), and turned no further from the route's first heading than this. 15 degrees
+# off is 0.26 m sideways after a metre, about the most a doorway leaves either side.
 REPLAY_TURN = math.radians(15.0)
 
 
@@ -45,11 +45,11 @@ def replay_refusal(route: Route, estimate: Estimate | None, retry: str) -> str |
     start, pose = route.path[0], estimate.pose
     away = math.dist((pose.x, pose.y), (start.x, start.y))
     turned = abs(wrap(pose.heading - start.heading))
-    if away <= REPLAY_REACH_M and turned <= REPLAY_TURN:
+    if away <= START_REACH_M and turned <= REPLAY_TURN:
         return None
     return (f"the robot stands {away:.1f} m and {math.degrees(turned):.0f}° from where route "
             f"{route.name} starts, and a replay follows no pose: drive it there (within "
-            f"{REPLAY_REACH_M:.0f} m and {math.degrees(REPLAY_TURN):.0f}°), or follow-route "
+            f"{START_REACH_M:.0f} m and {math.degrees(REPLAY_TURN):.0f}°), or follow-route "
             f"{route.name}, then {retry} again")  # fmt: skip
 
 
