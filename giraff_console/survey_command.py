@@ -36,6 +36,7 @@ from giraff_console.missions.survey import (
     Surveyed,
     Tour,
     plan_walls,
+    redraw_map,
     surveyed,
     tour,
     write_surveyed,
@@ -113,18 +114,20 @@ def run_survey(args: argparse.Namespace, settings: Settings, port: str | None,
                     f"its dock and say so with --at {plan.start}", EXIT_USAGE)  # fmt: skip
     start = robot.control.estimate().pose
     log = SurveyLog(start, control.odometry.wheel_base, start_cov=start_covariance())
-    control.localisation.start_survey(log, [(wall.a, wall.b) for wall in plan_walls(plan)])
+    walls = plan_walls(plan)
+    control.localisation.start_survey(log, [(wall.a, wall.b) for wall in walls])
     limits = settings.motion.limits()
-    # The way to each room steers by the pose the markers learnt so far correct, and
-    # does not stop to look for markers: the map is being made (missions/survey.py).
-    mission = Tour(tour(plan, rooms), lambda room: robot.drives.go(room, minding=False),
-                   lambda: control.pose, limits, control.period, control.note)  # fmt: skip
+    # Each room's look round ends with the map redrawn from the survey so far
+    # (missions/survey.py's redraw_map), and the way on planned from there.
+    mission = Tour(tour(plan, rooms), robot.drives.go, lambda: control.pose, limits,
+                   control.period, control.note,
+                   looked_round=lambda: redraw_map(control.localisation, walls))  # fmt: skip
     ended: list[str] = []
     if not robot.run(mission, ended.append):
         return fail("no answer from the board", EXIT_FAILED)
     control.localisation.end_survey()
     found = surveyed(given, log, plan.landmarks.family, plan.landmarks.size)
-    left_out = [leg.room for leg in mission.legs if leg.outcome is None or not leg.outcome.arrived]
+    left_out = mission.not_reached
     written = None
     # A survey stopped part-way (Ctrl-C, the board gone) writes nothing: the markers it
     # had seen are printed, and the plan stays as it was.

@@ -57,13 +57,12 @@ class DriveSetup:
                    estimate=control.estimate,
                    touched=control.localisation.touched)  # fmt: skip
 
-    def go(self, room: str, *, minding: bool = True) -> GoTo | GoToPose:
+    def go(self, room: str) -> GoTo | GoToPose:
         """To a room of the plan, or onto the dock (`dock`); PlanningError if there is no
-        floor plan or no way. Without `minding` the mission steers by the pose and does
-        not look for markers when unsure (a survey, which is making the map)."""
+        floor plan or no way."""
         return go_mission(self._plan(), room, self.pose, tick=self.tick, limits=self.limits,
                           sense=self.sense, notify=self.notify, patience=self.patience,
-                          estimate=self.estimate if minding else None,
+                          estimate=self.estimate,
                           touched=self.touched)  # fmt: skip
 
     def arrive(self, goal: str, arrival: Arrival) -> GoToPose:

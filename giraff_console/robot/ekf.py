@@ -310,6 +310,11 @@ class PoseFilter:
         x[:3] = pose.x, pose.y, pose.heading
         self._x = x
 
+    def relocate(self, pose: Pose, covariance: np.ndarray) -> None:
+        """The estimate is now `pose`, known to `covariance`, by what knows better than
+        the filter (a survey's graph, robot/pose_graph.py), the casters' turn to come kept."""
+        self._set_pose(pose, covariance, float(self._x[3]), float(self._p[3, 3]))
+
     def _set_pose(self, pose: Pose, covariance: np.ndarray | None, caster: float,
                   caster_var: float) -> None:  # fmt: skip
         """The pose known to `covariance`, and the casters' turn to come to `caster_var`,

@@ -247,6 +247,15 @@ class Localisation:
         self.map.walls = np.array(walls, dtype=float).reshape(-1, 2, 2)
         self._expect_casters()
 
+    def redraw(self, markers: Mapping[int, MarkerBelief], at: Pose,
+               covariance: np.ndarray) -> None:  # fmt: skip
+        """A survey's graph, solved on what it has logged so far, says where `markers`
+        hang and that the robot is `at`, known to `covariance`: the map takes them in
+        place of what it learnt on the way, and the estimate moves there, the casters'
+        turn to come kept (missions/survey.py says when, and why)."""
+        self.map.redraw(markers)
+        self.filter.relocate(at, covariance)
+
     def end_survey(self) -> SurveyLog | None:
         """Stop logging; the log, if a survey was under way."""
         log, self.survey = self.survey, None

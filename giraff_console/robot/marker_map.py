@@ -189,6 +189,13 @@ class MarkerMap:
         self.beliefs[marker_id] = fused
         return None
 
+    def redraw(self, markers: Mapping[int, MarkerBelief]) -> None:
+        """These markers' poses, from a survey's graph, in place of what was learnt of
+        them (missions/survey.py); rejections counted against the old ones forgotten."""
+        self.beliefs.update(markers)
+        for marker_id in markers:
+            self._rejected.pop(marker_id, None)
+
     def accepted(self, marker_id: int) -> None:
         """The gate took a sighting of a known marker."""
         self._rejected.pop(marker_id, None)

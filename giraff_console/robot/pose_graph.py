@@ -79,6 +79,7 @@ from giraff_console.robot.pose_graph_solve import (
     ROBUST_ITERATIONS,
     activity,
     gauss_newton,
+    keyframe_covariance,
     marker_covariance,
     outliers,
     sighting_distances,
@@ -204,14 +205,16 @@ class Outlier:
 @dataclass(frozen=True)
 class SurveyResult:
     """Every marker seen or known (by id, ascending), the keyframes where the solution
-    puts them, the sightings left out, each casters' turn (radians), the markers given a
-    wall but never seen, and how the solve went (Gauss-Newton steps; whether it
-    converged). `joint_covariance` is all the markers' poses' (3 rows and columns each,
-    in `markers`' order): how well two are known relative to each other, which is
-    better than either alone, as they share the path's error."""
+    puts them and how well the last is known (where the survey has left the robot), the
+    sightings left out, each casters' turn (radians), the markers given a wall but never
+    seen, and how the solve went (Gauss-Newton steps; whether it converged).
+    `joint_covariance` is all the markers' poses' (3 rows and columns each, in
+    `markers`' order): how well two are known relative to each other, which is better
+    than either alone, as they share the path's error."""
 
     markers: Mapping[int, SurveyedMarker]
     keyframes: tuple[Pose, ...]
+    last_covariance: np.ndarray
     outliers: tuple[Outlier, ...]
     caster_turns: tuple[float, ...]
     unseen: tuple[int, ...]
@@ -427,6 +430,7 @@ def _result(survey: Survey, graph: Graph, x: np.ndarray, active: np.ndarray,
     return SurveyResult(
         markers=surveyed,
         keyframes=tuple(Pose(float(k[0]), float(k[1]), wrap(float(k[2]))) for k in keyframes),
+        last_covariance=keyframe_covariance(graph, x, active, len(keyframes) - 1),
         outliers=left_out,
         caster_turns=tuple(float(c) for c in casters),
         unseen=tuple(sorted(set(survey.walls) - set(surveyed))),

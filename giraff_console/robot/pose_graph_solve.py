@@ -160,6 +160,18 @@ def activity(graph: Graph, rejected: set[int], walls_kept: np.ndarray) -> np.nda
     return active
 
 
+def keyframe_covariance(graph: Graph, x: np.ndarray, active: np.ndarray,
+                        keyframe: int) -> np.ndarray:  # fmt: skip
+    """One keyframe's 3x3 marginal covariance: its three columns of the inverse of the
+    Gauss-Newton normal matrix H = J'J at `x`, by one sparse LU of H."""
+    j = graph.jacobian(x, active).tocsc()
+    rows = 3 * keyframe + np.arange(3)
+    unit = np.zeros((graph.size, 3))
+    unit[rows, np.arange(3)] = 1.0
+    block = _factor(j.T @ j).solve(unit)[rows]
+    return (block + block.T) / 2
+
+
 def marker_covariance(graph: Graph, x: np.ndarray, active: np.ndarray) -> np.ndarray:
     """The markers' joint covariance (3M x 3M, in graph.marker_ids' order) from the
     Gauss-Newton normal matrix H = J'J at `x`: with the keyframes and casters (P) before
