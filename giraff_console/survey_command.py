@@ -3,7 +3,8 @@ the floor plan, without the console's screen (issue 25, item 2; missions/survey.
 
 The robot starts on its dock (the plan's start room: the simulator's robot is put
 there, a real robot's operator says so with `--at dock`), drives to every room (or
-`--rooms`), nearest first, looks round in each, and comes back to the dock. Then the
+`--rooms`), nearest first, looks round in each, tries a room it could not reach once
+more, and comes back to the dock. Then the
 markers are estimated with the robot's path (a few seconds) and written into the plan,
 each with its uncertainty; `--dry-run` only prints them. Progress goes to standard
 error; `--json` prints the markers found as JSON. The plan's `landmarks:` key gives
@@ -55,7 +56,8 @@ def add_survey_parser(commands: argparse._SubParsersAction, example: Path) -> No
         "survey",
         help="map the markers on the walls and write them into the floor plan",
         description="From the dock, drive to every room of the floor plan (or --rooms), "
-        "look round in each, and come back; meanwhile find every marker the camera sees, "
+        "look round in each, try a room it could not reach once more, and come back; "
+        "meanwhile find every marker the camera sees, "
         "then estimate each one's place with the robot's path and write them, with how "
         "well each is known, into the plan's landmarks (floorplans/README.md). The "
         "robot starts on its dock: on a real robot say so with --at dock. Exits 0 when "

@@ -7,11 +7,14 @@ room) and goes through the building: driven by the robot itself (`Tour`: a room 
 time, nearest first, looking round on the spot in each, back to the dock at the end)
 or by the operator with the keys. Meanwhile the localisation logs the wheels and every
 marker it sees (robot/survey_log.py) and learns the markers it does not know
-(robot/marker_map.py), so that the robot finds its way by them as it goes. At the end
-the pose graph (robot/pose_graph.py) estimates every marker's pose jointly with the
-robot's path, each held to the plan's wall it hangs on (robot/survey_walls.py), and
-the markers are written into the plan with their uncertainty (`sigma`), where `go`
-and patrols find the robot by them from then on.
+(robot/marker_map.py), so that the robot finds its way by them as it goes; at the end
+of each room's look round the pose graph (robot/pose_graph.py), solved on what the
+survey has seen so far, redraws those markers and the robot's pose (`redraw_map`). A
+room not reached (a way it could not pass, no marker it knew in sight) is tried once
+more before the dock. At the end the pose graph estimates every marker's pose jointly
+with the robot's whole path, each held to the plan's wall it hangs on
+(robot/survey_walls.py), and the markers are written into the plan with their
+uncertainty (`sigma`), where `go` and patrols find the robot by them from then on.
 
 A marker seen fewer than MIN_SIGHTINGS times, or never square enough to see which way
 it faces, is left out and named: one glimpse could be a misread id. A marker lies flat

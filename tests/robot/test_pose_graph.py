@@ -466,6 +466,20 @@ def test_on_walls_the_covariances_are_honest() -> None:
     assert first.covariance == pytest.approx(on_walls.joint_covariance[:3, :3])
 
 
+def test_the_last_keyframe_is_where_the_walk_ends_as_surely_as_it_says() -> None:
+    """Where the world follows the model, the last keyframe (where a survey redraws the
+    robot mid-way, missions/survey.py) is off the walk's true end as its covariance
+    says: chi-square with three degrees of freedom a survey."""
+    total, dof = 0.0, 0
+    for walk, _, on_walls in consistent_walks():
+        end, truth = on_walls.keyframes[-1], walk.truth
+        e = np.array([end.x - truth[0], end.y - truth[1], wrap(end.heading - truth[2])])
+        total += float(e @ np.linalg.solve(on_walls.last_covariance, e))
+        dof += 3
+    low, high = chi_square_mean_band(1, dof)
+    assert low < total / dof < high
+
+
 def test_without_walls_each_markers_covariance_is_honest() -> None:
     """Without walls the map's heading is held only by the dock's 3 degrees and the
     casters' 20-degree priors where nothing measures them, and over metres of lever
