@@ -18,9 +18,10 @@ uncertainty (`sigma`), where `go` and patrols find the robot by them from then o
 
 A marker seen fewer than MIN_SIGHTINGS times, or never square enough to see which way
 it faces, is left out and named: one glimpse could be a misread id. A marker lies flat
-on its wall, so one found on a wall of the plan faces square to it: its facing is the
-wall's, which the plan's own checks ask for within 2 degrees (a solve held to a wall
-only softly left one 2.2 degrees off, and the whole survey unwritten). One the plan's
+on its wall, so one found on a wall of the plan sits on the wall's line and faces
+square to it, as the plan's own checks ask (a solve held to a wall only softly left
+one 2.2 degrees off, and the whole survey unwritten; another 3 cm into its wall, facing
+into no room). One the plan's
 checks still refuse is left out with their reason, and the others are written.
 """
 
@@ -316,9 +317,8 @@ def surveyed(plan: FloorPlan, log: SurveyLog, family: str, size: float) -> Surve
         if not found.facing_seen:
             left_out[marker_id] = "never seen square enough to tell which way it faces"
             continue
-        pose = found.pose
-        at = (pose.x, pose.y)
-        facing = _square_to_wall(at, math.degrees(pose.heading), walls)
+        at, facing = _onto_wall((found.pose.x, found.pose.y), math.degrees(found.pose.heading),
+                                walls)  # fmt: skip
         # As a file holds them: millimetres, tenths of a degree in [0, 360), no -0.
         markers.append(Marker(
             marker_id, (round(at[0], 3) + 0.0, round(at[1], 3) + 0.0),
@@ -333,14 +333,22 @@ def surveyed(plan: FloorPlan, log: SurveyLog, family: str, size: float) -> Surve
                     result)  # fmt: skip
 
 
-def _square_to_wall(at: Point, facing: float, walls: MarkerWalls) -> float:
-    """`facing` (degrees) made square to the wall of the plan the marker at `at` is on,
-    on the side it faces; as it is if it is on none."""
-    fit = fit_on_walls(at, facing, walls)
-    if fit.wall is None:
-        return facing
-    normal = wall_direction(fit.wall) + 90.0
-    return min((normal, normal + 180.0), key=lambda side: angle_between(facing, side))
+def _onto_wall(at: Point, facing: float, walls: MarkerWalls) -> tuple[Point, float]:
+    """A marker at `at` facing `facing` (degrees) put flat on the wall of the plan it is
+    on (module docstring): its centre on the wall's line, facing square out of it on the
+    side it faces; as it is if it is on none."""
+    wall = fit_on_walls(at, facing, walls).wall
+    if wall is None:
+        return at, facing
+    normal = wall_direction(wall) + 90.0
+    square = min((normal, normal + 180.0), key=lambda side: angle_between(facing, side))
+    (ax, ay), (bx, by) = wall.a, wall.b
+    dx, dy = bx - ax, by - ay
+    span = dx * dx + dy * dy
+    if span == 0.0:
+        return at, square
+    along = ((at[0] - ax) * dx + (at[1] - ay) * dy) / span
+    return (ax + along * dx, ay + along * dy), square
 
 
 def _refused(plan: FloorPlan, family: str, size: float,
