@@ -1,5 +1,6 @@
-"""The survey's tour (missions/survey.py): a look round in each room, the map redrawn at
-the end of each, and a room not reached tried once more before the dock."""
+"""The survey (missions/survey.py): its tour (a look round in each room, the map redrawn
+at the end of each, a room not reached tried once more before the dock), and the
+markers it writes flat on their walls."""
 
 from __future__ import annotations
 
@@ -10,8 +11,10 @@ import pytest
 
 from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.navigation import Navigator
-from giraff_console.missions.survey import GOES_ON_AFTER, Tour, redraw_map
+from giraff_console.missions.survey import GOES_ON_AFTER, Tour, _onto_wall, redraw_map
+from giraff_console.planning.landmarks import MarkerWalls
 from giraff_console.planning.route_planner import walls_of
+from giraff_console.planning.walls import WallSegment
 from giraff_console.protocol.codec import Command
 from giraff_console.robot.ekf import Observation
 from giraff_console.robot.localisation import Localisation, start_covariance
@@ -146,3 +149,14 @@ def test_a_redrawn_map_moves_the_markers_and_the_robot_where_the_graph_puts_them
     assert math.hypot(robot.x - 1.0, robot.y) < 0.03
     assert localisation.filter.sigma_m < 0.1
     assert localisation.filter.caster_expected == pytest.approx(casters)
+
+
+def test_a_marker_solved_a_little_off_its_wall_is_written_flat_on_it() -> None:
+    """3 cm into a grid's wall and 2 degrees askew, as a solve held to its wall to 2 cm
+    can leave it: on the wall's line, square to it, the side it faces kept. One on no
+    wall stays where it was found."""
+    walls = MarkerWalls([WallSegment((0.0, 0.0), (4.0, 0.0), facing=90.0)])
+    at, facing = _onto_wall((2.0, -0.03), 88.0, walls)
+    assert at == pytest.approx((2.0, 0.0))
+    assert facing % 360.0 == pytest.approx(90.0)
+    assert _onto_wall((2.0, 1.0), 88.0, walls) == ((2.0, 1.0), 88.0)
