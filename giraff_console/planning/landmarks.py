@@ -34,11 +34,10 @@ from giraff_console.planning.floorplan import (
 from giraff_console.planning.grid_walls import DOOR_IN_FACE_M, grid_walls
 from giraff_console.planning.walls import WallSegment, wall_segments
 from giraff_console.robot.marker_map import (
-    USE_SIGMA_FACING,
-    USE_SIGMA_M,
     MarkerBelief,
     MarkerState,
     hand_covariance,
+    on_wall_covariance,
 )
 from giraff_console.robot.odometry import Pose
 
@@ -288,27 +287,25 @@ def marker_poses(plan: FloorPlan, known_only: bool = False) -> dict[int, Pose]:
     landmarks. `known_only`: not those a survey left too loosely known to use."""
     if plan.landmarks is None:
         return {}
+    if known_only:
+        return {marker_id: belief.pose for marker_id, belief in marker_beliefs(plan).items()
+                if belief.state is MarkerState.KNOWN}  # fmt: skip
     return {marker.id: Pose(marker.at[0], marker.at[1], math.radians(marker.facing))
-            for marker in plan.landmarks.markers
-            if not known_only or _well_known(marker)}  # fmt: skip
-
-
-def _well_known(marker: Marker) -> bool:
-    sigma = marker.sigma
-    return sigma is None or (sigma[0] <= USE_SIGMA_M and math.radians(sigma[1]) <= USE_SIGMA_FACING)
+            for marker in plan.landmarks.markers}  # fmt: skip
 
 
 def marker_beliefs(plan: FloorPlan) -> dict[int, MarkerBelief]:
     """Each of the plan's markers as the localisation finds the robot by it: its pose
     (marker_poses) and how well that is known (robot/marker_map.py): as a survey wrote
-    it, else a tape measure's. A marker the survey left loosely known is learnt, not
-    used, until sightings make it known well enough."""
+    it, on its wall (the plan's checks see that it is on one), else a tape measure's. A
+    marker the survey left loosely known is learnt, not used, until sightings make it
+    known well enough."""
     beliefs = {}
     markers = markers_by_id(plan)
     for marker_id, pose in marker_poses(plan).items():
         sigma = markers[marker_id].sigma
-        covariance = hand_covariance() if sigma is None else hand_covariance(
-            sigma[0], math.radians(sigma[1]))  # fmt: skip
+        covariance = hand_covariance() if sigma is None else on_wall_covariance(
+            sigma[0], math.radians(sigma[1]), pose.heading)  # fmt: skip
         belief = MarkerBelief(pose, covariance)
         if not belief.well_known:
             belief = MarkerBelief(pose, covariance, MarkerState.LEARNING)

@@ -277,6 +277,19 @@ def test_a_surveyed_marker_says_how_well_it_is_known_and_a_loose_one_is_learnt_n
     assert set(marker_poses(plan, known_only=True)) == {1}
 
 
+def test_a_surveyed_marker_loose_along_its_wall_is_known_across_it_and_used(tmp_path):
+    """A survey's sigma is the worst way, along the wall for a marker held to one: across
+    it the plan's wall says where it is, so it finds the robot all the same."""
+    text = with_marker("{id: 2, at: [6, 4], height: 1.1, facing: 270, sigma: [0.12, 1.5]}")
+    belief = marker_beliefs(load_text(tmp_path, text))[2]
+    assert belief.state is MarkerState.KNOWN
+    # Facing 270 degrees, its wall runs along x.
+    assert belief.covariance[0, 0] == pytest.approx(0.12**2)
+    assert belief.covariance[1, 1] == pytest.approx(0.02**2)
+    assert belief.covariance[0, 1] == pytest.approx(0.0, abs=1e-12)
+    assert 2 in marker_poses(load_text(tmp_path, text), known_only=True)
+
+
 @pytest.mark.parametrize("sigma", ["[0, 1]", "[0.01, 200]", "[0.01]", "0.02", "[a, 1]"])
 def test_a_bad_sigma_is_reported_at_its_line(tmp_path, sigma):
     problems = problems_in(tmp_path, with_marker(
