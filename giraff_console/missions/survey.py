@@ -31,6 +31,8 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
+import numpy as np
+
 from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.go_to import GoTo
 from giraff_console.missions.path_mission import PathMission
@@ -41,11 +43,10 @@ from giraff_console.planning.floorplan import FloorPlan, Landmarks, Marker
 from giraff_console.planning.landmark_checks import landmark_problems
 from giraff_console.planning.landmark_placement import DEFAULT_HEIGHT_M, write_landmarks
 from giraff_console.planning.landmarks import (
+    WALL_TOLERANCE_M,
     MarkerWalls,
     angle_between,
-    fit_on_walls,
     marker_walls,
-    wall_direction,
 )
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.protocol.codec import Command
@@ -53,7 +54,7 @@ from giraff_console.robot.localisation import Localisation
 from giraff_console.robot.marker_map import MarkerBelief, MarkerState
 from giraff_console.robot.mission import Outcome, Progress
 from giraff_console.robot.odometry import Pose
-from giraff_console.robot.pose_graph import SurveyResult, Wall
+from giraff_console.robot.pose_graph import SurveyedMarker, SurveyResult, Wall
 from giraff_console.robot.survey_log import SurveyLog
 from giraff_console.robot.survey_walls import solve_on_walls
 
@@ -317,8 +318,7 @@ def surveyed(plan: FloorPlan, log: SurveyLog, family: str, size: float) -> Surve
         if not found.facing_seen:
             left_out[marker_id] = "never seen square enough to tell which way it faces"
             continue
-        at, facing = _onto_wall((found.pose.x, found.pose.y), math.degrees(found.pose.heading),
-                                walls)  # fmt: skip
+        at, facing = _onto_wall(found, walls)
         # As a file holds them: millimetres, tenths of a degree in [0, 360), no -0.
         markers.append(Marker(
             marker_id, (round(at[0], 3) + 0.0, round(at[1], 3) + 0.0),
@@ -333,22 +333,34 @@ def surveyed(plan: FloorPlan, log: SurveyLog, family: str, size: float) -> Surve
                     result)  # fmt: skip
 
 
-def _onto_wall(at: Point, facing: float, walls: MarkerWalls) -> tuple[Point, float]:
-    """A marker at `at` facing `facing` (degrees) put flat on the wall of the plan it is
-    on (module docstring): its centre on the wall's line, facing square out of it on the
-    side it faces; as it is if it is on none."""
-    wall = fit_on_walls(at, facing, walls).wall
-    if wall is None:
+def _onto_wall(found: SurveyedMarker, walls: MarkerWalls) -> tuple[Point, float]:
+    """Where a marker the survey `found` goes, flat on its wall (module docstring): on
+    the nearest wall of the plan that runs behind it and that it faces out of (within
+    45 degrees), if that is no further than WALL_TOLERANCE_M or two of its standard
+    deviations across the wall; its facing then square out of it. As found (facing in
+    degrees) if there is none. A scanned plan's walls are a grid's cell edges, many of
+    them stubs: the wall the solve held the marker's facing to may be one beside it."""
+    at, facing = (found.pose.x, found.pose.y), math.degrees(found.pose.heading)
+    if not walls:
         return at, facing
-    normal = wall_direction(wall) + 90.0
-    square = min((normal, normal + 180.0), key=lambda side: angle_between(facing, side))
-    (ax, ay), (bx, by) = wall.a, wall.b
-    dx, dy = bx - ax, by - ay
-    span = dx * dx + dy * dy
-    if span == 0.0:
-        return at, square
-    along = ((at[0] - ax) * dx + (at[1] - ay) * dy) / span
-    return (ax + along * dx, ay + along * dy), square
+    normal = np.array([math.cos(found.pose.heading), math.sin(found.pose.heading)])
+    across = math.sqrt(max(0.0, float(normal @ found.covariance[:2, :2] @ normal)))
+    reach = max(WALL_TOLERANCE_M, 2.0 * across)
+    a, d = walls.a, walls.d
+    t = ((at[0] - a[:, 0]) * d[:, 0] + (at[1] - a[:, 1]) * d[:, 1]) / walls.span
+    foot = a + np.clip(t, 0.0, 1.0)[:, None] * d
+    off = np.hypot(at[0] - foot[:, 0], at[1] - foot[:, 1])
+    # The wall's normal on the side the marker faces, and how far it is from square.
+    sides = np.degrees(np.arctan2(d[:, 1], d[:, 0])) + 90.0
+    sides = np.where(np.cos(np.radians(sides - facing)) < 0, sides + 180.0, sides)
+    square = np.cos(np.radians(sides - facing)) >= math.cos(math.radians(45.0))
+    outward = np.array([wall.facing is None or angle_between(side, wall.facing) <= 45.0
+                        for wall, side in zip(walls.segments, sides, strict=True)])  # fmt: skip
+    behind = (t >= 0.0) & (t <= 1.0) & square & outward & (off <= reach)
+    if not behind.any():
+        return at, facing
+    best = int(np.flatnonzero(behind)[np.argmin(off[behind])])
+    return (float(foot[best, 0]), float(foot[best, 1])), float(sides[best]) % 360.0
 
 
 def _refused(plan: FloorPlan, family: str, size: float,

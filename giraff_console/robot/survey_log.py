@@ -168,6 +168,12 @@ class SurveyLog:
                 self._seen[-1].add(marker_id)
                 self.sightings.append(Sighting(keyframe, o))
 
+    def touched(self, extra: np.ndarray) -> None:
+        """The robot stalled against something: what it was pushed or turned, which the
+        wheels do not tell, as `extra` (a 3x3 covariance, Localisation.touched's) on the
+        edge under way, carried through its steps after this as the wheels' own."""
+        self._pending.covariance = self._pending.covariance + np.asarray(extra, dtype=float)
+
     def survey(self, known: Mapping[int, PosePrior] | None = None,
                walls: Mapping[int, Wall] | None = None) -> Survey:  # fmt: skip
         """The survey so far, the wheels since the last keyframe ending in one more."""

@@ -21,7 +21,7 @@ from giraff_console.robot.localisation import Localisation, start_covariance
 from giraff_console.robot.marker_map import MarkerState
 from giraff_console.robot.mission import Outcome, Progress
 from giraff_console.robot.odometry import Odometry, Pose
-from giraff_console.robot.pose_graph import Wall
+from giraff_console.robot.pose_graph import SurveyedMarker, Wall
 from giraff_console.robot.survey_log import SurveyLog
 from tests.missions.site import LIMITS, PLAN, TICK, Site
 
@@ -151,12 +151,32 @@ def test_a_redrawn_map_moves_the_markers_and_the_robot_where_the_graph_puts_them
     assert localisation.filter.caster_expected == pytest.approx(casters)
 
 
+def found(x: float, y: float, facing_deg: float, sigma_across: float = 0.01) -> SurveyedMarker:
+    """A marker as a solve leaves it, known to `sigma_across` (either way)."""
+    covariance = np.diag([sigma_across**2, sigma_across**2, math.radians(1.0) ** 2])
+    return SurveyedMarker(1, Pose(x, y, math.radians(facing_deg)), covariance, 5, True)
+
+
 def test_a_marker_solved_a_little_off_its_wall_is_written_flat_on_it() -> None:
-    """3 cm into a grid's wall and 2 degrees askew, as a solve held to its wall to 2 cm
-    can leave it: on the wall's line, square to it, the side it faces kept. One on no
-    wall stays where it was found."""
+    """3 cm into a grid's wall and 2 degrees askew, as a solve can leave it: on the
+    wall's line, square to it, the side it faces kept. One on no wall, or only beside
+    the end of one, stays where it was found."""
     walls = MarkerWalls([WallSegment((0.0, 0.0), (4.0, 0.0), facing=90.0)])
-    at, facing = _onto_wall((2.0, -0.03), 88.0, walls)
+    at, facing = _onto_wall(found(2.0, -0.03, 88.0), walls)
     assert at == pytest.approx((2.0, 0.0))
-    assert facing % 360.0 == pytest.approx(90.0)
-    assert _onto_wall((2.0, 1.0), 88.0, walls) == ((2.0, 1.0), 88.0)
+    assert facing == pytest.approx(90.0)
+    assert _onto_wall(found(2.0, 1.0, 88.0), walls) == ((2.0, 1.0), pytest.approx(88.0))
+    assert _onto_wall(found(4.1, -0.03, 88.0), walls)[0] == (4.1, -0.03)
+
+
+def test_a_marker_goes_on_the_face_it_looks_out_of_within_what_the_survey_knows() -> None:
+    """A grid's wall has two faces; a marker facing north goes on the north face, not on
+    the nearer south one. 7 cm off, it goes there only if the survey knew it no better
+    across the wall than 3.5 cm."""
+    walls = MarkerWalls([WallSegment((0.0, 0.0), (4.0, 0.0), facing=270.0),
+                         WallSegment((0.0, 0.1), (4.0, 0.1), facing=90.0)])  # fmt: skip
+    at, facing = _onto_wall(found(2.0, 0.06, 91.0), walls)
+    assert at == pytest.approx((2.0, 0.1)) and facing == pytest.approx(90.0)
+    assert _onto_wall(found(2.0, 0.17, 91.0, sigma_across=0.04), walls)[0] == pytest.approx(
+        (2.0, 0.1))  # fmt: skip
+    assert _onto_wall(found(2.0, 0.17, 91.0, sigma_across=0.02), walls)[0] == (2.0, 0.17)
