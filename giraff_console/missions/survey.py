@@ -160,8 +160,10 @@ class Leg:
 
 
 class Tour:
-    """A Mission: to each room of `rooms` in turn, looking round in each; a room that
-    cannot be reached is left out and the tour goes on (`legs` says how each went)."""
+    """A Mission: to each room of `rooms` in turn, looking round in each; a room not
+    reached on the way (GOES_ON_AFTER) is tried once more before the last room, then
+    left out, and the tour goes on (`legs` says how each try went, `not_reached` which
+    rooms no try reached). A room the plan has no way to is left out at once."""
 
     def __init__(self, rooms: list[str], go: GoToRoom, pose: Callable[[], Pose],
                  limits: MotionLimits, tick: float,
@@ -262,26 +264,45 @@ def redraw_map(localisation: Localisation, walls: Sequence[Wall]) -> None:
     was 15 cm off across a corridor with the filter believing itself within 2 cm, and
     clipped the frame of a 0.8 m door (10 cm to spare each side) on every try. The
     graph takes every sighting so far against the whole path and the plan's walls.
-    It is solved on the loop's thread (0.3 s of CPU for a 13-room home's whole
-    survey), as the simulated camera is looked through there: a run on the virtual
-    clock is then the same at any speed. A solve that does not converge changes
-    nothing."""
+
+    Every marker the graph places is redrawn, so that none keeps the drift the robot has
+    just been moved out of: known if it is known well enough, seen MIN_SIGHTINGS times
+    and with its facing (as `surveyed` writes one), else back to being learnt. The
+    robot's basis and its last fix are left as they were: the graph moves the pose, it
+    does not vouch for it.
+
+    It is solved on the loop's thread while the robot stands still (docs/performance.md
+    gives its time), as the simulated camera is looked through there: a run on the
+    virtual clock is then the same at any speed. A solve that fails or does not
+    converge, or whose pose is not a pose, changes nothing and says so."""
     log = localisation.survey
     if log is None:
         return
-    result = solve_on_walls(log.survey(), walls)
-    if not result.converged:
+    try:
+        result = solve_on_walls(log.survey(), walls)
+        np.linalg.cholesky(result.last_covariance)
+    except (ValueError, RuntimeError, np.linalg.LinAlgError) as error:
+        localisation.report(f"survey: the map so far could not be redrawn ({error}); going on "
+                            "by the markers as learnt")  # fmt: skip
+        return
+    at = result.keyframes[-1]
+    if not result.converged or not all(map(math.isfinite, (at.x, at.y, at.heading))):
+        localisation.report("survey: the map so far did not settle; going on by the markers "
+                            "as learnt")  # fmt: skip
         return
     markers = {}
     for marker_id, found in result.markers.items():
-        if found.sightings < MIN_SIGHTINGS or not found.facing_seen:
-            continue
         belief = MarkerBelief(found.pose, found.covariance, MarkerState.LEARNING,
                               found.sightings)  # fmt: skip
-        markers[marker_id] = replace(belief, state=MarkerState.KNOWN) if belief.well_known \
-            else belief  # fmt: skip
+        if found.facing_seen and found.sightings >= MIN_SIGHTINGS and belief.well_known:
+            belief = replace(belief, state=MarkerState.KNOWN)
+        markers[marker_id] = belief
+    before = localisation.filter.pose
     # The last keyframe is where the robot stands: the log ends one there (survey_log.py).
-    localisation.redraw(markers, result.keyframes[-1], result.last_covariance)
+    localisation.redraw(markers, at, result.last_covariance)
+    moved = math.hypot(at.x - before.x, at.y - before.y)
+    localisation.report(f"survey: map redrawn from {len(log.sightings)} sightings; the robot "
+                        f"is {moved:.2f} m from where it was believed")  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -336,16 +357,20 @@ def surveyed(plan: FloorPlan, log: SurveyLog, family: str, size: float) -> Surve
 def _onto_wall(found: SurveyedMarker, walls: MarkerWalls) -> tuple[Point, float]:
     """Where a marker the survey `found` goes, flat on its wall (module docstring): on
     the nearest wall of the plan that runs behind it and that it faces out of (within
-    45 degrees), if that is no further than WALL_TOLERANCE_M or two of its standard
-    deviations across the wall; its facing then square out of it. As found (facing in
-    degrees) if there is none. A scanned plan's walls are a grid's cell edges, many of
-    them stubs: the wall the solve held the marker's facing to may be one beside it."""
+    45 degrees), if that is no further than WALL_TOLERANCE_M or, for one the solve held
+    to a wall, two of its standard deviations across the wall; its facing then square
+    out of it. As found (facing in degrees) if there is none, or if the solve found its
+    sightings put it off the wall it was given. A scanned plan's walls are a grid's cell
+    edges, many of them stubs: the wall the solve held the marker's facing to may be one
+    beside it."""
     at, facing = (found.pose.x, found.pose.y), math.degrees(found.pose.heading)
-    if not walls:
+    if not walls or found.wall_rejected:
         return at, facing
     normal = np.array([math.cos(found.pose.heading), math.sin(found.pose.heading)])
     across = math.sqrt(max(0.0, float(normal @ found.covariance[:2, :2] @ normal)))
-    reach = max(WALL_TOLERANCE_M, 2.0 * across)
+    # Held to a wall by the solve, it is on one, within what the survey knows across it;
+    # never held, it goes onto one only as near as a hand-measured marker would be.
+    reach = max(WALL_TOLERANCE_M, 2.0 * across) if found.wall is not None else WALL_TOLERANCE_M
     a, d = walls.a, walls.d
     t = ((at[0] - a[:, 0]) * d[:, 0] + (at[1] - a[:, 1]) * d[:, 1]) / walls.span
     foot = a + np.clip(t, 0.0, 1.0)[:, None] * d
@@ -356,7 +381,8 @@ def _onto_wall(found: SurveyedMarker, walls: MarkerWalls) -> tuple[Point, float]
     square = np.cos(np.radians(sides - facing)) >= math.cos(math.radians(45.0))
     outward = np.array([wall.facing is None or angle_between(side, wall.facing) <= 45.0
                         for wall, side in zip(walls.segments, sides, strict=True)])  # fmt: skip
-    behind = (t >= 0.0) & (t <= 1.0) & square & outward & (off <= reach)
+    long = np.einsum("ij,ij->i", d, d) > 0.0
+    behind = long & (t >= 0.0) & (t <= 1.0) & square & outward & (off <= reach)
     if not behind.any():
         return at, facing
     best = int(np.flatnonzero(behind)[np.argmin(off[behind])])

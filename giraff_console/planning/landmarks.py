@@ -297,15 +297,22 @@ def marker_poses(plan: FloorPlan, known_only: bool = False) -> dict[int, Pose]:
 def marker_beliefs(plan: FloorPlan) -> dict[int, MarkerBelief]:
     """Each of the plan's markers as the localisation finds the robot by it: its pose
     (marker_poses) and how well that is known (robot/marker_map.py): as a survey wrote
-    it, on its wall (the plan's checks see that it is on one), else a tape measure's. A
-    marker the survey left loosely known is learnt, not used, until sightings make it
-    known well enough."""
+    it, on its wall (the plan's checks saw it is on one when it was loaded; OSError if
+    the grid's walls cannot be read now), else a tape measure's. A marker the survey
+    left loosely known is learnt, not used, until sightings make it known well enough."""
     beliefs = {}
     markers = markers_by_id(plan)
+    surveyed = any(marker.sigma is not None for marker in markers.values())
+    walls = marker_walls(plan) if surveyed else MarkerWalls([])
     for marker_id, pose in marker_poses(plan).items():
-        sigma = markers[marker_id].sigma
-        covariance = hand_covariance() if sigma is None else on_wall_covariance(
-            sigma[0], math.radians(sigma[1]), pose.heading)  # fmt: skip
+        marker = markers[marker_id]
+        sigma = marker.sigma
+        if sigma is None:
+            covariance = hand_covariance()
+        else:
+            off_wall = fit_on_walls(marker.at, marker.facing, walls).distance if walls else 0.0
+            covariance = on_wall_covariance(sigma[0], math.radians(sigma[1]), pose.heading,
+                                            off_wall)  # fmt: skip
         belief = MarkerBelief(pose, covariance)
         if not belief.well_known:
             belief = MarkerBelief(pose, covariance, MarkerState.LEARNING)

@@ -129,15 +129,17 @@ def hand_covariance(sigma_m: float = HAND_SIGMA_M,
     return np.diag([sigma_m**2, sigma_m**2, sigma_facing**2])
 
 
-def on_wall_covariance(sigma_m: float, sigma_facing: float, facing: float) -> np.ndarray:
-    """The covariance of a marker flat on a wall of the plan, facing `facing` (radians),
-    as a survey wrote it: `sigma_m` along its worst direction, which for a marker held
-    to its wall is along the wall; across the wall no worse than the plan's wall says
-    (WALL_SIGMA_M: module docstring); its facing to `sigma_facing`. One figure for both
-    ways would throw away the better: a survey leaves a marker in a room it saw from one
-    side known to 15 cm along its wall and 2 cm across it, and as 15 cm every way it
-    would never be used."""
-    across = min(sigma_m, WALL_SIGMA_M)
+def on_wall_covariance(sigma_m: float, sigma_facing: float, facing: float,
+                       off_wall: float = 0.0) -> np.ndarray:  # fmt: skip
+    """The covariance of a marker on a wall of the plan, `off_wall` metres from its line,
+    facing `facing` (radians), as a survey wrote it: `sigma_m` along its worst direction,
+    which for a marker held to its wall is along the wall; across the wall no worse
+    than the plan's wall says (WALL_SIGMA_M: module docstring), or than how far from it
+    the marker is written; its facing to `sigma_facing`. One figure for both ways would
+    throw away the better: a survey leaves a marker in a room it saw from one side known
+    to 15 cm along its wall and 2 cm across it, and as 15 cm every way it would never
+    be used."""
+    across = min(sigma_m, max(WALL_SIGMA_M, off_wall))
     normal = np.array([math.cos(facing), math.sin(facing)])
     along = np.array([-normal[1], normal[0]])
     covariance = np.zeros((3, 3))

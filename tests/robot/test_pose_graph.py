@@ -23,8 +23,13 @@ import pytest
 
 from giraff_console.robot import pose_graph
 from giraff_console.robot.ekf import CHI_SQUARE, FilterNoise, Observation, PoseFilter, wrap
-from giraff_console.robot.localisation import start_covariance
-from giraff_console.robot.odometry import Pose
+from giraff_console.robot.localisation import (
+    CONTACT_SIGMA_HEADING,
+    CONTACT_SIGMA_M,
+    Localisation,
+    start_covariance,
+)
+from giraff_console.robot.odometry import Odometry, Pose
 from giraff_console.robot.pose_graph import (
     CasterTurn,
     OdometryEdge,
@@ -306,6 +311,21 @@ def test_the_log_integrates_the_wheels_as_the_filter_does() -> None:
     assert edge.motion.heading == pytest.approx(moved.heading)
     floor = np.diag([0.001**2, 0.001**2, math.radians(0.05) ** 2])
     assert edge.covariance == pytest.approx(f.covariance + floor, rel=1e-9, abs=1e-15)
+
+
+def test_a_contact_widens_the_edge_under_way_as_it_widens_the_filter() -> None:
+    """A contact during a survey (Localisation.touched) reaches the log: the robot may
+    have pivoted on what it clipped, so the edge it is on allows for it."""
+    odometry = Odometry()
+    localisation = Localisation(odometry)
+    log = SurveyLog(DOCK, odometry.wheel_base)
+    localisation.start_survey(log)
+    log.wheels(0.3, 0.3)
+    before = log.survey().odometry[-1].covariance
+    localisation.touched()
+    after = log.survey().odometry[-1].covariance
+    assert after[2, 2] - before[2, 2] == pytest.approx(CONTACT_SIGMA_HEADING**2)
+    assert after[0, 0] - before[0, 0] == pytest.approx(CONTACT_SIGMA_M**2)
 
 
 def test_a_turn_on_the_spot_makes_a_casters_turn_with_the_filters_prior() -> None:
