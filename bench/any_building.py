@@ -469,8 +469,10 @@ def main() -> None:
         folder.mkdir(parents=True, exist_ok=True)
         wanted = set(args.buildings) | ({WALLED} if args.walled_patrol else set())
         buildings = {name: build(name, folder) for name in BUILDINGS if name in wanted}
-        for building in buildings.values():
-            print(f"  {building.describe()}", flush=True)
+        # Described while their grids are on disk: a temporary folder is gone at the end.
+        described = {name: building.describe() for name, building in buildings.items()}
+        for line in described.values():
+            print(f"  {line}", flush=True)
         runs = jobs_for(buildings, seeds, args, folder)
         with ThreadPoolExecutor(args.jobs) as pool:
             futures = [pool.submit(run_patrol, run, args.timeout * run.planned) for run in runs]
@@ -492,7 +494,7 @@ def main() -> None:
           f"{', '.join(f'{value:.2f}' for value in os.getloadavg())}")  # fmt: skip
     if args.save is not None:
         saved = {"machine": machine(), "source": source(), "seeds": seeds,
-                 "buildings": {name: b.describe() for name, b in buildings.items()},
+                 "buildings": described,
                  "runs": [asdict(run) for run in runs]}  # fmt: skip
         args.save.write_text(json.dumps(saved, indent=1))
 

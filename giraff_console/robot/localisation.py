@@ -93,12 +93,13 @@ VOUCHED_S = 1.0
 # After a contact (a stall against something) the pose may be off by what the robot was
 # pushed, or by what the steering could not take out before it touched: the position's
 # and the heading's uncertainty grow by this much, so that the next marker is not
-# rejected by a gate made too narrow by a filter that could not see it. A robot pushing
-# on against a door frame it clipped pivots on it: on the imperfect simulator it turned
-# 15 to 30 degrees that the wheels never told of, and with 5 degrees allowed for, every
-# marker that said so was rejected and the robot clipped the same frame again and again.
+# rejected by a gate made too narrow by a filter that could not see it. (A robot pushing
+# on against a door frame it clipped can pivot on it by more: 15 to 40 degrees on the
+# imperfect simulator. Allowing 15 let the survey through the scanned home's doors, but
+# turned a patrol stop there from 7 cm off, known to 2 cm, into a false arrival 10.8 cm
+# off: docs/localisation.md's known limits.)
 CONTACT_SIGMA_M = 0.05
-CONTACT_SIGMA_HEADING = math.radians(15.0)
+CONTACT_SIGMA_HEADING = math.radians(5.0)
 
 
 class PoseBasis(enum.Enum):
