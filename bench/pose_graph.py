@@ -183,8 +183,10 @@ def parts(survey: Survey) -> tuple[Any, np.ndarray, np.ndarray, int]:
         graph, x, active, pose_graph_solve.FINAL_ITERATIONS, robust=False))  # fmt: skip
     rows.append([f"Gauss-Newton, outliers out: {last} steps", f"{1e3 * wall:.0f}",
                  f"{1e3 * cpu:.0f}"])  # fmt: skip
-    wall, cpu, _ = timed(lambda: pose_graph_solve.marker_covariance(graph, x, active))
-    rows.append(["the markers' covariance", f"{1e3 * wall:.0f}", f"{1e3 * cpu:.0f}"])
+    wall, cpu, _ = timed(lambda: pose_graph_solve.covariances(graph, x, active, 0))
+    rows.append(
+        ["the markers' covariance (and a keyframe's)", f"{1e3 * wall:.0f}", f"{1e3 * cpu:.0f}"]
+    )
     print(table(["part", "wall ms", "CPU ms"], rows))
     return graph, start, active, steps + last
 
@@ -218,8 +220,8 @@ def dense_peer(graph: Any, start: np.ndarray, active: np.ndarray, steps: int) ->
         return np.asarray(cho_solve(factor, columns)[p:])
 
     wall_c, cpu_c, joint = timed(dense_covariance)
-    wall_o, cpu_o, sparse_joint = timed(lambda: pose_graph_solve.marker_covariance(
-        graph, start, active))  # fmt: skip
+    wall_o, cpu_o, sparse = timed(lambda: pose_graph_solve.covariances(graph, start, active, 0))
+    sparse_joint = sparse.markers
     rows.append(["markers' covariance, sparse (ours)", f"{1e3 * wall_o:.0f}", f"{1e3 * cpu_o:.0f}",
                  "-"])  # fmt: skip
     rows.append(["markers' covariance, dense Cholesky", f"{1e3 * wall_c:.0f}", f"{1e3 * cpu_c:.0f}",

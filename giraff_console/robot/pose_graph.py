@@ -78,9 +78,8 @@ from giraff_console.robot.pose_graph_solve import (
     FINAL_ITERATIONS,
     ROBUST_ITERATIONS,
     activity,
+    covariances,
     gauss_newton,
-    keyframe_covariance,
-    marker_covariance,
     outliers,
     sighting_distances,
 )
@@ -400,10 +399,9 @@ def _result(survey: Survey, graph: Graph, x: np.ndarray, active: np.ndarray,
             sightings: list[Sighting], rejected: set[int], walls_kept: np.ndarray,
             iterations: int, converged: bool) -> SurveyResult:  # fmt: skip
     keyframes, casters, markers = graph.split(x)
-    joint = marker_covariance(graph, x, active)
-    covariances = [
-        joint[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] for i in range(len(graph.marker_ids))
-    ]
+    solved = covariances(graph, x, active, len(keyframes) - 1)
+    joint = solved.markers
+    each = [joint[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] for i in range(len(graph.marker_ids))]
     used = np.bincount(graph.sighting_marker, weights=active[graph.rows["sightings"]][::3],
                        minlength=len(graph.marker_ids))  # fmt: skip
     with_facing = [s for i, s in enumerate(sightings)
@@ -414,7 +412,7 @@ def _result(survey: Survey, graph: Graph, x: np.ndarray, active: np.ndarray,
     faced |= {i for i, k in kept.items() if k}
     surveyed = {
         marker_id: SurveyedMarker(
-            marker_id, Pose(float(m[0]), float(m[1]), wrap(float(m[2]))), covariances[i],
+            marker_id, Pose(float(m[0]), float(m[1]), wrap(float(m[2]))), each[i],
             int(used[i]), marker_id in faced,
             survey.walls[marker_id] if kept.get(marker_id) else None,
             marker_id in kept and not kept[marker_id])
@@ -430,7 +428,7 @@ def _result(survey: Survey, graph: Graph, x: np.ndarray, active: np.ndarray,
     return SurveyResult(
         markers=surveyed,
         keyframes=tuple(Pose(float(k[0]), float(k[1]), wrap(float(k[2]))) for k in keyframes),
-        last_covariance=keyframe_covariance(graph, x, active, len(keyframes) - 1),
+        last_covariance=solved.keyframe,
         outliers=left_out,
         caster_turns=tuple(float(c) for c in casters),
         unseen=tuple(sorted(set(survey.walls) - set(surveyed))),

@@ -21,6 +21,7 @@ Why Gauss-Newton with a sparse LU here, and not scipy's least_squares
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -48,7 +49,7 @@ MIN_DAMPING = 1e-6
 MAX_DAMPING = 1e10
 CONVERGED_DECREASE = 1e-7
 CONVERGED_STEP = 1e-4
-# Right-hand sides per sparse solve for the marker covariances (see marker_covariances).
+# Right-hand sides per sparse solve for the markers' covariances (see `covariances`).
 SOLVE_COLUMNS = 32
 
 
@@ -160,38 +161,45 @@ def activity(graph: Graph, rejected: set[int], walls_kept: np.ndarray) -> np.nda
     return active
 
 
-def keyframe_covariance(graph: Graph, x: np.ndarray, active: np.ndarray,
-                        keyframe: int) -> np.ndarray:  # fmt: skip
-    """One keyframe's 3x3 marginal covariance: its three columns of the inverse of the
-    Gauss-Newton normal matrix H = J'J at `x`, by one sparse LU of H."""
-    j = graph.jacobian(x, active).tocsc()
-    rows = 3 * keyframe + np.arange(3)
-    unit = np.zeros((graph.size, 3))
-    unit[rows, np.arange(3)] = 1.0
-    block = _factor(j.T @ j).solve(unit)[rows]
-    return (block + block.T) / 2
+@dataclass(frozen=True)
+class Covariances:
+    """The markers' joint covariance (3M x 3M, in graph.marker_ids' order) and one
+    keyframe's 3x3 marginal covariance."""
+
+    markers: np.ndarray
+    keyframe: np.ndarray
 
 
-def marker_covariance(graph: Graph, x: np.ndarray, active: np.ndarray) -> np.ndarray:
-    """The markers' joint covariance (3M x 3M, in graph.marker_ids' order) from the
-    Gauss-Newton normal matrix H = J'J at `x`: with the keyframes and casters (P) before
-    the markers (M), the inverse of the Schur complement H_MM - H_MP H_PP^-1 H_PM. H_PP
-    is sparse and nearly banded along the path, so one sparse LU solved for the markers'
-    columns leaves a dense matrix only three times the markers across (750 for 250)."""
-    count = 3 * len(graph.marker_ids)
-    if not count:
-        return np.zeros((0, 0))
+def covariances(graph: Graph, x: np.ndarray, active: np.ndarray, keyframe: int) -> Covariances:
+    """The markers' joint covariance and `keyframe`'s, from the Gauss-Newton normal
+    matrix H = J'J at `x`: with the keyframes and casters (P) before the markers (M),
+    the markers' is the inverse of the Schur complement S = H_MM - H_MP H_PP^-1 H_PM,
+    and the keyframe's block of H^-1 is that of H_PP^-1 plus W S^-1 W', W its rows of
+    H_PP^-1 H_PM. H_PP is sparse and nearly banded along the path, so one sparse LU of
+    it serves both, solved for the markers' columns (a dense matrix only three times the
+    markers across: 750 for 250) and the keyframe's three."""
     j = graph.jacobian(x, active).tocsc()
     p = graph.pose_size
     jp, jm = j[:, :p], j[:, p:]
+    factor = _factor(jp.T @ jp)
+    rows = 3 * keyframe + np.arange(3)
+    unit = np.zeros((p, 3))
+    unit[rows, np.arange(3)] = 1.0
+    alone = factor.solve(unit)[rows]
+    count = 3 * len(graph.marker_ids)
+    if not count:
+        return Covariances(np.zeros((0, 0)), (alone + alone.T) / 2)
     h_pm = (jp.T @ jm).tocsc()
     schur = (jm.T @ jm).toarray()
-    factor = _factor(jp.T @ jp)
+    through = np.zeros((3, count))
     # In slices of columns: SuperLU solves a few dozen right-hand sides at once many
     # times faster than hundreds (0.14 s against 6.7 s for 450 on a 30-room survey).
     for first in range(0, count, SOLVE_COLUMNS):
         cols = slice(first, min(first + SOLVE_COLUMNS, count))
         solved = factor.solve(np.asfortranarray(h_pm[:, cols].toarray()))
         schur[:, cols] -= h_pm.T @ solved
-    covariance = np.linalg.inv((schur + schur.T) / 2)
-    return (covariance + covariance.T) / 2
+        through[:, cols] = solved[rows]
+    markers = np.linalg.inv((schur + schur.T) / 2)
+    markers = (markers + markers.T) / 2
+    block = alone + through @ markers @ through.T
+    return Covariances(markers, (block + block.T) / 2)
