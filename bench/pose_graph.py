@@ -173,12 +173,11 @@ def parts(survey: Survey) -> tuple[Any, np.ndarray, np.ndarray, int]:
     rows.append(["the graph", f"{1e3 * wall:.0f}", f"{1e3 * cpu:.0f}"])
     wall, cpu, start = timed(lambda: pose_graph._start(survey, graph, sightings, None))
     rows.append(["the start (headings, then positions)", f"{1e3 * wall:.0f}", f"{1e3 * cpu:.0f}"])
-    active = pose_graph_solve.activity(graph, set(), np.ones(len(graph.walls.marker), dtype=bool))
+    active = pose_graph_solve.activity(graph, pose_graph_solve.Rejected.nothing(graph))
     wall, cpu, (x, steps, _) = timed(lambda: pose_graph_solve.gauss_newton(
         graph, start.copy(), active, pose_graph_solve.ROBUST_ITERATIONS, robust=True))  # fmt: skip
     rows.append([f"Gauss-Newton, robust: {steps} steps", f"{1e3 * wall:.0f}", f"{1e3 * cpu:.0f}"])
-    rejected, kept = pose_graph_solve.outliers(graph, x)
-    active = pose_graph_solve.activity(graph, rejected, kept)
+    active = pose_graph_solve.activity(graph, pose_graph_solve.outliers(graph, x))
     wall, cpu, (x, last, _) = timed(lambda: pose_graph_solve.gauss_newton(
         graph, x, active, pose_graph_solve.FINAL_ITERATIONS, robust=False))  # fmt: skip
     rows.append([f"Gauss-Newton, outliers out: {last} steps", f"{1e3 * wall:.0f}",

@@ -75,7 +75,6 @@ from giraff_console.motion.executor import Executor, Trace
 from giraff_console.motion.path import Drive, Reverse, Rotation, Section, wrap
 from giraff_console.motion.shaping import TurnLimits, shape
 from giraff_console.motion.speed_profile import MotionLimits, SlowZone
-from giraff_console.planning.landmarks import marker_poses
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.planning.route_planner import PlannedPath
 from giraff_console.protocol.codec import Command
@@ -225,8 +224,6 @@ class PathMission:
         self._traces: list[Trace] = []
         self._estimate = estimate
         self._touched = touched
-        # The markers a look turns to: those known well enough to find the robot by.
-        self._markers = marker_poses(navigator.plan, known_only=True) if navigator else {}
         landmarks = navigator.plan.landmarks if navigator else None
         self._marker_size = landmarks.size if landmarks else STANDARD_SIZE_M
         self._look: Look | None = None
@@ -615,7 +612,7 @@ class PathMission:
             why = f"{how_lost(estimate)}: looking for a marker"
             enough = sure
         self._look_for = kind
-        self._look = Look(estimate, self._markers, walls, limits=self.limits, tick=self.tick,
+        self._look = Look(estimate, walls, limits=self.limits, tick=self.tick,
                           enough=enough, prefer=prefer, why=why,
                           size=self._marker_size)  # fmt: skip
         self._stage = Stage.LOOKING
@@ -672,7 +669,7 @@ class PathMission:
             self.navigator.report_obstacles([contact.point], margin=FELT_EXTENT_M)
             self._felt.append(contact.point)
         estimate = tick.estimate
-        if estimate is not None and self._markers and estimate.contact:
+        if estimate is not None and estimate.markers and estimate.contact:
             self._start_look(estimate, None, LookFor.CONTACT)
             return self._looking(tick)
         return self._plan_again(tick)

@@ -24,9 +24,9 @@ from giraff_console.planning.rasterise import rasterise
 from giraff_console.planning.room_graph import NoRouteError, RoomGraph, Route
 from giraff_console.planning.ros_map import read_grid_image
 from giraff_console.planning.walls import grid_jambs, wall_edge
+from giraff_console.protocol.kinematics import BODY_RADIUS_M
 
-# The Giraff's base is about 0.6 m across.
-ROBOT_RADIUS_M = 0.3
+ROBOT_RADIUS_M = BODY_RADIUS_M
 # The walls are grown by this much more than the robot's radius, so that a path along
 # the edge of the free space keeps the robot off them, not touching.
 CLEARANCE_M = 0.05

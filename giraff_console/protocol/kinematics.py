@@ -16,6 +16,9 @@ WHEEL_BASE_M = 0.499
 # Giraff's wheels are about half a metre apart (0.499 m in the thesis, 0.467 m in one
 # driver, wire-facts); outside this range the figure is a typo, or centimetres.
 WHEEL_BASE_RANGE_M = (0.2, 1.0)
+# The Giraff's base is about 0.6 m across: the disc the planner keeps off walls and a
+# contact pivots about.
+BODY_RADIUS_M = 0.3
 # Radius of the circle the wheels follow when rotating in place.
 TURN_RADIUS_M = WHEEL_BASE_M / 2
 # Degrees of rotation per metre of wheel travel: the thesis's TURN_FACTOR.

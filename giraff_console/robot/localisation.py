@@ -50,12 +50,13 @@ import enum
 import math
 import queue
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from giraff_console.camera.marker_reach import STANDARD_SIZE_M, facing_reach, read_reach
+from giraff_console.protocol.kinematics import BODY_RADIUS_M
 from giraff_console.robot.ekf import FilterNoise, Observation, PoseFilter, wrap
 from giraff_console.robot.marker_map import (
     LEARN_FROM_SIGMA_M,
@@ -91,15 +92,20 @@ VOUCHED_S = 1.0
 
 
 # After a contact (a stall against something) the pose may be off by what the robot was
-# pushed, or by what the steering could not take out before it touched: the position's
-# and the heading's uncertainty grow by this much, so that the next marker is not
-# rejected by a gate made too narrow by a filter that could not see it. (A robot pushing
-# on against a door frame it clipped can pivot on it by more: 15 to 40 degrees on the
-# imperfect simulator. Allowing 15 let the survey through the scanned home's doors, but
-# turned a patrol stop there from 7 cm off, known to 2 cm, into a false arrival 10.8 cm
-# off: docs/localisation.md's known limits.)
-CONTACT_SIGMA_M = 0.05
-CONTACT_SIGMA_HEADING = math.radians(5.0)
+# pushed, or by what the steering could not take out before it touched (CONTACT_PUSH_M,
+# CONTACT_SLIP), and most by a pivot: a robot pushing on against a door frame it clipped
+# swings about the frame while its wheels barely turn, 15 to 40 degrees on the imperfect
+# simulator's scanned home (CONTACT_PIVOT is that as one sigma, half the worst). A pivot
+# by an angle a about a point of the rim moves the centre by the radius times a, every
+# way alike (the point is not known): a sigma of BODY_RADIUS_M * CONTACT_PIVOT / sqrt(2)
+# each way. Allowed less, the next marker's sightings after a 20-degree pivot failed the
+# gate, the robot planned its retry from the heading it believed, and clipped the same
+# frame on every try (a survey left seven rooms out at one door).
+CONTACT_PUSH_M = 0.05
+CONTACT_SLIP = math.radians(5.0)
+CONTACT_PIVOT = math.radians(20.0)
+CONTACT_SIGMA_M = math.hypot(CONTACT_PUSH_M, BODY_RADIUS_M * CONTACT_PIVOT / math.sqrt(2))
+CONTACT_SIGMA_HEADING = math.hypot(CONTACT_SLIP, CONTACT_PIVOT)
 
 
 class PoseBasis(enum.Enum):
@@ -124,8 +130,9 @@ class Estimate:
     row; `sigma_m` the position's standard deviation along its worst direction and
     `sigma_heading` the heading's (radians); `ellipse` the 1-sigma position ellipse:
     semi-major and semi-minor axes (metres) and the major axis's direction (radians
-    from +x). `landmarks`: the plan has markers to find the robot by; `found`: a marker
-    has placed or confirmed the pose since the start. `seen` and `rejected` are the
+    from +x). `landmarks`: the plan has markers to find the robot by, and `markers` are
+    they, where they hang (a survey's as it learns them); `found`: a marker has placed
+    or confirmed the pose since the start. `seen` and `rejected` are the
     ids of the markers used, and rejected by the gate, in the last RECENT_S seconds;
     `corrected_at` when a marker last corrected the pose, on the loop's clock."""
 
@@ -152,6 +159,7 @@ class Estimate:
     basis: PoseBasis = PoseBasis.ASSUMED
     since_fix_m: float = 0.0
     contact: bool = False
+    markers: Mapping[int, Pose] = field(default_factory=dict)
 
     @property
     def lost(self) -> bool:
@@ -476,6 +484,7 @@ class Localisation:
         rejected = tuple(sorted(i for i, at in self._rejected.copy().items() if at >= since))
         f = self.filter
         covariance = f.covariance
+        markers = self.map.known()
         return Estimate(
             pose=f.pose,
             odometry=self.odometry.pose,
@@ -483,7 +492,7 @@ class Localisation:
             sigma_m=f.sigma_m,
             sigma_heading=f.sigma_heading,
             ellipse=f.ellipse(),
-            landmarks=bool(self.map.known()),
+            landmarks=bool(markers),
             found=self.found,
             seen=seen,
             rejected=rejected,
@@ -493,6 +502,7 @@ class Localisation:
             basis=self.basis,
             since_fix_m=self.since_fix_m,
             contact=self.contact,
+            markers=markers,
         )
 
     @property

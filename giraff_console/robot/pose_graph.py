@@ -77,11 +77,11 @@ from giraff_console.robot.pose_graph_model import (
 from giraff_console.robot.pose_graph_solve import (
     FINAL_ITERATIONS,
     ROBUST_ITERATIONS,
+    Rejected,
     activity,
     covariances,
     gauss_newton,
     outliers,
-    sighting_distances,
 )
 from giraff_console.robot.pose_graph_start import starting_point
 
@@ -193,12 +193,15 @@ class SurveyedMarker:
 
 @dataclass(frozen=True)
 class Outlier:
-    """A sighting left out: its squared Mahalanobis distance from what the solution
-    expects, and its error, seen less expected (metres, radians, radians or None)."""
+    """A sighting left out, or only its facing (`facing_only`: where it was agreed, its
+    facing was misread): the squared Mahalanobis distance from what the solution
+    expects of what was left out, and the sighting's error, seen less expected (metres,
+    radians, radians or None)."""
 
     sighting: Sighting
     mahalanobis: float
     error: tuple[float, float, float | None]
+    facing_only: bool = False
 
 
 @dataclass(frozen=True)
@@ -275,13 +278,13 @@ def solve_survey(survey: Survey, *, start: SurveyResult | None = None) -> Survey
     length) or a `start` that is not its solution."""
     graph, sightings = _graph(survey)
     x = _start(survey, graph, sightings, start)
-    active = activity(graph, set(), np.ones(len(graph.walls.marker), dtype=bool))
+    active = activity(graph, Rejected.nothing(graph))
     x, robust_steps, _ = gauss_newton(graph, x, active, ROBUST_ITERATIONS, robust=True)
-    rejected, walls_kept = outliers(graph, x)
-    active = activity(graph, rejected, walls_kept)
+    rejected = outliers(graph, x)
+    active = activity(graph, rejected)
     x, final_steps, converged = gauss_newton(graph, x, active, FINAL_ITERATIONS, robust=False)
-    return _result(survey, graph, x, active, sightings, rejected, walls_kept,
-                   robust_steps + final_steps, converged)  # fmt: skip
+    return _result(survey, graph, x, active, sightings, rejected, robust_steps + final_steps,
+                   converged)  # fmt: skip
 
 
 def _graph(survey: Survey) -> tuple[Graph, list[Sighting]]:
@@ -396,18 +399,18 @@ def _left_of(wall: Wall, marker_id: int) -> np.ndarray:
 
 
 def _result(survey: Survey, graph: Graph, x: np.ndarray, active: np.ndarray,
-            sightings: list[Sighting], rejected: set[int], walls_kept: np.ndarray,
-            iterations: int, converged: bool) -> SurveyResult:  # fmt: skip
+            sightings: list[Sighting], rejected: Rejected, iterations: int,
+            converged: bool) -> SurveyResult:  # fmt: skip
     keyframes, casters, markers = graph.split(x)
     solved = covariances(graph, x, active, len(keyframes) - 1)
     joint = solved.markers
     each = [joint[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] for i in range(len(graph.marker_ids))]
-    used = np.bincount(graph.sighting_marker, weights=active[graph.rows["sightings"]][::3],
+    rows = active[graph.rows["sightings"]].reshape(-1, 3)
+    used = np.bincount(graph.sighting_marker, weights=rows[:, 0],
                        minlength=len(graph.marker_ids))  # fmt: skip
-    with_facing = [s for i, s in enumerate(sightings)
-                   if s.seen.facing_rad is not None and i not in rejected]  # fmt: skip
-    faced = set(survey.known) | {s.seen.marker_id for s in with_facing}
-    kept = {graph.marker_ids[m]: bool(k) for m, k in zip(graph.walls.marker, walls_kept,
+    faced = set(survey.known) | {s.seen.marker_id for i, s in enumerate(sightings)
+                                 if s.seen.facing_rad is not None and rows[i, 2] > 0}  # fmt: skip
+    kept = {graph.marker_ids[m]: bool(k) for m, k in zip(graph.walls.marker, rejected.walls_kept,
                                                          strict=True)}  # fmt: skip
     faced |= {i for i, k in kept.items() if k}
     surveyed = {
@@ -418,12 +421,14 @@ def _result(survey: Survey, graph: Graph, x: np.ndarray, active: np.ndarray,
             marker_id in kept and not kept[marker_id])
         for i, (marker_id, m) in enumerate(zip(graph.marker_ids, markers, strict=True))
     }  # fmt: skip
-    d2 = sighting_distances(graph, x)
-    errors = graph.residuals(x)[graph.rows["sightings"]].reshape(-1, 3) * graph.sighting_sigmas
+    r = graph.residuals(x)[graph.rows["sightings"]].reshape(-1, 3)
+    errors = r * graph.sighting_sigmas
     left_out = tuple(
-        Outlier(sightings[i], float(d2[i]), (float(errors[i, 0]), float(errors[i, 1]),
-                float(errors[i, 2]) if graph.has_facing[i] else None))
-        for i in sorted(rejected)
+        Outlier(sightings[i], float(r[i, 2] ** 2 if i in rejected.facings else r[i] @ r[i]),
+                (float(errors[i, 0]), float(errors[i, 1]),
+                 float(errors[i, 2]) if graph.has_facing[i] else None),
+                facing_only=i in rejected.facings)
+        for i in sorted(rejected.sightings | rejected.facings)
     )  # fmt: skip
     return SurveyResult(
         markers=surveyed,

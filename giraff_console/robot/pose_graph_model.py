@@ -93,11 +93,26 @@ class EdgeData:
 
 @dataclass(frozen=True)
 class CasterData:
-    """Each casters' turn's prior: c_j - carried_j c_j-1 ~ N(expected_j, sigma_j^2)."""
+    """Each casters' turn's prior: c_j ~ N(clamp(expected_j + carried_j c_j-1), sigma_j^2),
+    clamped to the casters' worst either way as ekf.PoseFilter clamps the turn to come:
+    a caster swung across cannot swing further, however many turns on the spot follow
+    one another (unclamped, three look rounds in a row expected 60 degrees where the
+    simulator's casters turned the robot their worst, 45, and a survey's graph put a
+    dead-end room 15 degrees and 0.7 m off)."""
 
     expected: np.ndarray
     sigma: np.ndarray
     carried: np.ndarray
+
+
+def clamped_caster_means(prior: CasterData, before: np.ndarray,
+                         worst: float) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Each casters' turn's prior mean given the turns before (`before[j]` is c_j-1, 0 for
+    the first), and whether it is within the worst (1.0) or held at it (0.0): how much
+    it still follows the turn before."""
+    mean = prior.expected + prior.carried * before
+    free = (np.abs(mean) <= worst).astype(float)
+    return np.clip(mean, -worst, worst), free
 
 
 @dataclass(frozen=True)
@@ -197,13 +212,15 @@ class Graph:
 
     @property
     def robust_blocks(self) -> np.ndarray:
-        """For each row from robust_from on, the block it belongs to: its sighting, wall
-        or known marker, numbered in that order."""
+        """For each row from robust_from on, the block it belongs to: its sighting's
+        distance and bearing, its facing (pose_graph_solve.outliers says why apart), a
+        wall or a known marker, numbered in that order."""
         sightings, walls, known = (len(self.sighting_keyframe), len(self.walls.marker),
                                    len(self.known[0]))  # fmt: skip
-        return np.concatenate([np.repeat(np.arange(sightings), 3),
-                               sightings + np.repeat(np.arange(walls), 2),
-                               sightings + walls + np.repeat(np.arange(known), 3)])  # fmt: skip
+        return np.concatenate([2 * np.arange(sightings)[:, None] + [0, 0, 1],
+                               2 * sightings + np.arange(walls)[:, None] + [0, 0],
+                               2 * sightings + walls + np.arange(known)[:, None] + [0, 0, 0],
+                               ], axis=None)  # fmt: skip
 
     def split(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Keyframes (K, 3), casters' turns (C,), markers (M, 3): views of `x`."""
@@ -329,9 +346,10 @@ class Graph:
         _, c, _ = self.split(x)
         prior = self.casters
         before = np.concatenate([[0.0], c[:-1]])
-        r = (c - prior.carried * before - prior.expected) / prior.sigma
+        mean, free = clamped_caster_means(prior, before, self.noise.caster_worst)
+        r = (c - mean) / prior.sigma
         carried = (np.arange(len(c)) > 0) & (prior.carried > 0)
-        return r, [1 / prior.sigma, (-prior.carried / prior.sigma)[carried]]
+        return r, [1 / prior.sigma, (-prior.carried * free / prior.sigma)[carried]]
 
     def _unseen_part(self, x: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
         _, _, m = self.split(x)

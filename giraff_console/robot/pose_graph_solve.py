@@ -121,40 +121,57 @@ def _cost(graph: Graph, x: np.ndarray, active: np.ndarray,
     return cost, weights, r
 
 
-def sighting_distances(graph: Graph, x: np.ndarray) -> np.ndarray:
-    """Each sighting's squared Mahalanobis distance from what `x` expects."""
-    r = graph.residuals(x)[graph.rows["sightings"]]
-    return np.asarray((r.reshape(-1, 3) ** 2).sum(axis=1))
+@dataclass(frozen=True)
+class Rejected:
+    """What the outlier bound leaves out at a solution: whole sightings (their distance
+    and bearing beyond it), the facings alone of others (their distance and bearing
+    within it), and which walls hold."""
+
+    sightings: frozenset[int]
+    facings: frozenset[int]
+    walls_kept: np.ndarray
+
+    @classmethod
+    def nothing(cls, graph: Graph) -> Rejected:
+        return cls(frozenset(), frozenset(), np.ones(len(graph.walls.marker), dtype=bool))
 
 
-def outliers(graph: Graph, x: np.ndarray) -> tuple[set[int], np.ndarray]:
-    """The sightings beyond the outlier bound at `x` (2 degrees of freedom without a
-    facing, 3 with), and which walls hold (2). A marker whose every sighting is beyond
-    it keeps them (they are all there is of it), and its wall is what gives way."""
-    d2 = sighting_distances(graph, x)
-    bound = np.where(graph.has_facing, CHI_SQUARE[OUTLIER_CONFIDENCE][3],
-                     CHI_SQUARE[OUTLIER_CONFIDENCE][2])  # fmt: skip
-    beyond = d2 > bound
-    for marker in set(graph.sighting_marker[beyond]):
-        own = graph.sighting_marker == marker
-        if beyond[own].all():
-            beyond[own] = False
+def outliers(graph: Graph, x: np.ndarray) -> Rejected:
+    """The sightings beyond the outlier bound at `x`, and which walls hold (2 degrees
+    of freedom each). A sighting's distance and bearing (2) and its facing (1) are
+    judged apart: a small marker read from far off or askew can give its facing wrong,
+    flipped about its plane, while where it is comes right (camera/markers.py); thrown
+    out whole, such a sighting took with it the one tie between a dead-end room's new
+    markers and the corridor's known ones. A marker whose every sighting (or every
+    facing) is beyond the bound keeps them (they are all there is of it), and its wall
+    is what gives way."""
+    r = graph.residuals(x)[graph.rows["sightings"]].reshape(-1, 3)
+    bound = CHI_SQUARE[OUTLIER_CONFIDENCE]
+    whole = (r[:, :2] ** 2).sum(axis=1) > bound[2]
+    facing = graph.has_facing & ~whole & (r[:, 2] ** 2 > bound[1])
+    for beyond in (whole, facing):
+        for marker in set(graph.sighting_marker[beyond]):
+            own = graph.sighting_marker == marker
+            if beyond[own].all():
+                beyond[own] = False
     walls = graph.residuals(x)[graph.rows["walls"]].reshape(-1, 2)
-    return {int(i) for i in np.flatnonzero(beyond)}, (walls**2).sum(axis=1) <= CHI_SQUARE[
-        OUTLIER_CONFIDENCE][2]  # fmt: skip
+    return Rejected(frozenset(int(i) for i in np.flatnonzero(whole)),
+                    frozenset(int(i) for i in np.flatnonzero(facing)),
+                    (walls**2).sum(axis=1) <= bound[2])  # fmt: skip
 
 
-def activity(graph: Graph, rejected: set[int], walls_kept: np.ndarray) -> np.ndarray:
-    """Each row's weight, 1 or 0: the rejected sightings and walls out, and the weak
-    prior on a marker's facing in only where nothing else says it."""
+def activity(graph: Graph, rejected: Rejected) -> np.ndarray:
+    """Each row's weight, 1 or 0: the rejected sightings, facings and walls out, and the
+    weak prior on a marker's facing in only where nothing else says it."""
     rows = graph.rows
     active = np.ones(rows["known"].stop)
     sightings = active[rows["sightings"]].reshape(-1, 3)
-    sightings[sorted(rejected)] = 0.0
-    kept = np.asarray(walls_kept, dtype=bool)
+    sightings[sorted(rejected.sightings)] = 0.0
+    sightings[sorted(rejected.facings), 2] = 0.0
+    kept = np.asarray(rejected.walls_kept, dtype=bool)
     active[rows["walls"]].reshape(-1, 2)[~kept] = 0.0
     faced = np.zeros(len(graph.marker_ids), dtype=bool)
-    faced[graph.sighting_marker[graph.has_facing & (sightings[:, 0] > 0)]] = True
+    faced[graph.sighting_marker[graph.has_facing & (sightings[:, 2] > 0)]] = True
     faced[graph.walls.marker[kept]] = True
     faced[graph.known[0]] = True
     active[rows["unseen facing"]] = ~faced[graph.unseen_facing[0]]

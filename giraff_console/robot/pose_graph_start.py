@@ -37,7 +37,7 @@ from scipy.sparse.linalg import splu  # type: ignore[import-untyped]
 
 from giraff_console.robot.ekf import Observation, wrap
 from giraff_console.robot.odometry import Pose
-from giraff_console.robot.pose_graph_model import Graph
+from giraff_console.robot.pose_graph_model import Graph, clamped_caster_means
 
 # The heading-only filter: a correction further off than this many sigmas is a misread
 # (its branch of 2 pi is still picked, and the global solve down-weighs it).
@@ -82,11 +82,14 @@ def starting_point(graph: Graph, start: Pose, start_covariance: np.ndarray,
 
 
 def _caster_means(graph: Graph) -> np.ndarray:
-    """Each casters' turn's prior mean, what was carried over included."""
+    """Each casters' turn's prior mean, what was carried over included, within the
+    casters' worst (pose_graph_model.CasterData)."""
     prior = graph.casters
+    worst = graph.noise.caster_worst
     means = np.zeros(len(prior.expected))
     for j in range(len(means)):
-        means[j] = prior.expected[j] + (prior.carried[j] * means[j - 1] if j else 0.0)
+        mean = prior.expected[j] + (prior.carried[j] * means[j - 1] if j else 0.0)
+        means[j] = max(-worst, min(worst, mean))
     return means
 
 
@@ -188,11 +191,17 @@ def _headings(graph: Graph, start: Pose, start_covariance: np.ndarray, branches:
     rows.add(np.stack([k + 1, k, np.where(has_caster, k_count + edges.caster, 0)], 1),
              np.stack([np.ones(len(k)), -np.ones(len(k)), -edges.release * has_caster], 1),
              edges.motion[:, 2], np.sqrt(edges.covariance[:, 2, 2]))  # fmt: skip
+    # The casters' priors, linear about their means: a turn held at the worst no longer
+    # follows the one before.
     prior = graph.casters
     j = np.arange(c_count)
-    carried = np.where(j > 0, prior.carried, 0.0)
+    means = _caster_means(graph)
+    before = np.concatenate([[0.0], means[:-1]])
+    mean, free = clamped_caster_means(prior, before, graph.noise.caster_worst)
+    carried = np.where(j > 0, prior.carried, 0.0) * free
     rows.add(np.stack([k_count + j, k_count + np.maximum(j - 1, 0)], 1),
-             np.stack([np.ones(c_count), -carried], 1), prior.expected, prior.sigma)  # fmt: skip
+             np.stack([np.ones(c_count), -carried], 1), mean - carried * before,
+             prior.sigma)  # fmt: skip
     held = [(graph.marker_index[i], math.sqrt(c[2, 2])) for i, (_, c) in known.items()]
     held += [(graph.marker_index[i], sigma) for i, (_, sigma) in wall_facings.items()
              if column[graph.marker_index[i]] >= 0]  # fmt: skip

@@ -446,7 +446,7 @@ def test_misread_markers_and_a_moved_one_are_left_out() -> None:
     good = len(walk.log.sightings) - len(misread)
     assert len(flagged - misread) - len(moved) <= 0.01 * good
     for o in result.outliers:
-        assert o.mahalanobis > CHI_SQUARE[0.999][3 if o.error[2] is not None else 2]
+        assert o.mahalanobis > CHI_SQUARE[0.999][1 if o.facing_only else 2]
 
 
 @cache
