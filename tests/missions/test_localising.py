@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 from dataclasses import replace
 
 import pytest
@@ -337,3 +338,19 @@ def test_a_robot_placed_by_the_operator_drives_by_the_odometry_and_says_it_is_un
     site.run(120)
     assert site.ended == ["done"] and mission.outcome is Outcome.ARRIVED_UNVERIFIED
     assert "odometry alone" in mission.detail and error_m(site, "room-101") <= 0.03
+
+
+def test_a_look_turns_to_the_markers_the_estimate_knows_where_the_plan_has_none(navigator):
+    """A survey's plan has no markers; its localisation learns them as it goes, and a
+    look (lost, or after a contact) turns to those: it turned to the plan's, none, and
+    a survey clipped a door frame on every try, from the heading it believed."""
+    unmarked = Navigator(replace(PLAN, landmarks=None), walls_of(PLAN))
+    site = LocalisingSite(unmarked, seed=3, at=TruePose(39.0, 3.0, math.radians(-45)))
+    looks: list[str] = []
+    site.control.subscribe(only(Telemetry, lambda t: looks.append(t.mission.state) if (
+        t.mission and "looking for a marker (" in t.mission.state) else None))  # fmt: skip
+    site.go_with("kitchen", site.control.estimate)
+    site.run(150)
+    assert site.ended == ["done"], site.notes
+    assert looks and all(re.search(r"\(\d+ of [1-9]\d* directions", s) for s in looks), looks
+    assert error_m(site, "kitchen") <= 0.10
