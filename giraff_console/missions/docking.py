@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import enum
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 from giraff_console.link.motor_state import MotorState
@@ -85,7 +85,8 @@ class GoToPose(PathMission):
                  notify: Callable[[str], None] = lambda text: None,
                  patience: Patience | None = None,
                  estimate: Callable[[], Estimate] | None = None,
-                 touched: Callable[[], None] = lambda: None) -> None:  # fmt: skip
+                 touched: Callable[[], None] = lambda: None,
+                 markers: Callable[[], Mapping[int, Pose]] | None = None) -> None:  # fmt: skip
         self.goal = goal
         self.arrival = arrival
         self.name = f"go {goal}"
@@ -93,7 +94,7 @@ class GoToPose(PathMission):
         self._there_already = self._there(pose())
         super().__init__(navigator, pose, tick=tick, limits=limits, turn_limits=turn_limits,
                          sense=sense, notify=notify, patience=patience,
-                         estimate=estimate, touched=touched)  # fmt: skip
+                         estimate=estimate, touched=touched, markers=markers)  # fmt: skip
         if self._there_already:
             self.time_optimal = 0.0
 
@@ -148,14 +149,16 @@ def go_mission(navigator: Navigator, room: str, pose: Callable[[], Pose], *, tic
                notify: Callable[[str], None] = lambda text: None,
                patience: Patience | None = None,
                estimate: Callable[[], Estimate] | None = None,
-               touched: Callable[[], None] = lambda: None) -> GoTo | GoToPose:  # fmt: skip
+               touched: Callable[[], None] = lambda: None,
+               markers: Callable[[], Mapping[int, Pose]] | None = None,
+               ) -> GoTo | GoToPose:  # fmt: skip
     """What `go ROOM` drives, for every front end: to a room of the plan, or, for
     `dock`, onto the dock square on. PlanningError if there is no way. With `estimate`
     the mission minds how well the robot knows where it is (path_mission.py)."""
     if room == DOCK:
         return GoToPose(navigator, DOCK, dock_arrival(navigator), pose, tick=tick,
                         limits=limits, sense=sense, notify=notify, patience=patience,
-                        estimate=estimate, touched=touched)  # fmt: skip
+                        estimate=estimate, touched=touched, markers=markers)  # fmt: skip
     return GoTo(
         navigator,
         room,
@@ -167,6 +170,7 @@ def go_mission(navigator: Navigator, room: str, pose: Callable[[], Pose], *, tic
         patience=patience,
         estimate=estimate,
         touched=touched,
+        markers=markers,
     )
 
 

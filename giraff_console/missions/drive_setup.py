@@ -10,7 +10,7 @@ built here, so that the front ends build nothing themselves (issue 15).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import KW_ONLY, dataclass
 
 from giraff_console.missions.docking import GoToPose, go_mission
@@ -44,6 +44,7 @@ class DriveSetup:
     patience: Patience | None = None
     estimate: Callable[[], Estimate] | None = None
     touched: Callable[[], None] = lambda: None
+    markers: Callable[[], Mapping[int, Pose]] | None = None
 
     @classmethod
     def on_loop(cls, control: ControlLoop, navigator: Navigator | None, *,
@@ -54,8 +55,8 @@ class DriveSetup:
         `notify`, its notes, which reach whoever listens to the loop when they are made."""
         return cls(navigator, lambda: control.pose, control.period, limits=limits,
                    sense=sense, notify=notify or control.note, patience=patience,
-                   estimate=control.estimate,
-                   touched=control.localisation.touched)  # fmt: skip
+                   estimate=control.estimate, touched=control.localisation.touched,
+                   markers=lambda: control.localisation.markers)  # fmt: skip
 
     def go(self, room: str) -> GoTo | GoToPose:
         """To a room of the plan, or onto the dock (`dock`); PlanningError if there is no
@@ -63,7 +64,7 @@ class DriveSetup:
         return go_mission(self._plan(), room, self.pose, tick=self.tick, limits=self.limits,
                           sense=self.sense, notify=self.notify, patience=self.patience,
                           estimate=self.estimate,
-                          touched=self.touched)  # fmt: skip
+                          touched=self.touched, markers=self.markers)  # fmt: skip
 
     def arrive(self, goal: str, arrival: Arrival) -> GoToPose:
         """To a point of the plan named `goal`, arriving as `arrival` says; PlanningError
@@ -71,7 +72,7 @@ class DriveSetup:
         return GoToPose(self._plan(), goal, arrival, self.pose, tick=self.tick,
                         limits=self.limits, sense=self.sense, notify=self.notify,
                         patience=self.patience, estimate=self.estimate,
-                        touched=self.touched)  # fmt: skip
+                        touched=self.touched, markers=self.markers)  # fmt: skip
 
     def follow(self, route: Route) -> FollowRoute:
         """Along a taught route's path, closed loop; PlanningError if the route has no
@@ -79,7 +80,7 @@ class DriveSetup:
         return FollowRoute(route, self.navigator, self.pose, tick=self.tick,
                            limits=self.limits, sense=self.sense, notify=self.notify,
                            patience=self.patience, estimate=self.estimate,
-                           touched=self.touched)  # fmt: skip
+                           touched=self.touched, markers=self.markers)  # fmt: skip
 
     def _plan(self) -> Navigator:
         if self.navigator is None:

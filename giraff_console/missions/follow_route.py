@@ -12,7 +12,7 @@ round: an obstacle on it ends the mission with the reason, where `go` would repl
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from itertools import pairwise
 
 from giraff_console.missions.lookout import LOOKOUT_M, Sense
@@ -49,6 +49,7 @@ class FollowRoute(PathMission):
         patience: Patience | None = None,
         estimate: Callable[[], Estimate] | None = None,
         touched: Callable[[], None] = lambda: None,
+        markers: Callable[[], Mapping[int, Pose]] | None = None,
     ) -> None:
         if not route.path:
             raise PlanningError(f"route {route.name} has no path to follow (taught before "
@@ -61,7 +62,7 @@ class FollowRoute(PathMission):
         self._passed = 0  # path points behind the robot
         super().__init__(navigator, pose, tick=tick, limits=limits, turn_limits=turn_limits,
                          sense=sense, notify=notify, patience=patience,
-                         estimate=estimate, touched=touched)  # fmt: skip
+                         estimate=estimate, touched=touched, markers=markers)  # fmt: skip
 
     def _course(self, pose: Pose) -> Course:
         here = (pose.x, pose.y)

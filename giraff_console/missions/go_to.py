@@ -10,7 +10,7 @@ operator closes on the route does the same.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 from giraff_console.missions.lookout import Sense
@@ -104,13 +104,14 @@ class GoTo(PathMission):
         patience: Patience | None = None,
         estimate: Callable[[], Estimate] | None = None,
         touched: Callable[[], None] = lambda: None,
+        markers: Callable[[], Mapping[int, Pose]] | None = None,
     ) -> None:
         self.room = room
         self.name = f"go {room}"
         self.retry = f"go {room}"
         super().__init__(navigator, pose, tick=tick, limits=limits, turn_limits=turn_limits,
                          sense=sense, notify=notify, patience=patience,
-                         estimate=estimate, touched=touched)  # fmt: skip
+                         estimate=estimate, touched=touched, markers=markers)  # fmt: skip
 
     def _course(self, pose: Pose) -> Course:
         assert self.navigator is not None

@@ -5,11 +5,11 @@ Between markers the pose filter (robot/ekf.py) runs on the odometry alone, and i
 uncertainty grows with every metre and, most, with the casters' turn after each turn in
 place (§3.2.1.5). A path mission watches the estimate (path_mission.py): past the slow
 bound it drives slower, past the look bound it comes to a stop and looks, here: it turns
-on the spot towards the markers the estimate knows (the floor plan's, or a survey's as
-it learns them) that it should be able to see from where it believes it is, and stands
-still at each long enough for the camera to take a sharp frame or two, until a marker
-has brought the uncertainty back under the bound. If none does, it sweeps the rest of
-the circle; if that finds none either, the mission ends and the operator is told.
+on the spot towards the markers the floor plan says it should be able to see from where
+it believes it is, and stands still at each long enough for the camera to take a sharp
+frame or two, until a marker has brought the uncertainty back under the bound. If none
+does, it sweeps the rest of the circle; if that finds none either, the mission ends and
+the operator is told.
 
 The turns are turns on the spot of a motion executor (motion/executor.py), within the
 mission's limits and sent as any mission's commands are, so that the control loop
@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import enum
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 from giraff_console.camera.marker_reach import STANDARD_SIZE_M
 from giraff_console.link.motor_state import MotorState
@@ -41,6 +41,7 @@ from giraff_console.planning.marker_sight import visible_markers
 from giraff_console.planning.walls import WallSegment
 from giraff_console.protocol.codec import Command
 from giraff_console.robot.localisation import Estimate
+from giraff_console.robot.odometry import Pose
 
 # The marker directions tried before sweeping the circle: more, and a robot whose
 # estimate is wrong would turn back and forth between places that are not there.
@@ -74,14 +75,13 @@ class Look:
     with the robot still at the start; `finished` once it has stopped turning, with
     its `outcome`."""
 
-    def __init__(self, estimate: Estimate, walls: Sequence[WallSegment], *,
-                 limits: MotionLimits, tick: float, enough: Callable[[Estimate], bool],
-                 prefer: float | None = None, why: str = "looking for a marker",
+    def __init__(self, estimate: Estimate, markers: Mapping[int, Pose],
+                 walls: Sequence[WallSegment], *, limits: MotionLimits, tick: float,
+                 enough: Callable[[Estimate], bool], prefer: float | None = None,
+                 why: str = "looking for a marker",
                  size: float = STANDARD_SIZE_M) -> None:  # fmt: skip
         """`prefer`: the heading (map frame) the robot will set off in afterwards;
-        `why` what the mission's progress says it is doing; `size`: the markers'. It
-        turns to the estimate's markers: those known well enough to find the robot by
-        now (a survey's, learnt as it goes)."""
+        `why` what the mission's progress says it is doing; `size`: the markers'."""
         self.limits = limits
         self.tick = tick
         self.enough = enough
@@ -96,8 +96,8 @@ class Look:
         to_odometry = heading - estimate.pose.heading
         after = heading if prefer is None else prefer + to_odometry
         here = (estimate.pose.x, estimate.pose.y)
-        seen = visible_markers(estimate.markers, walls, here, size)
-        directions = [bearing + to_odometry for _, bearing in seen]
+        directions = [bearing + to_odometry
+                      for _, bearing in visible_markers(markers, walls, here, size)]  # fmt: skip
         directions.sort(key=lambda d: abs(wrap(d - heading)) + abs(wrap(after - d)))
         # Where it faces comes first, without turning: a marker may be in view already.
         self._stops = directions[:CANDIDATES]

@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import enum
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 from giraff_console.camera.marker_reach import STANDARD_SIZE_M
@@ -75,6 +75,7 @@ from giraff_console.motion.executor import Executor, Trace
 from giraff_console.motion.path import Drive, Reverse, Rotation, Section, wrap
 from giraff_console.motion.shaping import TurnLimits, shape
 from giraff_console.motion.speed_profile import MotionLimits, SlowZone
+from giraff_console.planning.landmarks import marker_poses
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.planning.route_planner import PlannedPath
 from giraff_console.protocol.codec import Command
@@ -189,13 +190,16 @@ class PathMission:
         patience: Patience | None = None,
         estimate: Callable[[], Estimate] | None = None,
         touched: Callable[[], None] = lambda: None,
+        markers: Callable[[], Mapping[int, Pose]] | None = None,
     ) -> None:
         """`notify` gets a line for the operator when the mission changes its plan;
         `patience` says how long it may go without getting nearer before it gives up.
         `estimate`, called on the control loop's thread when the mission is stepped,
         says how well `pose` is known (see the module docstring); without it, the
         mission steers by `pose` alone. `touched` tells whoever keeps the estimate that
-        the robot has touched something (localisation.touched)."""
+        the robot has touched something (localisation.touched); `markers` gives the
+        markers a look turns to, those it knows well enough to find the robot by now
+        (localisation.markers: a survey's, as it learns them); without it, the plan's."""
         self.navigator = navigator
         self.notify = notify
         self.limits = limits or MotionLimits()
@@ -224,6 +228,8 @@ class PathMission:
         self._traces: list[Trace] = []
         self._estimate = estimate
         self._touched = touched
+        planned = marker_poses(navigator.plan, known_only=True) if navigator else {}
+        self._markers = markers or (lambda: planned)
         landmarks = navigator.plan.landmarks if navigator else None
         self._marker_size = landmarks.size if landmarks else STANDARD_SIZE_M
         self._look: Look | None = None
@@ -612,7 +618,7 @@ class PathMission:
             why = f"{how_lost(estimate)}: looking for a marker"
             enough = sure
         self._look_for = kind
-        self._look = Look(estimate, walls, limits=self.limits, tick=self.tick,
+        self._look = Look(estimate, self._markers(), walls, limits=self.limits, tick=self.tick,
                           enough=enough, prefer=prefer, why=why,
                           size=self._marker_size)  # fmt: skip
         self._stage = Stage.LOOKING
@@ -669,7 +675,7 @@ class PathMission:
             self.navigator.report_obstacles([contact.point], margin=FELT_EXTENT_M)
             self._felt.append(contact.point)
         estimate = tick.estimate
-        if estimate is not None and estimate.markers and estimate.contact:
+        if estimate is not None and self._markers() and estimate.contact:
             self._start_look(estimate, None, LookFor.CONTACT)
             return self._looking(tick)
         return self._plan_again(tick)

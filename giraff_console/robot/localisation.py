@@ -50,7 +50,7 @@ import enum
 import math
 import queue
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -130,9 +130,8 @@ class Estimate:
     row; `sigma_m` the position's standard deviation along its worst direction and
     `sigma_heading` the heading's (radians); `ellipse` the 1-sigma position ellipse:
     semi-major and semi-minor axes (metres) and the major axis's direction (radians
-    from +x). `landmarks`: the plan has markers to find the robot by, and `markers` are
-    they, where they hang (a survey's as it learns them); `found`: a marker has placed
-    or confirmed the pose since the start. `seen` and `rejected` are the
+    from +x). `landmarks`: the plan has markers to find the robot by; `found`: a marker
+    has placed or confirmed the pose since the start. `seen` and `rejected` are the
     ids of the markers used, and rejected by the gate, in the last RECENT_S seconds;
     `corrected_at` when a marker last corrected the pose, on the loop's clock."""
 
@@ -159,7 +158,6 @@ class Estimate:
     basis: PoseBasis = PoseBasis.ASSUMED
     since_fix_m: float = 0.0
     contact: bool = False
-    markers: Mapping[int, Pose] = field(default_factory=dict)
 
     @property
     def lost(self) -> bool:
@@ -484,7 +482,6 @@ class Localisation:
         rejected = tuple(sorted(i for i, at in self._rejected.copy().items() if at >= since))
         f = self.filter
         covariance = f.covariance
-        markers = self.map.known()
         return Estimate(
             pose=f.pose,
             odometry=self.odometry.pose,
@@ -492,7 +489,7 @@ class Localisation:
             sigma_m=f.sigma_m,
             sigma_heading=f.sigma_heading,
             ellipse=f.ellipse(),
-            landmarks=bool(markers),
+            landmarks=bool(self.map.known()),
             found=self.found,
             seen=seen,
             rejected=rejected,
@@ -502,7 +499,6 @@ class Localisation:
             basis=self.basis,
             since_fix_m=self.since_fix_m,
             contact=self.contact,
-            markers=markers,
         )
 
     @property

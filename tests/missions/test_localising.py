@@ -20,6 +20,7 @@ from giraff_console.missions.certainty import (
     slow_stretches,
 )
 from giraff_console.missions.docking import go_mission
+from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.path_mission import PathMission
 from giraff_console.motion.path import Drive, Rotation, Segment
@@ -340,7 +341,7 @@ def test_a_robot_placed_by_the_operator_drives_by_the_odometry_and_says_it_is_un
     assert "odometry alone" in mission.detail and error_m(site, "room-101") <= 0.03
 
 
-def test_a_look_turns_to_the_markers_the_estimate_knows_where_the_plan_has_none(navigator):
+def test_a_look_turns_to_the_markers_the_localisation_knows_where_the_plan_has_none(navigator):
     """A survey's plan has no markers; its localisation learns them as it goes, and a
     look (lost, or after a contact) turns to those: it turned to the plan's, none, and
     a survey clipped a door frame on every try, from the heading it believed."""
@@ -349,7 +350,10 @@ def test_a_look_turns_to_the_markers_the_estimate_knows_where_the_plan_has_none(
     looks: list[str] = []
     site.control.subscribe(only(Telemetry, lambda t: looks.append(t.mission.state) if (
         t.mission and "looking for a marker (" in t.mission.state) else None))  # fmt: skip
-    site.go_with("kitchen", site.control.estimate)
+    # As every front end builds it: the loop's estimate, and the markers it knows.
+    drive = DriveSetup.on_loop(site.control, unmarked, limits=LIMITS, sense=site.sense,
+                               notify=site.notes.append)  # fmt: skip
+    site.start(drive.go("kitchen"))
     site.run(150)
     assert site.ended == ["done"], site.notes
     assert looks and all(re.search(r"\(\d+ of [1-9]\d* directions", s) for s in looks), looks
