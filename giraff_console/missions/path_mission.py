@@ -23,7 +23,7 @@ recoveries.
 - TURNING: at the goal, on the spot to the room's heading.
 - ENDED: with an `Outcome` (robot/mission.py) and its words.
 
-Knowing where it is (issue 14, 25): with an `estimate` from a plan with markers, the
+Knowing where it is (issue 14, 25): with an `estimate` that has markers to go by, the
 mission minds how well the robot knows where it is, by the bounds of certainty.py. It
 never sets off from a pose that only an assumption vouches for (a restarted daemon's,
 a console's first): with markers it looks first, without any it does not start. Unsure,
@@ -228,8 +228,10 @@ class PathMission:
         self._traces: list[Trace] = []
         self._estimate = estimate
         self._touched = touched
-        planned = marker_poses(navigator.plan, known_only=True) if navigator else {}
-        self._markers = markers or (lambda: planned)
+        if markers is None:
+            planned = marker_poses(navigator.plan, known_only=True) if navigator else {}
+            markers = lambda: planned  # noqa: E731
+        self._markers = markers
         landmarks = navigator.plan.landmarks if navigator else None
         self._marker_size = landmarks.size if landmarks else STANDARD_SIZE_M
         self._look: Look | None = None
@@ -665,7 +667,7 @@ class PathMission:
     def _after_contact(self, tick: Tick) -> list[Command]:
         """Clear of the contact: put it on the grid if something unknown is there
         (recovery.py), look for a marker until one has fixed the pose since (with
-        markers in the plan), then plan again. A contact is something the filter did
+        markers known to find the robot by), then plan again. A contact is something the filter did
         not see coming: most often the casters turned the robot further than expected
         after a turn on the spot (§3.2.1.5), and a robot whose heading was 23 degrees
         off what it believed touched the same box three times over, planning each try

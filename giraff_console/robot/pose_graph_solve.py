@@ -12,8 +12,9 @@ Why Gauss-Newton with a sparse LU here, and not scipy's least_squares
     (0.7 s with the covariances). Its robust losses also apply the Triggs correction,
     which zeroes the Jacobian rows of every residual beyond the loss's scale: at a start
     decimetres off, most of the sightings. So the robust loss is applied here by
-    reweighting (IRLS): each sighting weighted 1 / (1 + d^2 / s^2) for Cauchy's loss on
-    its squared Mahalanobis distance, the weights renewed at every step. (The Jacobian
+    reweighting (IRLS): each sighting's distance and bearing, and its facing, weighted
+    1 / (1 + d^2 / s^2) for Cauchy's loss on their squared Mahalanobis distance, the
+    weights renewed at every step. (The Jacobian
     is analytic and sparse, pose_graph_model.py; least_squares' jac_sparsity is for
     finite differences, which would take a few dozen residual evaluations a step.)
     Dense normal equations (numpy) take 22 s a step at that size, and 1.2 GB.
@@ -62,9 +63,10 @@ def _factor(matrix: sparse.spmatrix) -> Any:
 
 def gauss_newton(graph: Graph, x: np.ndarray, active: np.ndarray, iterations: int,
                  robust: bool) -> tuple[np.ndarray, int, bool]:  # fmt: skip
-    """Gauss-Newton on the active rows; with `robust`, Cauchy's loss on each sighting,
-    wall and known marker as a whole. The point reached, the steps taken, and whether
-    it converged.
+    """Gauss-Newton on the active rows; with `robust`, Cauchy's loss on each sighting's
+    distance and bearing, and its facing, apart (outliers says why), and on each wall
+    and known marker as a whole. The point reached, the steps taken, and whether it
+    converged.
 
     A step that makes the cost worse is halved (a few times), then damped as
     Levenberg-Marquardt. Halving first matters: without walls, the whole map turning
@@ -105,9 +107,10 @@ def gauss_newton(graph: Graph, x: np.ndarray, active: np.ndarray, iterations: in
 def _cost(graph: Graph, x: np.ndarray, active: np.ndarray,
           robust: bool) -> tuple[float, np.ndarray, np.ndarray]:  # fmt: skip
     """The cost at `x`, each row's weight, and the residuals (active rows only). With
-    `robust`, the rows from graph.robust_from on come in blocks (a sighting, a wall, a
-    known marker), each costing s^2 log(1 + d^2 / s^2) for its squared Mahalanobis
-    distance d^2 at the scale s = ROBUST_SCALE, and so weighted 1 / (1 + d^2 / s^2)."""
+    `robust`, the rows from graph.robust_from on come in blocks (a sighting's distance
+    and bearing, its facing, a wall, a known marker: graph.robust_blocks), each costing
+    s^2 log(1 + d^2 / s^2) for its squared Mahalanobis distance d^2 at the scale
+    s = ROBUST_SCALE, and so weighted 1 / (1 + d^2 / s^2)."""
     r = graph.residuals(x, active)
     weights = np.ones(len(r))
     if not robust:
@@ -147,17 +150,24 @@ def outliers(graph: Graph, x: np.ndarray) -> Rejected:
     is what gives way."""
     r = graph.residuals(x)[graph.rows["sightings"]].reshape(-1, 3)
     bound = CHI_SQUARE[OUTLIER_CONFIDENCE]
-    whole = (r[:, :2] ** 2).sum(axis=1) > bound[2]
-    facing = graph.has_facing & ~whole & (r[:, 2] ** 2 > bound[1])
-    for beyond in (whole, facing):
-        for marker in set(graph.sighting_marker[beyond]):
-            own = graph.sighting_marker == marker
-            if beyond[own].all():
-                beyond[own] = False
+    whole = _all_kept_alone(graph, (r[:, :2] ** 2).sum(axis=1) > bound[2],
+                            np.ones(len(r), dtype=bool))  # fmt: skip
+    judged = graph.has_facing & ~whole
+    facing = _all_kept_alone(graph, judged & (r[:, 2] ** 2 > bound[1]), judged)
     walls = graph.residuals(x)[graph.rows["walls"]].reshape(-1, 2)
     return Rejected(frozenset(int(i) for i in np.flatnonzero(whole)),
                     frozenset(int(i) for i in np.flatnonzero(facing)),
                     (walls**2).sum(axis=1) <= bound[2])  # fmt: skip
+
+
+def _all_kept_alone(graph: Graph, beyond: np.ndarray, judged: np.ndarray) -> np.ndarray:
+    """`beyond`, less the markers whose every `judged` sighting is beyond the bound."""
+    beyond = beyond.copy()
+    for marker in set(graph.sighting_marker[beyond]):
+        own = (graph.sighting_marker == marker) & judged
+        if beyond[own].all():
+            beyond[own] = False
+    return beyond
 
 
 def activity(graph: Graph, rejected: Rejected) -> np.ndarray:

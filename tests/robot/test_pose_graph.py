@@ -43,6 +43,7 @@ from giraff_console.robot.pose_graph import (
     solve_survey,
 )
 from giraff_console.robot.pose_graph_model import whiteners
+from giraff_console.robot.pose_graph_solve import outliers
 from giraff_console.robot.survey_log import KEYFRAME_TRAVEL_M, SurveyLog
 from giraff_console.robot.survey_walls import assign_walls, solve_on_walls
 
@@ -349,6 +350,31 @@ def test_a_turn_on_the_spot_makes_a_casters_turn_with_the_filters_prior() -> Non
     assert 0 < edge.sway < edge.release
 
 
+def test_turns_on_the_spot_in_a_row_expect_the_casters_turn_no_further_than_their_worst() -> None:
+    """Three quarter turns, each set off from by a centimetre: each casters' turn carries
+    nearly all of the last, and unclamped their means would add up to 65 degrees. The
+    filter holds the turn to come at the casters' worst (45); so does the graph, and
+    with nothing else to go by its solution is those means."""
+    log = SurveyLog(DOCK, WHEEL_BASE)
+    arc = math.pi / 2 * WHEEL_BASE / 2 / 18
+    for _ in range(3):
+        for _ in range(18):
+            log.wheels(-arc, arc, turned_in_place=True)
+        log.wheels(0.01, 0.01)
+    for _ in range(10):
+        log.wheels(0.05, 0.05)
+    survey = log.survey()
+    noise = FilterNoise()
+    first, *rest = survey.caster_turns
+    assert all(turn.carried > 0.9 for turn in rest)
+    unclamped = first.expected * (1 + sum(np.cumprod([t.carried for t in rest])))
+    assert unclamped > math.radians(60)
+    turns = solve_survey(survey).caster_turns
+    assert max(turns) == pytest.approx(noise.caster_worst, abs=1e-6)
+    assert all(turn <= noise.caster_worst + 1e-9 for turn in turns)
+    assert turns[0] == pytest.approx(first.expected, abs=1e-6)
+
+
 def test_the_log_keeps_one_sighting_per_marker_per_keyframe() -> None:
     walk, survey = six_rooms()
     pairs = [(s.keyframe, s.seen.marker_id) for s in survey.sightings]
@@ -428,7 +454,7 @@ def test_with_the_plans_walls_the_markers_are_within_5_cm_at_p95() -> None:
 def test_misread_markers_and_a_moved_one_are_left_out() -> None:
     walk, _ = six_rooms()
     result = six_rooms_on_walls()
-    flagged = {o.sighting.seen.time for o in result.outliers}
+    flagged = {o.sighting.seen.time for o in result.outliers if not o.facing_only}
     misread = {s.seen.time for s in walk.log.sightings if s.seen.time in walk.misreads}
     assert len(misread) >= 5
     assert len(misread & flagged) >= 0.9 * len(misread)
@@ -636,6 +662,47 @@ def test_a_misread_from_beyond_its_wall_does_not_turn_a_marker_round() -> None:
     assert [o.sighting for o in result.outliers] == [misread]
     assert m.wall == wall and not m.wall_rejected
     assert wrap(m.pose.heading - math.pi) == pytest.approx(0.0, abs=math.radians(1))
+
+
+def test_a_misread_facing_is_left_out_alone_and_where_it_was_seen_kept() -> None:
+    """Read from far off or askew, a small marker's facing can come out flipped while its
+    distance and bearing are right: only the facing is left out, and the sighting
+    still places the marker (a survey's graph once lost the one tie between a dead-end
+    room's new markers and the corridor that way)."""
+    survey, poses = straight_survey(100)
+    marker = Pose(4.0, 0.3, math.pi)
+    sightings = [Sighting(k, replace(PoseFilter().expected(marker, poses[k]), marker_id=7))
+                 for k in range(2, 10)]  # fmt: skip
+    seen = sightings[-1].seen
+    assert seen.facing_rad is not None
+    flipped = Sighting(10, replace(PoseFilter().expected(marker, poses[10]), marker_id=7,
+                                   facing_rad=wrap(seen.facing_rad + 2.2)))  # fmt: skip
+    result = solve_survey(replace(survey, sightings=[*sightings, flipped]))
+    (left_out,) = result.outliers
+    assert left_out.sighting == flipped and left_out.facing_only
+    assert left_out.mahalanobis > CHI_SQUARE[0.999][1]
+    m = result.markers[7]
+    assert m.sightings == len(sightings) + 1 and m.facing_seen
+    assert wrap(m.pose.heading - math.pi) == pytest.approx(0.0, abs=math.radians(1))
+
+
+def test_a_marker_whose_every_facing_is_beyond_the_bound_keeps_them() -> None:
+    """At a solution that turns a marker 60 degrees from all its facings, they are all
+    there is of its facing: none is left out, whether or not the marker was also seen
+    once without one (which must not count as a facing that agrees)."""
+    survey, poses = straight_survey(12, dock=np.diag([1e-6, 1e-6, 1e-8]))
+    marker = Pose(2.0, 1.5, -math.pi / 2)
+    faced = [Sighting(k, replace(PoseFilter().expected(marker, poses[k]), marker_id=1))
+             for k in range(3, 9)]  # fmt: skip
+    unfaced = Sighting(10, replace(PoseFilter().expected(marker, poses[10]), marker_id=1,
+                                   facing_rad=None))  # fmt: skip
+    for sightings in (faced, [*faced, unfaced]):
+        with_them = replace(survey, sightings=sightings)
+        graph, kept = pose_graph._graph(with_them)
+        x = pose_graph._start(with_them, graph, kept, None)
+        graph.split(x)[2][0, 2] += math.radians(60)
+        rejected = outliers(graph, x)
+        assert rejected.facings == frozenset() and rejected.sightings == frozenset()
 
 
 # What does not hang together, and what there is too little of.
