@@ -64,8 +64,7 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
         return fail(str(error), EXIT_USAGE)
     plan = robot.plan
     if args.room not in plan.rooms and args.room != DOCK:
-        return fail(f"no room called {args.room!r} (rooms: {', '.join(sorted(plan.rooms))})",
-                    EXIT_USAGE)  # fmt: skip
+        return fail(plan.no_room(args.room, also=[DOCK]), EXIT_USAGE)
     try:
         # Planned before the loop starts, so that the simulator's clock has not moved
         # on by however long planning took.

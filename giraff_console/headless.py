@@ -232,7 +232,7 @@ class HeadlessRobot:
         if not (eye_fps > 0 and math.isfinite(eye_fps)):
             raise UsageError("--eye-fps must be a positive number")
         if args.sim_start is not None and args.sim_start not in self.plan.rooms:
-            raise UsageError(f"--sim-start: no room called {args.sim_start!r}")
+            raise UsageError(f"--sim-start: {self.plan.no_room(args.sim_start)}")
         self.start = self.navigator.start_pose
         self.site: SimulatedSite | None = None
         self.stepped: float | None = None
@@ -470,7 +470,7 @@ def placed_at(plan: FloorPlan, text: str) -> Pose:
     name, _, degrees = text.partition(":")
     room = plan.rooms.get(plan.start if name == DOCK and plan.start is not None else name)
     if room is None:
-        raise UsageError(f"--at: no room called {name!r}")
+        raise UsageError(f"--at: {plan.no_room(name, also=[DOCK])}")
     try:
         heading = _finite(float(degrees)) if degrees else room.heading
     except ValueError:

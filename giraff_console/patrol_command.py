@@ -96,8 +96,8 @@ def run_patrol(args: argparse.Namespace, settings: Settings, port: str | None,
     known = {DOCK} if robot.plan.start is not None else set()  # the dock is the start room's
     unknown = sorted({s.room for s in patrol.stops if s.room and s.room not in rooms} - known)
     if unknown:
-        return fail(f"patrol {patrol.name}: no room called {', '.join(map(repr, unknown))} "
-                    f"(rooms: {', '.join(sorted(rooms))})", EXIT_USAGE)  # fmt: skip
+        wrong = "; ".join(robot.plan.no_room(room, also=known) for room in unknown)
+        return fail(f"patrol {patrol.name}: {wrong}", EXIT_USAGE)
     log = StopLog(robot, patrol, routes)
     try:
         # The first leg is planned here, before the loop starts (as `go` plans).

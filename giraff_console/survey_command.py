@@ -104,7 +104,7 @@ def run_survey(args: argparse.Namespace, settings: Settings, port: str | None,
     rooms = [room.strip() for room in args.rooms.split(",")] if args.rooms else None
     unknown = sorted(set(rooms or []) - set(plan.rooms))
     if unknown:
-        return fail(f"--rooms: no room called {', '.join(map(repr, unknown))}", EXIT_USAGE)
+        return fail(f"--rooms: {'; '.join(map(plan.no_room, unknown))}", EXIT_USAGE)
     if robot.eye is None and robot.camera is None:
         return fail("a survey needs a camera that can place markers: --camera and "
                     "--calibration on a real robot", EXIT_USAGE)  # fmt: skip

@@ -71,10 +71,17 @@ def test_bad_simulator_options_are_usage_errors(capsys, options, message):
     assert code == 2 and report is None and message in err
 
 
-def test_an_unknown_room_exits_2_with_the_rooms(capsys):
+def test_a_misspelt_room_exits_2_with_the_room_meant(capsys):
+    code, report, err = go(capsys, "kitchn", "--sim-speed", "inf")
+    assert code == 2 and report is None
+    assert "no room called 'kitchn': did you mean kitchen?" in err
+
+
+def test_an_unknown_room_exits_2_saying_where_the_rooms_are(capsys):
     code, report, err = go(capsys, "attic", "--sim-speed", "inf")
     assert code == 2 and report is None
-    assert "no room called 'attic'" in err and "kitchen" in err
+    assert "no room called 'attic', nor any like it among the 33 rooms" in err
+    assert "giraff-console floorplan show" in err and "care-home.yaml" in err
 
 
 def test_no_way_to_the_room_exits_1_with_the_reason(capsys):

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import re
 import reprlib
+from collections.abc import Collection
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -24,6 +25,7 @@ import networkx as nx
 import numpy as np
 import yaml
 
+from giraff_console.planning.names import no_such
 from giraff_console.yaml_source import YamlSourceError, parse_yaml
 
 Point = tuple[float, float]
@@ -120,6 +122,12 @@ class FloorPlan:
     path: Path
     # Last, with a default, so that every FloorPlan(...) written before it still works.
     landmarks: Landmarks | None = None
+
+    def no_room(self, name: str, also: Collection[str] = ()) -> str:
+        """What to say of a room `name` it does not have: the likest of its rooms (and of
+        `also`, such as the dock), or where to see them all (planning/names.py)."""
+        return no_such("room", name, [*self.rooms, *also],
+                       f"`giraff-console floorplan show {self.path}` draws them")  # fmt: skip
 
 
 @dataclass(frozen=True)

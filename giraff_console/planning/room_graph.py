@@ -251,8 +251,7 @@ class RoomGraph:
 
     def _room(self, room_id: str) -> None:
         if room_id not in self.plan.rooms:
-            known = ", ".join(sorted(self.plan.rooms))
-            raise UnknownRoomError(f"no room called {room_id!r} (rooms: {known})")
+            raise UnknownRoomError(self.plan.no_room(room_id))
 
     def _door(self, door_id: str) -> None:
         if door_id not in self.doors:
