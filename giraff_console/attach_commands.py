@@ -133,11 +133,7 @@ def run_patrols(args: argparse.Namespace) -> int:
     if not runs:
         print(f"no patrol runs logged in {folder}")
     for run in runs:
-        data = run.to_json()
-        print(
-            f"{data['started'] or '?'}  {data['patrol']}  by {data['by'] or '?'}: "
-            f"{data['state']}, {data['stops']} stops ({data['arrived']}); {data['why']}"
-        )
+        print(run.line())
     return EXIT_DONE
 
 

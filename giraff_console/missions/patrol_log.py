@@ -197,6 +197,14 @@ class RunSummary:
     state: str
     notes: tuple[str, ...] = field(default=())
 
+    def line(self) -> str:
+        """The run in words, as `giraff-console patrols` prints it."""
+        reached = {True: ", every stop reached", False: ", not every stop reached",
+                   None: ""}[self.arrived]  # fmt: skip
+        stops = f"{self.stops} stop{'' if self.stops == 1 else 's'}"
+        return (f"{self.started or '?'}  {self.patrol}  by {self.by or '?'}: {self.state}, "
+                f"{stops}{reached}; {self.why}")  # fmt: skip
+
     def to_json(self) -> dict[str, Any]:
         return {
             "patrol": self.patrol,

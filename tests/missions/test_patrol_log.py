@@ -91,6 +91,22 @@ def test_a_stop_record_that_is_not_plain_json_is_still_written(tmp_path):
     assert (stop["error_m"], stop["pose"]) == (None, [1.0, None])
 
 
+def test_a_run_is_listed_in_words(tmp_path):
+    log_a_run(tmp_path, hour=20)
+    failed = PatrolRunLog(tmp_path, now=night_clock(22))
+    failed.start("night", scheduled=False, by="console")
+    failed.stop({"stop": 1, "round": 1, "room": "lounge", "arrived": False, "why": "stalled"})
+    failed.end("done", arrived=False, stops=1)
+    log_a_run(tmp_path, hour=23, finish=False)
+    lines_ = [run.line() for run in list_runs(tmp_path)]
+    assert lines_ == [
+        f"2025-01-01T23:00:00+01:00  night  by schedule: unfinished, 2 stops; {UNFINISHED}",
+        "2025-01-01T22:00:00+01:00  night  by console: ended, 1 stop, not every stop reached; done",
+        "2025-01-01T20:00:00+01:00  night  by schedule: ended, 2 stops, every stop reached; done",
+    ]
+    assert not any("True" in line or "False" in line for line in lines_)
+
+
 def test_a_killed_run_reads_as_unfinished_unless_it_is_the_one_running(tmp_path):
     log = log_a_run(tmp_path, finish=False)
     # Every line is out already: the daemon could be killed here.
