@@ -641,8 +641,7 @@ class PathMission:
         self._touched()  # the estimate is less sure than the filter thinks
         where = f"({contact.point[0]:.1f}, {contact.point[1]:.1f})"
         if self._recovery.exhausted:
-            why = self._stuck(tick.pose, f"stalled: touched something {self._recovery.in_a_row} "
-                                         "times in a row near {}")  # fmt: skip
+            why = self._stuck(tick.pose, f"stalled: touched something {self._recovery.touches}")
             return self._fail(tick, Outcome.STALLED, why)
         self.notify(
             f"{self.name}: touched something at {where}; backing off to try again "

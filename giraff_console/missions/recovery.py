@@ -152,6 +152,13 @@ class Recovery:
     def in_a_row(self) -> int:
         return self._in_a_row
 
+    @property
+    def touches(self) -> str:
+        """How often it touched, in words, with a {} for where (the last place)."""
+        if self._in_a_row >= MAX_CONTACTS:
+            return f"{self._in_a_row} times in a row near {{}}"
+        return f"{len(self.contacts)} times on the way, the last near {{}}"
+
     def back_off(self, pose: Pose, walls: OccupancyGrid | None = None) -> float:
         """How far to back straight up from `pose`: BACK_OFF_M, or as far as the trail
         it came along runs straight behind it. With no trail behind it (it touched as it

@@ -79,6 +79,7 @@ def test_contacts_in_a_row_are_bounded_and_progress_between_them_resets_the_coun
     for _ in range(MAX_CONTACTS - 1):
         recovery.touched(Pose(), None)
     assert recovery.exhausted
+    assert recovery.touches == f"{MAX_CONTACTS} times in a row near {{}}"
 
 
 def test_progress_counts_as_driven_tick_by_tick_only_past_where_it_touched():
@@ -111,6 +112,7 @@ def test_contacts_in_one_mission_are_bounded_however_far_it_gets_between_them():
         recovery.touched(Pose(), None)
         assert recovery.in_a_row == 1
     assert recovery.exhausted
+    assert recovery.touches == f"{MISSION_CONTACTS} times on the way, the last near {{}}"
 
 
 def test_backing_off_is_a_jerk_limited_move_straight_back_within_the_reach(navigator):
