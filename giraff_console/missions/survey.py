@@ -334,7 +334,8 @@ def surveyed(plan: FloorPlan, log: SurveyLog, family: str, size: float) -> Surve
     markers, left_out = [], {}
     for marker_id, found in sorted(result.markers.items()):
         if found.sightings < MIN_SIGHTINGS:
-            left_out[marker_id] = f"seen {found.sightings} times (at least {MIN_SIGHTINGS})"
+            times = {1: "once", 2: "twice"}.get(found.sightings, f"{found.sightings} times")
+            left_out[marker_id] = f"seen {times} (at least {MIN_SIGHTINGS} times)"
             continue
         if not found.facing_seen:
             left_out[marker_id] = "never seen square enough to tell which way it faces"
