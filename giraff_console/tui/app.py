@@ -85,7 +85,9 @@ class GiraffConsole(RobotKeys, KeyGuard):
     # Nothing takes the focus by itself: the keys belong to driving until Enter is pressed.
     AUTO_FOCUS = None
     BINDINGS = [
-        Binding("escape", "quit", "Quit", id="quit",
+        # Ctrl-C too, so that there is one way to quit and one question: Textual's own
+        # asked its own, a third way out.
+        Binding("escape,ctrl+c", "quit", "Quit", key_display="esc", id="quit",
                 tooltip="stop the robot and leave (also q); asks first while anything runs"),
         Binding("q", "quit", "Quit", show=False, id="quit-q"),
         Binding("up", "drive('FORWARD')", "Drive", key_display="↑↓←→", id="forward",

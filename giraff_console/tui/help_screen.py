@@ -44,6 +44,7 @@ class HelpScreen(ModalScreen[None]):
         for name, does in self.commands:
             commands.add_row(name, does)
         with VerticalScroll():
+            # The way out first, where it is seen without scrolling.
+            yield Static("[dim]Esc, q or ? closes this screen; arrows scroll.[/]")
             yield Static(keys)
             yield Static(commands)
-            yield Static("[dim]Arrows scroll; Esc, q or ? closes this screen.[/]")
