@@ -24,8 +24,8 @@ class MainView(Vertical):
     MainView > Static {{ height: 1; }}
     MainView > Horizontal {{ height: 1; display: none; }}
     MainView Label {{ margin-right: 1; }}
-    MainView ProgressBar {{ margin-right: 1; }}
-    MainView Bar {{ width: {TEXT_BAR}; }}
+    MainView ProgressBar {{ margin-right: 1; width: 1fr; max-width: {TEXT_BAR}; }}
+    MainView Bar {{ width: 1fr; }}
     MainView Bar > .bar--bar, MainView Bar > .bar--complete {{ color: ansi_cyan; }}
     """
 

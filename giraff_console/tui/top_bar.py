@@ -1,6 +1,7 @@
 """The top line: camera | pose | battery, stalk | performance, with the badges that must
 not be missed. The battery and the stalk appear only on boards that report them (later
-firmware, wire-facts); on the thesis's board the line is as it always was."""
+firmware, wire-facts); on the thesis's board the line is as it always was. Too narrow
+for it all, it leaves out the performance's part, then the camera's."""
 
 from __future__ import annotations
 
@@ -55,11 +56,24 @@ class TopBar(Static):
 
     def show(self, telemetry: Telemetry) -> None:
         self._telemetry = telemetry
+        # Narrower than the whole line, the performance's part goes first, then the
+        # camera's (80 columns): the pose and the badges stay (issue 26).
+        width = self.size.width
+        for camera, performance in ((True, True), (True, False), (False, True), (False, False)):
+            text = self._line(telemetry, camera, performance)
+            if not width or text.cell_len <= width:
+                break
+        # One line across the screen whatever it says: no new layout of the whole screen
+        # twenty times a second (issue 15: most of an idle console's time went to it).
+        self.update(text, layout=False)
+
+    def _line(self, telemetry: Telemetry, camera: bool, performance: bool) -> Text:
         text = Text(no_wrap=True, overflow="ellipsis")
         for badge, style in self._badges(telemetry):
             text.append(f" {badge} ", style=style)
             text.append(" ")
-        text.append(f"{self.camera} │ ", style="dim")
+        if camera:
+            text.append(f"{self.camera} │ ", style="dim")
         text.append(*pose_text(telemetry.pose, telemetry.estimate))
         if telemetry.battery is not None:
             text.append(" │ ", style="dim")
@@ -67,10 +81,10 @@ class TopBar(Static):
         if telemetry.stalk is not None:
             text.append(" │ ", style="dim")
             text.append(stalk_text(telemetry.stalk))
-        text.append(f" │ loop {telemetry.loop_hz:.0f} Hz · UI {self.ui_fps:.0f} fps", style="dim")
-        # One line across the screen whatever it says: no new layout of the whole screen
-        # twenty times a second (issue 15: most of an idle console's time went to it).
-        self.update(text, layout=False)
+        if performance:
+            text.append(f" │ loop {telemetry.loop_hz:.0f} Hz · UI {self.ui_fps:.0f} fps",
+                        style="dim")  # fmt: skip
+        return text
 
     def _badges(self, telemetry: Telemetry) -> list[tuple[str, str]]:
         badges = []

@@ -88,6 +88,15 @@ async def test_a_later_board_shows_its_battery_and_stalk():
         assert "stalk 0 1.16 m" in line
 
 
+async def test_at_80_columns_the_pose_and_battery_stay_and_the_camera_part_goes():
+    rig = Rig(board=LATER + "&battery=0.6")
+    async with rig.app.run_test(size=(80, 24)) as pilot:
+        await rig.run(pilot, SETTLE_S)
+        line = top_line(rig)
+        assert re.search(r"X=\S+ Y=\S+ H=\S+", line) and "BAT" in line, line
+        assert "cam" not in line and "…" not in line, line
+
+
 async def test_stalk_n_sets_h_and_the_top_line_follows():
     rig = Rig(board=LATER)
     async with rig.app.run_test(size=SIZE) as pilot:

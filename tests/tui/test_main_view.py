@@ -5,7 +5,7 @@ from __future__ import annotations
 from textual.app import App, ComposeResult
 from textual.widgets import Label, ProgressBar, Static
 
-from giraff_console.robot.mission import DRIVING, Progress
+from giraff_console.robot.mission import DRIVING, TEXT_BAR, Progress
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.tui.main_view import MainView
@@ -63,3 +63,19 @@ async def test_a_patrol_shows_its_round_and_its_stop_with_the_stops_bar():
             "· go room-110", "3.0 m left, ETA 0:07",
         ]  # fmt: skip
         assert bars(view) == [(9.0, 6.0)]
+
+
+async def test_in_a_narrow_view_the_bar_gives_way_to_the_metres_and_the_eta():
+    """At 80x24 the main view is some 36 columns: the bar shrinks so that what is left
+    and the ETA stay on the line; wide, it is its full length."""
+    for width, bar_width in ((36, range(1, 8)), (100, range(TEXT_BAR, TEXT_BAR + 1))):
+        app = OneView()
+        async with app.run_test(size=(width, 4)) as pilot:
+            view = app.query_one(MainView)
+            view.show(telemetry(Progress("go kitchen", DRIVING, 45.0, 47.0, 120.0)))
+            await pilot.pause()
+            words = [label for label in view.query(Label) if label.display][-1]
+            assert str(words.content) == "45.0 m left, ETA 2:00"
+            assert words.region.right <= width
+            (bar,) = [bar for bar in view.query(ProgressBar) if bar.display]
+            assert bar.region.width in bar_width
