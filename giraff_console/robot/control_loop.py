@@ -68,7 +68,7 @@ from giraff_console.robot.realtime import run_promptly
 from giraff_console.robot.replay import Replayer
 from giraff_console.robot.safety import rotation_wheel_speed, stop_robot
 from giraff_console.robot.telemetry import LinkState, Telemetry
-from giraff_console.robot.teleop import Teleop
+from giraff_console.robot.teleop import BLOCKED_S, Teleop
 from giraff_console.robot.wheel_odometers import AUTO, Reading
 
 log = logging.getLogger(__name__)
@@ -94,6 +94,7 @@ class ControlLoop:
         and whether curves go out as one twm (auto, on, off)."""
         self.connect = connect
         self.teleop = teleop
+        self._blocked_said = False  # the note that the keys are blocked, said
         self.deadman = deadman
         self.period = 1.0 / rate_hz
         self.clock = clock
@@ -495,6 +496,11 @@ class ControlLoop:
         board, ends the driving rather than being asked again twenty times a second."""
         speed = self._speed_bound(state)
         commands = list(self.teleop.step(self.deadman.held(), state))
+        if self.teleop.blocked != self._blocked_said:
+            self._blocked_said = self.teleop.blocked
+            if self._blocked_said:
+                self.note("blocked: the keys drive, but the wheels have not turned for "
+                          f"{BLOCKED_S:g} s; something is in the way")  # fmt: skip
         for command in self.feed.moves(commands, self.teleop.board_settings):
             if self._halt is not None:
                 return  # stopping now: no more renewals
@@ -818,5 +824,6 @@ class ControlLoop:
             stalk=self.gauges.stalk,
             board=self.feed.features,
             estimate=replayer.estimate if replayer else self.localisation.estimate(),
+            blocked=self.teleop.blocked and not replayer,
         )
         self._tell(telemetry)

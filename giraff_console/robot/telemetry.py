@@ -50,3 +50,5 @@ class Telemetry:
     # Whether a session is being recorded: the robot service's to say (the loop does
     # not know its listeners), filled in as the snapshot goes out to the front ends.
     recording: bool = False
+    # The held keys' move is under way and the wheels have not turned (teleop.BLOCKED_S).
+    blocked: bool = False

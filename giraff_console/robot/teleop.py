@@ -39,6 +39,13 @@ RENEW_TICKS = 2
 # of nothing, which the board ends at once from a standstill (B.2 StartStraight), so
 # that nothing is left pending to lurch on when the way clears.
 STALLED_STOP_S = 1.0
+# A held key's move under way with the wheels still this long is blocked (a wall, a box):
+# said, so that an operator holding Up against a wall is not left reading "moving 0.00
+# m/s" (issue 26). The second a mission's executor takes to call a stall (§2.3.2).
+BLOCKED_S = 1.0
+# Wheels turning slower than this are still: the simulated board reads 9e-16 m/s, not
+# 0, against a wall.
+STILL_WHEELS = 1e-3
 # r for curved motion (A.4.2 needs r > 50); the thesis's console used 1000.
 PATH_STYLE = 1000
 ROTATE_STYLE = 0
@@ -98,6 +105,8 @@ class Teleop:
         self._style: int | None = None
         self._stopping = False
         self._still_since: float | None = None
+        self._blocked_since: float | None = None  # a held key's move, the wheels still
+        self._blocked_for = 0.0
         # What the board holds for its next move, as sent on the wire (board_set).
         self._board: dict[str, str] = {}
 
@@ -159,8 +168,14 @@ class Teleop:
         """True while teleop has the robot moving or stopping."""
         return self._style is not None
 
+    @property
+    def blocked(self) -> bool:
+        """A held key's move has been under way for BLOCKED_S with the wheels still."""
+        return self._blocked_since is not None and self._blocked_for >= BLOCKED_S
+
     def step(self, intent: Intent | None, state: MotorState) -> list[Command]:
         """The commands for this control tick, in order."""
+        self._watch_blocked(intent, state)
         if not state.moving and self._stopping:
             self._style, self._stopping = None, False
         if self._stopping and self._held_up(state):
@@ -246,10 +261,19 @@ class Teleop:
             if name != "p" and self._board.get(name) != format_number(value)
         ]
 
+    def _watch_blocked(self, intent: Intent | None, state: MotorState) -> None:
+        driving = intent is not None and self._style is not None and not self._stopping
+        if not (driving and state.moving and abs(state.gvr) < STILL_WHEELS):
+            self._blocked_since = None
+            return
+        if self._blocked_since is None:
+            self._blocked_since = state.received_at
+        self._blocked_for = state.received_at - self._blocked_since
+
     def _held_up(self, state: MotorState) -> bool:
         """Whether the stop has had the wheels still for STALLED_STOP_S while the board
         still holds the move."""
-        if not state.moving or state.gvr != 0:
+        if not state.moving or abs(state.gvr) >= STILL_WHEELS:
             self._still_since = None
             return False
         if self._still_since is None:

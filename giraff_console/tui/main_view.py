@@ -63,7 +63,7 @@ class MainView(Vertical):
             motion = Text(f"{moving} {state.gvr:+.1f}°/s")
         else:
             speed = "?" if state.speed is None else f"{state.speed:.2f}"
-            moving = "moving" if state.moving else "stopped"
+            moving = "blocked" if telemetry.blocked else "moving" if state.moving else "stopped"
             motion = Text(f"{moving} {speed} m/s  vg {round(state.cvg, 2) + 0.0:.2f}")
         if state is not None and state.estop:
             motion.append("  ESTOP", style="bold red")

@@ -27,9 +27,10 @@ _CHARGE_MARKS = {
     ChargeStatus.NOT_DOCKED: "",
 }
 
-# The pose when missions would stop and look for a marker: hard to miss, and not the
-# red of the alarms (link lost, ESTOP), which mean the robot cannot move at all.
-_LOST_STYLE = "bold black on dark_orange"
+# The pose when missions would stop and look for a marker, and held keys that do not
+# move the robot: hard to miss, and not the red of the alarms (link lost, ESTOP), which
+# mean the robot cannot move at all.
+_WARNING_STYLE = "bold black on dark_orange"
 
 
 class TopBar(Static):
@@ -97,6 +98,8 @@ class TopBar(Static):
             badges.append(("ESTOP", "bold white on red"))
         if not telemetry.autopoll:
             badges.append(("POLL OFF", "bold black on cyan"))
+        if telemetry.blocked:
+            badges.append(("BLOCKED", _WARNING_STYLE))
         if self.recording:
             badges.append(("● REC", "bold white on dark_red"))
         playback = telemetry.playback
@@ -125,9 +128,9 @@ def pose_text(pose: Pose, estimate: Estimate | None) -> tuple[str, str]:
     heading += _plus_minus(math.degrees(estimate.sigma_heading), 1)
     text = f"{x} {y} {heading}"
     if estimate.landmarks and not estimate.found:
-        return f"{text} (not found)", _LOST_STYLE
+        return f"{text} (not found)", _WARNING_STYLE
     if estimate.lost:
-        return f"{text} (lost)", _LOST_STYLE
+        return f"{text} (lost)", _WARNING_STYLE
     return text, "bold yellow" if estimate.unsure else "bold"
 
 

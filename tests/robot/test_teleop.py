@@ -10,7 +10,7 @@ from giraff_console.link import BoardLink, LinkDisconnected
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.telemetry import LinkState, Telemetry
-from giraff_console.robot.teleop import DriveLimits, Teleop
+from giraff_console.robot.teleop import BLOCKED_S, DriveLimits, Teleop
 from giraff_console.sim.collision import Solids
 from giraff_console.sim.surroundings import Surroundings
 from tests.listening import notes_into, only
@@ -245,3 +245,32 @@ def test_against_a_wall_the_other_way_backs_off_without_letting_go_first(console
     assert console.board.true_pose.x == pytest.approx(0.7, abs=0.01)
     console.hold(Intent.BACKWARD, 1.5)
     assert console.board.true_pose.x < 0.6
+
+
+def test_holding_up_against_a_wall_is_blocked_and_said_once(console):
+    """Up held into a wall: the move is under way and the wheels do not turn; after
+    BLOCKED_S the snapshot says blocked and the operator is told once; let go, or
+    backing away, and it is not."""
+    walled(console)
+    shown: list[Telemetry] = []
+    console.loop.subscribe(only(Telemetry, shown.append))
+    console.hold(Intent.FORWARD, 1.4)  # reaches the wall (0.7 m) after about 1.3 s
+    assert not shown[-1].blocked
+    console.hold(Intent.FORWARD, 2.5)
+    assert console.board.true_pose.x == pytest.approx(0.7, abs=0.01)
+    assert shown[-1].blocked
+    said = [r for r in console.reports if r.startswith("blocked:")]
+    assert said == [f"blocked: the keys drive, but the wheels have not turned for "
+                    f"{BLOCKED_S:g} s; something is in the way"]  # fmt: skip
+    console.hold(Intent.BACKWARD, 1.0)
+    assert not shown[-1].blocked and console.board.true_pose.x < 0.7
+
+
+def test_driving_freely_is_never_blocked(console):
+    shown: list[Telemetry] = []
+    console.loop.subscribe(only(Telemetry, shown.append))
+    console.hold(Intent.FORWARD, 3.0)
+    console.hold(Intent.LEFT, 2.0)
+    console.run(2.0)
+    assert shown and not any(t.blocked for t in shown)
+    assert not any(r.startswith("blocked:") for r in console.reports)

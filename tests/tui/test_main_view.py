@@ -1,6 +1,9 @@
-"""The main view's second line: the keys, or a mission's progress drawn with a bar."""
+"""The main view's second line: the keys, or a mission's progress drawn with a bar; and the
+top line's BLOCKED badge."""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 from textual.app import App, ComposeResult
 from textual.widgets import Label, ProgressBar, Static
@@ -9,6 +12,7 @@ from giraff_console.robot.mission import DRIVING, TEXT_BAR, Progress
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.tui.main_view import MainView
+from giraff_console.tui.top_bar import TopBar
 
 
 class OneView(App[None]):
@@ -79,3 +83,19 @@ async def test_in_a_narrow_view_the_bar_gives_way_to_the_metres_and_the_eta():
             assert words.region.right <= width
             (bar,) = [bar for bar in view.query(ProgressBar) if bar.display]
             assert bar.region.width in bar_width
+
+
+async def test_held_keys_that_do_not_move_the_robot_show_blocked():
+    class OneBar(App[None]):
+        def compose(self) -> ComposeResult:
+            yield TopBar(simulator=False)
+
+    app = OneBar()
+    async with app.run_test(size=(100, 2)) as pilot:
+        bar = app.query_one(TopBar)
+        bar.show(telemetry(None))
+        await pilot.pause()
+        assert "BLOCKED" not in str(bar.render())
+        bar.show(replace(telemetry(None), blocked=True))
+        await pilot.pause()
+        assert str(bar.render()).startswith(" BLOCKED ")
