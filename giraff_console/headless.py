@@ -470,7 +470,7 @@ def placed_at(plan: FloorPlan, text: str) -> Pose:
     name, _, degrees = text.partition(":")
     room = plan.rooms.get(plan.start if name == DOCK and plan.start is not None else name)
     if room is None:
-        raise UsageError(f"--at: {plan.no_room(name, also=[DOCK])}")
+        raise UsageError(f"--at: {plan.no_room(name, also=[DOCK] if plan.start else [])}")
     try:
         heading = _finite(float(degrees)) if degrees else room.heading
     except ValueError:

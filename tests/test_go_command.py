@@ -80,7 +80,7 @@ def test_a_misspelt_room_exits_2_with_the_room_meant(capsys):
 def test_an_unknown_room_exits_2_saying_where_the_rooms_are(capsys):
     code, report, err = go(capsys, "attic", "--sim-speed", "inf")
     assert code == 2 and report is None
-    assert "no room called 'attic', nor any like it among the 33 rooms" in err
+    assert "no room called 'attic', nor any like it among the 32 rooms" in err
     assert "giraff-console floorplan show" in err and "care-home.yaml" in err
 
 

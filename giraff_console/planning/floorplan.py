@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import re
 import reprlib
+import shlex
 from collections.abc import Collection
 from dataclasses import dataclass
 from pathlib import Path
@@ -126,8 +127,9 @@ class FloorPlan:
     def no_room(self, name: str, also: Collection[str] = ()) -> str:
         """What to say of a room `name` it does not have: the likest of its rooms (and of
         `also`, such as the dock), or where to see them all (planning/names.py)."""
-        return no_such("room", name, [*self.rooms, *also],
-                       f"`giraff-console floorplan show {self.path}` draws them")  # fmt: skip
+        shown = shlex.quote(str(self.path.resolve()))
+        return no_such("room", name, sorted({*self.rooms, *also}),
+                       f"`giraff-console floorplan show {shown}` draws them")  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,8 @@ def no_such(kind: str, name: str, known: Collection[str], where: str = "") -> st
     """ "no room called 'kitchn': did you mean kitchen?", or the `known` names when none is
     like `name` (counted, with `where` to find them, when there are many)."""
     said = f"no {kind} called {name!r}"
-    likeness = {other: difflib.SequenceMatcher(None, name, other).ratio() for other in known}
+    likeness = {other: difflib.SequenceMatcher(None, name.casefold(), other.casefold()).ratio()
+                for other in known}  # fmt: skip
     close = sorted((o for o, r in likeness.items() if r >= LIKE), key=lambda o: (-likeness[o], o))
     close = close[:SUGGESTIONS]
     if close:

@@ -94,7 +94,6 @@ class ControlLoop:
         and whether curves go out as one twm (auto, on, off)."""
         self.connect = connect
         self.teleop = teleop
-        self._blocked_said = False  # the note that the keys are blocked, said
         self.deadman = deadman
         self.period = 1.0 / rate_hz
         self.clock = clock
@@ -496,11 +495,9 @@ class ControlLoop:
         board, ends the driving rather than being asked again twenty times a second."""
         speed = self._speed_bound(state)
         commands = list(self.teleop.step(self.deadman.held(), state))
-        if self.teleop.blocked != self._blocked_said:
-            self._blocked_said = self.teleop.blocked
-            if self._blocked_said:
-                self.note("blocked: the keys drive, but the wheels have not turned for "
-                          f"{BLOCKED_S:g} s; something is in the way")  # fmt: skip
+        if self.teleop.newly_blocked:
+            self.note("blocked: the keys drive, but the wheels have not turned for "
+                      f"{BLOCKED_S:g} s; something is in the way")  # fmt: skip
         for command in self.feed.moves(commands, self.teleop.board_settings):
             if self._halt is not None:
                 return  # stopping now: no more renewals

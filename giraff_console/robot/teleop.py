@@ -43,6 +43,9 @@ STALLED_STOP_S = 1.0
 # said, so that an operator holding Up against a wall is not left reading "moving 0.00
 # m/s" (issue 26). The second a mission's executor takes to call a stall (§2.3.2).
 BLOCKED_S = 1.0
+# Said once: again only after this long not blocked (a gap in a key's repeats over a
+# jittery SSH link unblocks it for a second or so, and a note each time is noise).
+BLOCKED_SAID_AGAIN_S = 5.0
 # Wheels turning slower than this are still: the simulated board reads 9e-16 m/s, not
 # 0, against a wall.
 STILL_WHEELS = 1e-3
@@ -93,6 +96,11 @@ class DriveLimits:
             )
 
 
+def still(state: MotorState) -> bool:
+    """The wheels are not turning (a reading that is not a number is not still)."""
+    return abs(state.gvr) < STILL_WHEELS
+
+
 class Teleop:
     """Turns the held intent and the latest motor state into board commands."""
 
@@ -107,6 +115,10 @@ class Teleop:
         self._still_since: float | None = None
         self._blocked_since: float | None = None  # a held key's move, the wheels still
         self._blocked_for = 0.0
+        # Whether blocked has been said, and since when it has not been blocked.
+        self._blocked_said = False
+        self._free_since: float | None = None
+        self.newly_blocked = False  # blocked, and not said yet: the loop says it
         # What the board holds for its next move, as sent on the wire (board_set).
         self._board: dict[str, str] = {}
 
@@ -156,12 +168,14 @@ class Teleop:
         """The robot was stopped by other means (a playback began): teleop is idle."""
         self._style = None
         self._stopping = False
+        self._blocked_since = None
 
     def forget_board(self) -> None:
         """The board's settings are unknown again (a new connection, a restart)."""
         self._board.clear()
         self._style = None
         self._stopping = False
+        self._blocked_since = None
 
     @property
     def active(self) -> bool:
@@ -171,11 +185,29 @@ class Teleop:
     @property
     def blocked(self) -> bool:
         """A held key's move has been under way for BLOCKED_S with the wheels still."""
-        return self._blocked_since is not None and self._blocked_for >= BLOCKED_S
+        return (self.active and not self._stopping and self._blocked_since is not None
+                and self._blocked_for >= BLOCKED_S)  # fmt: skip
 
     def step(self, intent: Intent | None, state: MotorState) -> list[Command]:
         """The commands for this control tick, in order."""
         self._watch_blocked(intent, state)
+        commands = self._step(intent, state)
+        self._news(state.received_at)
+        return commands
+
+    def _news(self, now: float) -> None:
+        """Whether being blocked is news to say now (`newly_blocked`)."""
+        blocked = self.blocked
+        self.newly_blocked = blocked and not self._blocked_said
+        if blocked:
+            self._blocked_said, self._free_since = True, None
+        elif self._blocked_said:
+            if self._free_since is None:
+                self._free_since = now
+            elif now - self._free_since >= BLOCKED_SAID_AGAIN_S:
+                self._blocked_said = False
+
+    def _step(self, intent: Intent | None, state: MotorState) -> list[Command]:
         if not state.moving and self._stopping:
             self._style, self._stopping = None, False
         if self._stopping and self._held_up(state):
@@ -263,7 +295,7 @@ class Teleop:
 
     def _watch_blocked(self, intent: Intent | None, state: MotorState) -> None:
         driving = intent is not None and self._style is not None and not self._stopping
-        if not (driving and state.moving and abs(state.gvr) < STILL_WHEELS):
+        if not (driving and state.moving and still(state)):
             self._blocked_since = None
             return
         if self._blocked_since is None:
@@ -273,7 +305,7 @@ class Teleop:
     def _held_up(self, state: MotorState) -> bool:
         """Whether the stop has had the wheels still for STALLED_STOP_S while the board
         still holds the move."""
-        if not state.moving or abs(state.gvr) >= STILL_WHEELS:
+        if not state.moving or not still(state):
             self._still_since = None
             return False
         if self._still_since is None:

@@ -443,7 +443,8 @@ class RobotService:
         name = plan.start if request.room == DOCK and plan.start is not None else request.room
         room = plan.rooms.get(name)
         if room is None:
-            return Reply(False, f"place: {plan.no_room(request.room, also=[DOCK])}")
+            docks = [DOCK] if plan.start is not None else []
+            return Reply(False, f"place: {plan.no_room(request.room, also=docks)}")
         degrees = request.heading if request.heading is not None else room.heading
         if degrees is None:
             return Reply(False, f"place: {request.room} has no heading in the plan: say which "

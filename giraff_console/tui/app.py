@@ -492,7 +492,7 @@ class GiraffConsole(RobotKeys, KeyGuard):
         self.push_screen(HelpScreen(list(self.BINDINGS), CONSOLE_COMMANDS))
 
     async def action_quit(self) -> None:
-        """Esc, q: ask first while anything runs, or right after the command line
+        """Esc, q, Ctrl-C: ask first while anything runs, or right after the command line
         closed, where a second Esc meant for the line would otherwise quit."""
         self._quit(ask=self.quit_is_hasty())
 

@@ -59,7 +59,7 @@ class MainView(Vertical):
         elif telemetry.board_r is not None and telemetry.board_r <= 0:
             # Rotating in place: gvr is degrees per second against set p (A.2.2), so
             # counter-clockwise positive, like the heading.
-            moving = "turning" if state.moving else "stopped"
+            moving = "blocked" if telemetry.blocked else "turning" if state.moving else "stopped"
             motion = Text(f"{moving} {state.gvr:+.1f}°/s")
         else:
             speed = "?" if state.speed is None else f"{state.speed:.2f}"

@@ -1,7 +1,8 @@
 """The top line: camera | pose | battery, stalk | performance, with the badges that must
 not be missed. The battery and the stalk appear only on boards that report them (later
 firmware, wire-facts); on the thesis's board the line is as it always was. Too narrow
-for it all, it leaves out the performance's part, then the camera's."""
+for it all, it leaves out the performance's part, then the camera's (bringing the
+performance's back if it then fits)."""
 
 from __future__ import annotations
 

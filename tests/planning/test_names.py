@@ -10,6 +10,7 @@ ROOMS = ["kitchen", "lobby", "dining-room", *(f"room-{n}" for n in range(101, 13
 def test_a_misspelt_name_gets_the_one_meant():
     assert no_such("room", "kitchn", ROOMS) == "no room called 'kitchn': did you mean kitchen?"
     assert no_such("room", "Kitchen", ROOMS).endswith("did you mean kitchen?")
+    assert no_such("room", "KITCHEN", ROOMS).endswith("did you mean kitchen?")
     assert no_such("room", "dinning-room", ROOMS).endswith("did you mean dining-room?")
 
 

@@ -6,11 +6,11 @@ import math
 
 import pytest
 
-from giraff_console.link import BoardLink, LinkDisconnected
+from giraff_console.link import BoardLink, LinkDisconnected, MotorState
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.telemetry import LinkState, Telemetry
-from giraff_console.robot.teleop import BLOCKED_S, DriveLimits, Teleop
+from giraff_console.robot.teleop import BLOCKED_S, DriveLimits, Teleop, still
 from giraff_console.sim.collision import Solids
 from giraff_console.sim.surroundings import Surroundings
 from tests.listening import notes_into, only
@@ -274,3 +274,29 @@ def test_driving_freely_is_never_blocked(console):
     console.run(2.0)
     assert shown and not any(t.blocked for t in shown)
     assert not any(r.startswith("blocked:") for r in console.reports)
+
+
+def test_blocked_is_said_once_through_gaps_in_the_key_repeats_and_cleared_by_a_lost_link(
+    console,
+):
+    """Over a jittery SSH link a held key's repeats have gaps longer than the deadman's
+    grace: the note is not said again at each, only after the keys let go or the wheels
+    turn. A stop that is not the keys' (the link lost) leaves nothing blocked."""
+    walled(console)
+    shown: list[Telemetry] = []
+    console.loop.subscribe(only(Telemetry, shown.append))
+    console.hold(Intent.FORWARD, 4.0)
+    for _ in range(4):
+        console.run(0.25)  # a gap in the repeats
+        console.hold(Intent.FORWARD, 2.0, delay=0.03)
+    assert shown[-1].blocked
+    assert sum(r.startswith("blocked:") for r in console.reports) == 1
+    console.loop.teleop.forget_board()  # a new connection: teleop starts afresh
+    console.run(0.5)
+    assert not shown[-1].blocked
+
+
+def test_a_reading_that_is_not_a_number_is_not_still():
+    for gvr, still_ in ((0.0, True), (9e-16, True), (0.01, False), (math.nan, False)):
+        state = MotorState(0.0, 0.0, gvr, gvr, 0.0, None, 0.0, 0.0, 0, 0.0)
+        assert still(state) is still_
