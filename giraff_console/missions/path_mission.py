@@ -666,11 +666,11 @@ class PathMission:
     def _after_contact(self, tick: Tick) -> list[Command]:
         """Clear of the contact: put it on the grid if something unknown is there
         (recovery.py), look for a marker until one has fixed the pose since (with
-        markers known to find the robot by), then plan again. A contact is something the filter did
-        not see coming: most often the casters turned the robot further than expected
-        after a turn on the spot (§3.2.1.5), and a robot whose heading was 23 degrees
-        off what it believed touched the same box three times over, planning each try
-        from the heading it believed (issue 25's scanned home)."""
+        markers known to find the robot by), then plan again. A contact is something
+        the filter did not see coming: most often the casters turned the robot further
+        than expected after a turn on the spot (§3.2.1.5), and a robot whose heading was
+        23 degrees off what it believed touched the same box three times over, planning
+        each try from the heading it believed (issue 25's scanned home)."""
         contact = self._recovery.contacts[-1]
         if contact.unknown_obstacle and self.navigator is not None:
             self.navigator.report_obstacles([contact.point], margin=FELT_EXTENT_M)

@@ -1,7 +1,7 @@
 """A name the operator typed that is not there, and the ones it is most like.
 
 `go kitchn` answered with all 32 of a care home's rooms, which fill a narrow log; the
-nearest names (difflib's ratio, as Python's own "did you mean" for attributes) say
+nearest names (difflib's ratio, whatever the case; the likest first, then in order) say
 what was meant in a line. With none near, a few names are listed, and more are
 counted, with where to find them.
 """

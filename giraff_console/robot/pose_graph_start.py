@@ -69,7 +69,7 @@ def starting_point(graph: Graph, start: Pose, start_covariance: np.ndarray,
     branches, weights, mapped = _branches(graph, start, start_covariance, sightings, expected,
                                           wall_facings, known)  # fmt: skip
     headings, caster_turns, facings, weights = _headings(
-        graph, start, start_covariance, branches, weights, wall_facings, known, mapped
+        graph, start, start_covariance, branches, weights, wall_facings, known, mapped, expected
     )
     keyframes[:, 2] = headings
     casters[:] = caster_turns
@@ -175,10 +175,12 @@ def _on_wall(facing: float, wall: tuple[float, float] | None) -> float:
 def _headings(graph: Graph, start: Pose, start_covariance: np.ndarray, branches: np.ndarray,
               weights: np.ndarray, wall_facings: Mapping[int, tuple[float, float]],
               known: Mapping[int, tuple[Pose, np.ndarray]], mapped: dict[int, float],
+              means: np.ndarray,
               ) -> tuple[np.ndarray, np.ndarray, dict[int, float], np.ndarray]:  # fmt: skip
     """Every keyframe's heading, casters' turn and mapped marker's facing, from the
     graph's linear heading rows (module docstring), starting from the sightings'
-    `weights`; and each sighting's weight at the end (1 for those without a facing)."""
+    `weights`; and each sighting's weight at the end (1 for those without a facing).
+    `means`: the casters' turns' prior means (_caster_means)."""
     k_count, c_count = graph.keyframes, len(graph.casters.expected)
     faced = sorted(mapped)
     column = np.full(len(graph.marker_ids), -1)
@@ -195,12 +197,11 @@ def _headings(graph: Graph, start: Pose, start_covariance: np.ndarray, branches:
     # follows the one before.
     prior = graph.casters
     j = np.arange(c_count)
-    means = _caster_means(graph)
     before = np.concatenate([[0.0], means[:-1]])
-    mean, free = clamped_caster_means(prior, before, graph.noise.caster_worst)
+    _, free = clamped_caster_means(prior, before, graph.noise.caster_worst)
     carried = np.where(j > 0, prior.carried, 0.0) * free
     rows.add(np.stack([k_count + j, k_count + np.maximum(j - 1, 0)], 1),
-             np.stack([np.ones(c_count), -carried], 1), mean - carried * before,
+             np.stack([np.ones(c_count), -carried], 1), means - carried * before,
              prior.sigma)  # fmt: skip
     held = [(graph.marker_index[i], math.sqrt(c[2, 2])) for i, (_, c) in known.items()]
     held += [(graph.marker_index[i], sigma) for i, (_, sigma) in wall_facings.items()

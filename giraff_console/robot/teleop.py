@@ -114,7 +114,7 @@ class Teleop:
         self._stopping = False
         self._still_since: float | None = None
         self._blocked_since: float | None = None  # a held key's move, the wheels still
-        self._blocked_for = 0.0
+        self._still_long = False  # ... for BLOCKED_S
         # Whether blocked has been said, and since when it has not been blocked.
         self._blocked_said = False
         self._free_since: float | None = None
@@ -185,8 +185,7 @@ class Teleop:
     @property
     def blocked(self) -> bool:
         """A held key's move has been under way for BLOCKED_S with the wheels still."""
-        return (self.active and not self._stopping and self._blocked_since is not None
-                and self._blocked_for >= BLOCKED_S)  # fmt: skip
+        return self.active and not self._stopping and self._still_long
 
     def step(self, intent: Intent | None, state: MotorState) -> list[Command]:
         """The commands for this control tick, in order."""
@@ -297,10 +296,10 @@ class Teleop:
         driving = intent is not None and self._style is not None and not self._stopping
         if not (driving and state.moving and still(state)):
             self._blocked_since = None
-            return
-        if self._blocked_since is None:
+        elif self._blocked_since is None:
             self._blocked_since = state.received_at
-        self._blocked_for = state.received_at - self._blocked_since
+        self._still_long = (self._blocked_since is not None
+                            and state.received_at - self._blocked_since >= BLOCKED_S)  # fmt: skip
 
     def _held_up(self, state: MotorState) -> bool:
         """Whether the stop has had the wheels still for STALLED_STOP_S while the board
