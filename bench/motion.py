@@ -60,7 +60,7 @@ from giraff_console.planning.route_planner import walls_of
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.loop_events import LoopEvent
-from giraff_console.robot.mission import Mission
+from giraff_console.robot.mission import Mission, MissionEnd, Outcome
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.safety import rotation_wheel_speed
 from giraff_console.robot.telemetry import Telemetry
@@ -82,7 +82,7 @@ MakeMission = Callable[[Navigator, str, Callable[[], Pose]], Mission]
 class Run:
     """How one go went."""
 
-    why: str
+    end: MissionEnd
     plan_ms: float
     travel_s: float
     stops: int
@@ -92,6 +92,11 @@ class Run:
     board_jerk: float  # from the speeds the board reported
     gear_jumps: int
     mission: Mission
+
+
+def finished(run: Run) -> bool:
+    """The drive got to its end (arrived, confirmed or not; the peer judges nothing)."""
+    return run.end.outcome.arrived or run.end.outcome is Outcome.DONE
 
 
 def board_jerk(samples: list[tuple[float, float]]) -> float:
@@ -133,7 +138,7 @@ def drive(plan: FloorPlan, room: str, make: MakeMission, url: str) -> Run:
         gears.append(state.cvg)
 
     control.subscribe(watch)
-    ended: list[str] = []
+    ended: list[MissionEnd] = []
     started = clock.now()
     control.run_mission(mission, ended.append)
     while not ended:
@@ -221,8 +226,8 @@ def main() -> None:
         assert isinstance(ours.mission, GoTo)
         optimal = ours.mission.time_optimal
         results.append((room, optimal, ours, peer))
-        notes = "".join(f"  {name}: {run.why}" for name, run in (("go", ours), ("thesis", peer))
-                        if run.why != "done")  # fmt: skip
+        notes = "".join(f"  {name}: {run.end.why}" for name, run in (("go", ours), ("thesis", peer))
+                        if not finished(run))  # fmt: skip
         print(f"{room:<15}{optimal:>7.1f} | {cells(ours, optimal)} | {cells(peer, optimal)}{notes}")
     summarise(results, time.perf_counter() - began)
 
@@ -230,7 +235,7 @@ def main() -> None:
 def summarise(results: list[tuple[str, float, Run, Run]], seconds: float) -> None:
     """Both methods side by side: medians, worst cases and totals over the rooms both
     reached (with --imperfect a stall or an ESTOP can end a run on the way)."""
-    reached = [result for result in results if result[2].why == result[3].why == "done"]
+    reached = [result for result in results if finished(result[2]) and finished(result[3])]
     print(f"{'summary':<18}{'go':>22}{'thesis':>22}   over the {len(reached)} rooms both reached")
     columns = {"go": summary(results, reached, 2), "thesis": summary(results, reached, 3)}
     for label in columns["go"]:
@@ -247,7 +252,7 @@ def summarise(results: list[tuple[str, float, Run, Run]], seconds: float) -> Non
 def summary(results: list[tuple[str, float, Run, Run]], reached: list[tuple[str, float, Run, Run]],
             which: int) -> dict[str, str]:  # fmt: skip
     """One method's column of the summary: which = 2 for go, 3 for the thesis's way."""
-    arrived = sum(result[which].why == "done" for result in results)  # type: ignore[union-attr]
+    arrived = sum(finished(result[which]) for result in results)  # type: ignore[arg-type]
     runs: list[Run] = [result[which] for result in reached]  # type: ignore[misc]
     if not runs:
         return {"arrived": f"{arrived}/{len(results)}"}

@@ -56,6 +56,7 @@ from giraff_console.protocol.codec import parse_command
 from giraff_console.protocol.framing import BYTE_TIME_S, LINE_END, PROMPT
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
+from giraff_console.robot.mission import MissionEnd
 from giraff_console.robot.teleop import Teleop
 from giraff_console.sim.board import GiraffBoard
 from giraff_console.sim.drive import TruePose
@@ -182,12 +183,12 @@ def go_to(room: str) -> Callable[[ControlLoop, BoardLink, Watch], str]:
         control.odometry.reset(start)
         link.port.board.place(TruePose(start.x, start.y, start.heading))
         mission = GoTo(navigator, room, lambda: control.odometry.pose, tick=TICK_S)
-        ended: list[str] = []
+        ended: list[MissionEnd] = []
         began = control.clock.now()
         control.run_mission(mission, ended.append)
         while not ended and control.clock.now() - began < TIMEOUT_S:
             step(control, watch)
-        return ended[0] if ended else "timed out"
+        return ended[0].why if ended else "timed out"
 
     return drive
 

@@ -88,14 +88,20 @@ def run_status(args: argparse.Namespace) -> int:
     # The console asking is attached too; it is not one of those it reports.
     consoles = [name for name in situation.consoles if name != robot.console]
     if args.json:
-        data = asdict(situation) | {"consoles": consoles, "socket": str(socket_path())}
-        # An outcome is printed as `go --json` prints it: its value.
-        print(json.dumps(data, default=lambda value: value.value))
+        last = situation.last_mission
+        ended = None
+        if last is not None and last.end is not None:
+            # An outcome is printed as `go --json` prints it: its value.
+            ended = {"name": last.name, "running": False, "outcome": last.end.outcome.value,
+                     "why": last.end.why, "detail": last.end.detail}  # fmt: skip
+        data = asdict(situation) | {"consoles": consoles, "socket": str(socket_path()),
+                                    "last_mission": ended}  # fmt: skip
+        print(json.dumps(data))
         return EXIT_DONE
     last = situation.last_mission
     print(f"mission: {situation.mission or 'none'}")
     print(f"controls: {situation.holder or 'free'}; consoles: {', '.join(consoles) or 'none'}")
-    print(f"last mission: {f'{last.name}: {last.detail or last.why}' if last else 'none'}")
+    print(f"last mission: {f'{last.name}: {last.end.words}' if last and last.end else 'none'}")
     if situation.recording or situation.playing:
         print("recording" if situation.recording else "playing back")
     return EXIT_DONE
@@ -166,23 +172,24 @@ def run_mission(robot: RemoteRobot, request: c.Go | c.RunPatrol, as_json: bool) 
     if ended is None:
         print("giraff-console: the daemon has gone before the mission ended", file=sys.stderr)
         return EXIT_FAILED
-    outcome = ended.outcome
+    end = ended.end
+    assert end is not None  # _follow returns an end
+    outcome = end.outcome
     if isinstance(request, c.Go):
         # A go says how it ended: arrived only with its pose confirmed (issue 25).
         arrived = outcome is Outcome.ARRIVED
-        code = EXIT_DONE if arrived else EXIT_UNVERIFIED if outcome is not None and \
-            outcome.arrived else EXIT_FAILED  # fmt: skip
+        code = EXIT_DONE if arrived else EXIT_UNVERIFIED if outcome.arrived else EXIT_FAILED
     else:
-        arrived = ended.why == "done"
+        arrived = outcome is Outcome.DONE
         code = EXIT_DONE if arrived else EXIT_FAILED
     if as_json:
         # What the daemon tells of a mission: not the poses and errors `go` measures on
         # its own (docs/daemon.md).
         print(json.dumps({"mission": ended.name, "arrived": arrived,
-                          "outcome": outcome.value if outcome is not None else None,
-                          "why": ended.why, "detail": ended.detail}))  # fmt: skip
+                          "outcome": outcome.value, "why": end.why,
+                          "detail": end.detail}))  # fmt: skip
     else:
-        print(f"{ended.name}: {ended.detail or ended.why}")
+        print(f"{ended.name}: {end.words}")
     return code
 
 
@@ -209,7 +216,8 @@ def _follow(events: queue.Queue[ServiceEvent], robot: RemoteRobot,
         elif isinstance(event, MissionChanged) and event.name == name:
             if event.running:
                 started = True
-            elif started or event.why.startswith("not started"):
+            elif started or (event.end is not None
+                             and event.end.outcome is Outcome.NOT_STARTED):  # fmt: skip
                 return event
         elif (isinstance(event, Telemetry) and event.mission is not None
               and time.monotonic() - shown_at >= PROGRESS_EVERY_S):  # fmt: skip

@@ -639,7 +639,8 @@ def run_attached_console(robot: RemoteRobot, args: argparse.Namespace,
     situation = welcome.situation
     if situation.last_mission is not None:
         last = situation.last_mission
-        app.notes_at_start.append(f"the last mission, {last.name}, ended: {last.why}")
+        if last.end is not None:
+            app.notes_at_start.append(f"the last mission, {last.name}, ended: {last.end.words}")
     if situation.mission is not None:
         app.notes_at_start.append(f"running now: {situation.mission}")
     holder = welcome.controls.holder

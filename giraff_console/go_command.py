@@ -82,11 +82,10 @@ def run_go(args: argparse.Namespace, settings: Settings, port: str | None,
         print(json.dumps(data))
     else:
         goal = "the dock" if args.room == DOCK else "the room's point"
-        print(f"{mission.name}: {report.detail or report.why}; {data['error_m'] * 100:.1f} cm and "
+        print(f"{mission.name}: {report.end.words}; {data['error_m'] * 100:.1f} cm and "
               f"{data['heading_error_deg']:.1f}° from {goal}, in "
               f"{data['duration_s']:.1f} s (jerk-limited optimum "
               f"{data['time_optimal_s']:.1f} s), {len(data['stops'])} stops")  # fmt: skip
     if report.arrived:
         return EXIT_ARRIVED
-    arrived = report.outcome is not None and report.outcome.arrived
-    return EXIT_UNVERIFIED if arrived else EXIT_FAILED
+    return EXIT_UNVERIFIED if report.end.outcome.arrived else EXIT_FAILED

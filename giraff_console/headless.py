@@ -46,7 +46,7 @@ from giraff_console.robot.last_stop import LastStop
 from giraff_console.robot.localisation import PoseBasis
 from giraff_console.robot.loop_events import Listener, LoopEvent, Note
 from giraff_console.robot.marker_eye import EYE_FPS, EYE_SIZE, MarkerEye
-from giraff_console.robot.mission import TEXT_BAR, Mission
+from giraff_console.robot.mission import TEXT_BAR, Mission, MissionEnd, Outcome
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.robot_setup import board_connector, control_loop, keep_the_pose
@@ -340,7 +340,7 @@ class HeadlessRobot:
         real robot."""
         return self.site.true_pose() if self.site is not None else None
 
-    def run(self, mission: Mission, ended: Callable[[str], None],
+    def run(self, mission: Mission, ended: Callable[[MissionEnd], None],
             meanwhile: Callable[[], None] = lambda: None) -> bool:  # fmt: skip
         """Start the loop, drive `mission` to its end, stop the loop; False if the board
         never answered. `ended` gets the reason, on the loop's thread; `meanwhile` is
@@ -348,9 +348,9 @@ class HeadlessRobot:
         control = self.control
         connected, done = threading.Event(), threading.Event()
 
-        def finish(why: str) -> None:
+        def finish(end: MissionEnd) -> None:
             try:
-                ended(why)
+                ended(end)
             finally:
                 done.set()  # whatever the report did: the command must end
 
@@ -364,7 +364,8 @@ class HeadlessRobot:
                 try:
                     control.run_mission(mission, finish)
                 except Exception:
-                    finish("stopped: internal error")  # the command must not wait on it
+                    # The command must not wait on it.
+                    finish(MissionEnd(Outcome.HALTED, "stopped: internal error"))
                     raise
 
         control.subscribe(start)

@@ -25,6 +25,7 @@ import argparse
 import json
 import math
 import queue
+from dataclasses import replace
 from pathlib import Path
 
 from giraff_console.data_folders import data_folder, default_routes
@@ -54,7 +55,7 @@ from giraff_console.missions.patrol import (
 )
 from giraff_console.missions.route import Route, RouteError, load_route
 from giraff_console.protocol.codec import Command
-from giraff_console.robot.mission import Outcome
+from giraff_console.robot.mission import MissionEnd, Outcome
 from giraff_console.settings import Settings
 
 # The stops that got there, confirmed or not, as their `outcome` is printed.
@@ -115,7 +116,7 @@ def run_patrol(args: argparse.Namespace, settings: Settings, port: str | None,
     else:
         print(f"patrol {patrol.name}: {summary['why']}; {summary['arrived']} of "
               f"{summary['stops']} stops arrived, in {summary['duration_s']:.0f} s")  # fmt: skip
-    if summary["why"] != "done" or not log.all_reached:
+    if log.end is None or log.end.outcome is not Outcome.DONE or not log.all_reached:
         return EXIT_FAILED
     return EXIT_ARRIVED if log.all_arrived else EXIT_UNVERIFIED
 
@@ -163,6 +164,7 @@ class StopLog:
         self.all_arrived = True
         self.all_reached = True
         self.why = "not started"
+        self.end: MissionEnd | None = None
         self.ended_at: float | None = None
         self._lines: queue.SimpleQueue[dict] = queue.SimpleQueue()
         # When the leg under way started: the end of the last stop's dwell (None: the
@@ -174,21 +176,22 @@ class StopLog:
     def reached(self, stop: StopReached) -> None:
         """A stop's leg ended: arrived (confirmed or not), or failed and skipped."""
         why = "done" if stop.reached else f"failed: {stop.detail}"
-        self._record(stop.round, stop.stop_index, stop.outcome, why, stop.detail, stop.max_jerk)
+        self._record(stop.round, stop.stop_index, MissionEnd(stop.outcome, why, stop.detail),
+                     stop.max_jerk)  # fmt: skip
         dwell = self.patrol.stops[stop.stop_index - 1].dwell if stop.reached else 0.0
         self._leg_from = self.robot.control.clock.now() + dwell
 
-    def ended(self, why: str) -> None:
-        self.why = why
+    def ended(self, end: MissionEnd) -> None:
+        self.end, self.why = end, end.why
         self.ended_at = self.robot.control.clock.now()
         count = len(self.patrol.stops)
         leg = len(self.records)
-        if why != "done" and leg < self.patrol.rounds * count:
+        if end.outcome is not Outcome.DONE and leg < self.patrol.rounds * count:
             # Ended on the way to the next stop: it did not arrive there.
-            self._record(leg // count + 1, leg % count + 1, None, why, why)
+            self._record(leg // count + 1, leg % count + 1, replace(end, detail=end.why))
 
-    def _record(self, round_number: int, index: int, outcome: Outcome | None, why: str,
-                detail: str, max_jerk: float | None = None) -> None:  # fmt: skip
+    def _record(self, round_number: int, index: int, end: MissionEnd,
+                max_jerk: float | None = None) -> None:  # fmt: skip
         control, now = self.robot.control, self.robot.control.clock.now()
         stop = self.patrol.stops[index - 1]
         started = self.run.started_at if self.run is not None else None
@@ -198,7 +201,7 @@ class StopLog:
         estimate = control.estimate()
         goal = self._goal(stop)
         report = GoReport(
-            room=stop.place, outcome=outcome, why=why, detail=detail,
+            room=stop.place, end=end,
             pose_estimate=estimate.pose,
             goal=goal[0] if goal else (math.nan, math.nan),
             goal_heading=goal[1] if goal else None,
@@ -212,8 +215,8 @@ class StopLog:
             "route": stop.route,
             "arrived": report.arrived,
             "outcome": measured["outcome"],
-            "why": why,
-            "detail": detail,
+            "why": end.why,
+            "detail": end.detail,
             "pose_estimate": measured["pose_estimate"],
             "pose_true": measured["pose_true"],
             "error_m": measured["error_m"] if goal else None,
@@ -230,7 +233,7 @@ class StopLog:
             "max_jerk": None if max_jerk is None else round(max_jerk, 3),
         }
         self.all_arrived = self.all_arrived and report.arrived
-        self.all_reached = self.all_reached and outcome is not None and outcome.arrived
+        self.all_reached = self.all_reached and end.outcome.arrived
         self.records.append(record)
         self._lines.put(record)
 

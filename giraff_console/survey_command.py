@@ -45,6 +45,7 @@ from giraff_console.missions.survey import (
 from giraff_console.planning.floorplan import FloorPlanError, Landmarks, load_floorplan
 from giraff_console.planning.landmarks import DEFAULT_FAMILY
 from giraff_console.robot.localisation import PoseBasis, start_covariance
+from giraff_console.robot.mission import MissionEnd, Outcome
 from giraff_console.robot.survey_log import SurveyLog
 from giraff_console.service.daemon import daemon_alive
 from giraff_console.service.runtime_folder import socket_path
@@ -124,23 +125,24 @@ def run_survey(args: argparse.Namespace, settings: Settings, port: str | None,
     mission = Tour(tour(plan, rooms), robot.drives.go, lambda: control.pose, limits,
                    control.period, control.note,
                    looked_round=lambda: redraw_map(control.localisation, walls))  # fmt: skip
-    ended: list[str] = []
+    ended: list[MissionEnd] = []
     if not robot.run(mission, ended.append):
         return fail("no answer from the board", EXIT_FAILED)
     control.localisation.end_survey()
     found = surveyed(given, log, plan.landmarks.family, plan.landmarks.size)
     left_out = mission.not_reached
+    done = bool(ended) and ended[0].outcome is Outcome.DONE
     written = None
     # A survey stopped part-way (Ctrl-C, the board gone) writes nothing: the markers it
     # had seen are printed, and the plan stays as it was.
-    if not args.dry_run and ended == ["done"] and found.landmarks.markers:
+    if not args.dry_run and done and found.landmarks.markers:
         try:
             written = write_surveyed(given, found, whole=rooms is None and not left_out).path
         except (FloorPlanError, OSError, ValueError) as error:
             return fail(f"the markers were found but not written: {error}", EXIT_FAILED)
-    report = _report(found, ended[0] if ended else "not run", left_out, written)
+    report = _report(found, ended[0].why if ended else "not run", left_out, written)
     print(json.dumps(report) if args.json else _words(report))
-    complete = ended == ["done"] and not left_out and found.landmarks.markers
+    complete = done and not left_out and found.landmarks.markers
     return EXIT_ARRIVED if complete else EXIT_FAILED
 
 

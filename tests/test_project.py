@@ -183,3 +183,45 @@ def test_missions_that_drive_by_the_plan_are_built_in_one_place():
                 if name in builders and where not in allowed:
                     wrong.append(f"{where}:{node.lineno} builds {name}")
     assert wrong == []
+
+
+# The words a mission's end is told in: what the code compared before its ends were
+# typed (issue 26).
+END_WORDS = ("done", "not started", "stopped", "replaced", "failed")
+
+
+def _is_end_words(node: ast.AST) -> bool:
+    return (isinstance(node, ast.Constant) and isinstance(node.value, str)
+            and node.value.startswith(END_WORDS))  # fmt: skip
+
+
+def _named(node: ast.AST) -> str | None:
+    """The name a value goes by: `why`, `end.why`, `summary["why"]`."""
+    if isinstance(node, ast.Name):
+        return node.id
+    if isinstance(node, ast.Attribute):
+        return node.attr
+    if isinstance(node, ast.Subscript) and isinstance(node.slice, ast.Constant):
+        return str(node.slice.value)
+    return None
+
+
+def test_no_mission_outcome_is_decided_by_comparing_its_words():
+    # Issue 26: `== "done"` and `startswith("not started")` decided outcomes in six
+    # modules. A mission ends with an Outcome (robot/mission.py, MissionEnd); its words
+    # are for people. Caught here: a `why`, or a mission's end words, compared.
+    wrong = []
+    for path in (ROOT / "giraff_console").rglob("*.py"):
+        where = path.relative_to(ROOT).as_posix()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Compare):
+                sides = [node.left, *node.comparators]
+                named_why = any(_named(side) in ("why", "ended") for side in sides)
+                if named_why and any(_is_end_words(side) or isinstance(side, ast.List)
+                                     for side in sides):  # fmt: skip
+                    wrong.append(f"{where}:{node.lineno}")
+            if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                    and node.func.attr in ("startswith", "endswith")
+                    and any(_is_end_words(arg) for arg in node.args)):  # fmt: skip
+                wrong.append(f"{where}:{node.lineno}")
+    assert wrong == []

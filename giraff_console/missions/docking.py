@@ -36,7 +36,7 @@ from giraff_console.planning.route_planner import Arrival
 from giraff_console.protocol.codec import Command
 from giraff_console.robot.battery import Battery
 from giraff_console.robot.localisation import Estimate
-from giraff_console.robot.mission import Mission, Outcome, Progress
+from giraff_console.robot.mission import Mission, MissionEnd, Outcome, Progress
 from giraff_console.robot.odometry import Pose
 
 # What `go` takes to mean the dock rather than a room.
@@ -139,9 +139,9 @@ class GoToPose(PathMission):
             pins = pins | {middle}
         return Course(points, self.arrival.heading, pins, tuple(planned.route.doors), planned)
 
-    def report(self, why: str) -> GoReport:
-        """How it went, once the loop has ended the mission for `why`."""
-        return go_report(self, self.goal, self.arrival.point, self.arrival.heading, why)
+    def report(self, end: MissionEnd) -> GoReport:
+        """How it went, once the loop has ended the mission (`end`)."""
+        return go_report(self, self.goal, self.arrival.point, self.arrival.heading, end)
 
 
 def go_mission(navigator: Navigator, room: str, pose: Callable[[], Pose], *, tick: float,

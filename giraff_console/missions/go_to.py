@@ -22,7 +22,7 @@ from giraff_console.motion.shaping import TurnLimits
 from giraff_console.motion.speed_profile import MotionLimits
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.robot.localisation import Estimate
-from giraff_console.robot.mission import Outcome
+from giraff_console.robot.mission import MissionEnd, Outcome
 from giraff_console.robot.odometry import Pose
 
 
@@ -31,9 +31,7 @@ class GoReport:
     """How a `go` went, as `giraff-console go --json` prints it."""
 
     room: str
-    outcome: Outcome | None  # None: the loop ended it from outside (`why` says how)
-    why: str  # the loop's reason it ended: "done", "stopped: ..."
-    detail: str  # the mission's own words for its outcome
+    end: MissionEnd
     pose_estimate: Pose
     goal: tuple[float, float]
     goal_heading: float | None  # radians; None: the room asks for none
@@ -51,7 +49,7 @@ class GoReport:
     @property
     def arrived(self) -> bool:
         """Arrived, and the pose confirmed: the only arrival a mission claims (issue 25)."""
-        return self.outcome is Outcome.ARRIVED
+        return self.end.outcome is Outcome.ARRIVED
 
     def as_json(self, pose_true: Pose | None = None) -> dict:
         """The report; errors are measured from the true pose when the simulator gives
@@ -63,10 +61,10 @@ class GoReport:
             heading_error = math.degrees(abs(wrap(measured.heading - self.goal_heading)))
         data = {
             "arrived": self.arrived,
-            "outcome": self.outcome.value if self.outcome is not None else "stopped",
+            "outcome": self.end.outcome.value,
             "room": self.room,
-            "why": self.why,
-            "detail": self.detail,
+            "why": self.end.why,
+            "detail": self.end.detail,
             "pose_estimate": _pose_list(self.pose_estimate),
             "pose_true": _pose_list(pose_true) if pose_true is not None else None,
             "error_m": round(error, 4),
@@ -124,30 +122,27 @@ class GoTo(PathMission):
         return Course(planned.path, planned.goal_heading, planned.doorways,
                       tuple(planned.route.doors), planned)  # fmt: skip
 
-    def report(self, why: str) -> GoReport:
-        """How it went, once the loop has ended the mission for `why`."""
+    def report(self, end: MissionEnd) -> GoReport:
+        """How it went, once the loop has ended the mission (`end`)."""
         assert self.navigator is not None
         goal = self.navigator.plan.rooms[self.room]
         heading = None if goal.heading is None else math.radians(goal.heading)
-        return go_report(self, self.room, goal.at, heading, why)
+        return go_report(self, self.room, goal.at, heading, end)
 
 
 def go_report(mission: PathMission, goal_name: str, goal: tuple[float, float],
-              goal_heading: float | None, why: str) -> GoReport:  # fmt: skip
-    """How a path mission to `goal` went, once the loop has ended it for `why`."""
+              goal_heading: float | None, end: MissionEnd) -> GoReport:  # fmt: skip
+    """How a path mission to `goal` went, once the loop has ended it (`end`)."""
     start = mission.started_at if mission.started_at is not None else mission.now
-    end = mission.ended_at if mission.ended_at is not None else mission.now
+    finish = mission.ended_at if mission.ended_at is not None else mission.now
     trace = mission.merged_trace()
-    outcome = mission.outcome
     return GoReport(
         room=goal_name,
-        outcome=outcome,
-        why=why,
-        detail=mission.detail,
+        end=end,
         pose_estimate=mission.pose_now(),
         goal=goal,
         goal_heading=goal_heading,
-        duration_s=end - start,
+        duration_s=finish - start,
         time_optimal_s=mission.time_optimal,
         stops=[t - start for t in trace.stops],
         max_jerk=trace.max_jerk(),

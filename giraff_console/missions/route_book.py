@@ -41,6 +41,7 @@ from giraff_console.recording.session import SessionRecorder
 from giraff_console.robot.battery import Battery
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.loop_events import ExchangeTap, LoopEvent
+from giraff_console.robot.mission import MissionEnd, Outcome
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.telemetry import LinkState, Telemetry
 
@@ -260,9 +261,9 @@ class RouteBook:
             self._record(owner=run)
         log.start(patrol.name, scheduled=scheduled, by=by)
 
-        def ended(why: str) -> None:
+        def ended(end: MissionEnd) -> None:
             # On the loop's thread: closing the files may take a while on a slow disk.
-            _in_background(lambda: log.end(why, log.reached_count))
+            _in_background(lambda: log.end(end, log.reached_count))
             _in_background(lambda: self._stop_recording(owner=run))
 
         self.control.run_mission(run, ended)
@@ -374,10 +375,10 @@ class _RunLog:
 
         _in_background(snapshot)
 
-    def end(self, why: str, stops: int) -> None:
+    def end(self, end: MissionEnd, stops: int) -> None:
         if self.log is not None:
-            arrived = why == "done" and self.all_reached
-            self._told(self.log.end(why, arrived=arrived, stops=stops))
+            arrived = end.outcome is Outcome.DONE and self.all_reached
+            self._told(self.log.end(end.why, arrived=arrived, stops=stops))
 
     def _told(self, problem: str | None) -> None:
         # The first problem only: a full disk would otherwise say so at every stop.

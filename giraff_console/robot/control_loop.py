@@ -61,7 +61,7 @@ from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.localisation import Estimate, Localisation, PoseBasis
 from giraff_console.robot.loop_events import Listener, LoopEvent, MissionChanged, Note
-from giraff_console.robot.mission import Judged, Mission
+from giraff_console.robot.mission import Judged, Mission, MissionEnd, Outcome
 from giraff_console.robot.odometry import Odometry, Pose
 from giraff_console.robot.odometry_feed import OdometryFeed
 from giraff_console.robot.realtime import run_promptly
@@ -79,7 +79,7 @@ BACKOFF_S = (0.5, 1.0, 2.0, 4.0)
 Connect = Callable[[], BoardLink]
 BoardJob = Callable[[BoardLink], object]
 JobDone = Callable[[object], None]
-MissionEnded = Callable[[str], None]
+MissionEnded = Callable[[MissionEnd], None]
 
 
 class ControlLoop:
@@ -130,7 +130,7 @@ class ControlLoop:
         self._playback_ended: Callable[[], None] = lambda: None
         self._seek_to: float | None = None
         self._mission: Mission | None = None
-        self._mission_ended: MissionEnded = lambda why: None
+        self._mission_ended: MissionEnded = lambda end: None
         # Set by emergency_stop: why, and whether the loop is to close after the stop.
         self._halt: tuple[str, bool] | None = None
         self._halt_lock = threading.Lock()
@@ -275,10 +275,10 @@ class ControlLoop:
         replayer = self._replayer
         return None if replayer is None else replayer.playback
 
-    def run_mission(self, mission: Mission, ended: MissionEnded = lambda why: None) -> None:
+    def run_mission(self, mission: Mission, ended: MissionEnded = lambda end: None) -> None:
         """Let `mission` drive; the keys, ESTOP, a lost link or `stop_mission` end it.
 
-        `ended` is called with the reason, on the loop's thread, when it is over.
+        `ended` is called with how it ended, on the loop's thread, when it is over.
         """
         with self._starting_lock:
             self._starting += 1
@@ -298,8 +298,10 @@ class ControlLoop:
         does not show them, and what must not change under a mission waits for them."""
         return self._starting
 
-    def stop_mission(self, why: str = "stopped") -> None:
-        self.between_ticks(lambda: self._end_mission(why))
+    def stop_mission(self, outcome: Outcome = Outcome.STOPPED_BY_OPERATOR,
+                     why: str = "stopped by the operator") -> None:  # fmt: skip
+        """End the mission (the robot stops) with `outcome`, and `why` for the operator."""
+        self.between_ticks(lambda: self._end_mission(outcome, why))
 
     def pause_mission(self, paused: bool) -> None:
         """Pause (the robot stops) or resume the mission."""
@@ -435,7 +437,7 @@ class ControlLoop:
             return
         if self.link is None:
             # Nothing drives by itself once the link is back: the operator starts it again.
-            self._end_mission("stopped: no link to the board", stop=False)
+            self._end_mission(Outcome.LINK_LOST, "stopped: no link to the board", stop=False)
         if self.link is None and not self._reconnect():
             self._fail_jobs()
             self._publish()
@@ -445,7 +447,8 @@ class ControlLoop:
             self._run_jobs(self.link)
             intent = self.deadman.held()
             if intent is not None and self._mission is not None:
-                self._end_mission("stopped: the operator took the keys", stop=False)
+                took = "stopped: the operator took the keys"
+                self._end_mission(Outcome.STOPPED_BY_OPERATOR, took, stop=False)
             driving = intent is not None or self.teleop.active
             # A key that brings a tick forward acts on the state polled less than a period
             # ago: polling again would only delay the first command.
@@ -458,7 +461,7 @@ class ControlLoop:
                 # A pose that jumped, or cannot be trusted: a mission must not steer by it.
                 why = self.feed.mission_stop()
                 if why is not None:
-                    self._end_mission(why)
+                    self._end_mission(Outcome.LOST, why)
             # The wheels' travel since the last tick, then the markers seen meanwhile,
             # before anything steers by the pose.
             self.localisation.follow()
@@ -473,12 +476,13 @@ class ControlLoop:
                 self.gauges.poll(self.link, self.clock.now())
         except LinkError as error:
             self.note(f"LINK LOST: {error}")
-            self._end_mission("stopped: the link to the board was lost", stop=False)
+            self._end_mission(Outcome.LINK_LOST, "stopped: the link to the board was lost",
+                              stop=False)  # fmt: skip
             self._drop_link()
         except BoardRebootedError as error:
             # Its odometers restarted from zero: keep the pose, take new references.
             self.note(f"{error}; its settings are back at power-up")
-            self._end_mission("stopped: the board restarted", stop=False)
+            self._end_mission(Outcome.LINK_LOST, "stopped: the board restarted", stop=False)
             self.feed.rebooted()
             self.teleop.forget_board()
             self.deadman.release()
@@ -486,7 +490,7 @@ class ControlLoop:
             # A poll the board refuses, say: a mission must not go on blind, nor be
             # tried again twenty times a second.
             self.note(str(error))
-            self._end_mission(f"stopped: {error}")
+            self._end_mission(Outcome.REFUSED, f"stopped: {error}")
         self._publish()
 
     def _step_teleop(self, link: BoardLink, state: MotorState) -> None:
@@ -515,7 +519,7 @@ class ControlLoop:
         mission = self._mission
         assert mission is not None
         if state is not None and state.estop:
-            self._end_mission("stopped by ESTOP", stop=False)
+            self._end_mission(Outcome.ESTOP, "stopped by ESTOP", stop=False)
             return
         speed = self._speed_bound(state)
         commands = list(mission.step(self.clock.now(), state))
@@ -525,18 +529,18 @@ class ControlLoop:
             try:
                 check_command(command, self.teleop.limits, self.teleop.board_settings, speed)
             except CommandError as error:
-                self._end_mission(f"stopped: {command} refused: {error}")
+                self._end_mission(Outcome.REFUSED, f"stopped: {command} refused: {error}")
                 return
             try:
                 link.send(command)
             except BoardError as error:
                 # Asking again every tick would flood the board and the operator.
-                self._end_mission(f"stopped: the board refused {command}: {error}")
+                self._end_mission(Outcome.REFUSED, f"stopped: the board refused {command}: {error}")
                 return
         if mission.problem is not None:
-            self._end_mission(f"stopped: {mission.problem}")
+            self._end_mission(Outcome.FAILED, f"stopped: {mission.problem}")
         elif mission.finished:
-            self._end_mission("done", stop=False)
+            self._end_mission(Outcome.DONE, "done", stop=False)
 
     def _speed_bound(self, state: MotorState | None) -> float | None:
         """How fast the robot (its wheels, turning on the spot) may be going when a move
@@ -564,34 +568,37 @@ class ControlLoop:
             why = self.feed.untrusted
         if why is not None:
             self.note(f"{mission.name} not started: {why}")
-            self._tell(MissionChanged(mission.name, running=False, why=f"not started: {why}"))
-            ended("not started")
+            end = MissionEnd(Outcome.NOT_STARTED, f"not started: {why}")
+            self._tell(MissionChanged(mission.name, running=False, end=end))
+            ended(end)
             return
         # A pose that jumped before this mission is the pose it starts from: a flag left
         # from then would end it at its first poll.
         self.feed.pose_jumped = None
-        self._end_mission("replaced")
+        self._end_mission(Outcome.CANCELLED, "replaced")
         self.deadman.release()
         self._mission, self._mission_ended = mission, ended
         self._tell(MissionChanged(mission.name, running=True))
         self.note(f"{mission.name} started")
 
-    def _end_mission(self, why: str, stop: bool = True) -> None:
+    def _end_mission(self, outcome: Outcome, why: str, stop: bool = True) -> None:
+        """End the mission with `outcome`, unless it judged its own end (a stall, an
+        arrival): the mission knows better than "done" or "stopped" how it went."""
         mission, self._mission = self._mission, None
         if mission is None:
             return
+        end = MissionEnd(outcome, why)
+        if isinstance(mission, Judged):
+            end = MissionEnd(mission.outcome or outcome, why, mission.detail)
         # Told first: whoever says what runs must not see it gone and its end not yet
         # known while the stop is being sent.
-        outcome, detail = (mission.outcome, mission.detail) if isinstance(mission, Judged) \
-            else (None, "")  # fmt: skip
-        self._tell(MissionChanged(mission.name, running=False, why=why, outcome=outcome,
-                                  detail=detail))  # fmt: skip
+        self._tell(MissionChanged(mission.name, running=False, end=end))
         if stop:
             self._stop_robot()
         self.note(f"{mission.name} {why}")
         # Dropped as it is called: a callback holds its mission, which must not outlive it.
-        ended, self._mission_ended = self._mission_ended, lambda why: None
-        ended(why)
+        ended, self._mission_ended = self._mission_ended, lambda end: None
+        ended(end)
 
     def _stop_robot(self) -> None:
         if self.link is not None and not stop_robot(self.link, self.teleop.board_settings):
@@ -599,7 +606,7 @@ class ControlLoop:
 
     def _start_playback(self, playback: Playback, ended: Callable[[], None]) -> None:
         self._end_playback("playback replaced")
-        self._end_mission("stopped for playback")
+        self._end_mission(Outcome.CANCELLED, "stopped for playback")
         self.deadman.release()
         self._stop_robot()
         # Teleop's move, if any, was just stopped; it must not wait for it to end.
@@ -682,7 +689,7 @@ class ControlLoop:
             outcome = "robot commanded to stop"
         else:
             outcome = "could not command a stop: check the robot"
-        self._end_mission(f"stopped: {why}", stop=False)
+        self._end_mission(Outcome.HALTED, f"stopped: {why}", stop=False)
         self._end_playback(f"playback stopped: {why}")
         self._fail_jobs()
         self.note(f"{why}: {outcome}")
@@ -708,7 +715,7 @@ class ControlLoop:
         if self.link is not None:
             stop_robot(self.link)
         # Whatever was driving is over: nothing starts moving again by itself.
-        self._end_mission("stopped: internal error", stop=False)
+        self._end_mission(Outcome.HALTED, "stopped: internal error", stop=False)
         self._end_playback("playback stopped: internal error")
         self._drop_link()
 

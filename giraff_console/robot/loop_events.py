@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from typing import TypeAlias
 
 from giraff_console.link import Exchange, Observer
-from giraff_console.robot.mission import Outcome
+from giraff_console.robot.mission import MissionEnd
 from giraff_console.robot.telemetry import Telemetry
 
 
@@ -29,17 +29,13 @@ class Note:
 
 @dataclass(frozen=True)
 class MissionChanged:
-    """A mission started (`why` empty) or ended, and why: "done", "stopped by the
-    operator", "not started: no link to the board". The daemon keeps the last one, so
-    that a console attached later can say how the night's patrol went."""
+    """A mission started (`end` None) or ended, and how (robot/mission.py, MissionEnd).
+    The daemon keeps the last one, so that a console attached later can say how the
+    night's patrol went."""
 
     name: str
     running: bool
-    why: str = ""
-    # How a mission that judges its own end ended (robot/mission.py, Judged), and its
-    # words: an arrival unconfirmed is "done" too, and only this tells it apart.
-    outcome: Outcome | None = None
-    detail: str = ""
+    end: MissionEnd | None = None
 
 
 LoopEvent: TypeAlias = Telemetry | Exchange | Note | MissionChanged

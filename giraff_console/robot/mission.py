@@ -30,11 +30,10 @@ TEXT_BAR = 16
 
 
 class Outcome(enum.Enum):
-    """How a mission that drives to a place ended, as the mission itself judged it: a
-    type, so that no front end decides by comparing the words (issue 25). `value` is
-    what `--json` prints. The loop ends missions from outside too (the operator, ESTOP,
-    a lost link): those say so in the loop's reason, and the mission's outcome stays
-    None."""
+    """How a mission ended: a type, so that no front end decides by comparing the words
+    (issue 26). `value` is what `--json` prints. A mission that drives to a place judges
+    its own end (the first seven); the loop ends missions from outside too, and says
+    why in the rest."""
 
     # There, and the pose confirmed by a marker recently enough (missions/certainty.py).
     ARRIVED = "arrived"
@@ -45,17 +44,52 @@ class Outcome(enum.Enum):
     STALLED = "stalled"
     # No way there, or no nearer for too long.
     BLOCKED = "blocked"
-    # No marker seen to find the robot by, where it needed one.
+    # No marker seen to find the robot by where it needed one, or a pose that jumped or
+    # cannot be trusted (robot/odometry_feed.py).
     LOST = "lost"
     # Not started: where the robot stands is only assumed, and nothing can confirm it.
     UNVERIFIED = "unverified"
     # Something else it cannot go on with (the board's readings, a bad plan).
     FAILED = "failed"
+    # Did all it set out to do, and judges no arrival (an undock, a route replayed).
+    DONE = "done"
+    # The operator stopped it: the stop key, the driving keys, a console's `stop`, the
+    # program on the virtual port (§4.5).
+    STOPPED_BY_OPERATOR = "stopped_by_operator"
+    # The board's emergency stop is raised.
+    ESTOP = "estop"
+    # No link to the board, the link lost, or the board restarted under it.
+    LINK_LOST = "link_lost"
+    # The board, or the limits every command passes, refused what it asked for.
+    REFUSED = "refused"
+    # Another mission or a playback took its place, or it was stopped before it started.
+    CANCELLED = "cancelled"
+    # The loop would not start it: a playback runs, or the pose cannot be trusted.
+    NOT_STARTED = "not_started"
+    # Stopped for safety: a signal (the SSH connection dropped), the console closing, a
+    # crash, the operator no longer told.
+    HALTED = "halted"
 
     @property
     def arrived(self) -> bool:
         """At the goal, confirmed or not."""
         return self in (Outcome.ARRIVED, Outcome.ARRIVED_UNVERIFIED)
+
+
+@dataclass(frozen=True)
+class MissionEnd:
+    """How a mission ended: its `outcome`, which decides; `why`, the loop's words for
+    the operator ("done", "stopped by ESTOP", "stopped: the link to the board was
+    lost"); and `detail`, the mission's own words on its outcome, if it judged it."""
+
+    outcome: Outcome
+    why: str
+    detail: str = ""
+
+    @property
+    def words(self) -> str:
+        """What the operator reads: the mission's own words, else the loop's."""
+        return self.detail or self.why
 
 
 @dataclass(frozen=True)

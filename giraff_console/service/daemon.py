@@ -50,7 +50,7 @@ from giraff_console.robot.battery import Battery
 from giraff_console.robot.deadman import Intent
 from giraff_console.robot.localisation import Estimate, PoseBasis
 from giraff_console.robot.loop_events import MissionChanged, Note
-from giraff_console.robot.mission import Outcome, Progress
+from giraff_console.robot.mission import MissionEnd, Outcome, Progress
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.replay import PlaybackStatus
 from giraff_console.robot.telemetry import LinkState, Telemetry
@@ -302,7 +302,8 @@ wire.register(
     Hello, Welcome, Asked, Answered, Reply, Controls, RouteShown, RoomRenamed, Situation,
     *c.REQUESTS,
     Telemetry, LinkState, MotorState, Pose, Intent, PlaybackStatus, Progress, Battery,
-    ChargeStatus, BoardFeatures, Estimate, PoseBasis, Exchange, Note, MissionChanged, Outcome,
+    ChargeStatus, BoardFeatures, Estimate, PoseBasis, Exchange, Note, MissionChanged, MissionEnd,
+    Outcome,
     GiraffError, CommandError, ProtocolError, BoardRebootedError, BoardError,
     UnknownNameError, QueueRolloverError, ArgumentError, LinkError, LinkTimeout,
     LinkDisconnected,

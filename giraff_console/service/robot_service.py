@@ -20,7 +20,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import replace
-from typing import Protocol
+from typing import Any, Protocol, TypeAlias
 
 from giraff_console.link import BoardLink
 from giraff_console.missions.certainty import unverified
@@ -37,6 +37,7 @@ from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.localisation import PoseBasis
 from giraff_console.robot.loop_events import LoopEvent, MissionChanged
+from giraff_console.robot.mission import MissionEnd, Outcome
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.safety import stop_robot
 from giraff_console.robot.stalk import head_height, stepped
@@ -244,18 +245,16 @@ class RobotService:
             refused = self._may_move(console)
             if refused is not None:
                 return Reply(False, refused)
-        handler = getattr(self, f"_do_{type(request).__name__.lower()}")
-        # Those that need to know who asks say so with a second parameter.
-        with_console = isinstance(request, c.TakeControls | c.RunPatrol)
+        handler = HANDLERS[type(request)]
         stops = self._stops
         plans = isinstance(request, (*STARTS_MISSION, c.Name, c.Mark))
         with self._plan_lock if plans else contextlib.nullcontext():
-            reply: Reply = handler(request, console) if with_console else handler(request)
+            reply = handler(self, request, console)
         if isinstance(request, STARTS_MISSION) and reply.ok and self._stops != stops:
             # A stop came while the mission was being planned, before the loop had it: the
             # stop must win. Queued after the start, so the mission ends before its first
             # tick; a later stop queues after it anyway.
-            self.control.stop_mission("stopped before it started")
+            self.control.stop_mission(Outcome.CANCELLED, "stopped before it started")
             return Reply(False, "stopped before it started")
         return reply
 
@@ -271,7 +270,7 @@ class RobotService:
         operator lets it go again."""
         self._stopped()
         self.control.halt()
-        self.control.stop_mission("stopped by the operator")
+        self.control.stop_mission()
         self.control.submit(stop_robot, stop=True)
         return Reply(True, "stop")
 
@@ -365,8 +364,8 @@ class RobotService:
                     "hold it")  # fmt: skip
         self._tell(RouteShown.of(navigator.state))
 
-        def ended(why: str) -> None:
-            if why == "done":
+        def ended(end: MissionEnd) -> None:
+            if end.outcome.arrived:
                 navigator.forget()
             self._tell(RouteShown.of(navigator.state))
 
@@ -635,7 +634,7 @@ class RobotService:
             f"mission: {situation.mission or 'none'}",
             f"controls: {situation.holder or 'free'}; consoles: "
             f"{', '.join(situation.consoles) or 'none'}",
-            f"last mission: {f'{last.name}: {last.why}' if last is not None else 'none'}",
+            f"last mission: {f'{last.name}: {last.end.words}' if last and last.end else 'none'}",
         ))  # fmt: skip
 
     def route(self) -> RouteShown | None:
@@ -657,3 +656,49 @@ class RobotService:
     def note(self, text: str) -> None:
         """A line for every console."""
         self.control.note(text)
+
+
+Handler: TypeAlias = Callable[[RobotService, Any, str], Reply]
+
+
+def _asked(handler: Callable[[RobotService, Any], Reply]) -> Handler:
+    """A handler that does not need to know which console asks."""
+    return lambda service, request, console: handler(service, request)
+
+
+# Who answers each request, by its class: a request without a row cannot be sent
+# (tests/service/test_robot_service.py checks every one of c.REQUESTS has one).
+HANDLERS: dict[type[c.Request], Handler] = {
+    c.Press: _asked(RobotService._do_press),
+    c.Halt: _asked(RobotService._do_halt),
+    c.Speed: _asked(RobotService._do_speed),
+    c.Poll: _asked(RobotService._do_poll),
+    c.Send: _asked(RobotService._do_send),
+    c.Stalk: _asked(RobotService._do_stalk),
+    c.Go: _asked(RobotService._do_go),
+    c.RunPatrol: RobotService._do_runpatrol,
+    c.Follow: _asked(RobotService._do_follow),
+    c.Replay: _asked(RobotService._do_replay),
+    c.Undock: _asked(RobotService._do_undock),
+    c.Teach: _asked(RobotService._do_teach),
+    c.Mark: _asked(RobotService._do_mark),
+    c.Place: _asked(RobotService._do_place),
+    c.Name: _asked(RobotService._do_name),
+    c.Done: _asked(RobotService._do_done),
+    c.Routes: _asked(RobotService._do_routes),
+    c.Pause: _asked(RobotService._do_pause),
+    c.Resume: _asked(RobotService._do_resume),
+    c.StopMission: _asked(RobotService._do_stopmission),
+    c.Door: _asked(RobotService._do_door),
+    c.Block: _asked(RobotService._do_block),
+    c.Record: _asked(RobotService._do_record),
+    c.Play: _asked(RobotService._do_play),
+    c.Seek: _asked(RobotService._do_seek),
+    c.Rate: _asked(RobotService._do_rate),
+    c.Step: _asked(RobotService._do_step),
+    c.TakeControls: RobotService._do_takecontrols,
+    c.Heartbeat: _asked(RobotService._do_heartbeat),
+    c.Release: _asked(RobotService._do_release),
+    c.Shutdown: _asked(RobotService._do_shutdown),
+    c.Status: _asked(RobotService._do_status),
+}  # fmt: skip

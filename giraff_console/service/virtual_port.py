@@ -330,7 +330,7 @@ class VirtualPort:
         """The program's stop, taken as the operator's is (service's halt): the keys
         let go, a mission ended, and the console's braking stop."""
         self.control.halt()
-        self.control.stop_mission("stopped by the program on the virtual port")
+        self.control.stop_mission(why="stopped by the program on the virtual port")
         teleop = self.control.teleop
 
         def stop(link: BoardLink) -> Lines:

@@ -12,6 +12,7 @@ from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.localisation import PoseBasis
+from giraff_console.robot.mission import MissionEnd
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.teleop import Teleop
 from giraff_console.sim_site import SimulatedSite
@@ -44,7 +45,8 @@ class Site:
         self.control.place(start, PoseBasis.GIVEN)
         self.notes: list[str] = []
         self.control.subscribe(notes_into(self.notes))
-        self.ended: list[str] = []
+        # How each mission ended (its words for the operator: `ended`).
+        self.ends: list[MissionEnd] = []
         self.control.tick()
 
     def go(self, room: str) -> GoTo:
@@ -53,8 +55,13 @@ class Site:
 
     def start(self, mission):
         """Let the control loop run `mission`; its end goes to `ended`."""
-        self.control.run_mission(mission, self.ended.append)
+        self.control.run_mission(mission, self.ends.append)
         return mission
+
+    @property
+    def ended(self) -> list[str]:
+        """What the loop said of each mission's end, as the operator reads it."""
+        return [end.why for end in self.ends]
 
     def pose(self) -> Pose:
         """Where the odometry has the robot: what missions steer by."""

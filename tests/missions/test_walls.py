@@ -124,7 +124,7 @@ def test_a_door_shut_unseen_is_as_solid_as_a_wall(shared_navigator):
     assert furthest == pytest.approx(10.0 - ROBOT_RADIUS_M, abs=1e-9)
     # Opened again, the way is clear: the robot goes on where it left off.
     site.site.open_door("dock-corridor")
-    site.ended.clear()
+    site.ends.clear()
     site.go("kitchen")
     site.run(400)
     assert site.ended == ["done"]

@@ -10,6 +10,7 @@ from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.loop_events import ExchangeTap
+from giraff_console.robot.mission import MissionEnd, Outcome
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.safety import REACH_M
 from giraff_console.robot.teleop import Teleop
@@ -32,7 +33,7 @@ class Run:
         self.control.odometry.reset(START)
         self.board.place(TruePose(START.x, START.y, START.heading))
         self.control.tick()
-        self.ended: list[str] = []
+        self.ends: list[MissionEnd] = []
         # Every target sent, as metres of reach (wheel metres when turning on the spot).
         self.reaches: list[float] = []
         self.poses: dict[float, TruePose] = {}
@@ -53,11 +54,11 @@ class Run:
         return WaypointDrive(points, lambda: self.control.odometry.pose, goal_heading=goal_heading)
 
     def start(self, mission: WaypointDrive) -> None:
-        self.control.run_mission(mission, self.ended.append)
+        self.control.run_mission(mission, self.ends.append)
 
     def run(self, seconds: float) -> None:
         for _ in range(round(seconds / TICK)):
-            if self.ended:
+            if self.ends:
                 return
             self.control.tick()
             self.poses[self.clock.now()] = self.board.true_pose
@@ -69,7 +70,7 @@ def test_it_reaches_the_end_of_an_l_shaped_path_stopping_at_the_corner():
     mission = run.mission()
     run.start(mission)
     run.run(60.0)
-    assert run.ended == ["done"]
+    assert [end.outcome for end in run.ends] == [Outcome.DONE]
     truth = run.board.true_pose
     assert math.dist((truth.x, truth.y), L_PATH[-1]) <= 0.01
     assert abs(math.degrees(truth.heading - math.pi / 2)) <= 1.0
@@ -82,7 +83,7 @@ def test_it_never_sends_a_target_beyond_the_reach():
     run = Run()
     run.start(run.mission())
     run.run(60.0)
-    assert run.ended == ["done"]
+    assert [end.outcome for end in run.ends] == [Outcome.DONE]
     assert max(run.reaches) <= REACH_M
     # The legs and the turns of 90 degrees (0.39 wheel metres) are longer than that, so
     # the targets were renewed as the robot went.
@@ -104,7 +105,7 @@ def test_a_paused_drive_carries_on_to_the_end_when_resumed():
     run.run(3.0)
     run.control.pause_mission(False)
     run.run(60.0)
-    assert run.ended == ["done"]
+    assert [end.outcome for end in run.ends] == [Outcome.DONE]
     truth = run.board.true_pose
     assert math.dist((truth.x, truth.y), L_PATH[-1]) <= 0.01
     assert len(mission.stops) == 1

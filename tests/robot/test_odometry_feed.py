@@ -11,6 +11,7 @@ import pytest
 from giraff_console.link import probe
 from giraff_console.robot import control_loop
 from giraff_console.robot.deadman import Intent
+from giraff_console.robot.mission import MissionEnd, Outcome
 from giraff_console.robot.odometry_feed import ENCODERS_PATIENCE_S
 from giraff_console.robot.wheel_odometers import Reading
 from tests.robot.test_odometry_firmware import TICK, Console, Straight
@@ -32,10 +33,14 @@ def test_when_nothing_agrees_the_mission_stops_and_none_starts_until_a_check_pas
     console = Console("later")
     console.run(TICK)
     doubled_cdis(monkeypatch, console)
-    ended: list[str] = []
+    ended: list[MissionEnd] = []
     console.loop.run_mission(Straight(), ended.append)
     console.run(3.0)
-    assert ended == ["stopped: its pose cannot be trusted (no wheel reading agrees with cdis)"]
+    assert ended == [
+        MissionEnd(
+            Outcome.LOST, "stopped: its pose cannot be trusted (no wheel reading agrees with cdis)"
+        )
+    ]
     console.run(1.0)
     at_rest = console.board.true_pose
     console.run(0.5)
@@ -48,10 +53,10 @@ def test_when_nothing_agrees_the_mission_stops_and_none_starts_until_a_check_pas
     # Driven by hand, the check runs again, and fails again: said once is enough.
     console.hold(Intent.FORWARD, 1.5)
     assert len([r for r in console.reports if r.startswith(NOTHING_AGREES)]) == 1
-    refused: list[str] = []
+    refused: list[MissionEnd] = []
     console.loop.run_mission(Straight(), refused.append)
     console.run(TICK)
-    assert refused == ["not started"]
+    assert [end.outcome for end in refused] == [Outcome.NOT_STARTED]
     assert console.reports[-1].startswith("straight not started: the odometry disagrees with "
                                           "cdis")  # fmt: skip
     assert "[board] odometers" in console.reports[-1]
@@ -86,7 +91,7 @@ def test_a_few_unreadable_counts_skip_their_polls_and_end_nothing(monkeypatch):
     console = Console("later", odometers="encoders")
     console.run(TICK)
     bad = unreadable_counts(monkeypatch, console)
-    ended: list[str] = []
+    ended: list[MissionEnd] = []
     console.loop.run_mission(Straight(), ended.append)
     console.run(1.0)
     bad["left"] = 5  # five polls in a row, a quarter of a second
@@ -106,7 +111,7 @@ def test_counts_unreadable_for_a_second_hand_over_to_imdl_imdr_with_one_line(mon
     bad = unreadable_counts(monkeypatch, console)
     asked: list[str] = []
     console.link.add_observer(lambda e: asked.append(e.command))
-    ended: list[str] = []
+    ended: list[MissionEnd] = []
     console.loop.run_mission(Straight(), ended.append)
     console.run(1.0)
     bad["left"] = -1
@@ -175,7 +180,7 @@ def test_a_pose_jump_flagged_while_no_mission_ran_does_not_end_the_next_one():
     console.run(TICK)
     # What a check decided by the stop's own read of bulk_data leaves behind.
     console.loop.feed.pose_jumped = "odometry: the board's imdl/imdr behave as totals"
-    ended: list[str] = []
+    ended: list[MissionEnd] = []
     console.loop.run_mission(Straight(), ended.append)
     console.run(0.5)
     assert not ended and console.loop.mission is not None

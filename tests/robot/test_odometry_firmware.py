@@ -23,7 +23,7 @@ from giraff_console.protocol.codec import Command
 from giraff_console.robot import control_loop
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
-from giraff_console.robot.mission import DRIVING, Progress
+from giraff_console.robot.mission import DRIVING, MissionEnd, Outcome, Progress
 from giraff_console.robot.odometry import Odometry
 from giraff_console.robot.teleop import Teleop
 from giraff_console.robot.wheel_odometers import Reading
@@ -190,7 +190,7 @@ def test_on_a_115200_baud_line_the_right_reading_is_trusted_without_an_alarm(fir
     # A move every tick, as `go` and a route send them: cdis restarts between most polls.
     console = Console(firmware, options=PACED)
     console.run(TICK)
-    ended: list[str] = []
+    ended: list[MissionEnd] = []
     console.loop.run_mission(Straight(), ended.append)
     console.run(3.0)
     assert not ended, console.reports
@@ -205,7 +205,7 @@ def test_on_a_115200_baud_line_the_right_reading_is_trusted_without_an_alarm(fir
 def test_on_a_115200_baud_line_totals_claimed_on_a_later_board_are_switched_in_the_first_metre():
     console = Console("later", odometers="totals", options=PACED)
     console.run(TICK)
-    ended: list[str] = []
+    ended: list[MissionEnd] = []
     console.loop.run_mission(Straight(), ended.append)
     found = "odometry: the board's imdl/imdr behave as increments, not as totals as the settings"
     give_up = console.clock.now() + 5.0  # the mission would have gone 1 m long before
@@ -215,7 +215,7 @@ def test_on_a_115200_baud_line_totals_claimed_on_a_later_board_are_switched_in_t
         console.run(TICK)
     assert console.loop.odometry.reading is Reading.ENCODERS
     assert console.loop.feed.untrusted is None
-    assert ended and "its pose was wrong" in ended[0]
+    assert ended and ended[0].outcome is Outcome.LOST and "its pose was wrong" in ended[0].why
     console.hold(Intent.FORWARD_RIGHT, 3.0)
     distance, heading = console.error()
     assert distance <= 0.01 and heading <= 0.5
@@ -258,10 +258,10 @@ class Straight:
 def test_a_mission_driving_by_a_pose_found_wrong_is_stopped():
     console = Console("thesis", odometers="increments")
     console.run(TICK)
-    ended: list[str] = []
+    ended: list[MissionEnd] = []
     console.loop.run_mission(Straight(), ended.append)
     console.run(4.0)
-    assert ended and "its pose was wrong" in ended[0]
+    assert ended and ended[0].outcome is Outcome.LOST and "its pose was wrong" in ended[0].why
     assert console.board.true_pose.x < 1.0
     console.run(1.0)
     assert not console.link.bulk().moving
@@ -298,7 +298,7 @@ def test_go_reaches_a_room_on_a_later_board(firmware, odometers, options):
     site = SimulatedSite(console.board, PLAN, start)
     console.loop.odometry.reset(start)
     console.run(TICK)  # connected
-    ended: list[str] = []
+    ended: list[MissionEnd] = []
     mission = GoTo(navigator, "bathroom", lambda: console.loop.odometry.pose, tick=TICK,
                    limits=LIMITS, sense=site.range_finder.readings)  # fmt: skip
     console.loop.run_mission(mission, ended.append)
@@ -306,7 +306,7 @@ def test_go_reaches_a_room_on_a_later_board(firmware, odometers, options):
     while not ended and console.clock.now() < end:
         console.loop.tick()
         console.clock.advance(TICK)
-    assert ended == ["done"], console.reports
+    assert [end.outcome for end in ended] == [Outcome.DONE], console.reports
     # Checked against cdis on the way, and found right: no alarm.
     assert not any(r.startswith("odometry") for r in console.reports), console.reports
     truth = site.true_pose()

@@ -315,7 +315,8 @@ def test_a_mission_goes_on_when_the_console_that_started_it_hangs_up(serve, atta
             break
         time.sleep(0.3)
     assert status.lines[0] == "mission: none", status.lines
-    assert status.lines[2] == f"last mission: {started.name}: done", status.lines
+    # The mission's own words on how it ended (an arrival by the odometry alone here).
+    assert status.lines[2].startswith(f"last mission: {started.name}: arrived"), status.lines
     assert daemon.alive(), daemon.notes()
 
 

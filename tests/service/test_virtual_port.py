@@ -18,7 +18,7 @@ from giraff_console.protocol.replies import parse_reply
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
-from giraff_console.robot.mission import DRIVING, Progress
+from giraff_console.robot.mission import DRIVING, MissionEnd, Outcome, Progress
 from giraff_console.robot.teleop import Teleop
 from giraff_console.service.shared_readings import SharedReadings, add_to_list
 from giraff_console.service.virtual_port import MISSION_RUNNING, VirtualPort
@@ -71,7 +71,7 @@ class Bench:
         self.port = VirtualPort(self.control, link_timeout=link_timeout)
         self.port.start()
         self.driving: Intent | None = None
-        self.ended: list[str] = []
+        self.ended: list[MissionEnd] = []
 
     def step(self) -> None:
         """A tick at 20 Hz, with the key held as a terminal repeats it, if driving."""
@@ -198,7 +198,7 @@ def test_our_own_link_connects_to_the_virtual_port_as_to_a_board():
         assert client.set("v", 0.3) == pytest.approx(0.3)
         with pytest.raises(UnknownNameError):
             client.get("nothing")
-        ended: list[str] = []
+        ended: list[MissionEnd] = []
         control.run_mission(Creep(), ended.append)
         give_up = time.monotonic() + REPLY_WAIT_S
         while control.mission is None:
@@ -233,7 +233,9 @@ def test_a_stop_from_the_program_is_taken_even_during_a_mission(later, program):
     later.control.run_mission(Creep(), later.ended.append)
     later.run(1.0)
     assert program.ask("set p 0") == [encode_float(0.0)]
-    assert later.ended == ["stopped by the program on the virtual port"]
+    assert later.ended == [
+        MissionEnd(Outcome.STOPPED_BY_OPERATOR, "stopped by the program on the virtual port")
+    ]
     later.run(1.5)
     assert not MotorState.from_bulk(program.bulk(), 0.0).moving
     # The console's braking stop, not a `set p 0` to brake through and come back from.
