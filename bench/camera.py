@@ -46,10 +46,10 @@ from giraff_console.camera.processors import FastCorners, Pipeline
 from giraff_console.camera.recorder import RecordedFrame, VideoRecorder
 from giraff_console.camera.source import Frame
 from giraff_console.planning.floorplan import load_floorplan
+from giraff_console.runtime.sim_site import plan_world
 from giraff_console.sim.camera import WorldCamera
 from giraff_console.sim.drive import TruePose
 from giraff_console.sim.world import World
-from giraff_console.sim_site import plan_world
 
 SIZE = (800, 600)
 CELLS = (100, 37)

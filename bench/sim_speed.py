@@ -71,7 +71,7 @@ def child(mode: str, argv: list[str]) -> int:
     from giraff_console.robot.last_stop import SIGNALS
 
     signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)  # as launch.py, before any thread
-    from giraff_console import sim_site
+    from giraff_console.runtime import sim_site
 
     built = []
     eye = sim_site.SimulatedSite.eye
@@ -183,9 +183,9 @@ def compare(frames: int) -> dict:
     from giraff_console.robot.marker_eye import grey_of
     from giraff_console.robot.marker_search import Building, MarkerSearch
     from giraff_console.robot.odometry import Pose
+    from giraff_console.runtime.sim_site import building_walls, plan_world
     from giraff_console.sim.camera import CAMERA_HEIGHT_M, WorldCamera
     from giraff_console.sim.marker_windows import MarkerWindows
-    from giraff_console.sim_site import building_walls, plan_world
 
     plan = load_floorplan(EXAMPLE)
     landmarks = plan.landmarks

@@ -8,7 +8,7 @@ import json
 import pytest
 
 from giraff_console.cli import main
-from giraff_console.headless import built_in_simulator
+from giraff_console.runtime.board import built_in_simulator
 
 # A small camera, a few frames a second: enough to find the robot by, and quick.
 SMALL_EYE = ("--eye-size", "400x300", "--eye-fps", "5")

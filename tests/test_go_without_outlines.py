@@ -18,8 +18,8 @@ from giraff_console.cli import main
 from giraff_console.clock import VirtualClock
 from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.robot.odometry import Pose
+from giraff_console.runtime.sim_site import SimulatedSite
 from giraff_console.sim.board import GiraffBoard
-from giraff_console.sim_site import SimulatedSite
 from tests.planning.scanned_building import PLAN, write_scanned_plan
 
 # The same rooms and doors with no grid: rooms joined by straight lines on open floor.

@@ -3,31 +3,14 @@
 from __future__ import annotations
 
 import io
+import itertools
 import sys
 
-from giraff_console.headless import _show_progress
+from giraff_console.cli.drive import PROGRESS_EVERY_S, ProgressShown
 from giraff_console.robot.mission import DRIVING, Progress
 
 LEG = Progress("go room-110", DRIVING, left_m=3.0, total_m=9.0, eta_s=7.0)
 PATROL = Progress("patrol tour3", "round 3/3, stop 4/32 (room-110)", eta_s=20.0, detail=LEG)
-
-
-class Patrolling:
-    """A mission that only reports its progress."""
-
-    name = "tour3"
-    progress = PATROL
-
-
-class Done:
-    """Done after `waits` waits, each at once: no test sleeps."""
-
-    def __init__(self, waits: int) -> None:
-        self.waits = waits
-
-    def wait(self, timeout: float) -> bool:
-        self.waits -= 1
-        return self.waits < 0
 
 
 class Terminal(io.StringIO):
@@ -35,12 +18,19 @@ class Terminal(io.StringIO):
         return True
 
 
-def test_off_a_terminal_the_progress_is_its_line_as_logs_read_it(capsys):
-    said: list[str] = []
-    _show_progress(Patrolling(), Done(2), lambda: said.append("meanwhile"))
+def clock(step: float):
+    """A clock that moves on `step` seconds each time it is read: no test sleeps."""
+    times = itertools.count(0.0, step)
+    return lambda: next(times)
+
+
+def test_off_a_terminal_the_progress_is_its_line_every_few_seconds_as_logs_read_it(capsys):
+    shown = ProgressShown(clock(PROGRESS_EVERY_S / 2))
+    for _ in range(4):
+        shown.draw(PATROL)
+    shown.close()
     err = capsys.readouterr().err
     assert err.splitlines() == ["patrol tour3: round 3/3, stop 4/32 (room-110), 20 s left"] * 2
-    assert said == ["meanwhile"] * 3  # after each line, and once at the end
 
 
 def test_on_a_terminal_rich_draws_the_patrol_and_its_stop_and_leaves_piped_output_alone(
@@ -48,7 +38,11 @@ def test_on_a_terminal_rich_draws_the_patrol_and_its_stop_and_leaves_piped_outpu
 ):
     terminal = Terminal()
     monkeypatch.setattr(sys, "stderr", terminal)
-    _show_progress(Patrolling(), Done(2), lambda: print('{"stop": 4}'))
+    shown = ProgressShown(clock(1.0))
+    for _ in range(3):
+        shown.draw(PATROL)
+        print('{"stop": 4}')
+    shown.close()
     drawn = terminal.getvalue()
     assert "patrol tour3" in drawn and "round 3/3, stop 4/32 (room-110), 20 s left" in drawn
     assert "go room-110" in drawn and "3.0 m left, ETA 0:07" in drawn

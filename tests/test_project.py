@@ -110,6 +110,8 @@ ALLOWED_IMPORTS = {
         "yaml_source",
     },
 }
+ALLOWED_IMPORTS["runtime"] = ALLOWED_IMPORTS["service"] | {"runtime", "settings", "sim",
+                                                           "data_folders"}  # fmt: skip
 # Issue 15: the screen asks the robot service and builds nothing itself. What it may
 # still take from below: the data it draws (telemetry, poses, the plan for the map, the
 # camera's pictures), never the parts that act on the robot.
@@ -121,7 +123,7 @@ TUI_MAY_NOT_IMPORT = (
     "giraff_console.missions.patrol",
     "giraff_console.robot.command_guard",
     "giraff_console.robot.safety",
-    "giraff_console.sim_site",
+    "giraff_console.runtime.sim_site",
     "giraff_console.sim",
 )
 
@@ -224,4 +226,27 @@ def test_no_mission_outcome_is_decided_by_comparing_its_words():
                     and node.func.attr in ("startswith", "endswith")
                     and any(_is_end_words(arg) for arg in node.args)):  # fmt: skip
                 wrong.append(f"{where}:{node.lineno}")
+    assert wrong == []
+
+
+# What only the composition root builds: the robot's parts (issue 26).
+ROBOT_PARTS = ("ControlLoop", "RobotService", "Sessions", "RouteBook", "SimulatedSite",
+               "control_loop", "camera_feed", "route_book", "on_loop")  # fmt: skip
+
+
+def test_the_robot_is_assembled_in_one_place_the_runtime():
+    # Issue 26: the robot was put together in four places (the console, `go`/`patrol`,
+    # the daemon, the test rig). Only runtime/ builds its parts now; a route book builds
+    # its own missions' set-up for a route being taught (missions/route_book.py).
+    wrong = []
+    for path in (ROOT / "giraff_console").rglob("*.py"):
+        where = path.relative_to(ROOT).as_posix()
+        if where.startswith("giraff_console/runtime/"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name | ast.Attribute):
+                name = node.func.id if isinstance(node.func, ast.Name) else node.func.attr
+                allowed = where == "giraff_console/missions/route_book.py" and name == "on_loop"
+                if name in ROBOT_PARTS and not allowed:
+                    wrong.append(f"{where}:{node.lineno} builds {name}")
     assert wrong == []

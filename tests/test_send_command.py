@@ -17,10 +17,10 @@ import pytest
 import serial
 
 from giraff_console.cli import main
+from giraff_console.cli.send import UNSAFE_WARNING, read_settings, send_commands
 from giraff_console.link import BoardLink
 from giraff_console.protocol import parse_command
 from giraff_console.robot.teleop import DriveLimits
-from giraff_console.send_command import UNSAFE_WARNING, read_settings, send_commands
 from tests.conftest import start_sim_process, stop_sim_process
 
 # The attack: 5 m at 0.6 m/s, after `send` has exited.

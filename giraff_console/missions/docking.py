@@ -139,9 +139,11 @@ class GoToPose(PathMission):
             pins = pins | {middle}
         return Course(points, self.arrival.heading, pins, tuple(planned.route.doors), planned)
 
-    def report(self, end: MissionEnd) -> GoReport:
-        """How it went, once the loop has ended the mission (`end`)."""
-        return go_report(self, self.goal, self.arrival.point, self.arrival.heading, end)
+    def report(self, end: MissionEnd, pose_true: Pose | None = None) -> GoReport:
+        """How it went, once the loop has ended the mission (`end`); `pose_true`: where
+        the simulated robot really is."""
+        return go_report(self, self.goal, self.arrival.point, self.arrival.heading, end,
+                         pose_true)  # fmt: skip
 
 
 def go_mission(navigator: Navigator, room: str, pose: Callable[[], Pose], *, tick: float,

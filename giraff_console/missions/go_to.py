@@ -25,6 +25,27 @@ from giraff_console.robot.localisation import Estimate
 from giraff_console.robot.mission import MissionEnd, Outcome
 from giraff_console.robot.odometry import Pose
 
+# What `go --json` prints, in order: the same keys however the go ended, refused too.
+GO_JSON_KEYS = (
+    "arrived",
+    "outcome",
+    "room",
+    "why",
+    "detail",
+    "pose_estimate",
+    "pose_true",
+    "error_m",
+    "heading_error_deg",
+    "duration_s",
+    "time_optimal_s",
+    "stops",
+    "max_jerk",
+    "gear_jumps",
+    "replans",
+    "contacts",
+    "since_fix_m",
+)
+
 
 @dataclass
 class GoReport:
@@ -45,15 +66,19 @@ class GoReport:
     # Metres driven on the odometry alone since a marker (or the placing) last said
     # where the robot was, as it ended; None without an estimate.
     since_fix_m: float | None = None
+    # Where the simulated robot really was as it ended (never the console's to know,
+    # only to report); None on a real robot.
+    pose_true: Pose | None = None
 
     @property
     def arrived(self) -> bool:
         """Arrived, and the pose confirmed: the only arrival a mission claims (issue 25)."""
         return self.end.outcome is Outcome.ARRIVED
 
-    def as_json(self, pose_true: Pose | None = None) -> dict:
+    def as_json(self) -> dict:
         """The report; errors are measured from the true pose when the simulator gives
         one, else from the estimate."""
+        pose_true = self.pose_true
         measured = pose_true or self.pose_estimate
         error = math.dist((measured.x, measured.y), self.goal)
         heading_error = 0.0
@@ -122,16 +147,18 @@ class GoTo(PathMission):
         return Course(planned.path, planned.goal_heading, planned.doorways,
                       tuple(planned.route.doors), planned)  # fmt: skip
 
-    def report(self, end: MissionEnd) -> GoReport:
-        """How it went, once the loop has ended the mission (`end`)."""
+    def report(self, end: MissionEnd, pose_true: Pose | None = None) -> GoReport:
+        """How it went, once the loop has ended the mission (`end`); `pose_true`: where
+        the simulated robot really is."""
         assert self.navigator is not None
         goal = self.navigator.plan.rooms[self.room]
         heading = None if goal.heading is None else math.radians(goal.heading)
-        return go_report(self, self.room, goal.at, heading, end)
+        return go_report(self, self.room, goal.at, heading, end, pose_true)
 
 
 def go_report(mission: PathMission, goal_name: str, goal: tuple[float, float],
-              goal_heading: float | None, end: MissionEnd) -> GoReport:  # fmt: skip
+              goal_heading: float | None, end: MissionEnd,
+              pose_true: Pose | None = None) -> GoReport:  # fmt: skip
     """How a path mission to `goal` went, once the loop has ended it (`end`)."""
     start = mission.started_at if mission.started_at is not None else mission.now
     finish = mission.ended_at if mission.ended_at is not None else mission.now
@@ -150,4 +177,5 @@ def go_report(mission: PathMission, goal_name: str, goal: tuple[float, float],
         replans=mission.replans,
         contacts=mission.contacts,
         since_fix_m=mission.since_fix_m(),
+        pose_true=pose_true,
     )

@@ -204,6 +204,10 @@ class PatrolRun:
         self._leg = 0
         self._problem: str | None = None
         self._failed_in_a_row = 0
+        # The stops missed, and those reached by an estimate nothing confirmed: how the
+        # patrol judges its end (outcome).
+        self._missed = 0
+        self._unverified = 0
         self._mission: Mission = _Idle()
         self._detour: ChargingDetour | None = None
         self._dwell_end: float | None = None
@@ -280,7 +284,31 @@ class PatrolRun:
             self._start_leg()
         return commands
 
+    @property
+    def outcome(self) -> Outcome | None:
+        """How a patrol that went round to its end did (robot/mission.py, Judged):
+        arrived at every stop, confirmed or not, or a stop missed; None before, or when
+        the loop ends it on the way (the loop says how)."""
+        if not self.finished:
+            return None
+        if self._missed:
+            return Outcome.FAILED
+        return Outcome.ARRIVED_UNVERIFIED if self._unverified else Outcome.ARRIVED
+
+    @property
+    def detail(self) -> str:
+        if not self.finished:
+            return ""
+        stops = len(self._legs)
+        if self._missed:
+            return f"{self._missed} of {stops} stops missed"
+        if self._unverified:
+            return f"every stop reached; {self._unverified} of {stops} by an unconfirmed pose"
+        return "every stop reached, each confirmed by a marker"
+
     def _reached(self, outcome: Outcome, detail: str) -> None:
+        self._missed += not outcome.arrived
+        self._unverified += outcome is Outcome.ARRIVED_UNVERIFIED
         round_number, index = self._legs[self._leg]
         path = self._mission if isinstance(self._mission, PathMission) else None
         jerk = path.merged_trace().max_jerk() if path is not None else None

@@ -41,7 +41,7 @@ from giraff_console.recording.session import SessionRecorder
 from giraff_console.robot.battery import Battery
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.loop_events import ExchangeTap, LoopEvent
-from giraff_console.robot.mission import MissionEnd, Outcome
+from giraff_console.robot.mission import MissionEnd
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.telemetry import LinkState, Telemetry
 
@@ -333,7 +333,6 @@ class _RunLog:
         self.report = report
         self.sessions = sessions
         self.reached_count = 0
-        self.all_reached = True  # every stop so far arrived (a failed one is logged as such)
         # Stops reported before the log's first line: a first stop whose way cannot be
         # planned fails as the run is made, and is logged once the run has started.
         self._early: list[dict[str, object]] | None = []
@@ -349,7 +348,6 @@ class _RunLog:
         """On the loop's thread, as the robot comes to rest: the snapshot is encoded and
         written on another."""
         self.reached_count += stop.reached
-        self.all_reached = self.all_reached and stop.reached
         record: dict[str, object] = {
             "round": stop.round, "stop": stop.stop_index, "place": stop.route_name,
             "outcome": stop.outcome.value, "detail": stop.detail,
@@ -377,7 +375,7 @@ class _RunLog:
 
     def end(self, end: MissionEnd, stops: int) -> None:
         if self.log is not None:
-            arrived = end.outcome is Outcome.DONE and self.all_reached
+            arrived = end.outcome.arrived
             self._told(self.log.end(end.why, arrived=arrived, stops=stops))
 
     def _told(self, problem: str | None) -> None:

@@ -35,6 +35,7 @@ from giraff_console.link import Exchange
 from giraff_console.link.board_probe import BoardFeatures
 from giraff_console.link.errors import LinkDisconnected, LinkError, LinkTimeout
 from giraff_console.link.motor_state import MotorState
+from giraff_console.missions.go_to import GoReport
 from giraff_console.protocol.charger import ChargeStatus
 from giraff_console.protocol.errors import (
     ArgumentError,
@@ -56,7 +57,14 @@ from giraff_console.robot.replay import PlaybackStatus
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.service import commands as c
 from giraff_console.service import wire
-from giraff_console.service.events import Controls, Reply, RoomRenamed, RouteShown, Situation
+from giraff_console.service.events import (
+    Controls,
+    GoReported,
+    Reply,
+    RoomRenamed,
+    RouteShown,
+    Situation,
+)
 from giraff_console.service.outbox import Outbox
 from giraff_console.service.robot_service import RobotService
 from giraff_console.service.transport import (
@@ -300,7 +308,7 @@ def _lock_beside(path: Path) -> int:
 # robot says (a snapshot and all it holds, an exchange with its errors, notes).
 wire.register(
     Hello, Welcome, Asked, Answered, Reply, Controls, RouteShown, RoomRenamed, Situation,
-    *c.REQUESTS,
+    GoReported, GoReport, *c.REQUESTS,
     Telemetry, LinkState, MotorState, Pose, Intent, PlaybackStatus, Progress, Battery,
     ChargeStatus, BoardFeatures, Estimate, PoseBasis, Exchange, Note, MissionChanged, MissionEnd,
     Outcome,

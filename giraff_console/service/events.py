@@ -11,6 +11,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol, TypeAlias
 
+from giraff_console.missions.go_to import GoReport
 from giraff_console.missions.navigation import NavigationState
 from giraff_console.robot.loop_events import LoopEvent, MissionChanged
 from giraff_console.service import commands as c
@@ -70,7 +71,15 @@ class Situation:
     playing: bool
 
 
-ServiceEvent: TypeAlias = LoopEvent | Controls | RouteShown | RoomRenamed
+@dataclass(frozen=True)
+class GoReported:
+    """A `go` the service started has ended: how it went, as `go --json` prints it, the
+    same in the console's process and across the daemon's socket (issue 26)."""
+
+    report: GoReport
+
+
+ServiceEvent: TypeAlias = LoopEvent | Controls | RouteShown | RoomRenamed | GoReported
 ServiceListener: TypeAlias = Callable[[ServiceEvent], None]
 Answered: TypeAlias = Callable[[Reply], None]
 

@@ -46,6 +46,7 @@ from giraff_console.service import commands as c
 from giraff_console.service.events import (
     Answered,
     Controls,
+    GoReported,
     Reply,
     RoomRenamed,
     RouteShown,
@@ -82,6 +83,8 @@ class Building(Protocol):
     def open_door(self, door_id: str) -> None: ...
     def block(self, x: float, y: float) -> str: ...
     def unblock(self, x: float, y: float) -> list[str]: ...
+    def true_pose(self) -> Pose:
+        """Where the robot really is: for reports and tests, never for driving."""
 
 
 class RobotService:
@@ -161,7 +164,7 @@ class RobotService:
         if on_loop is not None:
             self.control.unsubscribe(on_loop)
 
-    def _tell(self, event: Controls | RouteShown | RoomRenamed) -> None:
+    def _tell(self, event: Controls | RouteShown | RoomRenamed | GoReported) -> None:
         for listener in self._listeners:
             listener(event)
 
@@ -368,6 +371,8 @@ class RobotService:
             if end.outcome.arrived:
                 navigator.forget()
             self._tell(RouteShown.of(navigator.state))
+            truth = self.building.true_pose() if self.building is not None else None
+            self._tell(GoReported(mission.report(end, truth)))
 
         self.control.run_mission(mission, ended)
         return Reply(True, text)

@@ -182,19 +182,18 @@ class GiraffConsole(RobotKeys, KeyGuard):
         camera: CameraFeed | None = None,
         play: Path | None = None,
         navigator: Navigator | None = None,
-        stepped: float | None = None,
         undock_distance: float = 0.3,
         battery_low: float = 25.0,
-        run_loop: bool = True,
+        started: Callable[[], None] = lambda: None,
         timestamp: Callable[[], str] = lambda: time.strftime("%H:%M:%S"),
         cursor_blink: bool = True,
         crashed: Callable[[BaseException], None] = lambda error: None,
     ) -> None:
         """`robot` is what the console asks; `control` the loop it runs in its own process
         (None when `attached` to a daemon, whose address that is). `navigator` has the
-        floor plan the map draws; `run_loop` False leaves ticking the loop to the caller
-        (tests on a virtual clock); `battery_low` is the percent below which the top line
-        shows the battery LOW."""
+        floor plan the map draws; `started` runs the robot once the screen hears it (the
+        tests on a virtual clock tick the loop themselves); `battery_low` is the percent
+        below which the top line shows the battery LOW."""
         super().__init__()
         self.robot = robot
         self.clock = clock
@@ -203,7 +202,6 @@ class GiraffConsole(RobotKeys, KeyGuard):
         self.camera = camera
         self.play_at_start = play
         self.navigator = navigator
-        self.stepped = stepped
         self.route: RouteShown | None = None
         self._shown_route: RouteShown | None = None
         start = navigator.start_pose if navigator is not None else None
@@ -218,7 +216,7 @@ class GiraffConsole(RobotKeys, KeyGuard):
         # The latest snapshot: the stalk keys step from the height it reports.
         self.telemetry: Telemetry | None = None
         self.controls: Controls | None = None
-        self.run_loop = run_loop
+        self.started = started
         self.timestamp = timestamp
         self.cursor_blink = cursor_blink
         # Told first of an exception nothing handled (robot/last_stop.py).
@@ -271,12 +269,10 @@ class GiraffConsole(RobotKeys, KeyGuard):
             self.camera_view.on_size = camera.set_cells
             self.call_after_refresh(lambda: camera.set_cells(*self.camera_view.size))
             self.note(f"camera: {camera.note}")
-            if self.run_loop:
-                camera.start()
         elif self.attached is not None:
             self.camera_view.display = False  # the camera is the daemon's
-        if self.run_loop and self.control is not None:
-            self.control.start(stepped=self.stepped)
+        # The robot runs once the screen hears it: its first notes are not lost.
+        self.started()
         if self.play_at_start is not None:
             self.order(c.Play(self.play_at_start))
 

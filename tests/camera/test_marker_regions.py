@@ -13,9 +13,9 @@ import pytest
 from giraff_console.camera.markers import CameraIntrinsics, MarkerDetector, Region
 from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.robot.marker_search import margin
+from giraff_console.runtime.sim_site import plan_world
 from giraff_console.sim.camera import WorldCamera
 from giraff_console.sim.drive import TruePose
-from giraff_console.sim_site import plan_world
 
 W, H = 800, 600
 DICTIONARY = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_APRILTAG_36h11)

@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 
 from giraff_console.planning.floorplan import load_floorplan
+from giraff_console.runtime.sim_site import plan_world
 from giraff_console.sim.camera import Box, WorldCamera
 from giraff_console.sim.drive import TruePose
 from giraff_console.sim.marker_windows import UNDRAWN, WINDOW_MARGIN_PX, MarkerWindows
 from giraff_console.sim.surroundings import Surroundings
 from giraff_console.sim.world import Wall, World, WorldMarker, marker_pattern
-from giraff_console.sim_site import plan_world
 
 DICTIONARY = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_APRILTAG_36h11)
 W, H = 800, 600

@@ -21,10 +21,10 @@ from giraff_console.camera.markers import (
 from giraff_console.camera.processors import FastCorners, Pipeline, Undistortion
 from giraff_console.camera.source import SyntheticCamera
 from giraff_console.planning.floorplan import load_floorplan
+from giraff_console.runtime.sim_site import plan_world
 from giraff_console.sim.camera import WorldCamera
 from giraff_console.sim.drive import TruePose
 from giraff_console.sim.world import Wall, World, WorldMarker, marker_pattern
-from giraff_console.sim_site import plan_world
 
 FAMILY = "apriltag_36h11"
 SIZE = 0.16

@@ -113,7 +113,7 @@ def test_a_bad_calibration_file_is_refused(tmp_path):
 
 
 def test_the_console_falls_back_to_a_test_pattern_and_says_why():
-    from giraff_console.cli import camera_feed
+    from giraff_console.runtime.camera import camera_feed
 
     feed = camera_feed("/dev/no-such-camera", None, fast_threshold=30, fps=5)
     assert "not found" in feed.note and "test pattern" in feed.note

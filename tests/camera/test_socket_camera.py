@@ -27,13 +27,13 @@ from giraff_console.camera.source import (
 )
 from giraff_console.data_folders import example_floorplan
 from giraff_console.planning.floorplan import load_floorplan
+from giraff_console.runtime.sim_site import plan_world
 from giraff_console.sim import camera_wire
 from giraff_console.sim.camera import WorldCamera
 from giraff_console.sim.camera_server import CameraServer
 from giraff_console.sim.camera_wire import encode_frame_header, encode_refusal
 from giraff_console.sim.drive import TruePose
 from giraff_console.sim.world import demo_world
-from giraff_console.sim_site import plan_world
 
 CAMERA = WorldCamera(demo_world())
 POSE = TruePose(0.0, 0.0, 0.0)
@@ -220,7 +220,7 @@ def test_a_camera_that_answers_nonsense_or_nothing_reads_none_in_time(socket_pat
 def test_the_console_s_camera_feed_finds_the_markers_by_the_calibration(socket_path):
     """`giraff-console --camera unix:PATH --calibration PATH.calibration.yaml`, as the
     simulator's banner says: the markers are placed, so they find the robot."""
-    from giraff_console.cli import camera_feed
+    from giraff_console.runtime.camera import camera_feed
 
     plan = load_floorplan(example_floorplan())
     start = plan.rooms[plan.start]

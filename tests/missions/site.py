@@ -15,7 +15,7 @@ from giraff_console.robot.localisation import PoseBasis
 from giraff_console.robot.mission import MissionEnd
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.teleop import Teleop
-from giraff_console.sim_site import SimulatedSite
+from giraff_console.runtime.sim_site import SimulatedSite
 from tests.listening import notes_into
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "giraff_console/floorplans/care-home.yaml"

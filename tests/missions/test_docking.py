@@ -91,7 +91,7 @@ def test_go_dock_drives_onto_the_dock_square_on(room, shared_navigator):
         off = math.degrees(abs(math.remainder(pose.heading - arrival.heading, math.tau)))
         trail.append((math.dist((pose.x, pose.y), arrival.point), off))
     assert site.ended == ["done"]
-    report = mission.report(site.ends[0]).as_json(site.true_pose())
+    report = mission.report(site.ends[0], site.true_pose()).as_json()
     assert report["error_m"] <= 0.03
     assert report["heading_error_deg"] <= 2.0
     # The last half of the run in, where no turn may reach, is driven square on.

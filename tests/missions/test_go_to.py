@@ -49,7 +49,7 @@ def test_go_reaches_every_room_precisely_smoothly_and_nearly_as_fast_as_the_opti
     site.run(400)
     assert site.ended == ["done"]
     pose = site.true_pose()
-    report = mission.report(site.ends[0]).as_json(pose)
+    report = mission.report(site.ends[0], pose).as_json()
     # No markers to confirm it by: the odometry's arrival, said to be unconfirmed.
     assert report["outcome"] == "arrived_unverified" and not report["arrived"]
     assert report["error_m"] <= 0.03
@@ -68,7 +68,7 @@ def test_go_reaches_rooms_as_precisely_on_later_firmware(room, firmware, shared_
     site.run(400)
     assert site.ended == ["done"]
     pose = site.true_pose()
-    report = mission.report(site.ends[0]).as_json(pose)
+    report = mission.report(site.ends[0], pose).as_json()
     assert report["error_m"] <= 0.03
     assert heading_error_deg(pose, room) <= 2.0
     assert report["gear_jumps"] == 0
@@ -195,7 +195,7 @@ def test_with_imperfections_dead_reckoning_never_claims_a_confirmed_arrival(seed
     site.run(400)
     assert site.ended
     end = site.ends[0]
-    report = mission.report(end).as_json(site.true_pose())
+    report = mission.report(end, site.true_pose()).as_json()
     assert not report["arrived"]
     assert end.outcome in (Outcome.ARRIVED_UNVERIFIED, Outcome.ESTOP, Outcome.STALLED), end
     assert report["outcome"] == end.outcome.value

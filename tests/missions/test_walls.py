@@ -9,7 +9,6 @@ import cv2
 import numpy as np
 import pytest
 
-from giraff_console import sim_site
 from giraff_console.clock import VirtualClock
 from giraff_console.missions.go_to import GoTo
 from giraff_console.missions.navigation import Navigator
@@ -19,10 +18,11 @@ from giraff_console.robot.deadman import Intent
 from giraff_console.robot.mission import Outcome
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.telemetry import Telemetry
+from giraff_console.runtime import sim_site
+from giraff_console.runtime.sim_site import SimulatedSite
 from giraff_console.sim.board import GiraffBoard
 from giraff_console.sim.move import TruePose
 from giraff_console.sim.world import demo_world
-from giraff_console.sim_site import SimulatedSite
 from tests.listening import only
 from tests.missions.site import LIMITS, PLAN, TICK, Site
 

@@ -34,9 +34,9 @@ from giraff_console.planning.landmarks import (
 )
 from giraff_console.planning.marker_faces import marker_faces
 from giraff_console.planning.route_planner import CLEARANCE_M, ROBOT_RADIUS_M, walls_of
+from giraff_console.runtime.sim_site import plan_world
 from giraff_console.sim.camera import WorldCamera
 from giraff_console.sim.drive import TruePose
-from giraff_console.sim_site import plan_world
 from tests.planning import scanned_rooms
 from tests.planning.rmf_buildings import write_building
 from tests.planning.scanned_building import write_scanned_plan

@@ -5,7 +5,6 @@ from __future__ import annotations
 import pytest
 import serial
 
-from giraff_console.cli import board_connector
 from giraff_console.link import LinkDisconnected, MotorState
 from giraff_console.protocol.codec import Command
 from giraff_console.protocol.errors import GiraffError
@@ -17,6 +16,7 @@ from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.mission import DRIVING, Progress
 from giraff_console.robot.safety import stop_robot
 from giraff_console.robot.teleop import Teleop
+from giraff_console.runtime.board import board_connector
 from giraff_console.settings import Settings
 from tests.listening import notes_into
 

@@ -24,6 +24,7 @@ import pytest
 
 from giraff_console.link import BoardLink
 from giraff_console.missions.drive_setup import DriveSetup
+from giraff_console.missions.go_to import GO_JSON_KEYS
 from giraff_console.missions.navigation import Navigator
 from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.planning.route_planner import walls_of
@@ -370,6 +371,23 @@ def test_go_asks_the_running_daemon_and_reports_the_end(serve):
     last = json.loads(status.stdout)["last_mission"]
     assert (last["name"], last["running"], last["why"], last["outcome"]) == (
         "go room-101", False, "done", "arrived_unverified")  # fmt: skip
+
+
+def test_go_json_says_the_same_keys_with_and_without_a_daemon(serve):
+    """Issue 26: through the daemon `go --json` printed three keys, on its own seventeen.
+    Both now ask the same service, which reports the go (GoReport) the same way."""
+    alone = run_cli("go", "room-101", "--json", *SIM, "--sim-speed", "16")
+    assert alone.returncode == 3, alone.stderr
+    serve(*SIM, "--sim-speed", "16")
+    asked = run_cli("go", "room-101", "--json")
+    assert asked.returncode == 3, asked.stderr
+    here, there = json.loads(alone.stdout), json.loads(asked.stdout)
+    assert list(here) == list(there) == list(GO_JSON_KEYS)
+    # The same go in the same simulated building: the same end, measured the same way.
+    for report in (here, there):
+        assert (report["outcome"], report["room"], report["arrived"]) == (
+            "arrived_unverified", "room-101", False)  # fmt: skip
+        assert report["pose_true"] is not None and report["error_m"] < 0.05
 
 
 # -- what does not disturb it ---------------------------------------------------------

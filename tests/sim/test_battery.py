@@ -11,6 +11,7 @@ from giraff_console.missions.navigation import Navigator
 from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.protocol.charger import ChargeStatus, parse_charger
+from giraff_console.runtime.sim_site import SimulatedSite
 from giraff_console.sim import BoardConfig, TruePose
 from giraff_console.sim.battery import (
     CAPACITY_WS,
@@ -20,7 +21,6 @@ from giraff_console.sim.battery import (
     TRICKLE_CHARGE_W,
 )
 from giraff_console.sim.firmware import FIRMWARES
-from giraff_console.sim_site import SimulatedSite
 from tests.conftest import SimBench
 
 DOCK = TruePose(2.0, 1.0, math.radians(90))

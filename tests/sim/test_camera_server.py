@@ -262,8 +262,8 @@ def test_a_socket_in_use_is_left_alone_and_a_stale_one_replaced(server):
 def test_the_simulator_s_camera_shows_the_plan_s_closed_doors():
     """`sim --camera` draws the building as the console's own simulator does: a door the
     plan says is closed fills its doorway (cli.py plan_camera)."""
-    from giraff_console.cli import plan_camera
     from giraff_console.planning.floorplan import load_floorplan
+    from giraff_console.runtime.camera import plan_camera
 
     plan = load_floorplan(Path(__file__).parent.parent / "planning/fixtures/small-home.yaml")
     camera = plan_camera(plan)

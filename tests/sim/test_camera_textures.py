@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from giraff_console.planning.floorplan import load_floorplan
+from giraff_console.runtime.sim_site import plan_world
 from giraff_console.sim.camera import CAMERA_HEIGHT_M, WorldCamera
 from giraff_console.sim.camera_textures import (
     CEILING,
@@ -42,7 +43,6 @@ from giraff_console.sim.world import (
     World,
     demo_world,
 )
-from giraff_console.sim_site import plan_world
 
 EXAMPLE = "giraff_console/floorplans/care-home.yaml"
 # A point this near an edge of the textures could land on either side of it (the

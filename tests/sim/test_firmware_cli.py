@@ -12,7 +12,7 @@ import serial
 from giraff_console.cli import build_parser
 from giraff_console.data_folders import example_floorplan
 from giraff_console.protocol.charger import ChargeStatus, parse_charger
-from giraff_console.simulator_options import simulator_url
+from giraff_console.runtime.board import simulator_url
 from tests.conftest import start_sim_process, stop_sim_process
 
 
@@ -93,4 +93,4 @@ def test_firmware_without_the_simulator_is_a_usage_error():
         capture_output=True, text=True, timeout=20,
     )  # fmt: skip
     assert result.returncode == 2
-    assert "--firmware chooses the simulator's firmware" in result.stderr
+    assert "--firmware: only with the simulator (--sim)" in result.stderr

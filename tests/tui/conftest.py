@@ -7,7 +7,6 @@ from pathlib import Path
 import pytest
 from textual import events
 
-from giraff_console.cli import camera_feed, find_the_robot
 from giraff_console.link import BoardLink
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import Navigator
@@ -20,9 +19,10 @@ from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.localisation import PoseBasis
 from giraff_console.robot.teleop import Teleop
+from giraff_console.runtime.camera import camera_feed, find_the_robot
+from giraff_console.runtime.sim_site import SimulatedSite
 from giraff_console.service.robot_service import RobotService
 from giraff_console.sim.drive import TruePose
-from giraff_console.sim_site import SimulatedSite
 from giraff_console.tui.app import GiraffConsole
 from giraff_console.tui.messages import CameraPictureUpdated
 
@@ -94,7 +94,6 @@ class Rig:
             navigator=self.navigator,
             simulator=True,
             camera=self.camera,
-            run_loop=False,
             timestamp=lambda: f"{self.clock.now():.2f}s",
             cursor_blink=False,
         )

@@ -1,5 +1,5 @@
-"""The commands that talk to a running daemon: `status`, `stop`, and `go` and `patrol`
-when one runs (issue 15).
+"""The commands that talk to a running daemon: `status`, `stop` and `patrols`; and how
+`go` and `patrol` find the daemon when one runs (issue 15).
 
 Each attaches as a console that does not ask for the controls: `status` and `stop`
 never need them (anyone may stop the robot), and `go` and `patrol` take them only if
@@ -12,29 +12,20 @@ from __future__ import annotations
 
 import argparse
 import json
-import queue
+import signal
 import sys
-import time
 from dataclasses import asdict
 from pathlib import Path
 
 from giraff_console.data_folders import patrol_runs
 from giraff_console.missions.patrol_log import list_runs
-from giraff_console.robot.loop_events import MissionChanged, Note
-from giraff_console.robot.mission import Outcome
-from giraff_console.robot.telemetry import Telemetry
+from giraff_console.robot.last_stop import SIGNALS
 from giraff_console.service import commands as c
-from giraff_console.service.events import ServiceEvent
 from giraff_console.service.remote import DaemonGone, RemoteRobot, console_name
 from giraff_console.service.runtime_folder import socket_path
 from giraff_console.service.transport import NoDaemon, TransportError
 
-EXIT_DONE, EXIT_FAILED, EXIT_NO_DAEMON = 0, 1, 3
-# `go` through a daemon ends as `go` does on its own (headless.py): 3, arrived with a
-# pose nothing confirmed. (`status` and `stop` have no mission: their 3 is no daemon.)
-EXIT_UNVERIFIED = 3
-# Seconds between lines of progress when standard error is not a terminal.
-PROGRESS_EVERY_S = 5.0
+EXIT_DONE, EXIT_FAILED, EXIT_USAGE, EXIT_NO_DAEMON = 0, 1, 2, 3
 
 
 def add_daemon_parsers(commands: argparse._SubParsersAction) -> None:
@@ -143,91 +134,6 @@ def run_patrols(args: argparse.Namespace) -> int:
     return EXIT_DONE
 
 
-def run_mission(robot: RemoteRobot, request: c.Go | c.RunPatrol, as_json: bool) -> int:
-    """Start `request` on the daemon and follow it to its end: its notes and progress on
-    standard error, how it ended on standard output; 0 when it was done."""
-    events: queue.Queue[ServiceEvent] = queue.Queue()
-    robot.subscribe(events.put)
-    try:
-        reply = robot.execute(request)
-        name = f"go {request.room}" if isinstance(request, c.Go) else request.name
-        if not reply.ok:
-            _print_notes(events)  # why, if the daemon said it in a note
-            print(f"giraff-console: {reply.text}", file=sys.stderr)
-            if as_json:  # never started: no outcome, and why
-                print(json.dumps({"mission": name, "arrived": False, "outcome": None,
-                                  "why": "refused", "detail": reply.text}))  # fmt: skip
-            return EXIT_FAILED
-        if reply.text:
-            print(f"giraff-console: {reply.text}", file=sys.stderr)
-        ended = _follow(events, robot, name)
-    except KeyboardInterrupt:
-        # A stop, which also ends a mission still being planned (RobotService).
-        stopped = robot.execute(c.Halt(), timeout=2.0)
-        print(f"giraff-console: {'stopped' if stopped.ok else stopped.text} (Ctrl-C)",
-              file=sys.stderr)  # fmt: skip
-        return 130
-    finally:
-        robot.close()
-    if ended is None:
-        print("giraff-console: the daemon has gone before the mission ended", file=sys.stderr)
-        return EXIT_FAILED
-    end = ended.end
-    assert end is not None  # _follow returns an end
-    outcome = end.outcome
-    if isinstance(request, c.Go):
-        # A go says how it ended: arrived only with its pose confirmed (issue 25).
-        arrived = outcome is Outcome.ARRIVED
-        code = EXIT_DONE if arrived else EXIT_UNVERIFIED if outcome.arrived else EXIT_FAILED
-    else:
-        arrived = outcome is Outcome.DONE
-        code = EXIT_DONE if arrived else EXIT_FAILED
-    if as_json:
-        # What the daemon tells of a mission: not the poses and errors `go` measures on
-        # its own (docs/daemon.md).
-        print(json.dumps({"mission": ended.name, "arrived": arrived,
-                          "outcome": outcome.value, "why": end.why,
-                          "detail": end.detail}))  # fmt: skip
-    else:
-        print(f"{ended.name}: {end.words}")
-    return code
-
-
-def _print_notes(events: queue.Queue[ServiceEvent]) -> None:
-    while not events.empty():
-        event = events.get_nowait()
-        if isinstance(event, Note):
-            print(f"giraff-console: {event.text}", file=sys.stderr)
-
-
-def _follow(events: queue.Queue[ServiceEvent], robot: RemoteRobot,
-            name: str) -> MissionChanged | None:  # fmt: skip
-    """The end of the mission `name` once it has started, or None if the daemon goes
-    first; another mission's end (one this one replaced) is not it."""
-    started = False
-    shown_at = time.monotonic()
-    while robot.gone is None:
-        try:
-            event = events.get(timeout=1.0)
-        except queue.Empty:
-            continue
-        if isinstance(event, Note):
-            print(f"giraff-console: {event.text}", file=sys.stderr)
-        elif isinstance(event, MissionChanged) and event.name == name:
-            if event.running:
-                started = True
-            elif started or (event.end is not None
-                             and event.end.outcome is Outcome.NOT_STARTED):  # fmt: skip
-                return event
-        elif (isinstance(event, Telemetry) and event.mission is not None
-              and time.monotonic() - shown_at >= PROGRESS_EVERY_S):  # fmt: skip
-            shown_at = time.monotonic()
-            progress = event.mission
-            left = f", {progress.left_m:.1f} m left" if progress.left_m is not None else ""
-            print(f"giraff-console: {progress.name}: {progress.state}{left}", file=sys.stderr)
-    return None
-
-
 def _attach(kind: str) -> RemoteRobot | None:
     try:
         return daemon_robot(kind)
@@ -236,3 +142,35 @@ def _attach(kind: str) -> RemoteRobot | None:
     except TransportError as error:
         print(f"giraff-console: {error}", file=sys.stderr)
     return None
+
+
+def attach_if_running(args: argparse.Namespace, kind: str,
+                      take: bool = False) -> RemoteRobot | int | None:  # fmt: skip
+    """The running daemon's robot for a command that drives, unless it asks for a
+    simulator of its own (--sim); None when no daemon runs; an exit code when one does
+    but the command names a board of its own (the daemon has it) or it cannot be used.
+    The command's signals are its own again: the daemon stops the robot, not it."""
+    if getattr(args, "sim", False):
+        return None
+    try:
+        robot = daemon_robot(kind, take=take)
+    except NoDaemon:
+        return None
+    except TransportError as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    if getattr(args, "port", None) is not None:
+        robot.close()
+        print(f"giraff-console: the daemon at {socket_path()} has the robot; leave out "
+              "--port to ask it, or stop it (giraff-console stop --daemon)",
+              file=sys.stderr)  # fmt: skip
+        return EXIT_USAGE
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, SIGNALS)
+    print(f"giraff-console: asking the daemon at {socket_path()}", file=sys.stderr)
+    ignored = [f"--{name}" for name in ("floorplan", "routes", "recordings", "at", "camera",
+                                        "calibration")
+               if getattr(args, name, None) is not None]  # fmt: skip
+    if ignored:
+        print(f"giraff-console: {', '.join(ignored)} ignored: the daemon's are used",
+              file=sys.stderr)  # fmt: skip
+    return robot

@@ -1,4 +1,5 @@
-"""The `giraff-console` command line."""
+"""The `giraff-console` command line: the parser, and which command runs; each command
+lives in its own module beside this one."""
 
 from __future__ import annotations
 
@@ -9,45 +10,24 @@ import os
 import shutil
 import signal
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
-import serial
-
 from giraff_console import __version__
-from giraff_console.attach_commands import (
-    add_daemon_parsers,
-    daemon_robot,
-    run_mission,
-    run_patrols,
-    run_status,
-    run_stop,
-)
 from giraff_console.camera.feed import DEFAULT_FPS
-from giraff_console.camera.processors import (
-    FAST_THRESHOLD,
-    Undistortion,
-)
-from giraff_console.camera_setup import camera_feed, find_the_robot, plan_camera
-from giraff_console.clock import Clock, RealClock
-from giraff_console.data_folders import (
-    data_folder,
-    default_recordings,
-    default_routes,
-    example_floorplan,
-)
-from giraff_console.go_command import add_go_parser, run_go
-from giraff_console.headless import UsageError, add_board_options, add_folder_options, placed_at
-from giraff_console.missions.drive_setup import DriveSetup
-from giraff_console.missions.navigation import Navigator
-from giraff_console.missions.sessions import Sessions
-from giraff_console.patrol_command import add_patrol_parser, run_patrol
-from giraff_console.planning.floorplan import (
-    FloorPlan,
-    FloorPlanError,
-    check_floorplan,
-    load_floorplan,
-)
+from giraff_console.camera.processors import FAST_THRESHOLD
+from giraff_console.cli.console import run_console
+from giraff_console.cli.daemon import add_daemon_parsers, run_patrols, run_status, run_stop
+from giraff_console.cli.go import add_go_parser, run_go
+from giraff_console.cli.options import add_board_options, add_folder_options
+from giraff_console.cli.patrol import add_patrol_parser, run_patrol
+from giraff_console.cli.send import add_send_parser, run_send
+from giraff_console.cli.serve import add_serve_parser, run_serve
+from giraff_console.cli.simulator_options import add_firmware_option
+from giraff_console.cli.survey import add_survey_parser, run_survey
+from giraff_console.clock import RealClock
+from giraff_console.data_folders import example_floorplan
+from giraff_console.planning.floorplan import FloorPlanError, check_floorplan, load_floorplan
 from giraff_console.planning.landmark_placement import (
     DEFAULT_EVERY_M,
     place_markers,
@@ -61,23 +41,10 @@ from giraff_console.planning.route_planner import ROBOT_RADIUS_M, RoutePlanner, 
 from giraff_console.protocol.kinematics import WHEEL_BASE_M, WHEEL_BASE_RANGE_M
 from giraff_console.recording.mcap_export import export_session
 from giraff_console.recording.playback import open_log
-from giraff_console.recording.session import (
-    RecordingSetup,
-    SessionError,
-    SessionStart,
-    read_meta,
-)
-from giraff_console.robot.last_stop import SIGNALS, LastStop
-from giraff_console.robot.localisation import PoseBasis
+from giraff_console.recording.session import SessionError, SessionStart, read_meta
+from giraff_console.robot.last_stop import SIGNALS
 from giraff_console.robot.replay import replay_poses
-from giraff_console.robot_setup import board_connector, control_loop, keep_the_pose, route_book
-from giraff_console.send_command import add_send_parser, run_send
-from giraff_console.serve_command import add_serve_parser, run_serve
-from giraff_console.service import commands as c
-from giraff_console.service.remote import RemoteRobot
-from giraff_console.service.robot_service import RobotService
-from giraff_console.service.runtime_folder import socket_path
-from giraff_console.service.transport import NoDaemon, TransportError
+from giraff_console.runtime.camera import plan_camera
 from giraff_console.settings import Settings, SettingsError, config_path, load_settings
 from giraff_console.sim import BoardConfig, GiraffBoard, Imperfections, PtyServer
 from giraff_console.sim.camera_server import CameraServer, CameraServerError
@@ -85,12 +52,6 @@ from giraff_console.sim.drive import TruePose
 from giraff_console.sim.firmware import DEFAULT_FIRMWARE, FIRMWARES
 from giraff_console.sim.modem_shim import main as print_modem_shim
 from giraff_console.sim.pose_log import PoseLog
-from giraff_console.sim_site import SimulatedSite
-from giraff_console.simulator_options import (
-    add_firmware_option,
-    simulator_url,
-)
-from giraff_console.survey_command import add_survey_parser, run_survey
 
 # Exit code: a mistake in the command line or the settings.
 EXIT_USAGE = 2
@@ -377,6 +338,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
 
 
+# The commands that drive the robot (the console too, with no command or `replay`).
+DRIVING: dict[str | None, Callable[[argparse.Namespace, Settings, Path], int]] = {
+    "go": run_go, "patrol": run_patrol, "serve": run_serve, "survey": run_survey,
+}  # fmt: skip
+
+
 def run(args: argparse.Namespace) -> int:
     """The command `args` names."""
     if args.command not in (None, "replay", "go", "patrol", "serve", "survey"):
@@ -397,24 +364,6 @@ def run(args: argparse.Namespace) -> int:
         return run_stop(args)
     if args.command == "patrols":
         return run_patrols(args)
-    if args.command in ("go", "patrol", "serve", "survey"):
-        try:
-            settings, port = settings_and_port(args)
-        except SettingsError as error:
-            print(f"giraff-console: {error}", file=sys.stderr)
-            return EXIT_USAGE
-        if args.command == "serve":
-            return run_serve(args, settings, port, EXAMPLE_FLOORPLAN)
-        if args.command == "survey":
-            return run_survey(args, settings, port, EXAMPLE_FLOORPLAN)
-        attached = attach_if_running(args, "go" if args.command == "go" else "patrol")
-        if isinstance(attached, int):
-            return attached
-        if attached is not None:
-            request = c.Go(args.room) if args.command == "go" else c.RunPatrol(args.name)
-            return run_mission(attached, request, args.json)
-        command = run_go if args.command == "go" else run_patrol
-        return command(args, settings, port, EXAMPLE_FLOORPLAN)
     if args.command == "floorplan" and args.floorplan_command == "show":
         return run_floorplan_show(args)
     if args.command == "floorplan" and args.floorplan_command == "import":
@@ -425,241 +374,14 @@ def run(args: argparse.Namespace) -> int:
         return run_floorplan_rooms(args)
     if args.command == "floorplan":
         return run_floorplan_check(args)
-    return run_console(args)
-
-
-def attach_if_running(args: argparse.Namespace, kind: str,
-                      take: bool = False) -> RemoteRobot | int | None:  # fmt: skip
-    """The running daemon's robot for a command that drives, unless it asks for a
-    simulator of its own (--sim); None when no daemon runs; an exit code when one does
-    but the command names a board of its own (the daemon has it) or it cannot be used.
-    The command's signals are its own again: the daemon stops the robot, not it."""
-    if getattr(args, "sim", False):
-        return None
+    # The commands that drive the robot, on the settings file's rates and limits.
     try:
-        robot = daemon_robot(kind, take=take)
-    except NoDaemon:
-        return None
-    except TransportError as error:
-        print(f"giraff-console: {error}", file=sys.stderr)
-        return EXIT_USAGE
-    if getattr(args, "port", None) is not None:
-        robot.close()
-        print(f"giraff-console: the daemon at {socket_path()} has the robot; leave out "
-              "--port to ask it, or stop it (giraff-console stop --daemon)",
-              file=sys.stderr)  # fmt: skip
-        return EXIT_USAGE
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, SIGNALS)
-    print(f"giraff-console: asking the daemon at {socket_path()}", file=sys.stderr)
-    ignored = [f"--{name}" for name in ("floorplan", "routes", "recordings", "at", "camera",
-                                        "calibration")
-               if getattr(args, name, None) is not None]  # fmt: skip
-    if ignored:
-        print(f"giraff-console: {', '.join(ignored)} ignored: the daemon's are used",
-              file=sys.stderr)  # fmt: skip
-    return robot
-
-
-def settings_and_port(args: argparse.Namespace) -> tuple[Settings, str | None]:
-    """The settings file's settings, and the port to use: none (the simulator) with
-    --sim, else --port, else the settings'. SettingsError for a bad file."""
-    settings = load_settings(args.config)
-    return settings, None if args.sim else (args.port or settings.port)
-
-
-def run_console(args: argparse.Namespace) -> int:
-    """The operator console on a real board or the simulator (§3.2: it falls back)."""
-    from giraff_console.tui.app import GiraffConsole
-
-    try:
-        settings, port = settings_and_port(args)
+        settings = load_settings(args.config)
     except SettingsError as error:
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_USAGE
-    if args.calibration:
-        try:
-            Undistortion.from_file(args.calibration)
-        except (OSError, ValueError) as error:
-            print(f"giraff-console: {error}", file=sys.stderr)
-            return EXIT_USAGE
-    if args.fast_threshold < 1 or args.camera_fps <= 0:
-        print("giraff-console: --fast-threshold and --camera-fps must be positive", file=sys.stderr)
-        return EXIT_USAGE
-    attached = attach_if_running(args, "console", take=True)
-    if isinstance(attached, int):
-        return attached
-    if attached is not None:
-        return run_attached_console(attached, args, settings)
-    try:
-        plan, plan_note = console_floorplan(args.floorplan)
-        navigator = Navigator(plan, walls_of(plan), settings.robot_radius)
-    except (FloorPlanError, OSError) as error:
-        print(f"giraff-console: {error}", file=sys.stderr)
-        return EXIT_USAGE
-    if not args.sim_speed > 0:  # NaN too
-        print("giraff-console: --sim-speed must be positive", file=sys.stderr)
-        return EXIT_USAGE
-    if args.firmware is not None and port is not None:
-        print("giraff-console: --firmware chooses the simulator's firmware; use it with --sim",
-              file=sys.stderr)  # fmt: skip
-        return EXIT_USAGE
-    clock: Clock = RealClock()
-    simulator = None
-    stepped = None
-    if port is None:
-        # A clock of the simulator's own, which the control loop moves on, for --sim-speed.
-        simulator = serial.serial_for_url(
-            simulator_url(args.firmware, virtual_clock=args.sim_speed != 1)
-        )
-        if args.sim_speed != 1:
-            clock, stepped = simulator.clock, args.sim_speed
-    if args.command == "replay":
-        try:
-            log_path, log = open_log(args.session)
-        except SessionError as error:
-            print(f"giraff-console: {error}", file=sys.stderr)
-            return EXIT_USAGE
-        if not log.entries:
-            print(f"giraff-console: nothing to play in {log_path}", file=sys.stderr)
-            return EXIT_USAGE
-    control = control_loop(board_connector(port, settings, simulator), settings, clock)
-    start = navigator.start_pose
-    if start is not None:
-        # The console has no way to find the robot on the plan by itself (§2.3): it
-        # starts where the plan says. The simulator's robot is put there, so that is
-        # where it stands; a real robot's is only assumed to (robot/localisation.py).
-        control.place(start, PoseBasis.GIVEN if simulator is not None else PoseBasis.ASSUMED)
-    elif simulator is not None:
-        # A plan with no start room: the simulated robot stands where it starts.
-        control.place(control.pose, PoseBasis.GIVEN)
-    # A real robot's last estimate, read back as an assumption, and kept from now on;
-    # unless the operator says where it stands (--at).
-    keeper = keep_the_pose(control, plan.path.resolve()) if port is not None else None
-    if args.at is not None:
-        if port is None:
-            print("giraff-console: --at: only on a real robot; the simulator's starts on its "
-                  "dock", file=sys.stderr)  # fmt: skip
-            return EXIT_USAGE
-        try:
-            control.place(placed_at(plan, args.at), PoseBasis.GIVEN)
-        except UsageError as error:
-            print(f"giraff-console: {error}", file=sys.stderr)
-            return EXIT_USAGE
-    site = None
-    if simulator is not None:
-        site = SimulatedSite(simulator.board, plan, start, settings.motion.sensing_range)
-        # The simulated robot's casters are the simulator's to say (robot/localisation.py).
-        control.localisation.casters_turn_up_to(site.caster_drift)
-    camera = camera_feed(
-        args.camera, simulator, args.calibration, args.fast_threshold, args.camera_fps,
-        site.world if site else None, site.surroundings if site else None, plan.landmarks,
-        clock,
-    )  # fmt: skip
-    marker_note = find_the_robot(control, camera, plan)
-    setup = RecordingSetup(
-        port=port or simulator_url(args.firmware),
-        camera={
-            "source": camera.source.name, "size": list(camera.size),
-            "fps_cap": args.camera_fps, "fast_threshold": args.fast_threshold,
-            "calibration": args.calibration,
-        },
-    )  # fmt: skip
-    recordings = data_folder(args.recordings, settings.recordings, default_recordings())
-    sessions = Sessions(control, camera, recordings, setup, control.note)
-    drives = DriveSetup.on_loop(control, navigator, limits=settings.motion.limits(),
-                                sense=site.range_finder.readings if site else None,
-                                patience=settings.motion.patience())  # fmt: skip
-    routes = route_book(control, sessions,
-                        data_folder(args.routes, settings.routes, default_routes()), drives,
-                        settings)  # fmt: skip
-    robot = RobotService(control, drives, building=site, routes=routes, sessions=sessions,
-                         undock_distance=settings.teleop.undock_distance)  # fmt: skip
-    # Signals and crashes stop the robot from the loop's own thread, then the console
-    # leaves; installed below, before any thread starts (the loop's, the camera's).
-    last_stop = LastStop(control, leave=lambda why: app.exit(return_code=1))
-    app = GiraffConsole(
-        robot,
-        clock=clock,
-        control=control,
-        simulator=simulator is not None,
-        camera=camera,
-        undock_distance=settings.teleop.undock_distance,
-        battery_low=settings.battery.low,
-        play=args.session if args.command == "replay" else None,
-        navigator=navigator,
-        stepped=stepped,
-        crashed=last_stop.crashed,
-    )
-    app.notes_at_start.append(plan_note)
-    if marker_note is not None:
-        app.notes_at_start.append(marker_note)
-
-    last_stop.install()
-    try:
-        app.run()
-    finally:
-        control.stop()
-        if keeper is not None:
-            keeper.close()
-        last_stop.uninstall()
-    if last_stop.signalled is not None:
-        return 128 + last_stop.signalled
-    # Non-zero if the console itself failed; the robot was stopped all the same.
-    return app.return_code or 0
-
-
-def run_attached_console(robot: RemoteRobot, args: argparse.Namespace,
-                         settings: Settings) -> int:  # fmt: skip
-    """The console on a running daemon's robot: the map from the daemon's floor plan,
-    no camera (the daemon has it). Quitting, or the terminal going, leaves the daemon's
-    missions running; a key held is let go of by the daemon (service/daemon.py)."""
-    from giraff_console.tui.app import GiraffConsole
-
-    welcome = robot.welcome
-    navigator = None
-    note = "floor plan: none"
-    try:
-        plan, note = console_floorplan(welcome.floorplan)
-        navigator = Navigator(plan, walls_of(plan), settings.robot_radius)
-    except (FloorPlanError, OSError) as error:
-        note = f"no map: {error}"
-    app = GiraffConsole(
-        robot,
-        clock=RealClock(),
-        simulator=welcome.simulator,
-        attached=str(socket_path()),
-        undock_distance=settings.teleop.undock_distance,
-        battery_low=settings.battery.low,
-        play=args.session if args.command == "replay" else None,
-        navigator=navigator,
-    )
-    app.notes_at_start.append(note)
-    app.controls = welcome.controls
-    app.route = welcome.route
-    situation = welcome.situation
-    if situation.last_mission is not None:
-        last = situation.last_mission
-        if last.end is not None:
-            app.notes_at_start.append(f"the last mission, {last.name}, ended: {last.end.words}")
-    if situation.mission is not None:
-        app.notes_at_start.append(f"running now: {situation.mission}")
-    holder = welcome.controls.holder
-    app.notes_at_start.append("you hold the controls" if holder == robot.console else
-                              f"watching: {holder or 'nobody'} holds the controls "
-                              "(Ctrl+T takes them)")  # fmt: skip
-    try:
-        app.run()
-    finally:
-        robot.close()
-    return app.return_code or 0
-
-
-def console_floorplan(path: Path | None) -> tuple[FloorPlan, str]:
-    """The floor plan asked for, else the example; and a note saying which.
-    FloorPlanError for a plan that cannot be used."""
-    plan = load_floorplan(path or EXAMPLE_FLOORPLAN)
-    where = f", starting in {plan.start}" if plan.start else ""
-    return plan, f"floor plan: {plan.name} ({len(plan.rooms)} rooms){where}"
+    command = DRIVING.get(args.command, run_console)
+    return command(args, settings, EXAMPLE_FLOORPLAN)
 
 
 def run_plan(args: argparse.Namespace) -> int:

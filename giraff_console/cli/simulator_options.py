@@ -1,5 +1,5 @@
-"""The built-in simulator as the command line asks for it, for the console, `go`, `send`
-and `sim` alike: its pyserial URL and the option that chooses its firmware.
+"""The option that chooses the built-in simulator's firmware, for the console, `go`,
+`send` and `sim` alike.
 
 It sits above the simulator, as the command line does: the simulator knows nothing of
 the console.
@@ -11,7 +11,6 @@ import argparse
 
 from giraff_console.sim.firmware import DEFAULT_FIRMWARE, FIRMWARES
 
-IN_PROCESS_SIMULATOR = "giraff-sim://"
 FIRMWARE_HELP = (
     "the simulator's firmware: thesis (the thesis's 2013 board), later (incremental "
     "imdl/imdr, enc0/enc1, the h stalk, charger_data, mode 2) or giraff-x (later plus set "
@@ -26,15 +25,3 @@ def add_firmware_option(parser: argparse.ArgumentParser, *, after_command: bool 
     default = argparse.SUPPRESS if after_command else None
     parser.add_argument("--firmware", choices=tuple(FIRMWARES), default=default,
                         metavar="NAME", help=FIRMWARE_HELP)  # fmt: skip
-
-
-def simulator_url(firmware: str | None, *, virtual_clock: bool = False,
-                  imperfect_seed: int | None = None) -> str:  # fmt: skip
-    """The in-process simulator's URL: with the firmware asked for (if any), on a
-    virtual clock, with the imperfection model seeded."""
-    options = ["clock=virtual"] if virtual_clock else []
-    if imperfect_seed is not None:
-        options += ["imperfect=1", f"seed={imperfect_seed}"]
-    if firmware is not None:
-        options.append(f"firmware={firmware}")
-    return IN_PROCESS_SIMULATOR + ("?" + "&".join(options) if options else "")

@@ -1,7 +1,7 @@
 """`giraff-console patrol NAME`: run a patrol without the console's screen (issue 14).
 
 The same patrol the console's `patrol NAME` runs (missions/patrol.py), on the same
-control loop, set up as `go` is (headless.py): from the shell, a script, a test or a
+control loop, set up as `go` is (runtime/robot.py): from the shell, a script, a test or a
 benchmark (bench/localisation.py). NAME is a patrol in the routes folder
 (`NAME.patrol.yaml`, routes/README.md) or the path of a patrol file; its stops go to
 rooms of the floor plan or drive taught routes, which are looked for beside the patrol
@@ -13,10 +13,8 @@ the simulator), how far that is from the stop's goal (the room's point and headi
 `go` measures it, or the end of the route's taught path) and how well the estimate
 knew it (`sigma_m`), the stop's `outcome` and its `detail` (a stop that failed says
 why, and the patrol goes on to the next: missions/patrol.py); then a last line for the
-patrol. The exit codes are `go`'s: 0 every stop of every round arrived, its pose
-confirmed; 3 every stop arrived, some unconfirmed; 1 not (the reason is printed); 2 a
-mistake in the command (no such patrol, a bad patrol file or floor plan, a room the
-plan does not have).
+patrol. The exit codes are `go`'s (cli/drive.py): the patrol judges its own end, every
+stop reached (confirmed or not) or a stop missed (missions/patrol.py).
 """
 
 from __future__ import annotations
@@ -28,18 +26,19 @@ import queue
 from dataclasses import replace
 from pathlib import Path
 
-from giraff_console.data_folders import data_folder, default_routes
-from giraff_console.headless import (
-    EXIT_ARRIVED,
+from giraff_console.cli.daemon import attach_if_running
+from giraff_console.cli.drive import (
     EXIT_FAILED,
-    EXIT_UNVERIFIED,
+    EXIT_HELP,
     EXIT_USAGE,
-    HeadlessRobot,
-    UsageError,
-    add_folder_options,
-    add_robot_options,
-    fail,
+    drive_there,
+    exit_code,
+    print_note,
+    run_mission,
 )
+from giraff_console.cli.options import add_folder_options, add_robot_options, robot_options
+from giraff_console.cli.report import fail
+from giraff_console.data_folders import data_folder, default_routes
 from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.docking import DOCK
 from giraff_console.missions.go_to import GoReport
@@ -56,6 +55,11 @@ from giraff_console.missions.patrol import (
 from giraff_console.missions.route import Route, RouteError, load_route
 from giraff_console.protocol.codec import Command
 from giraff_console.robot.mission import MissionEnd, Outcome
+from giraff_console.runtime.options import UsageError
+from giraff_console.runtime.robot import Robot
+from giraff_console.service import commands as c
+from giraff_console.service.events import Reply
+from giraff_console.service.remote import RemoteRobot
 from giraff_console.settings import Settings
 
 # The stops that got there, confirmed or not, as their `outcome` is printed.
@@ -71,10 +75,8 @@ def add_patrol_parser(commands: argparse._SubParsersAction, example: Path) -> No
         "room. Progress goes to standard error; --json prints a line for each stop and one "
         "for the patrol. A stop that fails on the way (touched something again and again, "
         "or no way there) is reported and the patrol goes on to the next, unless the file "
-        "says carry_on: false. Exits 0 when every stop arrived with its pose confirmed by "
-        "a marker, 3 when every stop arrived but some unconfirmed (dead reckoning), 1 "
-        "when one did not (the reason is printed), 2 for an unknown patrol or room, or a "
-        "bad patrol file or floor plan.",
+        "says carry_on: false. Asks the daemon when one runs (giraff-console serve), "
+        "which logs the run where `patrols` lists it. " + EXIT_HELP,
     )
     patrol.add_argument(
         "name", metavar="NAME",
@@ -84,15 +86,25 @@ def add_patrol_parser(commands: argparse._SubParsersAction, example: Path) -> No
     add_robot_options(patrol, example)
 
 
-def run_patrol(args: argparse.Namespace, settings: Settings, port: str | None,
-               example: Path) -> int:  # fmt: skip
+def run_patrol(args: argparse.Namespace, settings: Settings, example: Path) -> int:
     """Run the patrol `args.name`; the exit code says how it went."""
+    attached = attach_if_running(args, "patrol")
+    if isinstance(attached, int):
+        return attached
+    if attached is not None:
+        return _on_the_daemon(attached, c.RunPatrol(args.name), args.json)
     try:
         patrol, routes = _load(args.name, data_folder(args.routes, settings.routes,
                                                       default_routes()))  # fmt: skip
-        robot = HeadlessRobot(args, settings, port, example)
+        robot = Robot(robot_options(args, settings), settings, example, notes=print_note)
     except UsageError as error:
         return fail(str(error), EXIT_USAGE)
+    with robot:
+        return _patrol_here(robot, patrol, routes, args.json)
+
+
+def _patrol_here(robot: Robot, patrol: Patrol, routes: dict[str, Route], as_json: bool) -> int:
+    """The patrol on the robot in this process, each stop said as it ends."""
     rooms = robot.plan.rooms
     known = {DOCK} if robot.plan.start is not None else set()  # the dock is the start room's
     unknown = sorted({s.room for s in patrol.stops if s.room and s.room not in rooms} - known)
@@ -108,17 +120,34 @@ def run_patrol(args: argparse.Namespace, settings: Settings, port: str | None,
     except PatrolError as error:
         return fail(str(error), EXIT_USAGE)
     log.run = run
-    if not robot.run(run, log.ended, lambda: log.print_lines(args.json)):
+    if not run_mission(robot, run, log.ended, lambda: log.print_lines(as_json)):
         return fail("no answer from the board", EXIT_FAILED)
     summary = log.summary()
-    if args.json:
+    if as_json:
         print(json.dumps(summary), flush=True)
     else:
         print(f"patrol {patrol.name}: {summary['why']}; {summary['arrived']} of "
               f"{summary['stops']} stops arrived, in {summary['duration_s']:.0f} s")  # fmt: skip
-    if log.end is None or log.end.outcome is not Outcome.DONE or not log.all_reached:
-        return EXIT_FAILED
-    return EXIT_ARRIVED if log.all_arrived else EXIT_UNVERIFIED
+    return exit_code(log.end) if log.end is not None else EXIT_FAILED
+
+
+def _on_the_daemon(remote: RemoteRobot, request: c.RunPatrol, as_json: bool) -> int:
+    """The patrol run by the daemon (logged where `patrols` lists it): how it ended."""
+    try:
+        ended = drive_there(remote, request)
+    except KeyboardInterrupt:
+        return 130
+    if ended is None:
+        return fail("the daemon has gone before the patrol ended", EXIT_FAILED)
+    if isinstance(ended, Reply):
+        return fail(ended.text, EXIT_FAILED)
+    end = ended.end
+    if as_json:
+        print(json.dumps({"patrol": request.name, "outcome": end.outcome.value, "why": end.why,
+                          "detail": end.detail}))  # fmt: skip
+    else:
+        print(f"{ended.name}: {end.words}")
+    return exit_code(end)
 
 
 def _load(name: str, folder: Path) -> tuple[Patrol, dict[str, Route]]:
@@ -154,15 +183,12 @@ class StopLog:
     """How each stop went, taken on the loop's thread as the robot comes to rest there
     (or as the patrol ends on its way), and printed from the main thread."""
 
-    def __init__(self, robot: HeadlessRobot, patrol: Patrol, routes: dict[str, Route]) -> None:
+    def __init__(self, robot: Robot, patrol: Patrol, routes: dict[str, Route]) -> None:
         self.robot = robot
         self.patrol = patrol
         self.routes = routes
         self.run: _TimedPatrol | None = None
         self.records: list[dict] = []
-        # Every stop so far arrived with its pose confirmed; arrived at all.
-        self.all_arrived = True
-        self.all_reached = True
         self.why = "not started"
         self.end: MissionEnd | None = None
         self.ended_at: float | None = None
@@ -186,7 +212,7 @@ class StopLog:
         self.ended_at = self.robot.control.clock.now()
         count = len(self.patrol.stops)
         leg = len(self.records)
-        if end.outcome is not Outcome.DONE and leg < self.patrol.rounds * count:
+        if leg < self.patrol.rounds * count:
             # Ended on the way to the next stop: it did not arrive there.
             self._record(leg // count + 1, leg % count + 1, replace(end, detail=end.why))
 
@@ -205,9 +231,9 @@ class StopLog:
             pose_estimate=estimate.pose,
             goal=goal[0] if goal else (math.nan, math.nan),
             goal_heading=goal[1] if goal else None,
-            duration_s=now - leg_from, time_optimal_s=0.0,
+            duration_s=now - leg_from, time_optimal_s=0.0, pose_true=self.robot.true_pose(),
         )  # fmt: skip
-        measured = report.as_json(self.robot.true_pose())
+        measured = report.as_json()
         record = {
             "stop": index,
             "round": round_number,
@@ -232,8 +258,6 @@ class StopLog:
             "t_s": round(now - started, 3),
             "max_jerk": None if max_jerk is None else round(max_jerk, 3),
         }
-        self.all_arrived = self.all_arrived and report.arrived
-        self.all_reached = self.all_reached and end.outcome.arrived
         self.records.append(record)
         self._lines.put(record)
 

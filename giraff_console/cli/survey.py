@@ -24,15 +24,15 @@ import math
 from pathlib import Path
 
 from giraff_console.camera.marker_reach import STANDARD_SIZE_M
-from giraff_console.headless import (
+from giraff_console.cli.drive import (
     EXIT_ARRIVED,
     EXIT_FAILED,
     EXIT_USAGE,
-    HeadlessRobot,
-    UsageError,
-    add_robot_options,
-    fail,
+    print_note,
+    run_mission,
 )
+from giraff_console.cli.options import add_robot_options, robot_options
+from giraff_console.cli.report import fail
 from giraff_console.missions.survey import (
     Surveyed,
     Tour,
@@ -47,6 +47,8 @@ from giraff_console.planning.landmarks import DEFAULT_FAMILY
 from giraff_console.robot.localisation import PoseBasis, start_covariance
 from giraff_console.robot.mission import MissionEnd, Outcome
 from giraff_console.robot.survey_log import SurveyLog
+from giraff_console.runtime.options import UsageError
+from giraff_console.runtime.robot import Robot
 from giraff_console.service.daemon import daemon_alive
 from giraff_console.service.runtime_folder import socket_path
 from giraff_console.settings import Settings
@@ -84,21 +86,32 @@ def add_survey_parser(commands: argparse._SubParsersAction, example: Path) -> No
     add_robot_options(survey, example)
 
 
-def run_survey(args: argparse.Namespace, settings: Settings, port: str | None,
-               example: Path) -> int:  # fmt: skip
+def run_survey(args: argparse.Namespace, settings: Settings, example: Path) -> int:
     """Survey, then write or print the markers; the exit code says how it went."""
-    if port is not None and daemon_alive(socket_path()):
+    try:
+        options = robot_options(args, settings, surveying=_surveying(args))
+    except UsageError as error:
+        return fail(str(error), EXIT_USAGE)
+    if options.port is not None and daemon_alive(socket_path()):
         return fail(f"the daemon at {socket_path()} has the robot: stop it first "
                     "(giraff-console stop --daemon), then survey", EXIT_USAGE)  # fmt: skip
     try:
-        robot = HeadlessRobot(args, settings, port, example, surveying=_surveying(args))
+        robot = Robot(options, settings, example, notes=print_note)
+    except UsageError as error:
+        return fail(str(error), EXIT_USAGE)
+    with robot:
+        return _survey(robot, args, settings)
+
+
+def _survey(robot: Robot, args: argparse.Namespace, settings: Settings) -> int:
+    try:
         # The plan as its file has it: the markers a survey of some rooms keeps, and
         # their heights, which the camera cannot measure well.
         given = load_floorplan(robot.plan.path)
-    except (UsageError, FloorPlanError) as error:
+    except FloorPlanError as error:
         return fail(str(error), EXIT_USAGE)
     plan = robot.plan
-    assert plan.landmarks is not None  # HeadlessRobot gave it the markers to look for
+    assert plan.landmarks is not None  # the robot was given the markers to look for
     if plan.start is None:
         return fail(f"{plan.path}: a survey starts on the dock: the plan names no start room",
                     EXIT_USAGE)  # fmt: skip
@@ -126,7 +139,7 @@ def run_survey(args: argparse.Namespace, settings: Settings, port: str | None,
                    control.period, control.note,
                    looked_round=lambda: redraw_map(control.localisation, walls))  # fmt: skip
     ended: list[MissionEnd] = []
-    if not robot.run(mission, ended.append):
+    if not run_mission(robot, mission, ended.append):
         return fail("no answer from the board", EXIT_FAILED)
     control.localisation.end_survey()
     found = surveyed(given, log, plan.landmarks.family, plan.landmarks.size)
@@ -148,7 +161,7 @@ def run_survey(args: argparse.Namespace, settings: Settings, port: str | None,
 
 def _surveying(args: argparse.Namespace) -> Landmarks:
     """The markers to look for, for a plan that has no `landmarks:` key: the options'
-    family and size (HeadlessRobot takes the plan's own where it has them)."""
+    family and size (the robot takes the plan's own where it has them)."""
     if not (args.size > 0 and math.isfinite(args.size)):
         raise UsageError("--size must be a positive number of metres")
     return Landmarks(args.family, args.size, ())

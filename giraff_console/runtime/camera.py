@@ -30,10 +30,10 @@ from giraff_console.planning.landmarks import marker_beliefs, marker_detector
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.marker_eye import hand_on
+from giraff_console.runtime.sim_site import plan_world, shut_doors
 from giraff_console.sim.camera import WorldCamera
 from giraff_console.sim.surroundings import Surroundings
 from giraff_console.sim.world import World, demo_world
-from giraff_console.sim_site import plan_world, shut_doors
 
 
 def camera_feed(

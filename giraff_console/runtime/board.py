@@ -1,14 +1,12 @@
-"""The robot's parts as every front end puts them together, written once (issue 15).
-
-The console in its own process, `go`, `patrol` and the daemon all connect to a board
-(a real port, or the one built-in simulator), run the same control loop on the settings
-file's rates and limits, and keep routes and recordings in the same folders. What
-differs between them is only what they add: the console a camera, `go` a progress
-bar, the daemon a socket.
+"""The board the robot is driven through, and the control loop on it: a real port by
+name, or the one built-in simulator in the process (its URL, and its board made with or
+without the random faults); the loop on the settings file's rates and limits; the route
+book and the pose kept beside it. Parts of the composition root (runtime/robot.py).
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import serial
@@ -25,6 +23,7 @@ from giraff_console.robot.localisation import PoseBasis
 from giraff_console.robot.pose_keeper import PoseKeeper, PoseKeeperError, read_kept
 from giraff_console.robot.teleop import Teleop
 from giraff_console.settings import Settings
+from giraff_console.sim import GiraffBoard
 
 
 def board_connector(port: str | None, settings: Settings,
@@ -92,3 +91,32 @@ def keep_the_pose(control: ControlLoop, plan: Path) -> PoseKeeper:
     keeper = PoseKeeper(path, plan)
     control.subscribe(keeper.hear)
     return keeper
+
+
+IN_PROCESS_SIMULATOR = "giraff-sim://"
+
+
+def simulator_url(firmware: str | None, *, virtual_clock: bool = False,
+                  imperfect_seed: int | None = None) -> str:  # fmt: skip
+    """The in-process simulator's URL: with the firmware asked for (if any), on a
+    virtual clock, with the imperfection model seeded."""
+    options = ["clock=virtual"] if virtual_clock else []
+    if imperfect_seed is not None:
+        options += ["imperfect=1", f"seed={imperfect_seed}"]
+    if firmware is not None:
+        options.append(f"firmware={firmware}")
+    return IN_PROCESS_SIMULATOR + ("?" + "&".join(options) if options else "")
+
+
+def built_in_simulator(firmware: str | None, seed: int | None, faults: bool) -> serial.SerialBase:
+    """The built-in simulator on a virtual clock, its board made here so that the
+    imperfections can leave out the random stalls and ESTOPs (`--faults off`)."""
+    url = simulator_url(firmware, virtual_clock=True, imperfect_seed=seed)
+    simulator = serial.serial_for_url(url, do_not_open=True)
+    config, _ = simulator.from_url(url)  # also gives the port its virtual clock
+    if not faults:
+        quiet = replace(config.imperfections, stall_rate=0.0, estop_rate=0.0)
+        config = replace(config, imperfections=quiet)
+    simulator.board = GiraffBoard(simulator.clock, config)
+    simulator.open()
+    return simulator

@@ -32,6 +32,7 @@ import struct
 import sys
 from collections.abc import Mapping, Sequence
 
+from giraff_console.cli.simulator_options import add_firmware_option
 from giraff_console.link import DEFAULT_TIMEOUT_S, BoardLink, LinkError, probe
 from giraff_console.protocol import (
     BoardError,
@@ -48,12 +49,8 @@ from giraff_console.protocol import (
 from giraff_console.robot.command_guard import check_command, check_line
 from giraff_console.robot.teleop import DriveLimits
 from giraff_console.robot.wheel_odometers import choose_reading
+from giraff_console.runtime.board import IN_PROCESS_SIMULATOR, simulator_url
 from giraff_console.settings import SettingsError, load_settings
-from giraff_console.simulator_options import (
-    IN_PROCESS_SIMULATOR,
-    add_firmware_option,
-    simulator_url,
-)
 
 EXIT_SENT, EXIT_REFUSED, EXIT_USAGE, EXIT_LINK_ERROR = 0, 1, 2, 3
 # What a move uses and the board can read back (A.4: every `set` has its `get`).

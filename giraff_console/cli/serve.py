@@ -23,27 +23,15 @@ import sys
 import threading
 from pathlib import Path
 
-from giraff_console.data_folders import (
-    data_folder,
-    default_recordings,
-    default_routes,
-)
-from giraff_console.headless import (
-    EXIT_USAGE,
-    HeadlessRobot,
-    UsageError,
-    add_folder_options,
-    add_robot_options,
-    fail,
-)
-from giraff_console.missions.sessions import Sessions
-from giraff_console.recording.session import RecordingSetup
-from giraff_console.robot.last_stop import SIGNALS, LastStop
+from giraff_console.cli.drive import EXIT_USAGE
+from giraff_console.cli.options import add_folder_options, add_robot_options, robot_options
+from giraff_console.cli.report import fail
+from giraff_console.robot.last_stop import SIGNALS
 from giraff_console.robot.loop_events import LoopEvent, Note
-from giraff_console.robot_setup import route_book
+from giraff_console.runtime.options import UsageError
+from giraff_console.runtime.robot import Robot
 from giraff_console.service.daemon import Daemon
 from giraff_console.service.patrol_schedule import PatrolSchedule
-from giraff_console.service.robot_service import RobotService
 from giraff_console.service.runtime_folder import runtime_folder, socket_path
 from giraff_console.service.transport import TransportError
 from giraff_console.service.virtual_port import VirtualPort
@@ -98,35 +86,32 @@ def add_serve_parser(commands: argparse._SubParsersAction, example: Path) -> Non
     add_folder_options(serve, after_command=True)
 
 
-def run_serve(args: argparse.Namespace, settings: Settings, port: str | None,
-              example: Path) -> int:  # fmt: skip
+def run_serve(args: argparse.Namespace, settings: Settings, example: Path) -> int:
     """Serve the robot until a signal ends the daemon."""
     journal = Journal()
     try:
         # The journal hears the notes from the start: where the robot is taken to be,
         # and what the camera can do, are said as it is set up.
-        robot = HeadlessRobot(args, settings, port, example, notes=journal.hear)
+        robot = Robot(robot_options(args, settings), settings, example, notes=journal.hear)
     except UsageError as error:
         journal.close()
         return fail(str(error), EXIT_USAGE)
-    control = robot.control
-    recordings = data_folder(getattr(args, "recordings", None), settings.recordings,
-                             default_recordings())  # fmt: skip
-    sessions = Sessions(control, None, recordings, RecordingSetup(port=port or "simulator",
-                        camera={}), control.note)  # fmt: skip
-    routes = route_book(control, sessions,
-                        data_folder(getattr(args, "routes", None), settings.routes,
-                                    default_routes()), robot.drives, settings)  # fmt: skip
-    service = RobotService(control, robot.drives, building=robot.site, routes=routes,
-                           sessions=sessions,
-                           undock_distance=settings.teleop.undock_distance)  # fmt: skip
+    try:
+        with robot:
+            return _serve(robot, args, settings, example)
+    finally:
+        journal.close()  # after the robot's last notes
+
+
+def _serve(robot: Robot, args: argparse.Namespace, settings: Settings, example: Path) -> int:
+    service, control = robot.service, robot.control
     try:
         path = socket_path(runtime_folder())
         daemon = Daemon(service, path, (args.floorplan or example).resolve(),
                         simulator=robot.site is not None)  # fmt: skip
     except TransportError as error:
         return fail(str(error), EXIT_USAGE)
-    schedule = PatrolSchedule(service, settings.schedule, routes.runs)
+    schedule = PatrolSchedule(service, settings.schedule, robot.routes.runs)
     port_for_others = None
     if args.virtual_port:
         try:
@@ -146,12 +131,8 @@ def run_serve(args: argparse.Namespace, settings: Settings, port: str | None,
     # Before any thread starts: a signal stops the robot from the loop's own thread,
     # then the daemon stops taking consoles and ends.
     signal.signal(signal.SIGHUP, signal.SIG_IGN)
-    last_stop = LastStop(control, leave=lambda why: daemon.stop(),
-                         signals=SIGNALS - {signal.SIGHUP})  # fmt: skip
-    last_stop.install()
-    control.start(stepped=robot.stepped)
-    if robot.camera is not None:
-        robot.camera.start()
+    last_stop = robot.guard(leave=lambda why: daemon.stop(), signals=SIGNALS - {signal.SIGHUP})
+    robot.start()
     sys.stderr.write(f"giraff-console: serving the robot at {path}\n")
     if robot.stepped is None:
         sys.stderr.write(f"giraff-console: the control loop runs at {control.priority}\n")
@@ -171,9 +152,4 @@ def run_serve(args: argparse.Namespace, settings: Settings, port: str | None,
         schedule.stop()
         if port_for_others is not None:
             port_for_others.close()
-        service.close()
-        control.stop()
-        robot.close()
-        journal.close()
-        last_stop.uninstall()
     return 128 + last_stop.signalled if last_stop.signalled is not None else 0

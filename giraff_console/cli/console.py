@@ -1,0 +1,131 @@
+"""`giraff-console` (and `giraff-console replay SESSION`): the operator's console.
+
+On the robot in this process (runtime/robot.py, §3.2: the simulator when no board is
+given), or attached to the daemon when one runs, as one more of its consoles: the same
+screen either way (tui/app.py).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from giraff_console.camera.processors import Undistortion
+from giraff_console.cli.daemon import attach_if_running
+from giraff_console.cli.drive import EXIT_USAGE
+from giraff_console.cli.options import robot_options
+from giraff_console.cli.report import fail
+from giraff_console.clock import RealClock
+from giraff_console.missions.navigation import Navigator
+from giraff_console.planning.floorplan import FloorPlan, FloorPlanError, load_floorplan
+from giraff_console.planning.route_planner import walls_of
+from giraff_console.recording.playback import open_log
+from giraff_console.recording.session import SessionError
+from giraff_console.runtime.options import UsageError
+from giraff_console.runtime.robot import Robot
+from giraff_console.service.remote import RemoteRobot
+from giraff_console.service.runtime_folder import socket_path
+from giraff_console.settings import Settings
+
+
+def run_console(args: argparse.Namespace, settings: Settings, example: Path) -> int:
+    """The operator console on a real board or the simulator (§3.2: it falls back)."""
+    from giraff_console.tui.app import GiraffConsole
+
+    if args.calibration:
+        try:
+            Undistortion.from_file(args.calibration)
+        except (OSError, ValueError) as error:
+            return fail(str(error), EXIT_USAGE)
+    attached = attach_if_running(args, "console", take=True)
+    if isinstance(attached, int):
+        return attached
+    if attached is not None:
+        return run_attached_console(attached, args, settings, example)
+    if args.command == "replay":
+        try:
+            log_path, log = open_log(args.session)
+        except SessionError as error:
+            return fail(str(error), EXIT_USAGE)
+        if not log.entries:
+            return fail(f"nothing to play in {log_path}", EXIT_USAGE)
+    try:
+        robot = Robot(robot_options(args, settings, screen=True), settings, example)
+    except UsageError as error:
+        return fail(str(error), EXIT_USAGE)
+    plan = robot.plan
+    with robot:
+        app = GiraffConsole(
+            robot.service,
+            clock=robot.control.clock,
+            control=robot.control,
+            simulator=robot.site is not None,
+            camera=robot.camera,
+            undock_distance=settings.teleop.undock_distance,
+            battery_low=settings.battery.low,
+            play=args.session if args.command == "replay" else None,
+            navigator=robot.navigator,
+            started=robot.start,
+        )
+        app.notes_at_start.append(plan_note(plan))
+        app.notes_at_start.extend(robot.notes_at_start)
+        # Signals and crashes stop the robot from the loop's own thread, then the console
+        # leaves; installed before any thread starts (the loop's, the camera's).
+        last_stop = robot.guard(leave=lambda why: app.exit(return_code=1))
+        app.crashed = last_stop.crashed
+        app.run()
+    if last_stop.signalled is not None:
+        return 128 + last_stop.signalled
+    # Non-zero if the console itself failed; the robot was stopped all the same.
+    return app.return_code or 0
+
+
+def run_attached_console(robot: RemoteRobot, args: argparse.Namespace, settings: Settings,
+                         example: Path) -> int:  # fmt: skip
+    """The console on a running daemon's robot: the map from the daemon's floor plan.
+    Quitting, or the terminal going, leaves the daemon's missions running; a key held
+    is let go of by the daemon (service/daemon.py)."""
+    from giraff_console.tui.app import GiraffConsole
+
+    welcome = robot.welcome
+    navigator = None
+    note = "floor plan: none"
+    try:
+        plan = load_floorplan(welcome.floorplan or example)
+        navigator, note = Navigator(plan, walls_of(plan), settings.robot_radius), plan_note(plan)
+    except (FloorPlanError, OSError) as error:
+        note = f"no map: {error}"
+    app = GiraffConsole(
+        robot,
+        clock=RealClock(),
+        simulator=welcome.simulator,
+        attached=str(socket_path()),
+        undock_distance=settings.teleop.undock_distance,
+        battery_low=settings.battery.low,
+        play=args.session if args.command == "replay" else None,
+        navigator=navigator,
+    )
+    app.notes_at_start.append(note)
+    app.controls = welcome.controls
+    app.route = welcome.route
+    situation = welcome.situation
+    last = situation.last_mission
+    if last is not None and last.end is not None:
+        app.notes_at_start.append(f"the last mission, {last.name}, ended: {last.end.words}")
+    if situation.mission is not None:
+        app.notes_at_start.append(f"running now: {situation.mission}")
+    holder = welcome.controls.holder
+    app.notes_at_start.append("you hold the controls" if holder == robot.console else
+                              f"watching: {holder or 'nobody'} holds the controls "
+                              "(Ctrl+T takes them)")  # fmt: skip
+    try:
+        app.run()
+    finally:
+        robot.close()
+    return app.return_code or 0
+
+
+def plan_note(plan: FloorPlan) -> str:
+    """What the status log says of the floor plan the console is on."""
+    where = f", starting in {plan.start}" if plan.start else ""
+    return f"floor plan: {plan.name} ({len(plan.rooms)} rooms){where}"

@@ -1,0 +1,300 @@
+"""One mission driven to its end from the command line, through the robot service: `go`
+and `patrol`, on the robot in this process (runtime/robot.py) or on the daemon's across
+its socket, the same way (issue 26). The notes and the progress go to standard error;
+how it ended to standard output, in words or as JSON, and in the exit code.
+
+How a mission ends decides the exit code (Outcome, robot/mission.py): `--help` and the
+README list them from EXIT_CODES below.
+"""
+
+from __future__ import annotations
+
+import queue
+import sys
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import rich.progress
+from rich.console import Console
+
+from giraff_console.missions.go_to import GoReport
+from giraff_console.robot.loop_events import MissionChanged, Note
+from giraff_console.robot.mission import TEXT_BAR, Mission, MissionEnd, Outcome, Progress
+from giraff_console.robot.telemetry import LinkState, Telemetry
+from giraff_console.runtime.robot import Robot
+from giraff_console.service import commands as c
+from giraff_console.service.events import GoReported, Reply, ServiceEvent
+from giraff_console.service.remote import RemoteRobot
+
+EXIT_ARRIVED = 0  # also: a patrol whose every stop was reached, confirmed
+EXIT_FAILED = 1
+EXIT_USAGE = 2
+EXIT_UNVERIFIED = 3
+EXIT_STOPPED = 4
+EXIT_BOARD = 5
+EXIT_NOT_STARTED = 6
+# How each outcome ends the command.
+EXIT_CODES: dict[Outcome, int] = {
+    Outcome.ARRIVED: EXIT_ARRIVED,
+    Outcome.DONE: EXIT_ARRIVED,
+    Outcome.ARRIVED_UNVERIFIED: EXIT_UNVERIFIED,
+    Outcome.STALLED: EXIT_FAILED,
+    Outcome.BLOCKED: EXIT_FAILED,
+    Outcome.LOST: EXIT_FAILED,
+    Outcome.FAILED: EXIT_FAILED,
+    Outcome.REFUSED: EXIT_FAILED,
+    Outcome.STOPPED_BY_OPERATOR: EXIT_STOPPED,
+    Outcome.CANCELLED: EXIT_STOPPED,
+    Outcome.HALTED: EXIT_STOPPED,
+    Outcome.ESTOP: EXIT_BOARD,
+    Outcome.LINK_LOST: EXIT_BOARD,
+    Outcome.NOT_STARTED: EXIT_NOT_STARTED,
+    Outcome.UNVERIFIED: EXIT_NOT_STARTED,
+}
+EXIT_HELP = (
+    "Exit codes: 0 arrived with the pose confirmed by a marker (a patrol: every stop); "
+    "1 did not get there (stalled, blocked, lost, failed, a command refused; a patrol: a "
+    "stop missed), or no answer from the board; 2 a mistake in the command; 3 arrived, "
+    "but nothing confirmed the pose; 4 stopped by the operator, a signal or another "
+    "mission; 5 the board's ESTOP, or the link to it lost; 6 not started (the pose "
+    "cannot be trusted, or a playback runs)."
+)
+# Seconds between lines of progress when standard error is not a terminal.
+PROGRESS_EVERY_S = 5.0
+# Seconds of real time to wait for the board's first answer, and for the service's
+# answer to the request (planning a route over a large building included).
+CONNECT_TIMEOUT_S = 10.0
+REPLY_TIMEOUT_S = 60.0
+
+
+@dataclass(frozen=True)
+class Ended:
+    """How the mission asked for ended, with a go's report."""
+
+    name: str
+    end: MissionEnd
+    report: GoReport | None = None
+
+
+def print_note(event: ServiceEvent) -> None:
+    """The robot's notes on standard error, where `go` and `patrol` say everything."""
+    if isinstance(event, Note):
+        # One write for the line and its end: notes come from several threads, and
+        # print's two writes would let another's run into this one.
+        sys.stderr.write(f"giraff-console: {event.text}\n")
+        sys.stderr.flush()
+
+
+def mission_name(request: c.Go | c.RunPatrol) -> str:
+    return f"go {request.room}" if isinstance(request, c.Go) else f"patrol {request.name}"
+
+
+def follow(events: queue.Queue[ServiceEvent], name: str, *, wants_report: bool,
+           gone: Callable[[], bool], also: Callable[[ServiceEvent], None] = lambda e: None,
+           ) -> Ended | None:  # fmt: skip
+    """Wait for the mission `name` to end, drawing its progress on standard error and
+    handing every event to `also`; None if the robot goes first (`gone`). A go waits
+    for its report too, which the service sends just after the end."""
+    started = False
+    ended: MissionEnd | None = None
+    shown = ProgressShown()
+    try:
+        while not gone():
+            try:
+                event = events.get(timeout=0.5)
+            except queue.Empty:
+                shown.draw(None)
+                continue
+            also(event)
+            if isinstance(event, Telemetry):
+                shown.draw(event.mission)
+            elif isinstance(event, MissionChanged) and event.name == name:
+                if event.running:
+                    started = True
+                elif event.end is not None and (
+                    started or event.end.outcome is Outcome.NOT_STARTED
+                ):
+                    ended = event.end
+                    if not wants_report:
+                        return Ended(name, ended)
+            elif isinstance(event, GoReported) and ended is not None:
+                return Ended(name, ended, event.report)
+    finally:
+        shown.close()
+    return None
+
+
+def drive_here(robot: Robot, request: c.Go | c.RunPatrol,
+               also: Callable[[ServiceEvent], None] = lambda event: None,
+               ) -> Ended | Reply | None:  # fmt: skip
+    """Start the robot in this process, ask its service for `request` as soon as the
+    board answers, and follow the mission to its end: how it ended, the service's
+    refusal, or None if the board never answered. The robot is stopped by the caller's
+    `with`. A signal stops the robot first and ends the mission (robot/last_stop.py)."""
+    service = robot.service
+    events: queue.Queue[ServiceEvent] = queue.Queue()
+    replies: queue.Queue[Reply] = queue.Queue()
+    connected = threading.Event()
+
+    def on_first_tick(event: ServiceEvent) -> None:
+        if not (isinstance(event, Telemetry) and event.link is LinkState.CONNECTED):
+            return
+        if not connected.is_set():
+            connected.set()
+            if robot.stepped is not None:
+                # On the loop's thread, at the first tick that has the board: the mission
+                # is planned and starts at the same virtual time however fast the clock
+                # runs, before any frame the eye takes could make a run differ.
+                replies.put(service.execute(request))
+
+    service.subscribe(events.put)
+    service.subscribe(on_first_tick)
+    robot.guard()
+    robot.start()
+    if not connected.wait(CONNECT_TIMEOUT_S):
+        return None
+    if robot.stepped is None:
+        replies.put(service.execute(request))
+    reply = replies.get(timeout=REPLY_TIMEOUT_S)
+    if not reply.ok:
+        return reply
+    return follow(events, mission_name(request), wants_report=isinstance(request, c.Go),
+                  gone=lambda: False, also=also)  # fmt: skip
+
+
+def drive_there(remote: RemoteRobot, request: c.Go | c.RunPatrol,
+                also: Callable[[ServiceEvent], None] = lambda event: None,
+                ) -> Ended | Reply | None:  # fmt: skip
+    """Ask the daemon for `request` and follow the mission to its end; None if the
+    daemon goes first. Ctrl-C stops the robot, as it does `go` on its own."""
+    events: queue.Queue[ServiceEvent] = queue.Queue()
+    remote.subscribe(events.put)
+    try:
+        reply = remote.execute(request)
+        if not reply.ok:
+            return reply
+        if reply.text:
+            print(f"giraff-console: {reply.text}", file=sys.stderr)
+        return follow(events, mission_name(request), wants_report=isinstance(request, c.Go),
+                      gone=lambda: remote.gone is not None, also=also)  # fmt: skip
+    except KeyboardInterrupt:
+        # A stop, which also ends a mission still being planned (RobotService).
+        stopped = remote.execute(c.Halt(), timeout=2.0)
+        print(f"giraff-console: {'stopped' if stopped.ok else stopped.text} (Ctrl-C)",
+              file=sys.stderr)  # fmt: skip
+        raise
+    finally:
+        remote.close()
+
+
+def run_mission(robot: Robot, mission: Mission, ended: Callable[[MissionEnd], None],
+                meanwhile: Callable[[], None] = lambda: None) -> bool:  # fmt: skip
+    """Start the robot, drive `mission` (one the service has no request for: a patrol's
+    timed run, a survey) to its end, and stop the robot; False if the board never
+    answered. `ended` gets how it ended, on the loop's thread; `meanwhile` is called on
+    this thread every half second while it drives, and once after. The robot is
+    stopped by the caller's `with`."""
+    control = robot.control
+    connected, done = threading.Event(), threading.Event()
+
+    def finish(end: MissionEnd) -> None:
+        try:
+            ended(end)
+        finally:
+            done.set()  # whatever the report did: the command must end
+
+    def start(event: ServiceEvent) -> None:
+        # On the loop's thread, at the first tick that has the board: the mission
+        # starts at the same virtual time however fast the clock runs.
+        if isinstance(event, Telemetry) and event.link is LinkState.CONNECTED \
+                and not connected.is_set():  # fmt: skip
+            connected.set()
+            try:
+                control.run_mission(mission, finish)
+            except Exception:
+                # The command must not wait on it.
+                finish(MissionEnd(Outcome.HALTED, "stopped: internal error"))
+                raise
+
+    robot.service.subscribe(start)
+    robot.guard()
+    robot.start()
+    if not connected.wait(CONNECT_TIMEOUT_S):
+        return False
+    shown = ProgressShown()
+    try:
+        while not done.wait(0.5):
+            shown.draw(mission.progress)
+            meanwhile()
+    finally:
+        shown.close()
+    meanwhile()
+    return True
+
+
+def exit_code(end: MissionEnd) -> int:
+    return EXIT_CODES[end.outcome]
+
+
+class ProgressShown:
+    """The mission's progress on standard error: drawn with rich on a terminal, else
+    its line every few seconds, as logs and the tests read it."""
+
+    def __init__(self, clock: Callable[[], float] = time.monotonic) -> None:
+        self._clock = clock
+        self._terminal = sys.stderr.isatty()
+        self._shown_at = clock()
+        self._latest: Progress | None = None
+        self._bars: rich.progress.Progress | None = None
+        self._rows: list[rich.progress.TaskID] = []
+        self._shape: list[bool] = []
+
+    def draw(self, progress: Progress | None) -> None:
+        if progress is not None:
+            self._latest = progress
+        if self._clock() - self._shown_at < (0.5 if self._terminal else PROGRESS_EVERY_S):
+            return
+        self._shown_at = self._clock()
+        latest = self._latest
+        if latest is None:
+            return
+        if not self._terminal:
+            print(latest.line(), file=sys.stderr)
+            return
+        self._draw_bars(latest)
+
+    def _draw_bars(self, progress: Progress) -> None:
+        # A row for the mission and one for the part under way (a patrol's stop). Notes
+        # printed meanwhile go above the rows; so does standard output if it is the
+        # terminal too, but not if it is piped (the JSON lines of --json).
+        if self._bars is None:
+            columns = (
+                rich.progress.TextColumn("{task.description}", markup=False),
+                rich.progress.BarColumn(bar_width=TEXT_BAR),
+                rich.progress.TextColumn("{task.fields[words]}", markup=False),
+            )
+            self._bars = rich.progress.Progress(
+                *columns, console=Console(stderr=True), auto_refresh=False,
+                redirect_stdout=sys.stdout.isatty(),
+            )  # fmt: skip
+            self._bars.start()
+        bars = self._bars
+        parts = [part for part in (progress, progress.detail) if part is not None]
+        if [part.total_m is not None for part in parts] != self._shape:
+            # A row's bar measures metres or, without them, pulses; rich cannot take a
+            # row's total away again, so the rows are made anew.
+            for row in self._rows:
+                bars.remove_task(row)
+            self._rows = [bars.add_task(part.name, total=part.total_m, words="")
+                          for part in parts]  # fmt: skip
+            self._shape = [part.total_m is not None for part in parts]
+        for row, part in zip(self._rows, parts, strict=True):
+            bars.update(row, description=part.name, completed=part.done_m or 0.0,
+                        total=part.total_m, words=part.words())  # fmt: skip
+        bars.refresh()
+
+    def close(self) -> None:
+        if self._bars is not None:
+            self._bars.stop()
