@@ -17,7 +17,13 @@ from giraff_console import __version__
 from giraff_console.camera.feed import DEFAULT_FPS
 from giraff_console.camera.processors import FAST_THRESHOLD
 from giraff_console.cli.console import run_console
-from giraff_console.cli.daemon import add_daemon_parsers, run_patrols, run_status, run_stop
+from giraff_console.cli.daemon import (
+    add_daemon_parsers,
+    run_patrols,
+    run_status,
+    run_stop,
+    run_watch,
+)
 from giraff_console.cli.go import add_go_parser, run_go
 from giraff_console.cli.options import add_board_options, add_folder_options
 from giraff_console.cli.patrol import add_patrol_parser, run_patrol
@@ -364,6 +370,8 @@ def run(args: argparse.Namespace) -> int:
         return run_stop(args)
     if args.command == "patrols":
         return run_patrols(args)
+    if args.command == "watch":
+        return run_watch(args)
     if args.command == "floorplan" and args.floorplan_command == "show":
         return run_floorplan_show(args)
     if args.command == "floorplan" and args.floorplan_command == "import":

@@ -11,7 +11,7 @@ import argparse
 from pathlib import Path
 
 from giraff_console.camera.processors import Undistortion
-from giraff_console.cli.daemon import attach_if_running
+from giraff_console.cli.daemon import attach_if_running, daemon_robot
 from giraff_console.cli.drive import EXIT_USAGE
 from giraff_console.cli.options import robot_options
 from giraff_console.cli.report import fail
@@ -23,6 +23,7 @@ from giraff_console.recording.playback import open_log
 from giraff_console.recording.session import SessionError
 from giraff_console.runtime.options import UsageError
 from giraff_console.runtime.robot import Robot
+from giraff_console.service.reattach import Reattaching
 from giraff_console.service.remote import RemoteRobot
 from giraff_console.service.runtime_folder import socket_path
 from giraff_console.settings import Settings
@@ -80,13 +81,16 @@ def run_console(args: argparse.Namespace, settings: Settings, example: Path) -> 
     return app.return_code or 0
 
 
-def run_attached_console(robot: RemoteRobot, args: argparse.Namespace, settings: Settings,
+def run_attached_console(first: RemoteRobot, args: argparse.Namespace, settings: Settings,
                          example: Path) -> int:  # fmt: skip
     """The console on a running daemon's robot: the map from the daemon's floor plan.
     Quitting, or the terminal going, leaves the daemon's missions running; a key held
     is let go of by the daemon (service/daemon.py)."""
     from giraff_console.tui.app import GiraffConsole
 
+    # Through the daemon's restarts: attached again by itself, asking for the controls
+    # as at the start (service/reattach.py).
+    robot = Reattaching(first, lambda: daemon_robot("console", take=True))
     welcome = robot.welcome
     navigator = None
     note = "floor plan: none"
@@ -108,16 +112,7 @@ def run_attached_console(robot: RemoteRobot, args: argparse.Namespace, settings:
     app.notes_at_start.append(note)
     app.controls = welcome.controls
     app.route = welcome.route
-    situation = welcome.situation
-    last = situation.last_mission
-    if last is not None and last.end is not None:
-        app.notes_at_start.append(f"the last mission, {last.name}, ended: {last.end.words}")
-    if situation.mission is not None:
-        app.notes_at_start.append(f"running now: {situation.mission}")
-    holder = welcome.controls.holder
-    app.notes_at_start.append("you hold the controls" if holder == robot.console else
-                              f"watching: {holder or 'nobody'} holds the controls "
-                              "(Ctrl+T takes them)")  # fmt: skip
+    app.notes_at_start.extend(app.welcomed(welcome))
     try:
         app.run()
     finally:

@@ -12,20 +12,30 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import queue
 import signal
 import sys
-from dataclasses import asdict
+import time
 from pathlib import Path
 
 from giraff_console.data_folders import patrol_runs
+from giraff_console.link import Exchange
 from giraff_console.missions.patrol_log import list_runs
 from giraff_console.robot.last_stop import SIGNALS
+from giraff_console.robot.loop_events import MissionChanged, Note
+from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
+from giraff_console.service import wire
+from giraff_console.service.events import ServiceEvent
 from giraff_console.service.remote import DaemonGone, RemoteRobot, console_name
 from giraff_console.service.runtime_folder import socket_path
+from giraff_console.service.status import status_json, status_lines
 from giraff_console.service.transport import NoDaemon, TransportError
 
 EXIT_DONE, EXIT_FAILED, EXIT_USAGE, EXIT_NO_DAEMON = 0, 1, 2, 3
+# Events `watch` holds for a reader slower than the robot.
+WATCH_QUEUE = 1000
 
 
 def add_daemon_parsers(commands: argparse._SubParsersAction) -> None:
@@ -58,6 +68,21 @@ def add_daemon_parsers(commands: argparse._SubParsersAction) -> None:
     )
     patrols.add_argument("--json", action="store_true", help="one JSON object a line")
     patrols.add_argument("--last", type=int, metavar="N", help="only the N newest")
+    watch = commands.add_parser(
+        "watch",
+        help="follow what the robot's daemon says, as it says it",
+        description="Attach to the running daemon as a console that does not ask for the "
+        "controls, and print what the robot says until Ctrl-C: its notes, missions "
+        "starting and ending, and (with --json) every event as one JSON object a line, "
+        "tagged with its type as the daemon's socket carries it (docs/daemon.md), but "
+        "the loop's own polls of the board. "
+        "Exits 0 on Ctrl-C, 1 when the daemon goes, 3 when none runs.",
+    )
+    watch.add_argument("--json", action="store_true", help="every event, one JSON object a line")
+    watch.add_argument(
+        "--telemetry-hz", type=float, default=2.0, metavar="HZ",
+        help="at most this many snapshots a second (the loop makes 20; default: %(default)g)",
+    )  # fmt: skip
 
 
 def daemon_robot(kind: str, take: bool = False) -> RemoteRobot:
@@ -77,25 +102,80 @@ def run_status(args: argparse.Namespace) -> int:
     robot.close()
     situation = robot.welcome.situation
     # The console asking is attached too; it is not one of those it reports.
-    consoles = [name for name in situation.consoles if name != robot.console]
+    consoles = tuple(name for name in situation.consoles if name != robot.console)
     if args.json:
-        last = situation.last_mission
-        ended = None
-        if last is not None and last.end is not None:
-            # An outcome is printed as `go --json` prints it: its value.
-            ended = {"name": last.name, "running": False, "outcome": last.end.outcome.value,
-                     "why": last.end.why, "detail": last.end.detail}  # fmt: skip
-        data = asdict(situation) | {"consoles": consoles, "socket": str(socket_path()),
-                                    "last_mission": ended}  # fmt: skip
-        print(json.dumps(data))
-        return EXIT_DONE
-    last = situation.last_mission
-    print(f"mission: {situation.mission or 'none'}")
-    print(f"controls: {situation.holder or 'free'}; consoles: {', '.join(consoles) or 'none'}")
-    print(f"last mission: {f'{last.name}: {last.end.words}' if last and last.end else 'none'}")
-    if situation.recording or situation.playing:
-        print("recording" if situation.recording else "playing back")
+        print(json.dumps(status_json(situation, consoles) | {"socket": str(socket_path())}))
+    else:
+        for line in status_lines(situation, consoles):
+            print(line)
     return EXIT_DONE
+
+
+def run_watch(args: argparse.Namespace) -> int:
+    if not args.telemetry_hz > 0:
+        print("giraff-console: --telemetry-hz must be positive", file=sys.stderr)
+        return EXIT_USAGE
+    robot = _attach("watch")
+    if robot is None:
+        return EXIT_NO_DAEMON
+    # Bounded: a reader that cannot keep up (a pipe nobody reads) loses events, counted,
+    # rather than the daemon's memory or this process's.
+    events: queue.Queue[ServiceEvent] = queue.Queue(maxsize=WATCH_QUEUE)
+    dropped = 0
+
+    def heard(event: ServiceEvent) -> None:
+        nonlocal dropped
+        try:
+            events.put_nowait(event)
+        except queue.Full:
+            dropped += 1
+
+    robot.subscribe(heard)
+    every, shown_at = 1.0 / args.telemetry_hz, -math.inf
+    try:
+        while robot.gone is None or not events.empty():
+            try:
+                event = events.get(timeout=0.5)
+            except queue.Empty:
+                continue
+            if isinstance(event, Exchange) and event.automatic:
+                continue  # the loop's own polls, twenty a second: the snapshots say them
+            if isinstance(event, Telemetry):
+                if time.monotonic() - shown_at < every:
+                    continue
+                shown_at = time.monotonic()
+            _say(event, args.json)
+            if dropped:
+                print(json.dumps({"type": "Dropped", "events": dropped}) if args.json else
+                      f"giraff-console: {dropped} events dropped: not read fast enough",
+                      flush=True)  # fmt: skip
+                dropped = 0
+    except KeyboardInterrupt:
+        # Ctrl-C ends it; what was heard before is still said, and a second Ctrl-C does
+        # not cut the hang-up short.
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        while not events.empty():
+            event = events.get_nowait()
+            if not isinstance(event, Telemetry | Exchange):
+                _say(event, args.json)
+        return EXIT_DONE
+    finally:
+        robot.close()
+    print(f"giraff-console: {robot.gone}", file=sys.stderr)
+    return EXIT_FAILED
+
+
+def _say(event: ServiceEvent, as_json: bool) -> None:
+    """One event: as the socket carries it, or in words where it has any."""
+    if as_json:
+        print(json.dumps(wire.encode(event)), flush=True)
+    elif isinstance(event, Note):
+        print(event.text, flush=True)
+    elif isinstance(event, MissionChanged):
+        said = "started" if event.end is None else f"ended: {event.end.words}"
+        print(f"{event.name} {said}", flush=True)
+    elif isinstance(event, Telemetry) and event.mission is not None:
+        print(event.mission.line(), flush=True)
 
 
 def run_stop(args: argparse.Namespace) -> int:

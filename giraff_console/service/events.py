@@ -14,6 +14,7 @@ from typing import Protocol, TypeAlias
 from giraff_console.missions.go_to import GoReport
 from giraff_console.missions.navigation import NavigationState
 from giraff_console.robot.loop_events import LoopEvent, MissionChanged
+from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
 
 
@@ -61,7 +62,8 @@ class RoomRenamed:
 
 @dataclass(frozen=True)
 class Situation:
-    """The answer to `status`: what runs, who drives, how the last mission ended."""
+    """The answer to `status`: what runs, who drives, how the last mission ended, and the
+    latest snapshot (service/status.py says it)."""
 
     mission: str | None
     holder: str | None
@@ -69,6 +71,8 @@ class Situation:
     last_mission: MissionChanged | None
     recording: bool
     playing: bool
+    # The latest snapshot: where the robot is, the mission's progress, the battery.
+    telemetry: Telemetry | None = None
 
 
 @dataclass(frozen=True)

@@ -53,6 +53,7 @@ from giraff_console.service.events import (
     ServiceListener,
     Situation,
 )
+from giraff_console.service.status import status_lines
 
 # The console that runs the robot in its own process: it holds the controls alone.
 HERE = "this console"
@@ -634,13 +635,7 @@ class RobotService:
 
     def _do_status(self, request: c.Status) -> Reply:
         situation = self.situation()
-        last = situation.last_mission
-        return Reply(True, lines=(
-            f"mission: {situation.mission or 'none'}",
-            f"controls: {situation.holder or 'free'}; consoles: "
-            f"{', '.join(situation.consoles) or 'none'}",
-            f"last mission: {f'{last.name}: {last.end.words}' if last and last.end else 'none'}",
-        ))  # fmt: skip
+        return Reply(True, lines=status_lines(situation, situation.consoles))
 
     def route(self) -> RouteShown | None:
         """The route on the map now, for a console that attaches mid-mission."""
@@ -656,6 +651,7 @@ class RobotService:
             last_mission=last,
             recording=self.sessions is not None and self.sessions.recording,
             playing=self.control.playback is not None,
+            telemetry=self.telemetry,
         )
 
     def note(self, text: str) -> None:

@@ -30,6 +30,7 @@ from giraff_console.robot.loop_events import Note
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
+from giraff_console.service.daemon import Welcome
 from giraff_console.service.events import (
     Controls,
     Robot,
@@ -37,6 +38,7 @@ from giraff_console.service.events import (
     RouteShown,
     ServiceEvent,
 )
+from giraff_console.service.reattach import Attached, Disconnected
 from giraff_console.tui.camera_view import CameraView
 from giraff_console.tui.command_line import CommandLine
 from giraff_console.tui.help_screen import HelpScreen
@@ -48,6 +50,8 @@ from giraff_console.tui.messages import (
     Answer,
     CameraPictureUpdated,
     ControlsChanged,
+    DaemonBack,
+    DaemonLeft,
     ExchangeSeen,
     NavigationChanged,
     RoomNamed,
@@ -216,6 +220,8 @@ class GiraffConsole(RobotKeys, KeyGuard):
         # The latest snapshot: the stalk keys step from the height it reports.
         self.telemetry: Telemetry | None = None
         self.controls: Controls | None = None
+        # Why the daemon this console is attached to has gone, while it is gone.
+        self.disconnected: str | None = None
         self.started = started
         self.timestamp = timestamp
         self.cursor_blink = cursor_blink
@@ -349,6 +355,38 @@ class GiraffConsole(RobotKeys, KeyGuard):
         else:
             self.note(f"watching: {holder or 'nobody'} holds the controls (Ctrl+T takes them)")
 
+    def on_daemon_left(self, message: DaemonLeft) -> None:
+        self.disconnected = message.why
+        self._moving = False
+        self.top_bar.show_disconnected(True)
+        self.note(f"DISCONNECTED: {message.why}; the keys do nothing until a daemon is back, "
+                  "and this console attaches again by itself")  # fmt: skip
+
+    def on_daemon_back(self, message: DaemonBack) -> None:
+        self.disconnected = None
+        self.top_bar.show_disconnected(False)
+        self.note(f"attached again to the robot's daemon at {self.attached}")
+        for text in self.welcomed(message.welcome):
+            self.note(text)
+        self.controls = message.welcome.controls
+        self.route = message.welcome.route
+        self._show_map()
+
+    def welcomed(self, welcome: Welcome) -> list[str]:
+        """What a daemon's welcome says to the operator: how the last mission ended, what
+        runs, and who holds the controls."""
+        said = []
+        situation = welcome.situation
+        last = situation.last_mission
+        if last is not None and last.end is not None:
+            said.append(f"the last mission, {last.name}, ended: {last.end.words}")
+        if situation.mission is not None:
+            said.append(f"running now: {situation.mission}")
+        holder = welcome.controls.holder
+        watching = f"watching: {holder or 'nobody'} holds the controls (Ctrl+T takes them)"
+        said.append("you hold the controls" if holder == welcome.console else watching)
+        return said
+
     def robot_console(self) -> str | None:
         """This console's name as the daemon knows it (None in its own process)."""
         return getattr(self.robot, "console", None)
@@ -401,6 +439,10 @@ class GiraffConsole(RobotKeys, KeyGuard):
             self.post_message(ControlsChanged(event))
         elif isinstance(event, RoomRenamed):
             self.post_message(RoomNamed(event))
+        elif isinstance(event, Disconnected):
+            self.post_message(DaemonLeft(event.why))
+        elif isinstance(event, Attached):
+            self.post_message(DaemonBack(event.welcome))
 
     def _post(self, message: Message) -> None:
         """`post_message` for the callbacks the services make, which return nothing."""
@@ -412,6 +454,8 @@ class GiraffConsole(RobotKeys, KeyGuard):
         """Ask the robot; the answer goes to the status log. A key, a stop, is asked on
         this thread, in the order typed; the others (planning a route takes a few hundred
         milliseconds) in a worker, so that the keys are answered meanwhile."""
+        if self.disconnected is not None:
+            return  # no daemon to ask: the keys do nothing until one is back
         if request.quick:
             self.robot.post(request, lambda reply: self._post(Answer(request, reply)))
         else:

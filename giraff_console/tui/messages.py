@@ -8,6 +8,7 @@ from giraff_console.camera.feed import CameraPicture
 from giraff_console.link import Exchange
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
+from giraff_console.service.daemon import Welcome
 from giraff_console.service.events import Controls, Reply, RoomRenamed, RouteShown
 
 
@@ -80,3 +81,19 @@ class Answer(Message):
         super().__init__()
         self.request = request
         self.reply = reply
+
+
+class DaemonLeft(Message):
+    """The daemon this console is attached to has gone (service/reattach.py)."""
+
+    def __init__(self, why: str) -> None:
+        super().__init__()
+        self.why = why
+
+
+class DaemonBack(Message):
+    """Attached again to a daemon, which welcomed the console."""
+
+    def __init__(self, welcome: Welcome) -> None:
+        super().__init__()
+        self.welcome = welcome

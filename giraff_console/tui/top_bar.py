@@ -32,6 +32,8 @@ _CHARGE_MARKS = {
 # move the robot: hard to miss, and not the red of the alarms (link lost, ESTOP), which
 # mean the robot cannot move at all.
 _WARNING_STYLE = "bold black on dark_orange"
+# The console has lost its daemon: an alarm, like a lost link.
+_DISCONNECTED_STYLE = "bold white on red"
 
 
 class TopBar(Static):
@@ -49,7 +51,17 @@ class TopBar(Static):
         self.ui_fps = 0.0
         self.camera = "cam -"
         self.recording = False
+        # Attached to a daemon that has gone (service/reattach.py): the last snapshot is
+        # not live, and nothing on the line may look as if it were.
+        self.disconnected = False
         self._telemetry: Telemetry | None = None
+
+    def show_disconnected(self, disconnected: bool) -> None:
+        self.disconnected = disconnected
+        if self._telemetry is not None:
+            self.show(self._telemetry)
+        elif disconnected:
+            self.update(Text(" DISCONNECTED ", style=_DISCONNECTED_STYLE), layout=False)
 
     def show_camera(self, text: str) -> None:
         self.camera = text
@@ -71,6 +83,13 @@ class TopBar(Static):
 
     def _line(self, telemetry: Telemetry, camera: bool, performance: bool) -> Text:
         text = Text(no_wrap=True, overflow="ellipsis")
+        if self.disconnected:
+            # The pose last heard, said to be that; no rates, no camera: none is live.
+            text.append(" DISCONNECTED ", style=_DISCONNECTED_STYLE)
+            text.append(" last heard: ", style="dim")
+            text.append(pose_text(telemetry.pose, telemetry.estimate)[0], style="dim")
+            text.append(" │ attaching again when the daemon is back", style="dim")
+            return text
         for badge, style in self._badges(telemetry):
             text.append(f" {badge} ", style=style)
             text.append(" ")

@@ -11,11 +11,15 @@ from __future__ import annotations
 
 import json
 import os
+import queue
 import re
 import shutil
+import signal
 import socket
 import stat
+import subprocess
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -38,6 +42,7 @@ from giraff_console.service import commands as c
 from giraff_console.service import wire
 from giraff_console.service.daemon import Answered, Asked, Hello, Welcome, daemon_alive
 from giraff_console.service.events import Controls, RoomRenamed, Situation
+from giraff_console.service.reattach import Attached, Disconnected, Reattaching
 from giraff_console.service.remote import RemoteRobot
 from giraff_console.service.robot_service import RobotService
 from giraff_console.service.runtime_folder import socket_path
@@ -49,6 +54,7 @@ from tests.service.daemon_rig import (
     at_rest,
     distance,
     kill_daemon,
+    program,
     run_cli,
     start_daemon,
     stop_daemon,
@@ -260,7 +266,7 @@ def test_a_watcher_that_takes_the_controls_drives_and_the_old_holder_no_longer_d
     driven = watcher.execute(c.Press(Intent.FORWARD), timeout=WAIT_S)
     assert driven.ok, driven
     status = holder.execute(c.Status(), timeout=WAIT_S)
-    assert f"controls: {watcher.console};" in status.lines[1], status
+    assert f"controls: {watcher.console};" in "\n".join(status.lines), status
 
 
 def test_a_room_renamed_by_one_console_is_renamed_for_every_console(serve, attach, tmp_path):
@@ -330,12 +336,82 @@ def test_status_json_says_who_holds_the_controls(serve, attach):
     result = run_cli("status", "--json")
     assert result.returncode == 0, result.stderr
     report = json.loads(result.stdout)
-    assert {"mission", "holder", "consoles", "last_mission"} <= set(report), report
+    assert list(report) == STATUS_KEYS, report
     assert report["holder"] == operator.console
     # The status command's own console is attached too, but not reported.
     assert report["consoles"] == [operator.console]
     assert report["mission"] is None and report["last_mission"] is None
     assert report["socket"] == str(daemon.socket)
+
+
+# The keys of `status --json`, schema 1 (docs/daemon.md): added to, never changed.
+STATUS_KEYS = ["schema", "link", "pose", "mission", "battery", "holder", "consoles",
+               "last_mission", "recording", "playing", "socket"]  # fmt: skip
+
+
+def test_status_says_where_the_robot_is_how_well_known_the_mission_left_and_the_battery(
+    serve,
+):
+    daemon = serve("--sim", "--firmware", "later", "--sim-speed", "4")
+    started = run_cli("status", "--json")
+    report = json.loads(started.stdout)
+    assert list(report) == STATUS_KEYS and report["schema"] == 1
+    assert report["link"] == "connected"
+    pose = report["pose"]
+    assert pose["x"] == pytest.approx(2.0, abs=0.01) and pose["y"] == pytest.approx(7.0, abs=0.01)
+    assert pose["sigma_m"] > 0 and pose["basis"] in ("given", "marker")
+    assert report["battery"]["percent"] is not None  # the later board has a charger
+    going = subprocess.Popen(program("go", "kitchen"), stdout=subprocess.DEVNULL,
+                             stderr=subprocess.DEVNULL, env=dict(os.environ))  # fmt: skip
+    try:
+        deadline = time.monotonic() + 3 * WAIT_S
+        while True:
+            words = run_cli("status")
+            if "left, ETA" in words.stdout or time.monotonic() > deadline:
+                break
+            time.sleep(0.2)
+        lines = words.stdout.splitlines()
+        assert [line.split(":")[0] for line in lines[:6]] == [
+            "link", "pose", "mission", "battery", "controls", "last mission"]  # fmt: skip
+        assert lines[2].startswith("mission: go kitchen") and "left, ETA" in lines[2], lines
+        assert "±" in lines[1] and "%" in lines[3], lines
+        moving = json.loads(run_cli("status", "--json").stdout)["mission"]
+        assert moving["name"] == "go kitchen" and moving["left_m"] > 0 and moving["eta_s"] > 0
+    finally:
+        going.terminate()
+        going.wait(timeout=WAIT_S)
+    assert daemon.alive()
+
+
+def test_watch_json_streams_the_daemons_events_a_json_object_a_line(serve):
+    serve(*SIM, "--sim-speed", "4")
+    watching = subprocess.Popen(
+        program("watch", "--json"), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True, env=dict(os.environ),
+    )  # fmt: skip
+    lines: queue.Queue[str] = queue.Queue()
+    reader = threading.Thread(target=lambda: [lines.put(line) for line in watching.stdout])
+    reader.start()
+    events: list[dict] = []
+    try:
+        # Attached once the first snapshot comes through.
+        while not any(event["type"] == "Telemetry" for event in events):
+            events.append(json.loads(lines.get(timeout=WAIT_S)))
+        assert run_cli("go", "room-101").returncode == 3
+        while not any(event["type"] == "GoReported" for event in events):
+            events.append(json.loads(lines.get(timeout=3 * WAIT_S)))
+    finally:
+        watching.send_signal(signal.SIGINT)
+        watching.wait(timeout=WAIT_S)
+        reader.join(WAIT_S)
+    assert watching.returncode == 0, watching.stderr.read()
+    ended = [event for event in events if event["type"] == "MissionChanged"
+             and not event["running"]]  # fmt: skip
+    assert ended and ended[-1]["end"]["outcome"]["value"] == "ARRIVED_UNVERIFIED"
+    report = next(event["report"] for event in events if event["type"] == "GoReported")
+    assert report["room"] == "room-101"
+    # The loop's own polls are left out: the snapshots say what they read.
+    assert not any(event["type"] == "Exchange" and event["automatic"] for event in events)
 
 
 def test_status_without_a_daemon_exits_3_and_says_how_to_start_one(runtime):
@@ -529,3 +605,52 @@ def test_a_console_told_the_daemon_has_gone_only_when_it_has(serve, attach):
         time.sleep(0.05)
     assert not daemon_alive(daemon.socket)
     assert console.gone is not None and console.gone.startswith("the daemon has gone")
+
+
+# -- a console through the daemon's restarts ------------------------------------------
+
+
+def _next(heard: queue.Queue, kind: type, timeout: float):
+    """The next event of `kind` heard within `timeout` seconds, and when; the test fails
+    without one."""
+    deadline = time.monotonic() + timeout
+    while (left := deadline - time.monotonic()) > 0:
+        try:
+            event = heard.get(timeout=left)
+        except queue.Empty:
+            break
+        if isinstance(event, kind):
+            return event, time.monotonic()
+    raise AssertionError(f"no {kind.__name__} in {timeout:g} s")
+
+
+def test_an_attached_console_sees_the_daemon_go_and_attaches_again_by_itself(serve):
+    """Issue 26: a daemon stopped left its console showing a live-looking snapshot, every
+    key answered "the daemon has gone", for ever. Now: Disconnected within a second of
+    the daemon's end, requests refused meanwhile, and attached again, holding the
+    controls, within 5 s of a daemon's start."""
+    daemon = serve(*SIM)
+    heard: queue.Queue = queue.Queue()
+    first = RemoteRobot(daemon.socket, "console reattach", take=True)
+    robot = Reattaching(first, lambda: RemoteRobot(socket_path(), "console reattach"))
+    robot.subscribe(heard.put)
+    try:
+        assert run_cli("stop", "--daemon").returncode == 0
+        daemon.process.wait(timeout=WAIT_S)
+        ended = time.monotonic()
+        _, told = _next(heard, Disconnected, WAIT_S)
+        assert told - ended <= 1.0
+        refused: queue.Queue = queue.Queue()
+        robot.post(c.Press(Intent.FORWARD), refused.put)
+        assert not refused.get(timeout=WAIT_S).ok
+        starting = time.monotonic()
+        again = serve(*SIM)
+        back, at = _next(heard, Attached, WAIT_S + 5.0)
+        assert at - starting <= 5.0
+        assert back.welcome.controls.holder == back.welcome.console  # asked for, as at start
+        answered: queue.Queue = queue.Queue()
+        robot.post(c.Status(), answered.put)
+        assert answered.get(timeout=WAIT_S).ok
+        assert again.alive()
+    finally:
+        robot.close()
