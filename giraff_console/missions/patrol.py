@@ -22,7 +22,7 @@ stop goes to the dock, charges, and carries on (missions/docking.py).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -134,6 +134,18 @@ def list_patrols(directory: Path) -> list[str]:
     return sorted(
         path.name.removesuffix(PATROL_SUFFIX) for path in Path(directory).glob(f"*{PATROL_SUFFIX}")
     )
+
+
+def patrol_file(name: str, folders: Sequence[Path]) -> Path:
+    """The file of patrol `name`: `name` itself when it is a patrol file's path, else
+    `NAME.patrol.yaml` in the first of `folders` that holds one (the operator's routes
+    folder before the examples shipped with the package, so that the operator's own
+    `night` is the one run). With none, the first folder's, for the error to name.
+    The routes a patrol drives are looked for beside its file."""
+    if name.endswith(PATROL_SUFFIX):
+        return Path(name)
+    candidates = [Path(folder) / f"{name}{PATROL_SUFFIX}" for folder in folders]
+    return next((path for path in candidates if path.is_file()), candidates[0])
 
 
 def _stop(file: YamlFile, item: object, where: str) -> Stop:

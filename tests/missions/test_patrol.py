@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
 import yaml
@@ -15,6 +16,7 @@ from giraff_console.missions.patrol import (
     StopReached,
     list_patrols,
     load_patrol,
+    patrol_file,
 )
 from giraff_console.missions.route import PathSample, Route, TimedCommand
 from giraff_console.protocol.codec import parse_command
@@ -285,3 +287,23 @@ def test_a_taught_route_is_replayed_only_from_near_where_it_starts(tmp_path, sta
     else:
         assert not robot.sent
         assert run.problem is not None and "from where route" in run.problem
+
+
+def test_a_patrol_is_found_in_the_routes_folder_before_the_examples(tmp_path):
+    mine, examples = tmp_path / "routes", tmp_path / "examples"
+    mine.mkdir()
+    examples.mkdir()
+    document = {"rounds": 1, "stops": STOPS}
+    write(examples, document, "night")
+    assert patrol_file("night", (mine, examples)) == examples / "night.patrol.yaml"
+    write(mine, document, "night")
+    assert patrol_file("night", (mine, examples)) == mine / "night.patrol.yaml"
+
+
+def test_a_patrol_found_nowhere_is_the_routes_folders_for_the_error(tmp_path):
+    assert patrol_file("day", (tmp_path / "a", tmp_path / "b")) == tmp_path / "a/day.patrol.yaml"
+
+
+def test_a_patrol_files_path_is_taken_as_it_is(tmp_path):
+    assert patrol_file("elsewhere/x.patrol.yaml", (tmp_path,)) == Path("elsewhere/x.patrol.yaml")
+
