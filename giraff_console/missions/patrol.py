@@ -396,9 +396,13 @@ class PatrolRun:
         if self._detour is not None:
             before = f"{rounds}, before stop {index + 1} ({place})"
             return Progress(name, before, detail=self._detour.progress)
-        stop = f"{rounds}, stop {index + 1}/{len(self.patrol.stops)} ({place})"
+        of = f"stop {index + 1}/{len(self.patrol.stops)}"
+        # Narrow, the round only if there is more than one, and the place not at all: the
+        # leg's own progress names it, and the map shows it.
+        brief = of if self.patrol.rounds == 1 else f"{rounds}, {of}"
         detail = self._mission.progress if self._dwell_end is None else None
-        return Progress(name, stop, eta_s=self.time_left, detail=detail)
+        return Progress(name, f"{rounds}, {of} ({place})", eta_s=self.time_left, detail=detail,
+                        brief=brief)  # fmt: skip
 
     def _stop(self) -> Stop:
         return self.patrol.stops[self._legs[self._leg][1]]

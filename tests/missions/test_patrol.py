@@ -307,3 +307,8 @@ def test_a_patrol_found_nowhere_is_the_routes_folders_for_the_error(tmp_path):
 def test_a_patrol_files_path_is_taken_as_it_is(tmp_path):
     assert patrol_file("elsewhere/x.patrol.yaml", (tmp_path,)) == Path("elsewhere/x.patrol.yaml")
 
+
+def test_a_patrols_brief_state_leaves_out_the_place_and_a_single_round(tmp_path):
+    assert PatrolRun(rounds(tmp_path), ROUTES).progress.brief == "round 1/2, stop 1/2"
+    one = load_patrol(write(tmp_path, {"rounds": 1, "stops": STOPS}, "one"))
+    assert PatrolRun(one, ROUTES).progress.brief == "stop 1/2"
