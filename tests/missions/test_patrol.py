@@ -52,7 +52,8 @@ def rounds(tmp_path, number=2):
 
 
 class Robot:
-    """Moves for COASTS seconds after every `set p`; polled every tick."""
+    """Moves for COASTS seconds after every `set p`, its wheels turning; polled every
+    tick."""
 
     def __init__(self, run: PatrolRun) -> None:
         self.run = run
@@ -62,7 +63,9 @@ class Robot:
 
     def tick(self) -> list[str]:
         mode = int(ModeBit.MOVING) if self.now < self.moving_until else 0
-        state = MotorState(0.0, 0.0, 0.0, 0.0, 0.0, None, 0.0, 0.0, mode, self.now)
+        # The wheels turn while it moves, so that a replay sees no stall (route_replay.py).
+        wheels = 0.3 * self.now
+        state = MotorState(0.0, 0.0, 0.0, 0.0, 0.0, None, wheels, wheels, mode, self.now)
         commands = [command.text for command in self.run.step(self.now, state)]
         if any(text.startswith("set p") for text in commands):
             self.moving_until = self.now + COASTS
