@@ -1,7 +1,9 @@
 """Where the console's files live by default, so that it works from any folder.
 
 - The example floor plan ships inside the package (`giraff_console/floorplans/`) and is
-  found with importlib.resources, wherever the package was installed.
+  found with importlib.resources, wherever the package was installed; so do the example
+  patrols for it (`giraff_console/routes/`), looked for after the operator's routes
+  folder, so that a patrol of the same name there comes first.
 - The operator's recordings and taught routes live in the XDG data folder,
   `$XDG_DATA_HOME/giraff-console/` (usually `~/.local/share/giraff-console/`), not in
   whatever folder the console happens to be started from. The command line
@@ -28,6 +30,12 @@ def example_floorplan() -> Path:
     Wheels are installed unpacked, so the package's files are always on disk.
     """
     return Path(str(files("giraff_console") / "floorplans" / "care-home.yaml"))
+
+
+def example_routes() -> Path:
+    """The folder of the example patrols (and any routes they drive) that ship with the
+    package, for the example floor plan: `patrol night` runs from a fresh install."""
+    return Path(str(files("giraff_console") / "routes"))
 
 
 def data_home() -> Path:

@@ -14,7 +14,10 @@ from giraff_console.data_folders import (
     default_recordings,
     default_routes,
     example_floorplan,
+    example_routes,
 )
+from giraff_console.missions.docking import DOCK
+from giraff_console.missions.patrol import load_patrol
 from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.settings import SettingsError, load_settings
 
@@ -100,3 +103,14 @@ def test_the_example_floor_plan_ships_in_the_package_with_its_grid():
     assert "giraff_console" in example_floorplan().parts
     assert plan.grid is not None and plan.grid.image.is_file()
     assert {"dock", "kitchen"} <= set(plan.rooms)
+
+
+def test_the_example_night_patrol_ships_in_the_package_for_the_example_plan():
+    """The README's `patrol night`: its rooms are the example plan's, and it drives no
+    taught route, so a fresh install has all it needs."""
+    assert "giraff_console" in example_routes().parts
+    patrol = load_patrol(example_routes() / "night.patrol.yaml")
+    rooms = load_floorplan(example_floorplan()).rooms
+    assert patrol.stops and all(stop.route is None for stop in patrol.stops)
+    assert all(stop.room in rooms or stop.room == DOCK for stop in patrol.stops)
+    assert patrol.stops[-1].room == DOCK  # back to charge

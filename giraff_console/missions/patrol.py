@@ -22,7 +22,7 @@ stop goes to the dock, charges, and carries on (missions/docking.py).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -134,6 +134,18 @@ def list_patrols(directory: Path) -> list[str]:
     return sorted(
         path.name.removesuffix(PATROL_SUFFIX) for path in Path(directory).glob(f"*{PATROL_SUFFIX}")
     )
+
+
+def patrol_file(name: str, folders: Sequence[Path]) -> Path:
+    """The file of patrol `name`: `name` itself when it is a patrol file's path, else
+    `NAME.patrol.yaml` in the first of `folders` that holds one (the operator's routes
+    folder before the examples shipped with the package, so that the operator's own
+    `night` is the one run). With none, the first folder's, for the error to name.
+    The routes a patrol drives are looked for beside its file."""
+    if name.endswith(PATROL_SUFFIX):
+        return Path(name)
+    candidates = [Path(folder) / f"{name}{PATROL_SUFFIX}" for folder in folders]
+    return next((path for path in candidates if path.is_file()), candidates[0])
 
 
 def _stop(file: YamlFile, item: object, where: str) -> Stop:
@@ -412,9 +424,13 @@ class PatrolRun:
         if self._detour is not None:
             before = f"{rounds}, before stop {index + 1} ({place})"
             return Progress(name, before, detail=self._detour.progress)
-        stop = f"{rounds}, stop {index + 1}/{len(self.patrol.stops)} ({place})"
+        of = f"stop {index + 1}/{len(self.patrol.stops)}"
+        # Narrow, the round only if there is more than one, and the place not at all: the
+        # leg's own progress names it, and the map shows it.
+        brief = of if self.patrol.rounds == 1 else f"{rounds}, {of}"
         detail = self._mission.progress if self._dwell_end is None else None
-        return Progress(name, stop, eta_s=self.time_left, detail=detail)
+        return Progress(name, f"{rounds}, {of} ({place})", eta_s=self.time_left, detail=detail,
+                        brief=brief)  # fmt: skip
 
     def _stop(self) -> Stop:
         return self.patrol.stops[self._legs[self._leg][1]]

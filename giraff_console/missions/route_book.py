@@ -21,6 +21,7 @@ from giraff_console.missions.patrol import (
     StopReached,
     list_patrols,
     load_patrol,
+    patrol_file,
 )
 from giraff_console.missions.patrol_log import PatrolRunLog
 from giraff_console.missions.route import (
@@ -59,12 +60,15 @@ class RouteBook:
         charge: ChargeLevels | None = None,
         undock_distance: float = 0.3,
         runs: Path | None = None,
+        examples: Path | None = None,
     ) -> None:
         """`drives` builds the routes followed closed-loop and, with a floor plan, the
         patrols' ways to rooms and the dock (without it: no plan, the loop's own pose and
         estimate, the default limits); `charge` says when a patrol goes to charge, and
         `undock_distance` how far it backs out after. `runs` is the folder where each
-        patrol's run is logged (missions/patrol_log.py); None logs none."""
+        patrol's run is logged (missions/patrol_log.py); None logs none. `examples` is
+        the folder of the example patrols shipped with the package, run when `directory`
+        has no patrol of that name (data_folders.example_routes)."""
         self.control = control
         if drives is None:
             drives = DriveSetup.on_loop(control, None, notify=lambda text: self.report(text))
@@ -76,6 +80,7 @@ class RouteBook:
         self._battery: Battery | None = None
         self.sessions = sessions
         self.directory = directory
+        self.examples = examples
         self.runs = runs
         self.report = report
         self.teacher: RouteTeacher | None = None
@@ -155,10 +160,13 @@ class RouteBook:
         """Lines naming every route and patrol."""
         routes = list_routes(self.directory)
         patrols = list_patrols(self.directory)
+        # The examples the operator's own patrols do not hide (patrol_file).
+        examples = [name for name in self._examples() if name not in patrols]
+        shipped = [f"example patrols: {', '.join(examples)}"] if examples else []
         if not routes and not patrols:
-            return [f"no routes in {self.directory}: `teach NAME` makes one"]
+            return [f"no routes in {self.directory}: `teach NAME` makes one", *shipped]
         return [f"routes: {', '.join(routes) or 'none'}",
-                f"patrols: {', '.join(patrols) or 'none'}"]  # fmt: skip
+                f"patrols: {', '.join(patrols) or 'none'}", *shipped]  # fmt: skip
 
     def patrols_going_to(self, room: str) -> list[str]:
         """The patrols with a stop in `room`: a patrol names rooms by their ids, and
@@ -230,11 +238,15 @@ class RouteBook:
         )
 
     def patrol(self, name: str, *, by: str = "a console", scheduled: bool = False) -> bool:
-        """Run patrol `name` from `<name>.patrol.yaml`; `by` who asked, for its log."""
+        """Run patrol `name` from `<name>.patrol.yaml` in the routes folder, else from
+        the examples shipped with the package; `by` who asked, for its log. The routes it
+        drives are looked for beside its file."""
         if not self._free():
             return False
+        folders = [self.directory] if self.examples is None else [self.directory, self.examples]
+        path = patrol_file(name, folders)
         try:
-            patrol = load_patrol(self.directory / f"{name}{PATROL_SUFFIX}")
+            patrol = load_patrol(path)
         except (OSError, PatrolError, RouteError) as error:
             self.report(f"no patrol {name}: {error}")
             return False
@@ -242,7 +254,7 @@ class RouteBook:
         for stop in patrol.stops:
             if stop.route is None:
                 continue
-            route = self._load(stop.route)
+            route = self._load(stop.route, path.parent)
             if route is None:
                 return False
             routes[stop.route] = route
@@ -271,14 +283,20 @@ class RouteBook:
 
     # -- helpers ------------------------------------------------------------------------
 
-    def _load(self, name: str) -> Route | None:
+    def _load(self, name: str, folder: Path | None = None) -> Route | None:
+        """Route `name` from `folder`, by default the routes folder; None, said, if it
+        cannot be used."""
+        folder = self.directory if folder is None else folder
         try:
-            return load_route(self.directory / f"{name}.yaml")
+            return load_route(folder / f"{name}.yaml")
         except FileNotFoundError:
-            self.report(f"no route {name} in {self.directory}")
+            self.report(f"no route {name} in {folder}")
         except (OSError, RouteError) as error:
             self.report(f"route {name} cannot be used: {error}")
         return None
+
+    def _examples(self) -> list[str]:
+        return list_patrols(self.examples) if self.examples is not None else []
 
     def _free(self) -> bool:
         if self.teacher is not None:

@@ -9,6 +9,14 @@ that taught them, which may have reached further than today's: each is cut to th
 console's reach (robot/safety.py), so that a console that dies mid-replay still stops
 the robot within the runaway limit (design.md). A renewal comes every tick or two, so
 a shorter one changes nothing of the route while the console lives.
+
+Open-loop as it is, a replay still watches the wheels: a move under way (the board
+reports MOVING) with the wheels not turning for a second is a stall (§2.3.2, the same
+test as a path mission's: motion/executor.py), the robot pushed up against something or
+its wheels held. The replay ends there, STALLED: the rest of the route would start from
+the wrong place, and a replay left to finish would be reported done when its last leg
+never moved (issue 26). It does not back off and try again, as a path mission does:
+it has no pose to steer back by.
 """
 
 from __future__ import annotations
@@ -19,11 +27,12 @@ from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.certainty import blind
 from giraff_console.missions.follow_route import START_REACH_M
 from giraff_console.missions.route import MOTION_SETTINGS, Route
+from giraff_console.motion.executor import STALL_M, STALL_S
 from giraff_console.motion.path import wrap
 from giraff_console.protocol.codec import Command, format_number, parse_number
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M
 from giraff_console.robot.localisation import Estimate
-from giraff_console.robot.mission import Progress
+from giraff_console.robot.mission import Outcome, Progress
 from giraff_console.robot.safety import REACH_M
 
 # A replay follows no pose, so it drives the taught shape from wherever the robot
@@ -54,14 +63,18 @@ def replay_refusal(route: Route, estimate: Estimate | None, retry: str) -> str |
 
 
 class RouteReplay:
-    """A Mission that drives a taught route again."""
-
-    # Open-loop: it never finds out that anything went wrong.
-    problem: str | None = None
+    """A Mission that drives a taught route again; Judged: a stall ends it STALLED."""
 
     def __init__(self, route: Route) -> None:
         self.route = route
         self.name = route.name
+        # Open-loop, the only thing it finds out is a stall; then all three say so.
+        self.problem: str | None = None
+        self.outcome: Outcome | None = None
+        self.detail = ""
+        # Since when, and from what wheel travel (imdl, imdr), a move has been under way
+        # without the wheels turning; None while none is.
+        self._still_since: tuple[float, tuple[float, float]] | None = None
         self._t0: float | None = None
         self._now: float | None = None
         self._paused_at: float | None = None
@@ -75,9 +88,13 @@ class RouteReplay:
     def step(self, now: float, state: MotorState | None) -> list[Command]:
         """The starting settings first; then each taught command once its time has come."""
         self._state = state
-        if self._paused_at is not None or self.finished:
+        if self._paused_at is not None or self.finished or self.problem is not None:
             return []
         self._now = now
+        if state is not None:
+            self._watch_wheels(now, state)
+            if self.problem is not None:
+                return []
         commands: list[Command] = []
         if self._t0 is None or self._restore:
             # The loop stops the robot on a pause, with settings of its own (cdp, p),
@@ -105,6 +122,26 @@ class RouteReplay:
             self._sent += 1
             self._sent_at = now
         return commands
+
+    def _watch_wheels(self, now: float, state: MotorState) -> None:
+        """A stall: the board's move under way, the wheels not turning STALL_M in STALL_S.
+        The wheel travel is the loop's totals (robot/odometry_feed.py), compared by
+        differences."""
+        wheels = (state.imdl or 0.0, state.imdr or 0.0)
+        since = self._still_since
+        turned = since is not None and max(abs(wheels[0] - since[1][0]),
+                                           abs(wheels[1] - since[1][1])) > STALL_M  # fmt: skip
+        if not state.moving or since is None or turned:
+            self._still_since = (now, wheels) if state.moving else None
+            return
+        if now - since[0] < STALL_S:
+            return
+        self.outcome = Outcome.STALLED
+        self.detail = (f"stalled {round(self.elapsed)} s into the route's "
+                       f"{round(self.route.duration)} s: the wheels have not turned for "
+                       f"{now - since[0]:.1f} s; a replay drives blind and cannot go round "
+                       f"what is in the way")  # fmt: skip
+        self.problem = self.detail
 
     def _within_reach(self, target: Command) -> Command:
         """`target` (a `set p`) cut to the console's reach: degrees when turning on the
@@ -142,6 +179,7 @@ class RouteReplay:
             self._t0 += now - self._paused_at
             self._restore = True
         self._paused_at = None
+        self._still_since = None  # the loop stopped the robot: a new move starts from rest
 
     @property
     def finished(self) -> bool:

@@ -104,7 +104,10 @@ class Progress:
     `left_m` while it looks for a marker or stops to plan again, where the braking
     metres of the plan given up would read as nearly there; `eta_s` then too, and while
     paused. `detail` is how the part under way of a mission made of others is getting
-    on: a patrol's stop, its detour to the dock.
+    on: a patrol's stop, its detour to the dock. `brief` is the state in fewer words for
+    a narrow screen (issue 26: at 80x24 the main view is some 34 columns), leaving out
+    what the detail's name or the map says already: a patrol's "stop 4/32" for "round
+    1/1, stop 4/32 (room-110)"; None where the state is as short as it gets.
     """
 
     name: str
@@ -113,6 +116,7 @@ class Progress:
     total_m: float | None = None
     eta_s: float | None = None
     detail: Progress | None = None
+    brief: str | None = None
 
     @property
     def done_m(self) -> float | None:
@@ -124,20 +128,31 @@ class Progress:
             return 0.0
         return max(self.total_m - self.left_m, 0.0)
 
-    def words(self) -> str:
+    def words(self, brief: bool = False) -> str:
         """What the mission is doing and what it has left, as said after its name and
         bar: metres left and an ETA for a path; time left for what has no metres; "no
-        ETA" for a path whose metres left are not known."""
-        said = [] if self.state == DRIVING else [self.state]
+        ETA" for a path whose metres left are not known.
+
+        `brief`, for a narrow screen: the figures first, since what is left is what the
+        operator looks for and the end of a line is what a narrow screen cuts, in fewer
+        characters, then the `brief` state: "3.0 m, ETA 0:07", "5:02 left, stop 1/6"."""
+        state = self.brief if brief and self.brief is not None else self.state
+        said = [] if state == DRIVING else [state]
         minutes, seconds = divmod(round(self.eta_s or 0.0), 60)
+        figures = []
         if self.left_m is not None:
-            said.append(f"{self.left_m:.1f} m left")
+            figures.append(f"{self.left_m:.1f} m" if brief else f"{self.left_m:.1f} m left")
             if self.eta_s is not None:
-                said.append(f"ETA {minutes}:{seconds:02d}")
+                figures.append(f"ETA {minutes}:{seconds:02d}")
         elif self.eta_s is not None:
-            said.append(f"{minutes} min {seconds:02d} s left" if minutes else f"{seconds} s left")
+            if brief:
+                figures.append(f"{minutes}:{seconds:02d} left")
+            else:
+                figures.append(f"{minutes} min {seconds:02d} s left" if minutes else
+                               f"{seconds} s left")  # fmt: skip
         elif self.total_m is not None:
-            said.append("no ETA")
+            figures.append("no ETA")
+        said = [*figures, *said] if brief else [*said, *figures]
         return ", ".join(part for part in said if part)
 
     def line(self) -> str:

@@ -12,7 +12,7 @@ from pathlib import Path
 import serial
 
 from giraff_console.clock import Clock
-from giraff_console.data_folders import data_home, patrol_runs
+from giraff_console.data_folders import data_home, example_routes, patrol_runs
 from giraff_console.link import BoardLink
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.route_book import RouteBook
@@ -62,11 +62,12 @@ def control_loop(connect: Connect, settings: Settings, clock: Clock) -> ControlL
 
 def route_book(control: ControlLoop, sessions: Sessions, routes: Path, drives: DriveSetup,
                settings: Settings) -> RouteBook:  # fmt: skip
-    """The routes and patrols in `routes`, their runs logged where `patrols` lists them,
-    what they say told to whoever listens to the loop."""
+    """The routes and patrols in `routes` (then the example patrols shipped with the
+    package), their runs logged where `patrols` lists them, what they say told to
+    whoever listens to the loop."""
     return RouteBook(control, sessions, routes, control.note, drives,
                      settings.battery.levels(), settings.teleop.undock_distance,
-                     runs=patrol_runs())  # fmt: skip
+                     runs=patrol_runs(), examples=example_routes())  # fmt: skip
 
 
 # Where a real robot's last pose estimate is kept (robot/pose_keeper.py).

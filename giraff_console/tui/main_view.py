@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+from rich.cells import cell_len
 from rich.text import Text
+from textual import events
 from textual.app import ComposeResult
 from textual.containers import Horizontal, Vertical
 from textual.widgets import Label, ProgressBar, Static
@@ -11,18 +13,36 @@ from giraff_console.robot.mission import TEXT_BAR, Progress
 from giraff_console.robot.telemetry import LinkState, Telemetry
 
 MISSION_STYLE = "bold cyan"
+# The ways of showing a mission, widest first: (the part under way on a line of its own,
+# the mission's words brief, the part's words brief). The first that fits the view's
+# width is used; the last whatever it cuts.
+Way = tuple[bool, bool, bool]
+ONE_PART: tuple[Way, ...] = ((False, False, False), (False, True, False))
+TWO_PARTS: tuple[Way, ...] = (
+    (False, False, False),
+    (True, False, False),
+    (True, True, False),
+    (True, True, True),
+)
+# A bar needs a column and its margin; narrower, it would push the words off the line.
+BAR_MIN = 2
 
 
 class MainView(Vertical):
     """The robot's state: motion on one line, odometry and keys on the next; while a
     mission drives, its progress takes the place of the keys, whole: its name, a bar
     along the plan under way, what it is doing and what is left, and the same again
-    for the part under way of a mission made of others (a patrol's stop)."""
+    for the part under way of a mission made of others (a patrol's stop).
+
+    Where that is wider than the view (80x24 leaves it some 34 columns), the bars shrink
+    first; then the part under way goes on a third line; then both say it in brief
+    words, what is left first (Progress.words): the ETA stays on screen (issue 26)."""
 
     DEFAULT_CSS = f"""
     MainView {{ height: 2; padding: 0 1; }}
     MainView > Static {{ height: 1; }}
     MainView > Horizontal {{ height: 1; display: none; }}
+    MainView.-two-lines {{ height: 3; }}
     MainView Label {{ margin-right: 1; }}
     MainView ProgressBar {{ margin-right: 1; width: 1fr; max-width: {TEXT_BAR}; }}
     MainView Bar {{ width: 1fr; }}
@@ -34,20 +54,27 @@ class MainView(Vertical):
         self._motion = Static()
         self._keys = Static()
         self._mission = Horizontal()
-        # One name, bar and words for the mission, and one for the part under way.
-        self._names = (Label(), Label())
-        self._bars = tuple(ProgressBar(show_percentage=False, show_eta=False) for _ in range(2))
-        self._words = (Label(), Label())
+        self._part = Horizontal()
+        # One name, bar and words for the mission, one for the part under way on the same
+        # line, and one for it on a line of its own.
+        self._names = (Label(), Label(), Label())
+        self._bars = tuple(ProgressBar(show_percentage=False, show_eta=False) for _ in range(3))
+        self._words = (Label(), Label(), Label())
         self._shown: Progress | None = None
+        self._shown_width = 0
 
     def compose(self) -> ComposeResult:
         yield self._motion
         yield self._keys
-        with self._mission:
-            for name, bar, words in zip(self._names, self._bars, self._words, strict=True):
+        rows = (self._mission, self._mission, self._part)
+        for row, name, bar, words in zip(rows, self._names, self._bars, self._words, strict=True):
+            with row:
                 yield name
                 yield bar
                 yield words
+
+    def on_resize(self, event: events.Resize) -> None:
+        self._show_mission(self._shown)
 
     def show(self, telemetry: Telemetry) -> None:
         state = telemetry.state
@@ -82,28 +109,71 @@ class MainView(Vertical):
 
     def _show_mission(self, progress: Progress | None) -> None:
         """A mission drives, not the keys: its progress takes their place."""
-        if progress == self._shown:
+        width = self.content_region.width
+        if progress == self._shown and width == self._shown_width:
             return  # the same at every tick while the robot stands still: no new layout
-        self._shown = progress
+        self._shown, self._shown_width = progress, width
         self._keys.display = progress is None
         self._mission.display = progress is not None
-        self._show_part(0, progress)
-        self._show_part(1, progress.detail if progress is not None else None)
+        part = progress.detail if progress is not None else None
+        way, bars = _fitting(progress, width) if progress else (ONE_PART[0], (False, False))
+        two_lines, brief, brief_part = way
+        self.set_class(two_lines, "-two-lines")
+        self._part.display = two_lines
+        self._show_part(0, progress, brief, bars[0])
+        self._show_part(1, None if two_lines else part, brief_part, bars[1])
+        self._show_part(2, part if two_lines else None, brief_part, bars[1])
 
-    def _show_part(self, i: int, part: Progress | None) -> None:
-        """The mission's (`i` 0) or its part under way's name, bar and words."""
+    def _show_part(self, i: int, part: Progress | None, brief: bool, with_bar: bool) -> None:
+        """The mission's (`i` 0) or its part under way's name, bar and words: on the
+        mission's line (1), or on a line of its own (2)."""
         name, bar, words = self._names[i], self._bars[i], self._words[i]
         name.display = words.display = part is not None
-        bar.display = part is not None and part.total_m is not None
+        bar.display = part is not None and part.total_m is not None and with_bar
         if part is None:
             return
-        said = part.words()
-        head = part.name if part.total_m is not None or not said else f"{part.name}:"
-        # The part under way follows on from the mission's words.
-        name.update(_one_line(Text(f"· {head}" if i else head, style=MISSION_STYLE)))
+        head, said = _said(part, brief, following=i == 1)
+        name.update(_one_line(Text(head, style=MISSION_STYLE)))
         words.update(_one_line(Text(said, style=MISSION_STYLE)))
         if part.total_m is not None:
             bar.update(total=part.total_m, progress=part.done_m or 0.0)
+
+
+def _said(part: Progress, brief: bool, following: bool) -> tuple[str, str]:
+    """A part's name, as it heads its bar or its words, and its words; one `following`
+    the mission's words on their line is set off from them."""
+    said = part.words(brief)
+    head = part.name if part.total_m is not None or not said else f"{part.name}:"
+    return (f"· {head}" if following else head), said
+
+
+def _fitting(progress: Progress, width: int) -> tuple[Way, tuple[bool, bool]]:
+    """The first way of showing `progress` whose names and words fit `width` columns on
+    every line, and whether the mission's and its part's bars are shown: each takes what
+    its line has left, and none is shown on a line with too little left for them all.
+    Before the view has a width, the widest; where nothing fits, the briefest, without
+    bars."""
+    part = progress.detail
+    ways = ONE_PART if part is None else TWO_PARTS
+    if width <= 0:
+        return ways[0], (True, True)
+    for way in ways:
+        two_lines, brief, brief_part = way
+        shown = [(progress, _said(progress, brief, following=False))]
+        if part is not None:
+            shown.append((part, _said(part, brief_part, following=not two_lines)))
+        lines = [shown[:1], shown[1:]] if two_lines else [shown]
+        # Each label has a column of margin after it, the last one's included.
+        spare = [width + 1 - sum(cell_len(head) + cell_len(said) + 2 for _, (head, said) in line)
+                 for line in lines]  # fmt: skip
+        if min(spare) < 0:
+            continue
+        bars: list[bool] = []
+        for line, left in zip(lines, spare, strict=True):
+            barred = sum(each.total_m is not None for each, _ in line)
+            bars += [left >= BAR_MIN * barred] * len(line)
+        return way, (bars[0], bars[-1])
+    return ways[-1], (False, False)
 
 
 def _one_line(text: Text) -> Text:

@@ -139,7 +139,9 @@ def pose_text(pose: Pose, estimate: Estimate | None) -> tuple[str, str]:
     too loosely to drive on, is marked and shown reversed in orange, as missions then
     stop and look (robot/localisation.py `lost`); one a mission slows for is yellow.
     """
-    x, y, heading = f"X={pose.x:.2f}", f"Y={pose.y:.2f}", f"H={pose.heading_deg:.1f}"
+    # Rounded before it is wrapped: a heading a hair short of east reads 0.0, not 360.0.
+    degrees = round(pose.heading_deg, 1) % 360.0
+    x, y, heading = f"X={pose.x:.2f}", f"Y={pose.y:.2f}", f"H={degrees:.1f}"
     if estimate is None:
         return f"{x} {y} {heading}", "bold"
     (xx, _, _), (_, yy, _), _ = estimate.covariance

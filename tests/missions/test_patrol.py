@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
 import yaml
@@ -15,6 +16,7 @@ from giraff_console.missions.patrol import (
     StopReached,
     list_patrols,
     load_patrol,
+    patrol_file,
 )
 from giraff_console.missions.route import PathSample, Route, TimedCommand
 from giraff_console.protocol.codec import parse_command
@@ -50,7 +52,8 @@ def rounds(tmp_path, number=2):
 
 
 class Robot:
-    """Moves for COASTS seconds after every `set p`; polled every tick."""
+    """Moves for COASTS seconds after every `set p`, its wheels turning; polled every
+    tick."""
 
     def __init__(self, run: PatrolRun) -> None:
         self.run = run
@@ -60,7 +63,9 @@ class Robot:
 
     def tick(self) -> list[str]:
         mode = int(ModeBit.MOVING) if self.now < self.moving_until else 0
-        state = MotorState(0.0, 0.0, 0.0, 0.0, 0.0, None, 0.0, 0.0, mode, self.now)
+        # The wheels turn while it moves, so that a replay sees no stall (route_replay.py).
+        wheels = 0.3 * self.now
+        state = MotorState(0.0, 0.0, 0.0, 0.0, 0.0, None, wheels, wheels, mode, self.now)
         commands = [command.text for command in self.run.step(self.now, state)]
         if any(text.startswith("set p") for text in commands):
             self.moving_until = self.now + COASTS
@@ -285,3 +290,28 @@ def test_a_taught_route_is_replayed_only_from_near_where_it_starts(tmp_path, sta
     else:
         assert not robot.sent
         assert run.problem is not None and "from where route" in run.problem
+
+
+def test_a_patrol_is_found_in_the_routes_folder_before_the_examples(tmp_path):
+    mine, examples = tmp_path / "routes", tmp_path / "examples"
+    mine.mkdir()
+    examples.mkdir()
+    document = {"rounds": 1, "stops": STOPS}
+    write(examples, document, "night")
+    assert patrol_file("night", (mine, examples)) == examples / "night.patrol.yaml"
+    write(mine, document, "night")
+    assert patrol_file("night", (mine, examples)) == mine / "night.patrol.yaml"
+
+
+def test_a_patrol_found_nowhere_is_the_routes_folders_for_the_error(tmp_path):
+    assert patrol_file("day", (tmp_path / "a", tmp_path / "b")) == tmp_path / "a/day.patrol.yaml"
+
+
+def test_a_patrol_files_path_is_taken_as_it_is(tmp_path):
+    assert patrol_file("elsewhere/x.patrol.yaml", (tmp_path,)) == Path("elsewhere/x.patrol.yaml")
+
+
+def test_a_patrols_brief_state_leaves_out_the_place_and_a_single_round(tmp_path):
+    assert PatrolRun(rounds(tmp_path), ROUTES).progress.brief == "round 1/2, stop 1/2"
+    one = load_patrol(write(tmp_path, {"rounds": 1, "stops": STOPS}, "one"))
+    assert PatrolRun(one, ROUTES).progress.brief == "stop 1/2"

@@ -23,6 +23,7 @@ from giraff_console.missions.route_replay import RouteReplay
 from giraff_console.protocol.codec import parse_command
 from giraff_console.protocol.errors import BoardError
 from giraff_console.protocol.mode import ModeBit
+from giraff_console.robot.mission import Judged, Outcome
 from giraff_console.robot.odometry import Pose
 
 BOARD = {"r": "1000", "mode": "0", "a": "0.5", "v": "0.4", "vg": "0", "vgr": "1", "cdp": "0"}
@@ -33,9 +34,12 @@ def sent(text: str, at: float, *, kind: str = "set", automatic: bool = False, er
     return Exchange(kind, text, (), None, error, at, at + 0.01, automatic)
 
 
-def state(at: float, moving: bool) -> MotorState:
+def state(at: float, moving: bool, wheels: float | None = None) -> MotorState:
+    """A poll at `at`; the wheels have turned `wheels` metres each, by default as if
+    they turned at 0.3 m/s all along (a replay watches them for stalls)."""
     mode = int(ModeBit.MOVING) if moving else 0
-    return MotorState(0.0, 0.0, 0.0, 0.0, 0.0, None, 0.0, 0.0, mode, at)
+    turned = 0.3 * at if wheels is None else wheels
+    return MotorState(0.0, 0.0, 0.0, 0.0, 0.0, None, turned, turned, mode, at)
 
 
 def teacher(**kwargs) -> RouteTeacher:
@@ -276,3 +280,44 @@ def test_replay_progress_counts_whole_seconds_without_the_pause():
     assert replay.progress.line() == "route hall: 12 s of 30 s, 18 s left"
     assert replay.progress.eta_s == pytest.approx(30.0 - 12.4)
     assert replay.name == "hall"
+
+
+def test_a_move_under_way_with_the_wheels_still_for_a_second_is_a_stall():
+    """§2.3.2, as a path mission tells one (motion/executor.py): open-loop, a replay
+    cannot go round, so it ends STALLED, with what it had driven said (issue 26)."""
+    replay = RouteReplay(route((0.0, "set p 0.2"), (0.5, "set p 0.2"), (5.0, "set p 0"),
+                               duration=6.0))  # fmt: skip
+    assert isinstance(replay, Judged) and replay.outcome is None
+    replay.step(0.0, state(0.0, False, wheels=0.0))
+    replay.step(0.5, state(0.5, True, wheels=0.05))
+    replay.step(1.0, state(1.0, True, wheels=0.1))  # held from here on
+    replay.step(1.95, state(1.95, True, wheels=0.1005))  # under a millimetre
+    assert replay.problem is None
+    assert replay.step(2.0, state(2.0, True, wheels=0.1005)) == []
+    assert replay.outcome is Outcome.STALLED and replay.problem == replay.detail
+    assert replay.detail.startswith("stalled 2 s into the route's 6 s: the wheels have not "
+                                    "turned for 1.0 s")  # fmt: skip
+    # Nothing more is sent, not even the route's last command when its time comes.
+    assert replay.step(5.0, state(5.0, False, wheels=0.1005)) == []
+    assert not replay.finished
+
+
+def test_wheels_at_rest_with_no_move_under_way_are_no_stall():
+    """A route taught with a wait in it: the board's move is over, nothing is held."""
+    replay = RouteReplay(route((0.0, "set p 0.2"), (2.5, "set p 0.2"), duration=3.0))
+    for at in (0.0, 0.5, 1.0, 1.5, 2.0, 2.4):
+        replay.step(at, state(at, False, wheels=0.2))
+    assert replay.problem is None and replay.outcome is None
+
+
+def test_a_pause_is_no_stall_and_the_watch_starts_again_after_it():
+    replay = RouteReplay(route((0.0, "set p 0.2"), duration=30.0))
+    replay.step(0.0, state(0.0, True, wheels=0.0))
+    replay.step(0.9, state(0.9, True, wheels=0.0))
+    replay.pause(0.9)
+    replay.step(5.0, state(5.0, True, wheels=0.0))  # the loop stops the robot meanwhile
+    replay.resume(6.0)
+    replay.step(6.5, state(6.5, True, wheels=0.0))
+    assert replay.problem is None
+    replay.step(7.5, state(7.5, True, wheels=0.0))
+    assert replay.outcome is Outcome.STALLED

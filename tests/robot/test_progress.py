@@ -55,3 +55,18 @@ def test_a_progress_without_figures_goes_on_with_its_details_line():
         "patrol night: round 1/2, before stop 1 (kitchen): charging at the dock: 40 % of 90 %"
     )
     assert Progress("going to the dock", "").line() == "going to the dock"
+
+
+def test_brief_words_put_what_is_left_first_in_fewer_characters():
+    """For a narrow screen (the main view at 80x24): the end of a line is what it cuts."""
+    leg = Progress("go room-105", DRIVING, left_m=14.7, total_m=20.0, eta_s=40.0)
+    assert leg.words(brief=True) == "14.7 m, ETA 0:40"
+    patrol = Progress("patrol night", "round 1/1, stop 2/6 (room-105)", eta_s=302.0,
+                      detail=leg, brief="stop 2/6")  # fmt: skip
+    assert patrol.words(brief=True) == "5:02 left, stop 2/6"
+    assert patrol.words() == "round 1/1, stop 2/6 (room-105), 5 min 02 s left"
+    # Without a brief state, the state itself, after the figures.
+    paused = Progress("go kitchen", PAUSED, left_m=12.34, total_m=12.34)
+    assert paused.words(brief=True) == "12.3 m, paused"
+    # The line where there is only text is as it has always been.
+    assert patrol.line() == "patrol night: round 1/1, stop 2/6 (room-105), 5 min 02 s left"

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import pytest
 from textual.app import App, ComposeResult
 from textual.widgets import Label, ProgressBar, Static
 
@@ -99,3 +100,69 @@ async def test_held_keys_that_do_not_move_the_robot_show_blocked():
         bar.show(replace(telemetry(None), blocked=True))
         await pilot.pause()
         assert str(bar.render()).startswith(" BLOCKED ")
+
+
+def patrol_on_its_way(room: str = "room-105", left_m: float = 14.7) -> Progress:
+    leg = Progress(f"go {room}", DRIVING, left_m=left_m, total_m=20.0, eta_s=40.0)
+    return Progress("patrol night", f"round 1/1, stop 2/6 ({room})", eta_s=80.0, detail=leg,
+                    brief="stop 2/6")  # fmt: skip
+
+
+def labels_within(view: MainView, width: int) -> bool:
+    return all(label.region.right <= width for label in view.query(Label) if label.display)
+
+
+async def test_at_80x24_a_patrol_and_its_legs_eta_stay_on_screen():
+    """The main view at 80x24 is 36 columns (34 inside): one line cannot hold the patrol
+    and its leg, so the leg goes on a line of its own, the patrol's words brief (its time
+    left first, the room left to the leg's name); the leg keeps its metres and ETA."""
+    app = OneView()
+    async with app.run_test(size=(36, 5)) as pilot:
+        view = app.query_one(MainView)
+        view.show(telemetry(patrol_on_its_way()))
+        await pilot.pause()
+        assert shown(view) == ["patrol night:", "1:20 left, stop 2/6", "go room-105",
+                               "14.7 m left, ETA 0:40"]  # fmt: skip
+        assert view.size.height == 3 and labels_within(view, 36)
+        # A longer room's name: the leg's words brief too, and no room for its bar.
+        view.show(telemetry(patrol_on_its_way("activity-room")))
+        await pilot.pause()
+        assert shown(view)[2:] == ["go activity-room", "14.7 m, ETA 0:40"]
+        assert labels_within(view, 36) and bars(view) == []
+
+
+async def test_a_patrol_that_fits_on_one_line_stays_there():
+    app = OneView()
+    async with app.run_test(size=(120, 5)) as pilot:
+        view = app.query_one(MainView)
+        view.show(telemetry(patrol_on_its_way()))
+        await pilot.pause()
+        assert shown(view) == ["patrol night:", "round 1/1, stop 2/6 (room-105), 1 min 20 s left",
+                               "· go room-105", "14.7 m left, ETA 0:40"]  # fmt: skip
+        assert view.size.height == 2 and bars(view) == [(20.0, pytest.approx(5.3))]
+
+
+async def test_narrowed_the_view_lays_the_patrol_out_again_and_widened_too():
+    app = OneView()
+    async with app.run_test(size=(120, 5)) as pilot:
+        view = app.query_one(MainView)
+        view.show(telemetry(patrol_on_its_way()))
+        await pilot.pause()
+        await pilot.resize_terminal(36, 5)
+        await pilot.pause()
+        assert view.size.height == 3 and labels_within(view, 36)
+        await pilot.resize_terminal(120, 5)
+        await pilot.pause()
+        assert view.size.height == 2 and len(shown(view)) == 4
+
+
+async def test_a_dwelling_patrol_says_its_time_left_first_when_narrow():
+    dwelling = Progress("patrol night", "round 1/1, stop 2/6 (room-105)", eta_s=80.0,
+                        brief="stop 2/6")  # fmt: skip
+    app = OneView()
+    async with app.run_test(size=(36, 5)) as pilot:
+        view = app.query_one(MainView)
+        view.show(telemetry(dwelling))
+        await pilot.pause()
+        assert shown(view) == ["patrol night:", "1:20 left, stop 2/6"]
+        assert view.size.height == 2 and labels_within(view, 36)

@@ -61,3 +61,7 @@ def test_a_lost_pose_says_so_in_orange_and_a_loose_one_is_yellow():
     assert lost.endswith("(lost)") and "on dark_orange" in style
     loose, style = pose_text(POSE, estimate(0.15, 0.1, 2.0, landmarks=True, found=True))
     assert "(" not in loose and style == "bold yellow"
+
+
+def test_a_heading_a_hair_short_of_east_reads_zero_not_360():
+    assert pose_text(Pose(1.0, 2.0, -1e-4), None)[0] == "X=1.00 Y=2.00 H=0.0"

@@ -10,7 +10,7 @@ from giraff_console.robot.battery import Battery
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.tui.top_bar import TopBar
-from tests.tui.conftest import Rig, record_demo_session
+from tests.tui.conftest import EXAMPLE, Rig, record_demo_session
 
 
 def test_start_screen_80x24(snap_compare, rig):
@@ -102,6 +102,26 @@ def test_the_map_shows_the_robot_on_its_way_to_the_day_room(snap_compare, care_h
         await pilot.press("m")  # the map alone
 
     assert snap_compare(rig.app, terminal_size=(120, 40), run_before=go)
+
+
+def test_a_patrol_on_its_way_at_80x24(snap_compare, tmp_path):
+    """At 80x24 the top line keeps the pose and the heading, and the main view the
+    patrol, its stop and the leg's metres and ETA, the leg on a line of its own (issue
+    26). The example night patrol, without its snapshots (a recording's folder would
+    differ from run to run)."""
+    rig = Rig(floorplan=EXAMPLE, recordings=tmp_path / "recordings")
+    routes = tmp_path / "routes"
+    routes.mkdir()
+    night = (EXAMPLE.parents[1] / "routes" / "night.patrol.yaml").read_text()
+    (routes / "night.patrol.yaml").write_text(f"{night}snapshots: false\n")
+
+    async def patrol(pilot):
+        await rig.run(pilot, 0.2)
+        rig.app.run_command("patrol night")
+        await rig.app.workers.wait_for_complete()
+        await rig.run(pilot, 15.0)  # out of the dock, on the way to the nurse station
+
+    assert snap_compare(rig.app, terminal_size=(80, 24), run_before=patrol)
 
 
 def test_top_line_with_a_battery_and_the_stalk(snap_compare):
