@@ -88,12 +88,6 @@ def test_the_example_patrol_ships_in_the_wheel(wheel):
     assert "giraff_console/routes/night.patrol.yaml" in zipfile.ZipFile(wheel).namelist()
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="headless `patrol` looks only in the routes folder until patrol_command._load "
-    "uses missions.patrol.patrol_file with data_folders.example_routes (lead's file); "
-    "remove this mark with that change",
-)
 def test_the_readmes_patrol_night_runs_from_a_fresh_install(installed, elsewhere):
     result = giraff_console(
         installed, elsewhere, "patrol", "night", "--sim", "--sim-speed", "inf", "--json"

@@ -10,6 +10,7 @@ README list them from EXIT_CODES below.
 from __future__ import annotations
 
 import queue
+import signal
 import sys
 import threading
 import time
@@ -180,7 +181,9 @@ def drive_there(remote: RemoteRobot, request: c.Go | c.RunPatrol,
         return follow(events, mission_name(request), wants_report=isinstance(request, c.Go),
                       gone=lambda: remote.gone is not None, also=also)  # fmt: skip
     except KeyboardInterrupt:
-        # A stop, which also ends a mission still being planned (RobotService).
+        # A stop, which also ends a mission still being planned (RobotService); a second
+        # Ctrl-C (or `timeout -s INT`'s) must not cut it short.
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
         stopped = remote.execute(c.Halt(), timeout=2.0)
         print(f"giraff-console: {'stopped' if stopped.ok else stopped.text} (Ctrl-C)",
               file=sys.stderr)  # fmt: skip

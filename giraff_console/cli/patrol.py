@@ -38,7 +38,7 @@ from giraff_console.cli.drive import (
 )
 from giraff_console.cli.options import add_folder_options, add_robot_options, robot_options
 from giraff_console.cli.report import fail
-from giraff_console.data_folders import data_folder, default_routes
+from giraff_console.data_folders import data_folder, default_routes, example_routes
 from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.docking import DOCK
 from giraff_console.missions.go_to import GoReport
@@ -51,6 +51,7 @@ from giraff_console.missions.patrol import (
     StopReached,
     list_patrols,
     load_patrol,
+    patrol_file,
 )
 from giraff_console.missions.route import Route, RouteError, load_route
 from giraff_console.protocol.codec import Command
@@ -80,7 +81,9 @@ def add_patrol_parser(commands: argparse._SubParsersAction, example: Path) -> No
     )
     patrol.add_argument(
         "name", metavar="NAME",
-        help=f"a patrol in the routes folder (NAME{PATROL_SUFFIX}), or a patrol file's path",
+        help=f"a patrol in the routes folder (NAME{PATROL_SUFFIX}), else one of the examples "
+        f"shipped for the example floor plan ({', '.join(list_patrols(example_routes()))}), "
+        "or a patrol file's path",
     )  # fmt: skip
     add_folder_options(patrol, after_command=True, recordings=False)
     add_robot_options(patrol, example)
@@ -153,12 +156,13 @@ def _on_the_daemon(remote: RemoteRobot, request: c.RunPatrol, as_json: bool) -> 
 def _load(name: str, folder: Path) -> tuple[Patrol, dict[str, Route]]:
     """The patrol NAME names and the taught routes it drives; UsageError if either
     cannot be read."""
-    path = Path(name)
-    if not name.endswith(PATROL_SUFFIX):
-        path = folder / f"{name}{PATROL_SUFFIX}"
+    # The operator's own patrol of that name first, then the examples (data_folders.py).
+    path = patrol_file(name, (folder, example_routes()))
     if not path.is_file():
         known = ", ".join(list_patrols(folder)) or "none"
-        raise UsageError(f"no patrol {name} (no file {path}; patrols in {folder}: {known})")
+        examples = ", ".join(list_patrols(example_routes())) or "none"
+        raise UsageError(f"no patrol {name} (no file {path}; patrols in {folder}: {known}; "
+                         f"examples: {examples})")  # fmt: skip
     try:
         patrol = load_patrol(path)
         routes = {stop.route: load_route(path.parent / f"{stop.route}.yaml")

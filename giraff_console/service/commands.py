@@ -455,9 +455,9 @@ TYPED: tuple[Typed, ...] = (
           "or Space stop it)", lambda rest: Replay(_name("replay-route NAME")(rest))),
     Typed("follow-route", "follow-route NAME", "drive a taught route's path closed-loop, like "
           "go (from its start)", lambda rest: Follow(_name("follow-route NAME")(rest))),
-    Typed("patrol", "patrol NAME, patrol pause|resume|stop", "run routes/NAME.patrol.yaml; "
-          "hold or end it", _patrol),
-    Typed("undock", "undock", "back out of the dock and turn round (also u, twice)",
+    Typed("patrol", "patrol NAME, patrol pause|resume|stop", "run routes/NAME.patrol.yaml "
+          "(else the example of that name shipped with the package); hold or end it", _patrol),
+    Typed("undock", "undock", "back out of the dock and turn round (also u, then y)",
           _bare(Undock(), "undock")),
     Typed("go", "go ROOM", "drive to ROOM: the route is planned, shown on the map and driven",
           lambda rest: Go(_name("go ROOM")(rest))),

@@ -19,7 +19,7 @@ from giraff_console.planning.route_planner import walls_of
 from giraff_console.protocol.codec import parse_command
 from giraff_console.protocol.mode import ModeBit
 from giraff_console.robot.loop_events import MissionChanged
-from giraff_console.robot.mission import Outcome
+from giraff_console.robot.mission import MissionEnd, Outcome
 from tests.listening import only
 from tests.missions.site import PLAN, Site
 
@@ -40,13 +40,13 @@ def navigator() -> Navigator:
     return Navigator(PLAN, walls_of(PLAN))
 
 
-def replay(site: Site) -> list[MissionChanged]:
-    """Replay the route from the dock; the loop's word on how it ended."""
-    ends: list[MissionChanged] = []
+def replay(site: Site) -> list[MissionEnd]:
+    """Replay the route from the dock; how it ended, as the loop told it."""
+    ends: list[MissionEnd] = []
 
     def ended(event: MissionChanged) -> None:
-        if not event.running:
-            ends.append(event)
+        if event.end is not None:
+            ends.append(event.end)
 
     site.control.subscribe(only(MissionChanged, ended))
     site.start(RouteReplay(out_of_the_dock()))
@@ -58,7 +58,7 @@ def test_a_clear_way_is_replayed_to_the_end_and_done(navigator):
     site = Site(navigator)
     start = site.true_pose()
     [end] = replay(site)
-    assert site.ended == ["done"] and end.outcome is None
+    assert site.ended == ["done"] and end.outcome is Outcome.DONE
     assert site.true_pose().y - start.y > 0.8  # it went
 
 
