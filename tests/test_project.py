@@ -250,3 +250,22 @@ def test_the_robot_is_assembled_in_one_place_the_runtime():
                 if name in ROBOT_PARTS and not allowed:
                     wrong.append(f"{where}:{node.lineno} builds {name}")
     assert wrong == []
+
+
+def test_the_screen_imports_nothing_from_the_robot_or_its_missions():
+    # Issue 26: the TUI is given the service and nothing else. What it draws comes in
+    # the service's words (service/vocabulary.py), the same in its own process and
+    # across the daemon's socket; it never reaches into robot/ or missions/.
+    wrong = []
+    for path in (ROOT / "giraff_console" / "tui").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module:
+                names = [node.module]
+            elif isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            else:
+                continue
+            below = ("giraff_console.robot", "giraff_console.missions")
+            wrong += [f"{path.relative_to(ROOT)} imports {name}" for name in names
+                      if name.startswith(below)]  # fmt: skip
+    assert wrong == []

@@ -16,7 +16,6 @@ from giraff_console.cli.drive import EXIT_USAGE
 from giraff_console.cli.options import robot_options
 from giraff_console.cli.report import fail
 from giraff_console.clock import RealClock
-from giraff_console.missions.navigation import Navigator
 from giraff_console.planning.floorplan import FloorPlan, FloorPlanError, load_floorplan
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.recording.playback import open_log
@@ -59,14 +58,15 @@ def run_console(args: argparse.Namespace, settings: Settings, example: Path) -> 
         app = GiraffConsole(
             robot.service,
             clock=robot.control.clock,
-            control=robot.control,
             simulator=robot.site is not None,
             camera=robot.camera,
             undock_distance=settings.teleop.undock_distance,
             battery_low=settings.battery.low,
             play=args.session if args.command == "replay" else None,
-            navigator=robot.navigator,
+            plan=plan,
+            walls=robot.navigator.walls,
             started=robot.start,
+            stop=robot.close,
         )
         app.notes_at_start.append(plan_note(plan))
         app.notes_at_start.extend(robot.notes_at_start)
@@ -92,11 +92,10 @@ def run_attached_console(first: RemoteRobot, args: argparse.Namespace, settings:
     # as at the start (service/reattach.py).
     robot = Reattaching(first, lambda: daemon_robot("console", take=True))
     welcome = robot.welcome
-    navigator = None
-    note = "floor plan: none"
+    plan, walls, note = None, None, "floor plan: none"
     try:
         plan = load_floorplan(welcome.floorplan or example)
-        navigator, note = Navigator(plan, walls_of(plan), settings.robot_radius), plan_note(plan)
+        walls, note = walls_of(plan), plan_note(plan)
     except (FloorPlanError, OSError) as error:
         note = f"no map: {error}"
     app = GiraffConsole(
@@ -107,7 +106,8 @@ def run_attached_console(first: RemoteRobot, args: argparse.Namespace, settings:
         undock_distance=settings.teleop.undock_distance,
         battery_low=settings.battery.low,
         play=args.session if args.command == "replay" else None,
-        navigator=navigator,
+        plan=plan,
+        walls=walls,
     )
     app.notes_at_start.append(note)
     app.controls = welcome.controls

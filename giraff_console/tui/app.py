@@ -22,13 +22,9 @@ from textual.widgets import Footer
 from giraff_console.camera.feed import CameraFeed
 from giraff_console.camera.source import RESOLUTIONS as CAMERA_RESOLUTIONS
 from giraff_console.clock import Clock
-from giraff_console.link import Exchange
-from giraff_console.missions.navigation import Navigator
 from giraff_console.planning import room_names
-from giraff_console.robot.control_loop import ControlLoop
-from giraff_console.robot.loop_events import Note
-from giraff_console.robot.odometry import Pose
-from giraff_console.robot.telemetry import Telemetry
+from giraff_console.planning.floorplan import FloorPlan
+from giraff_console.planning.grid import OccupancyGrid
 from giraff_console.service import commands as c
 from giraff_console.service.daemon import Welcome
 from giraff_console.service.events import (
@@ -39,6 +35,7 @@ from giraff_console.service.events import (
     ServiceEvent,
 )
 from giraff_console.service.reattach import Attached, Disconnected
+from giraff_console.service.vocabulary import Exchange, Note, Pose, Telemetry
 from giraff_console.tui.camera_view import CameraView
 from giraff_console.tui.command_line import CommandLine
 from giraff_console.tui.help_screen import HelpScreen
@@ -181,35 +178,37 @@ class GiraffConsole(RobotKeys, KeyGuard):
         *,
         clock: Clock,
         simulator: bool,
-        control: ControlLoop | None = None,
         attached: str | None = None,
         camera: CameraFeed | None = None,
         play: Path | None = None,
-        navigator: Navigator | None = None,
+        plan: FloorPlan | None = None,
+        walls: OccupancyGrid | None = None,
         undock_distance: float = 0.3,
         battery_low: float = 25.0,
         started: Callable[[], None] = lambda: None,
+        stop: Callable[[], object] = lambda: None,
         timestamp: Callable[[], str] = lambda: time.strftime("%H:%M:%S"),
         cursor_blink: bool = True,
         crashed: Callable[[BaseException], None] = lambda error: None,
     ) -> None:
-        """`robot` is what the console asks; `control` the loop it runs in its own process
-        (None when `attached` to a daemon, whose address that is). `navigator` has the
-        floor plan the map draws; `started` runs the robot once the screen hears it (the
-        tests on a virtual clock tick the loop themselves); `battery_low` is the percent
-        below which the top line shows the battery LOW."""
+        """`robot` is the service the console asks, in its own process or `attached` to a
+        daemon (whose address that is). `plan` and its `walls` are what the map draws;
+        `started` runs the robot once the screen hears it (the tests on a virtual clock
+        tick the loop themselves), and `stop` stops it for good as the console leaves;
+        `battery_low` is the percent below which the top line
+        shows the battery LOW."""
         super().__init__()
         self.robot = robot
         self.clock = clock
-        self.control = control
         self.attached = attached
         self.camera = camera
         self.play_at_start = play
-        self.navigator = navigator
+        self.plan = plan
+        self.walls = walls
         self.route: RouteShown | None = None
         self._shown_route: RouteShown | None = None
-        start = navigator.start_pose if navigator is not None else None
-        self.pose = start or Pose()
+        # Where the robot is, until the first snapshot says (within a tick of starting).
+        self.pose = Pose()
         # Lines for the status log once it is on screen (how the console was set up).
         self.notes_at_start: list[str] = []
         self._scene: MapScene | None = None
@@ -223,6 +222,7 @@ class GiraffConsole(RobotKeys, KeyGuard):
         # Why the daemon this console is attached to has gone, while it is gone.
         self.disconnected: str | None = None
         self.started = started
+        self.stop_robot = stop
         self.timestamp = timestamp
         self.cursor_blink = cursor_blink
         # Told first of an exception nothing handled (robot/last_stop.py).
@@ -255,9 +255,8 @@ class GiraffConsole(RobotKeys, KeyGuard):
         self.transcript = self.query_one(Transcript)
         self.camera_view = self.query_one(CameraView)
         self.map_view = self.query_one(MapView)
-        navigator = self.navigator
-        if navigator is not None and navigator.walls is not None:
-            self._scene = plan_scene(navigator.plan, navigator.walls)
+        if self.plan is not None and self.walls is not None:
+            self._scene = plan_scene(self.plan, self.walls)
             self._show_map()
         else:
             self.map_view.display = False  # nothing to draw: the camera has the room
@@ -289,8 +288,6 @@ class GiraffConsole(RobotKeys, KeyGuard):
         super()._handle_exception(error)
 
     def on_unmount(self) -> None:
-        if self.control is not None:
-            self.control.stop()
         self.robot.unsubscribe(self._from_robot)
         self.robot.close()
         if self.camera is not None:
@@ -328,19 +325,18 @@ class GiraffConsole(RobotKeys, KeyGuard):
         self._show_map()
 
     def on_room_named(self, message: RoomNamed) -> None:
-        """The map and the room lists by the new name. In its own process the console
-        shares the service's navigator, which has it already; attached, it has its own."""
-        navigator, renamed = self.navigator, message.renamed
-        if navigator is None:
+        """The map and the room lists by the new name: the console's copy of the plan,
+        renamed as the service renamed its own."""
+        plan, renamed = self.plan, message.renamed
+        if plan is None or renamed.old not in plan.rooms:
             return
-        if renamed.old in navigator.plan.rooms:
-            try:
-                navigator.use_plan(room_names.renamed(navigator.plan, renamed.old, renamed.new))
-            except room_names.RenameError as error:
-                self.note(f"the map keeps the old names: {error}")
-                return
-        if navigator.walls is not None:
-            self._scene = plan_scene(navigator.plan, navigator.walls)
+        try:
+            plan = self.plan = room_names.renamed(plan, renamed.old, renamed.new)
+        except room_names.RenameError as error:
+            self.note(f"the map keeps the old names: {error}")
+            return
+        if self.walls is not None:
+            self._scene = plan_scene(plan, self.walls)
             self._show_map()
 
     def on_controls_changed(self, message: ControlsChanged) -> None:
@@ -561,25 +557,23 @@ class GiraffConsole(RobotKeys, KeyGuard):
         return ""
 
     def _leave(self) -> None:
-        if self.control is not None:
+        if self.attached is None:
             self.note("stopping the robot and leaving")
             # Stop first: the app takes a while to close its screens after exit().
-            self.control.stop()
+            self.stop_robot()
         self.exit()
 
     def _navigation_words(self) -> list[str]:
         """What the command line offers to complete: every room and door by name."""
-        if self.navigator is None:
+        if self.plan is None:
             return []
-        rooms = [f"go {room_id}" for room_id in self.navigator.room_ids()]
-        doors = self.navigator.door_ids()
+        rooms = [f"go {room_id}" for room_id in sorted(self.plan.rooms)]
+        doors = sorted(door.id for door in self.plan.doors)
         return rooms + [f"close {door}" for door in doors] + [f"open {door}" for door in doors]
 
     def closed_doors(self) -> frozenset[str]:
         """The doors shut now, as the robot last said."""
-        if self.route is not None:
-            return frozenset(self.route.closed)
-        return self.navigator.state.closed if self.navigator is not None else frozenset()
+        return frozenset(self.route.closed) if self.route is not None else frozenset()
 
     # -- the command line ---------------------------------------------------------------
 
@@ -607,9 +601,9 @@ class GiraffConsole(RobotKeys, KeyGuard):
 
     def _choices(self, word: str) -> str:
         """What there is to choose from, for a command typed without it."""
-        navigator = self.navigator
-        if navigator is None or word not in ("go", "close", "open"):
+        plan = self.plan
+        if plan is None or word not in ("go", "close", "open"):
             return ""
         if word == "go":
-            return f"; rooms: {', '.join(navigator.room_ids())}"
-        return f"; doors: {', '.join(navigator.door_ids())}"
+            return f"; rooms: {', '.join(sorted(plan.rooms))}"
+        return f"; doors: {', '.join(sorted(door.id for door in plan.doors))}"

@@ -9,8 +9,7 @@ from textual.app import ComposeResult
 from textual.containers import Horizontal, Vertical
 from textual.widgets import Label, ProgressBar, Static
 
-from giraff_console.robot.mission import TEXT_BAR, Progress
-from giraff_console.robot.telemetry import LinkState, Telemetry
+from giraff_console.service.vocabulary import TEXT_BAR, LinkState, Progress, Telemetry
 
 MISSION_STYLE = "bold cyan"
 # The ways of showing a mission, widest first: (the part under way on a line of its own,

@@ -11,8 +11,7 @@ import numpy as np
 
 from giraff_console.planning.floorplan import FloorPlan
 from giraff_console.planning.grid import OCCUPIED, OccupancyGrid
-from giraff_console.robot.localisation import Estimate
-from giraff_console.robot.odometry import Pose
+from giraff_console.service.vocabulary import Estimate, Pose
 
 Point = tuple[float, float]
 

@@ -20,7 +20,7 @@ from textual import events
 from textual.strip import Strip
 from textual.widget import Widget
 
-from giraff_console.robot.localisation import RECENT_S
+from giraff_console.service.vocabulary import RECENT_S
 from giraff_console.tui.map_canvas import (
     ELLIPSE,
     ELLIPSE_SIGMAS,

@@ -5,11 +5,10 @@ from __future__ import annotations
 from textual.message import Message
 
 from giraff_console.camera.feed import CameraPicture
-from giraff_console.link import Exchange
-from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
 from giraff_console.service.daemon import Welcome
 from giraff_console.service.events import Controls, Reply, RoomRenamed, RouteShown
+from giraff_console.service.vocabulary import Exchange, Telemetry
 
 
 class TelemetryUpdated(Message):

@@ -11,9 +11,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from giraff_console.robot.deadman import Intent
-from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
+from giraff_console.service.vocabulary import Intent, Telemetry
 
 # T tilts the head up: the thesis's SetTilt(1), radians from home (B.7).
 TILT_UP = 1.0

@@ -11,13 +11,16 @@ import math
 from rich.text import Text
 from textual.widgets import Static
 
-from giraff_console.link import MotorState
-from giraff_console.protocol.charger import ChargeStatus
-from giraff_console.robot.battery import Battery
-from giraff_console.robot.localisation import Estimate
-from giraff_console.robot.odometry import Pose
-from giraff_console.robot.stalk import head_height
-from giraff_console.robot.telemetry import LinkState, Telemetry
+from giraff_console.service.vocabulary import (
+    Battery,
+    ChargeStatus,
+    Estimate,
+    LinkState,
+    MotorState,
+    Pose,
+    Telemetry,
+    head_height,
+)
 
 # What the charger's status adds after the percent; not docked says nothing.
 _CHARGE_MARKS = {

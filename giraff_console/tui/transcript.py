@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from giraff_console.link import Exchange
 from giraff_console.protocol import format_reply
+from giraff_console.service.vocabulary import Exchange
 from giraff_console.tui.reflow_log import ReflowLog
 
 

@@ -90,8 +90,9 @@ class Rig:
         self.app = GiraffConsole(
             self.robot,
             clock=self.clock,
-            control=self.control,
-            navigator=self.navigator,
+            plan=self.navigator.plan if self.navigator is not None else None,
+            walls=self.navigator.walls if self.navigator is not None else None,
+            stop=self.control.stop,
             simulator=True,
             camera=self.camera,
             timestamp=lambda: f"{self.clock.now():.2f}s",
