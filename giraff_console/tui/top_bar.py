@@ -50,6 +50,10 @@ class TopBar(Static):
         self.camera = "cam -"
         self.recording = False
         self._telemetry: Telemetry | None = None
+        # The line as last put on screen, and how many times it was: an unchanged line
+        # is not put there again (issue 26: twenty repaints a second of the same line).
+        self._shown: Text | None = None
+        self.updates = 0
 
     def show_camera(self, text: str) -> None:
         self.camera = text
@@ -65,6 +69,10 @@ class TopBar(Static):
             text = self._line(telemetry, camera, performance)
             if not width or text.cell_len <= width:
                 break
+        if text == self._shown:
+            return
+        self._shown = text
+        self.updates += 1
         # One line across the screen whatever it says: no new layout of the whole screen
         # twenty times a second (issue 15: most of an idle console's time went to it).
         self.update(text, layout=False)
