@@ -10,8 +10,9 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
+import numpy as np
 from rich.segment import Segment
 
 from giraff_console.camera.halfblock import HalfBlockRenderer
@@ -64,6 +65,12 @@ class CameraFeed:
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="camera", daemon=True)
         self._times: list[float] = []
+        # The picture last handed on to be shown, with the image it was made from and the
+        # processors and pane it was made for; the ids of the markers last found (None
+        # while no marker detector runs); how many pictures have been rendered.
+        self._shown_picture: tuple[np.ndarray, tuple[object, ...], CameraPicture] | None = None
+        self._markers: tuple[int, ...] | None = None
+        self.renders = 0
 
     def start(self) -> None:
         self._thread.start()
@@ -96,8 +103,9 @@ class CameraFeed:
         return self.shown or bool(self.taps) or bool(self.listeners)
 
     def picture(self) -> CameraPicture | None:
-        """Capture, process and render one frame; None if the camera gave none, or if the
-        picture is not shown (the frame still goes to the taps and listeners)."""
+        """Capture, process and render one frame; None if the camera gave none, if the
+        picture is not shown (the frame still goes to the taps and listeners), or if it
+        would show what is on screen already."""
         if self._next_source is not None:
             self.source.close()
             self.source, self._next_source = self._next_source, None
@@ -112,23 +120,44 @@ class CameraFeed:
         self.last_frame = frame
         for tap in list(self.taps):
             tap(frame)
-        processed = self.pipeline.run(frame.image, frame.captured_at)
-        for listener in list(self.listeners):
-            listener(frame, processed.data)
         now = time.monotonic()
         self._times = [t for t in self._times if now - t < 1.0] + [now]
-        if not self.shown:
-            return None
-        keypoints = processed.data.get("keypoints")
+        fps = float(len(self._times))
+        # The same image again (a simulated robot standing still, sim/pose_view.py)
+        # through the same processors into the same pane is the picture on screen: it
+        # is neither processed for the screen nor drawn again (issue 26).
+        drawn_for = (tuple(self.pipeline.enabled), self._cells)
+        last = self._shown_picture
+        again = last is not None and last[0] is frame.image and last[1] == drawn_for
+        processed = self.pipeline.run(frame.image, frame.captured_at, self.shown and not again)
+        for listener in list(self.listeners):
+            listener(frame, processed.data)
         markers = processed.data.get("marker_ids")
-        return CameraPicture(
-            self.renderer.render(processed.image, *self._cells),
-            self.source.name,
-            frame.size,
-            float(len(self._times)),
-            keypoints if isinstance(keypoints, int) else None,
-            tuple(markers) if isinstance(markers, list) else None,
-        )
+        if isinstance(markers, list):
+            # Kept until the detector next runs: it may run on fewer frames than shown.
+            self._markers = tuple(markers)
+        if not self.shown:
+            self._shown_picture = None  # shown again, the next frame is drawn
+            return None
+        if last is not None and again:
+            picture = last[2]
+            if picture.fps == fps and picture.markers == self._markers:
+                return None
+            # Only the top line's words have changed: the picture's lines are the same.
+            picture = replace(picture, fps=fps, markers=self._markers)
+        else:
+            keypoints = processed.data.get("keypoints")
+            picture = CameraPicture(
+                self.renderer.render(processed.image, *self._cells),
+                self.source.name,
+                frame.size,
+                fps,
+                keypoints if isinstance(keypoints, int) else None,
+                self._markers,
+            )
+            self.renders += 1
+        self._shown_picture = (frame.image, drawn_for, picture)
+        return picture
 
     def _run(self) -> None:
         next_frame = time.monotonic()

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -174,6 +174,11 @@ class MarkerDetector:
                     dictionary.maxCorrectionBits,
                 )  # fmt: skip
         self.detector = cv2.aruco.ArucoDetector(dictionary, detector_parameters())
+        # The last frame looked through (grey), the intrinsics it was placed with and the
+        # regions looked in (None: all of it), and what was found in it; and how often
+        # a frame was that one again.
+        self._last: tuple[np.ndarray, tuple[object, ...], list[MarkerSighting]] | None = None
+        self.repeats = 0
         # A second detector for regions of a frame, whose size limits are set for each
         # region (`_find_in`); the first keeps the whole frame's.
         self._region_detector = cv2.aruco.ArucoDetector(dictionary, detector_parameters())
@@ -200,16 +205,28 @@ class MarkerDetector:
         given `regions`, only those in them (`_find_in`)."""
         if not len(self.ids):
             return []
-        found = self._find(grey) if regions is None else self._find_in(grey, regions)
-        if not found:
-            return []
         intrinsics = self.intrinsics(grey.shape[1], grey.shape[0])
+        looked = (intrinsics, None if regions is None else tuple(regions))
+        last = self._last
+        if (
+            last is not None and last[1] == looked and last[0].shape == grey.shape
+            and np.array_equal(last[0], grey)
+        ):  # fmt: skip
+            # The very frame looked at last, where it was looked at last (a simulated
+            # robot standing still): what it finds is what it found then, at this
+            # frame's time (issue 26: a whole frame's search, tens of milliseconds, ten
+            # times a second for nothing).
+            self.repeats += 1
+            return [replace(s, frame_time=frame_time) for s in last[2]]
+        found = self._find(grey) if regions is None else self._find_in(grey, regions)
         sightings = []
         for points, index in found:
             refined = refine_corners(grey, points, self.cells)
             points = refined if refined is not None else points
             marker_id = int(self.ids[index])
             sightings.append(self._sighting(marker_id, points, intrinsics, frame_time))
+        # A copy: the caller may draw the next frame into the same array.
+        self._last = (grey.copy(), looked, sightings)
         return sightings
 
     def smallest_perimeter(self, width: int, height: int) -> float:
@@ -314,10 +331,17 @@ class MarkerDetector:
 
     def process(self, image: np.ndarray, grey: np.ndarray, captured_at: float) -> Processed:
         sightings = self.detect(grey, captured_at)
-        data = {"markers": sightings, "marker_ids": [s.id for s in sightings]}
+        data = _sightings_data(sightings)
         if not sightings:
             return Processed(image, data)
         return Processed(draw_sightings(image, sightings), data)
+
+    def find(self, grey: np.ndarray, captured_at: float) -> dict[str, object]:
+        return _sightings_data(self.detect(grey, captured_at))
+
+
+def _sightings_data(sightings: list[MarkerSighting]) -> dict[str, object]:
+    return {"markers": sightings, "marker_ids": [s.id for s in sightings]}
 
 
 def draw_sightings(image: np.ndarray, sightings: list[MarkerSighting]) -> np.ndarray:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Protocol, cast
 
@@ -30,11 +31,14 @@ class Processed:
 class FrameProcessor(Protocol):
     """Takes the image so far, the grey frame and when it was captured (monotonic
     seconds; NaN if unknown); returns the image to show and its data. It draws on a
-    copy, never on the image it is given."""
+    copy, never on the image it is given. `find` gives the same data without drawing
+    anything, for a frame nobody is shown."""
 
     name: str
 
     def process(self, image: np.ndarray, grey: np.ndarray, captured_at: float) -> Processed: ...
+
+    def find(self, grey: np.ndarray, captured_at: float) -> dict[str, object]: ...
 
 
 @dataclass(frozen=True)
@@ -71,7 +75,14 @@ class FastCorners:
         keypoints = self.detector.detect(grey)
         # None has OpenCV allocate the output image; the stubs wrongly refuse it.
         shown = cv2.drawKeypoints(image, keypoints, cast(np.ndarray, None), PINK)
-        return Processed(shown, {"keypoints": len(keypoints), "corners": [k.pt for k in keypoints]})
+        return Processed(shown, _corners_data(keypoints))
+
+    def find(self, grey: np.ndarray, captured_at: float) -> dict[str, object]:
+        return _corners_data(self.detector.detect(grey))
+
+
+def _corners_data(keypoints: Sequence[cv2.KeyPoint]) -> dict[str, object]:
+    return {"keypoints": len(keypoints), "corners": [k.pt for k in keypoints]}
 
 
 class CannyEdges:
@@ -85,13 +96,19 @@ class CannyEdges:
             cv2.cvtColor(edges, cv2.COLOR_GRAY2BGR), {"edge_pixels": int(np.count_nonzero(edges))}
         )
 
+    def find(self, grey: np.ndarray, captured_at: float) -> dict[str, object]:
+        return {"edge_pixels": int(np.count_nonzero(cv2.Canny(grey, CANNY_LOW, CANNY_HIGH)))}
+
 
 class Pipeline:
     """Undistorts each frame if a calibration is given, then runs the enabled processors.
 
+    The enabled processors are for the operator's eye: while the picture is not shown
+    they do not run at all (issue 26: FAST ran ten times a second on a hidden camera).
     A processor that something needs whatever the operator shows (the marker detector,
-    for localisation) is `require`d: it runs on every frame, and its drawing shows only
-    while it is also enabled."""
+    for localisation) is `require`d: it runs at the rate it is required at, shown or
+    not, and on every frame while it is also enabled and shown (its drawing is then on
+    screen)."""
 
     def __init__(self, processors: list[FrameProcessor],
                  undistortion: Undistortion | None = None) -> None:  # fmt: skip
@@ -99,6 +116,10 @@ class Pipeline:
         self.undistortion = undistortion
         self.enabled: list[str] = []
         self.required: list[str] = []
+        # Each required processor's period, seconds (0: every frame), and when it is
+        # next due, by the frames' capture times.
+        self._periods: dict[str, float] = {}
+        self._due: dict[str, float] = {}
 
     def _known(self, name: str) -> None:
         if name not in self.processors:
@@ -113,24 +134,59 @@ class Pipeline:
         self.enabled.append(name)
         return True
 
-    def require(self, name: str) -> None:
-        """Run `name` on every frame from now on, shown or not."""
+    def require(self, name: str, fps: float | None = None) -> None:
+        """Run `name` from now on shown or not: on every frame, or on at most `fps`
+        frames a second (the rate what needs it needs, not the camera's)."""
         self._known(name)
+        if fps is not None and not fps > 0:
+            raise ValueError(f"a processor's rate must be positive, not {fps}")
         if name not in self.required:
             self.required.append(name)
+        self._periods[name] = 0.0 if fps is None else 1.0 / fps
+        self._due[name] = -math.inf
 
-    def run(self, image: np.ndarray, captured_at: float = math.nan) -> Processed:
+    def _take(self, name: str, captured_at: float) -> bool:
+        """Whether the frame captured at `captured_at` is one for `name` at its rate; if
+        it is, the next is due a period after this one was. A quarter of a period's
+        slack, so that a camera at just the required rate, whose frames come a little
+        early or late, loses none of them (frames 99 ms apart at 10 a second would
+        otherwise be taken every other one); one at three times the rate gives every
+        third."""
+        period = self._periods.get(name, 0.0)
+        if not period or math.isnan(captured_at):
+            return True
+        due = self._due[name]
+        if captured_at < due - period / 4:
+            return False
+        self._due[name] = (
+            captured_at + period if due == -math.inf else max(due + period, captured_at)
+        )
+        return True
+
+    def run(
+        self, image: np.ndarray, captured_at: float = math.nan, shown: bool = True
+    ) -> Processed:
+        """The frame through the processors: the enabled ones only if it is `shown`, the
+        required ones when due. A frame that is not shown and that none of them is to
+        see is left as it is: neither undistorted nor turned grey."""
+        drawn = self.enabled if shown else []
+        for name in drawn:
+            if name in self.required:
+                self._take(name, captured_at)  # it runs now: the next is a period on
+        needed = [n for n in self.required if n not in drawn and self._take(n, captured_at)]
+        if not shown and not needed:
+            return Processed(image)
         if self.undistortion is not None:
             image = self.undistortion.apply(image)
         grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
         result = Processed(image)
-        for name in self.enabled:
+        for name in drawn:
             step = self.processors[name].process(result.image, grey, captured_at)
             result = Processed(step.image, {**result.data, **step.data})
-        for name in self.required:
-            if name not in self.enabled:
-                step = self.processors[name].process(result.image, grey, captured_at)
-                result = Processed(result.image, {**result.data, **step.data})
+        for name in needed:
+            # Not drawn: its drawing would not be shown.
+            data = self.processors[name].find(grey, captured_at)
+            result = Processed(result.image, {**result.data, **data})
         return result
 
 

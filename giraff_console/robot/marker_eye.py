@@ -29,7 +29,10 @@ from giraff_console.robot.ekf import Observation
 from giraff_console.robot.localisation import Localisation
 from giraff_console.robot.marker_search import SEARCH_EVERY_S, Building, MarkerSearch
 
-# The Giraff's camera delivers about 10 frames a second at 800x600 (§3.3).
+# The frames a second the localisation looks for markers in: what the Giraff's camera
+# delivers at 800x600 (§3.3). A camera run faster for the screen (--camera-fps) is
+# still looked through at this rate (camera_setup.py): the rate the filter needs, not
+# the camera's.
 EYE_FPS = 10.0
 EYE_SIZE = (800, 600)
 

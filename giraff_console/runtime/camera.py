@@ -29,9 +29,10 @@ from giraff_console.planning.floorplan import FloorPlan, Landmarks
 from giraff_console.planning.landmarks import marker_beliefs, marker_detector
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.robot.control_loop import ControlLoop
-from giraff_console.robot.marker_eye import hand_on
+from giraff_console.robot.marker_eye import EYE_FPS, hand_on
 from giraff_console.runtime.sim_site import plan_world, shut_doors
 from giraff_console.sim.camera import WorldCamera
+from giraff_console.sim.pose_view import PoseView
 from giraff_console.sim.surroundings import Surroundings
 from giraff_console.sim.world import World, demo_world
 
@@ -50,17 +51,17 @@ def camera_feed(
     """The camera asked for, else the synthetic one with the simulator (seeing `world`,
     or a demo world, and `surroundings`, its frames stamped by `clock`, the control
     loop's), else camera 0; a test pattern when none of them is there (§3.4.1). With
-    `landmarks`, the marker detector runs on every frame, for the localisation (see
-    `find_the_robot`); `o` shows what it finds."""
+    `landmarks`, the marker detector runs on EYE_FPS frames a second, shown or not, for
+    the localisation (see `find_the_robot`); `o` shows what it finds, on every frame."""
     now = (clock or RealClock()).now
     synthetic = None
     camera_world = None
     if simulator is not None:
         camera_world = WorldCamera(world or demo_world(), surroundings=surroundings)
         board = simulator.board
-        synthetic = SyntheticCamera(
-            lambda width, height: camera_world.render(board.true_pose, width, height), now
-        )
+        # Drawn again only when the robot, the picture's size or the surroundings have
+        # moved: standing still, it sees the same picture (sim/pose_view.py, issue 26).
+        synthetic = SyntheticCamera(PoseView(camera_world, lambda: board.true_pose), now)
     if device is None and synthetic is None:
         device = "0"
     source, size, note = open_camera(device, *DEFAULT_RESOLUTION, synthetic, now)
@@ -83,7 +84,9 @@ def camera_feed(
     pipeline = Pipeline(processors, undistortion)
     pipeline.toggle("fast")
     if landmarks is not None:
-        pipeline.require("markers")
+        # At the rate the localisation needs, whatever the camera's (--camera-fps): a
+        # faster camera makes a smoother picture, not a better fix (robot/marker_eye.py).
+        pipeline.require("markers", EYE_FPS)
     truecolor = os.environ.get("COLORTERM") in ("truecolor", "24bit")
     feed = CameraFeed(
         source, size, pipeline, HalfBlockRenderer(truecolor), lambda picture: None, fps

@@ -182,6 +182,10 @@ class _EyeCamera:
         self.pose = pose
         self.clock = clock
         self._size = EYE_SIZE
+        # The last picture and what it was drawn for: a robot standing still is shown
+        # the same one again rather than drawn anew ten times a second (issue 26).
+        self._drawn: tuple[object, np.ndarray] | None = None
+        self.drawings = 0
 
     def open(self, width: int, height: int) -> tuple[int, int]:
         self._size = (width, height)
@@ -196,7 +200,15 @@ class _EyeCamera:
     def _read(self, wanted: list[tuple[int, int, int, int]] | None) -> Frame:
         # Stamped when the view is taken, as SyntheticCamera's frames are.
         captured_at = self.clock()
-        return Frame(self.windows.render(self.pose(), *self._size, wanted), captured_at)
+        pose, surroundings = self.pose(), self.windows.camera.surroundings
+        revision = surroundings.snapshot().revision if surroundings is not None else None
+        drawn_for = (pose, self._size, wanted, revision)
+        if self._drawn is None or self._drawn[0] != drawn_for:
+            picture = self.windows.render(pose, *self._size, wanted)
+            picture.flags.writeable = False  # shared by the frames that show it again
+            self._drawn = (drawn_for, picture)
+            self.drawings += 1
+        return Frame(self._drawn[1], captured_at)
 
     def close(self) -> None:
         pass

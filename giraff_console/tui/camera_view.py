@@ -23,8 +23,12 @@ class CameraView(Widget):
         self.on_size = lambda columns, rows: None
 
     def show(self, picture: CameraPicture) -> None:
+        """Draw `picture`; not again if it has the lines on screen already (only what the
+        top line says of it changed)."""
+        same = self.picture is not None and picture.lines is self.picture.lines
         self.picture = picture
-        self.refresh()
+        if not same:
+            self.refresh()
 
     def on_resize(self) -> None:
         self.on_size(self.size.width, self.size.height)

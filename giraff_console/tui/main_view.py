@@ -61,6 +61,10 @@ class MainView(Vertical):
         self._words = (Label(), Label(), Label())
         self._shown: Progress | None = None
         self._shown_width = 0
+        # The two lines as last put on screen: an unchanged line is not put there again
+        # (issue 26: the same two lines repainted twenty times a second at rest).
+        self._lines: tuple[Text, Text] | None = None
+        self.updates = 0
 
     def compose(self) -> ComposeResult:
         yield self._motion
@@ -101,10 +105,20 @@ class MainView(Vertical):
             detail = Text("k pause · . step · j/l ∓10 s · < > speed · p live", style="green")
         else:
             detail.append(f"keys {held} {telemetry.speed:.2f} m/s")
-        # Each a line of its own, whatever it says: no layout at every tick.
-        self._motion.update(_one_line(motion), layout=False)
-        self._keys.update(_one_line(detail), layout=False)
+        self._show_lines(_one_line(motion), _one_line(detail))
         self._show_mission(telemetry.mission)
+
+    def _show_lines(self, motion: Text, detail: Text) -> None:
+        """Each line that differs from what is on screen; each a line of its own,
+        whatever it says: no layout at every tick."""
+        before = self._lines
+        self._lines = (motion, detail)
+        if before is None or motion != before[0]:
+            self._motion.update(motion, layout=False)
+            self.updates += 1
+        if before is None or detail != before[1]:
+            self._keys.update(detail, layout=False)
+            self.updates += 1
 
     def _show_mission(self, progress: Progress | None) -> None:
         """A mission drives, not the keys: its progress takes their place."""

@@ -324,8 +324,19 @@ def _draw_ellipse(
 ) -> None:
     """The uncertainty ellipse's outline about the robot, at ELLIPSE_SIGMAS; none while
     the filter has no finite one. Within the robot's disc it is hidden by the robot."""
+    outline = _ellipse_dots(robot, ellipse, frame)
+    if outline is not None:
+        cv2.polylines(mask, [outline], True, 1, 1, cv2.LINE_8, _SHIFT)
+
+
+def _ellipse_dots(
+    robot: tuple[float, float, float] | None,
+    ellipse: tuple[float, float, float] | None,
+    frame: _Frame,
+) -> np.ndarray | None:
+    """The ellipse's outline in cv2's fixed-point dots: all that its drawing depends on."""
     if robot is None or ellipse is None or not all(map(math.isfinite, ellipse)):
-        return
+        return None
     major, minor, angle = ellipse
     major, minor = ELLIPSE_SIGMAS * major, ELLIPSE_SIGMAS * minor
     # Enough corners that each side is about a dot long, for a smooth outline.
@@ -335,7 +346,7 @@ def _draw_ellipse(
     cos_a, sin_a = math.cos(angle), math.sin(angle)
     outline = np.stack((robot[0] + cos_a * along - sin_a * across,
                         robot[1] + sin_a * along + cos_a * across), axis=1)  # fmt: skip
-    cv2.polylines(mask, [frame.dots(outline)], True, 1, 1, cv2.LINE_8, _SHIFT)
+    return frame.dots(outline)
 
 
 def _draw_robot(
@@ -344,15 +355,42 @@ def _draw_robot(
     """A disc the robot's size and a tick twice as long pointing where it heads. cv2
     draws a disc of any size as at least its middle dot, and the tick is made at least
     two dots long, so that the robot and its heading still show when zoomed right out."""
-    if robot is None:
+    dots = _robot_dots(robot, radius_m, frame)
+    if dots is None:
         return
+    centre, tip, radius = dots
+    cv2.circle(mask, centre, radius, 1, -1, cv2.LINE_8, _SHIFT)
+    cv2.line(mask, centre, tip, 1, 1, cv2.LINE_8, _SHIFT)
+
+
+def _robot_dots(
+    robot: tuple[float, float, float] | None, radius_m: float, frame: _Frame
+) -> tuple[tuple[int, int], tuple[int, int], int] | None:
+    """The robot's disc centre, its tick's tip and the disc's radius in cv2's fixed-point
+    dots: all that its drawing depends on."""
+    if robot is None:
+        return None
     x, y, heading = robot
     reach = max(2 * radius_m, 2 * frame.step)
     centre, tip = frame.dots(
         [(x, y), (x + reach * math.cos(heading), y + reach * math.sin(heading))]
-    )
-    cv2.circle(mask, tuple(centre), round(radius_m / frame.step * _ONE), 1, -1, cv2.LINE_8, _SHIFT)
-    cv2.line(mask, tuple(centre), tuple(tip), 1, 1, cv2.LINE_8, _SHIFT)
+    ).tolist()
+    return (centre[0], centre[1]), (tip[0], tip[1]), round(radius_m / frame.step * _ONE)
+
+
+def drawing_key(scene: MapScene, viewport: Viewport, cols: int, rows: int) -> tuple[object, ...]:
+    """What `render_map` draws from: two scenes with equal keys in the same view are drawn
+    alike, to the dot. The robot and its ellipse are taken as cv2 draws them, in eighths
+    of a dot, so that the estimate's every correction, a few micrometres while the robot
+    stands still, is not a new drawing (issue 26: the map was drawn again at 20 Hz while
+    nothing on it moved). The rest of the scene is taken as it is."""
+    frame = _Frame(viewport, cols, rows)
+    outline = _ellipse_dots(scene.robot, scene.ellipse, frame)
+    return (
+        viewport, cols, rows, replace(scene, robot=None, ellipse=None),
+        _robot_dots(scene.robot, scene.robot_radius, frame),
+        None if outline is None else outline.tobytes(),
+    )  # fmt: skip
 
 
 def _place_labels(

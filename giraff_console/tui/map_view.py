@@ -28,6 +28,7 @@ from giraff_console.tui.map_canvas import (
     MARKER_REJECTED,
     MARKER_SEEN,
     Viewport,
+    drawing_key,
     fit_grid,
     layer_styles,
     render_map,
@@ -66,7 +67,11 @@ class MapView(Widget):
         # Whether the view is the whole plan, as `fit` made it: kept whole when resized.
         self._fitted = False
         self._strips: list[Strip] | None = None
-        self._drawn_for: tuple[Viewport, int, int] | None = None
+        # What the strips were drawn from (map_canvas.drawing_key), and how many times
+        # the map has been drawn: a scene that would be drawn alike is not drawn again.
+        self._drawn_for: tuple[object, ...] | None = None
+        self.drawings = 0
+        self._caption_shown: Text | None = None
         self._drag_from: tuple[float, float] | None = None  # the pointer, while dragging
 
     @property
@@ -93,12 +98,13 @@ class MapView(Widget):
 
     def show(self, scene: MapScene) -> None:
         """Draw `scene` instead of the last one. Pass a new scene for every change: the
-        drawing is kept until the scene, the viewport or the size changes, and a scene
-        equal to the last one (the robot standing still) is not drawn again."""
+        drawing is kept until what it shows, the viewport or the size changes. A scene
+        equal to the last one, or one that would be drawn alike to the dot (the
+        estimate's corrections while the robot stands still), is not drawn again, and
+        the screen is not asked to repaint the map (issue 26)."""
         if scene == self.scene:
             return
         self.scene = scene
-        self._strips = None
         if self.viewport is None:
             self.fit()
         else:
@@ -174,8 +180,19 @@ class MapView(Widget):
         return True
 
     def _changed(self) -> None:
-        self.border_title = self._title()
-        self.refresh()
+        """Repaint, if what the map or its caption shows has changed."""
+        title = self._title()
+        if title != self._caption_shown:
+            self.border_title = self._caption_shown = title
+        if self._drawn_for is None or self._drawn_for != self._key(*self.size):
+            self.refresh()
+
+    def _key(self, width: int, height: int) -> tuple[object, ...] | None:
+        """What a drawing of the scene at this size would be drawn from; None before
+        there is anything to draw."""
+        if self.scene is None or self.viewport is None:
+            return None
+        return drawing_key(self.scene, self.viewport, width, height)
 
     def on_resize(self) -> None:
         if self.viewport is None or self._fitted:
@@ -227,7 +244,7 @@ class MapView(Widget):
     def _drawing(self, width: int, height: int) -> list[Strip]:
         """The map as one strip a line, drawn again only when something changed."""
         assert self.scene is not None and self.viewport is not None
-        drawn_for = (self.viewport, width, height)
+        drawn_for = self._key(width, height)
         if self._strips is None or self._drawn_for != drawn_for:
             text = render_map(self.scene, self.viewport, width, height, self.truecolor)
             console = self.app.console
@@ -235,4 +252,5 @@ class MapView(Widget):
                 Strip(line.render(console), width) for line in text.split("\n", allow_blank=True)
             ]
             self._drawn_for = drawn_for
+            self.drawings += 1
         return self._strips

@@ -58,6 +58,10 @@ class TopBar(Static):
         # not live, and nothing on the line may look as if it were.
         self.disconnected = False
         self._telemetry: Telemetry | None = None
+        # The line as last put on screen, and how many times it was: an unchanged line
+        # is not put there again (issue 26: twenty repaints a second of the same line).
+        self._shown: Text | None = None
+        self.updates = 0
 
     def show_disconnected(self, disconnected: bool) -> None:
         self.disconnected = disconnected
@@ -80,6 +84,10 @@ class TopBar(Static):
             text = self._line(telemetry, camera, performance)
             if not width or text.cell_len <= width:
                 break
+        if text == self._shown:
+            return
+        self._shown = text
+        self.updates += 1
         # One line across the screen whatever it says: no new layout of the whole screen
         # twenty times a second (issue 15: most of an idle console's time went to it).
         self.update(text, layout=False)
