@@ -20,6 +20,9 @@ from giraff_console.camera.processors import Pipeline
 from giraff_console.camera.source import CameraSource, Frame
 
 DEFAULT_FPS = 10.0
+# Who takes each frame for consoles elsewhere: the processed image, the rate, the FAST
+# corners and the markers found.
+Share = Callable[[np.ndarray, float, int | None, tuple[int, ...] | None], None]
 
 
 @dataclass(frozen=True)
@@ -71,6 +74,13 @@ class CameraFeed:
         self._shown_picture: tuple[np.ndarray, tuple[object, ...], CameraPicture] | None = None
         self._markers: tuple[int, ...] | None = None
         self.renders = 0
+        # Called with every frame for consoles in other processes, processed (its
+        # overlays drawn) but not rendered, while any of them shows the camera
+        # (camera/shared_frame.py): the image, the rate, the FAST corners and markers.
+        # The same image drawn again is handed on as the same object, so that whoever
+        # encodes it can tell it need not.
+        self.share: Share | None = None
+        self._shared: tuple[np.ndarray, tuple[str, ...], np.ndarray, int | None] | None = None
 
     def start(self) -> None:
         self._thread.start()
@@ -99,8 +109,15 @@ class CameraFeed:
 
     @property
     def wanted(self) -> bool:
-        """Whether anything needs frames now: the screen, a recording, the localisation."""
-        return self.shown or bool(self.taps) or bool(self.listeners)
+        """Whether anything needs frames now: the screen, a console elsewhere, a
+        recording, the localisation."""
+        return self.shown or self.share is not None or bool(self.taps) or bool(self.listeners)
+
+    @property
+    def rate(self) -> float:
+        """Frames taken in the last second."""
+        now = time.monotonic()
+        return float(sum(now - taken < 1.0 for taken in self._times))
 
     def picture(self) -> CameraPicture | None:
         """Capture, process and render one frame; None if the camera gave none, if the
@@ -126,16 +143,29 @@ class CameraFeed:
         # The same image again (a simulated robot standing still, sim/pose_view.py)
         # through the same processors into the same pane is the picture on screen: it
         # is neither processed for the screen nor drawn again (issue 26).
-        drawn_for = (tuple(self.pipeline.enabled), self._cells)
+        enabled = tuple(self.pipeline.enabled)
+        drawn_for = (enabled, self._cells)
         last = self._shown_picture
         again = last is not None and last[0] is frame.image and last[1] == drawn_for
-        processed = self.pipeline.run(frame.image, frame.captured_at, self.shown and not again)
+        share, shared = self.share, self._shared
+        shared_again = shared is not None and shared[0] is frame.image and shared[1] == enabled
+        draw = (self.shown and not again) or (share is not None and not shared_again)
+        processed = self.pipeline.run(frame.image, frame.captured_at, draw)
         for listener in list(self.listeners):
             listener(frame, processed.data)
         markers = processed.data.get("marker_ids")
         if isinstance(markers, list):
             # Kept until the detector next runs: it may run on fewer frames than shown.
             self._markers = tuple(markers)
+        found = processed.data.get("keypoints")
+        keypoints = found if isinstance(found, int) else None
+        if share is None:
+            self._shared = None
+        else:
+            if not shared_again:
+                shared = self._shared = (frame.image, enabled, processed.image, keypoints)
+            assert shared is not None
+            share(shared[2], fps, shared[3], self._markers)
         if not self.shown:
             self._shown_picture = None  # shown again, the next frame is drawn
             return None
@@ -146,13 +176,12 @@ class CameraFeed:
             # Only the top line's words have changed: the picture's lines are the same.
             picture = replace(picture, fps=fps, markers=self._markers)
         else:
-            keypoints = processed.data.get("keypoints")
             picture = CameraPicture(
                 self.renderer.render(processed.image, *self._cells),
                 self.source.name,
                 frame.size,
                 fps,
-                keypoints if isinstance(keypoints, int) else None,
+                keypoints,
                 self._markers,
             )
             self.renders += 1

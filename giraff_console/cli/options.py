@@ -142,6 +142,7 @@ def add_robot_options(parser: argparse.ArgumentParser, example: Path, *,
 
 
 def robot_options(args: argparse.Namespace, settings: Settings, *, screen: bool = False,
+                  shares_camera: bool = False,
                   surveying: Landmarks | None = None) -> RobotOptions:  # fmt: skip
     """The robot the command line asks for: the simulator with --sim, else --port, else
     the settings file's port (none: the simulator)."""
@@ -161,6 +162,7 @@ def robot_options(args: argparse.Namespace, settings: Settings, *, screen: bool 
         camera_fps=given("camera_fps", DEFAULT_FPS),
         landmarks=not given("no_landmarks", False),
         screen=screen,
+        shares_camera=shares_camera,
         surveying=surveying,
         firmware=given("firmware"),
         sim_speed=args.sim_speed,

@@ -92,7 +92,8 @@ def run_serve(args: argparse.Namespace, settings: Settings, example: Path) -> in
     try:
         # The journal hears the notes from the start: where the robot is taken to be,
         # and what the camera can do, are said as it is set up.
-        robot = Robot(robot_options(args, settings), settings, example, notes=journal.hear)
+        robot = Robot(robot_options(args, settings, shares_camera=True), settings, example,
+                      notes=journal.hear)  # fmt: skip
     except UsageError as error:
         journal.close()
         return fail(str(error), EXIT_USAGE)

@@ -44,6 +44,8 @@ class RobotOptions:
     camera_fps: float = DEFAULT_FPS
     landmarks: bool = True  # False: dead reckoning alone (--no-landmarks)
     screen: bool = False
+    # The daemon: its consoles in other processes watch the camera (service/daemon.py).
+    shares_camera: bool = False
     # Markers to be found afresh by a survey (their family and size; none known yet).
     surveying: Landmarks | None = None
     # The simulator's.

@@ -32,7 +32,7 @@ from giraff_console.data_folders import data_folder, default_recordings, default
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.sessions import Sessions
-from giraff_console.planning.floorplan import FloorPlan, FloorPlanError, load_floorplan
+from giraff_console.planning.floorplan import FloorPlan, FloorPlanError, Landmarks, load_floorplan
 from giraff_console.planning.landmarks import marker_beliefs
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.recording.session import RecordingSetup
@@ -169,8 +169,7 @@ class Robot:
         recordings = data_folder(options.recordings, settings.recordings, default_recordings())
         setup = RecordingSetup(port=options.port or simulator_url(options.firmware),
                                camera=self._camera_setup())  # fmt: skip
-        self.sessions = Sessions(control, self.camera if options.screen else None, recordings,
-                                 setup, control.note)  # fmt: skip
+        self.sessions = Sessions(control, self.camera, recordings, setup, control.note)
         # What every mission is built with: the loop's pose and estimate, its tick, the
         # settings' limits and patience, and the simulator's range finder.
         self.drives = DriveSetup.on_loop(
@@ -180,9 +179,11 @@ class Robot:
         )  # fmt: skip
         routes = data_folder(options.routes, settings.routes, default_routes())
         self.routes = route_book(control, self.sessions, routes, self.drives, settings)
-        self.service = RobotService(control, self.drives, building=self.site,
-                                    routes=self.routes, sessions=self.sessions,
-                                    undock_distance=settings.teleop.undock_distance)  # fmt: skip
+        self.service = RobotService(
+            control, self.drives, building=self.site, routes=self.routes,
+            sessions=self.sessions, camera=self.camera,
+            undock_distance=settings.teleop.undock_distance,
+        )  # fmt: skip
 
     @staticmethod
     def _plan(options: RobotOptions, example: Path) -> FloorPlan:
@@ -200,7 +201,7 @@ class Robot:
         camera feed (the simulator's synthetic camera, or the robot's), with the marker
         detector on its own thread; without a screen, the simulated camera looked
         through on the loop's thread between ticks, or the robot's own camera with
-        nothing drawn."""
+        nothing drawn. `shares_camera` (the daemon): a feed its consoles can watch."""
         plan, control = self.plan, self.control
         looks = plan.landmarks is not None and options.landmarks
         if not options.screen and self.site is not None:
@@ -217,37 +218,48 @@ class Robot:
                 # The simulator is on a stepped virtual clock: the eye looks on the loop's
                 # thread, between ticks (robot/marker_eye.py).
                 control.subscribe(look)
+            if options.shares_camera:
+                # What the consoles watch: the same building through the synthetic camera,
+                # its markers outlined; the eye, not this, finds the robot by them.
+                self.camera = self._feed(options, clock, simulator, plan.landmarks)
+                self.camera.shown = False
             return
-        if not options.screen and not looks:
+        if not (options.screen or looks or options.shares_camera):
             return
-        site = self.site
-        try:
-            feed = camera_feed(
-                options.camera, simulator, options.calibration, options.fast_threshold,
-                options.camera_fps, site.world if site else None,
-                site.surroundings if site else None, plan.landmarks if looks else None,
-                clock,
-            )  # fmt: skip
-        except (OSError, ValueError) as error:
-            raise UsageError(f"--calibration: {error}") from None
+        feed = self._feed(options, clock, simulator, plan.landmarks if looks else None)
         found = find_the_robot(control, feed, plan, options.surveying is not None)
         if options.screen:
             self.camera = feed
             if found is not None:
                 self.notes_at_start.append(found)
             return
-        feed.shown = False  # nothing to draw: only the markers are wanted
-        feed.pipeline.toggle("fast")  # on for the screen by default
+        feed.shown = False  # nothing drawn here: the markers, and the consoles elsewhere
+        if not options.shares_camera:
+            feed.pipeline.toggle("fast")  # on for a screen by default
         control.note(f"camera: {feed.note}" + (f"; {found}" if found else ""))
-        if not feed.listeners:  # nothing it could place
+        if not (feed.listeners or options.shares_camera):  # nothing it could place
             feed.stop()
             return
         self.camera = feed
 
+    def _feed(self, options: RobotOptions, clock: Clock, simulator: serial.SerialBase | None,
+              landmarks: Landmarks | None) -> CameraFeed:  # fmt: skip
+        """The camera asked for (the simulator's in the simulated building), its marker
+        detector looking for `landmarks`."""
+        site = self.site
+        try:
+            return camera_feed(
+                options.camera, simulator, options.calibration, options.fast_threshold,
+                options.camera_fps, site.world if site else None,
+                site.surroundings if site else None, landmarks, clock,
+            )  # fmt: skip
+        except (OSError, ValueError) as error:
+            raise UsageError(f"--calibration: {error}") from None
+
     def _camera_setup(self) -> dict[str, object]:
         """The camera as a recording's metadata says it was set up."""
         camera, options = self.camera, self.options
-        if camera is None or not options.screen:
+        if camera is None:
             return {}
         return {"source": camera.source.name, "size": list(camera.size),
                 "fps_cap": options.camera_fps, "fast_threshold": options.fast_threshold,

@@ -305,6 +305,15 @@ class Status(Request):
 
 
 @dataclass(frozen=True)
+class View(Request):
+    """Send this console the camera's frames (`on`), or stop: an attached console that
+    shows the camera pane asks (camera/shared_frame.py)."""
+
+    on: bool
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
 class Release(Request):
     """Let a program on the virtual port move the robot again after an operator's stop."""
 
@@ -322,7 +331,7 @@ class Shutdown(Request):
 REQUESTS: tuple[type[Request], ...] = (
     Press, Halt, Speed, Send, Stalk, Poll, Go, RunPatrol, Follow, Replay, Undock,
     Pause, Resume, StopMission, Door, Block, Record, Play, Seek, Rate, Step, Teach, Mark,
-    Place, Name, Done, Routes, TakeControls, Heartbeat, Status, Release, Shutdown,
+    Place, Name, Done, Routes, TakeControls, Heartbeat, Status, Release, Shutdown, View,
 )  # fmt: skip
 
 

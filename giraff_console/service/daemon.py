@@ -31,6 +31,7 @@ import threading
 from dataclasses import dataclass
 from pathlib import Path
 
+from giraff_console.camera.shared_frame import SharedFrame
 from giraff_console.link import Exchange
 from giraff_console.link.board_probe import BoardFeatures
 from giraff_console.link.errors import LinkDisconnected, LinkError, LinkTimeout
@@ -84,7 +85,7 @@ POLL_S = 0.2
 # Answered on the reading thread at once, in the order typed: the keys, the stops and
 # what waits on nothing.
 URGENT = (c.Press, c.Halt, c.StopMission, c.Pause, c.Resume, c.Speed, c.Heartbeat,
-          c.TakeControls, c.Status, c.Release, c.Shutdown)  # fmt: skip
+          c.TakeControls, c.Status, c.Release, c.Shutdown, c.View)  # fmt: skip
 # Seconds the first line (Hello) may take to come.
 HELLO_TIMEOUT_S = 5.0
 
@@ -242,6 +243,8 @@ class Daemon:
             self._answer(message, name, outbox)
 
     def _answer(self, asked: Asked, name: str, outbox: Outbox) -> None:
+        if isinstance(asked.request, c.View):
+            outbox.wants_frames = asked.request.on
         try:
             reply = self.service.execute(asked.request, name)
         except Exception as error:  # a bug must not end the console's connection
@@ -308,7 +311,7 @@ def _lock_beside(path: Path) -> int:
 # robot says (a snapshot and all it holds, an exchange with its errors, notes).
 wire.register(
     Hello, Welcome, Asked, Answered, Reply, Controls, RouteShown, RoomRenamed, Situation,
-    GoReported, GoReport, *c.REQUESTS,
+    GoReported, GoReport, SharedFrame, *c.REQUESTS,
     Telemetry, LinkState, MotorState, Pose, Intent, PlaybackStatus, Progress, Battery,
     ChargeStatus, BoardFeatures, Estimate, PoseBasis, Exchange, Note, MissionChanged, MissionEnd,
     Outcome,

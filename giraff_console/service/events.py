@@ -11,6 +11,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol, TypeAlias
 
+from giraff_console.camera.shared_frame import SharedFrame
 from giraff_console.missions.go_to import GoReport
 from giraff_console.missions.navigation import NavigationState
 from giraff_console.robot.loop_events import LoopEvent, MissionChanged
@@ -83,7 +84,7 @@ class GoReported:
     report: GoReport
 
 
-ServiceEvent: TypeAlias = LoopEvent | Controls | RouteShown | RoomRenamed | GoReported
+ServiceEvent: TypeAlias = LoopEvent | Controls | RouteShown | RoomRenamed | GoReported | SharedFrame
 ServiceListener: TypeAlias = Callable[[ServiceEvent], None]
 Answered: TypeAlias = Callable[[Reply], None]
 

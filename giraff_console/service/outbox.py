@@ -3,9 +3,10 @@
 The control loop and the service drop events in here and never wait (a console that
 stops reading must not delay a tick, issue 15). Telemetry comes twenty times a second
 and only the newest matters, so a console that falls behind gets the latest snapshot,
-not the history. Everything else (answers, notes, who holds the controls, a mission's
-end) matters each time: none of it is dropped, and a console so far behind that LIMIT
-of those wait is hung up on instead, which lets go of its keys like any hang-up.
+not the history; so do the camera's frames, to a console that asked for them.
+Everything else (answers, notes, who holds the controls, a mission's end) matters each
+time: none of it is dropped, and a console so far behind that LIMIT of those wait is
+hung up on instead, which lets go of its keys like any hang-up.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from __future__ import annotations
 import collections
 import threading
 
+from giraff_console.camera.shared_frame import SharedFrame
 from giraff_console.robot.telemetry import Telemetry
 
 # Messages other than telemetry a console may fall behind by before it is hung up on.
@@ -27,6 +29,11 @@ class Outbox:
         self._ready = threading.Condition()
         self._messages: collections.deque[object] = collections.deque()
         self._latest: Telemetry | None = None
+        # The camera's frames, for a console that shows them (it asked, c.View): only
+        # the newest, as for telemetry, so that one that stops reading drops frames and
+        # holds up nothing (issue 26).
+        self.wants_frames = False
+        self._frame: SharedFrame | None = None
         self._closed = False
         self.overflowed = False
 
@@ -37,6 +44,9 @@ class Outbox:
                 return
             if isinstance(message, Telemetry):
                 self._latest = message
+            elif isinstance(message, SharedFrame):
+                if self.wants_frames:
+                    self._frame = message
             elif len(self._messages) >= self.limit:
                 self.overflowed = self._closed = True
             else:
@@ -54,14 +64,18 @@ class Outbox:
         closed and empty, or after `timeout` seconds with nothing."""
         with self._ready:
             self._ready.wait_for(
-                lambda: self._messages or self._latest is not None or self._closed, timeout
-            )
+                lambda: self._messages or self._latest is not None
+                or self._frame is not None or self._closed, timeout,
+            )  # fmt: skip
             if self._messages:
                 return self._messages.popleft()
             if self.overflowed:
                 return None
-            latest, self._latest = self._latest, None
-            return latest
+            if self._latest is not None:
+                latest, self._latest = self._latest, None
+                return latest
+            frame, self._frame = self._frame, None
+            return frame
 
     @property
     def closed(self) -> bool:

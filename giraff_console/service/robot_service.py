@@ -22,6 +22,10 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import Any, Protocol, TypeAlias
 
+import numpy as np
+
+from giraff_console.camera.feed import CameraFeed
+from giraff_console.camera.shared_frame import SharedFrame, SharedFrameError, share
 from giraff_console.link import BoardLink
 from giraff_console.missions.certainty import unverified
 from giraff_console.missions.docking import DOCK
@@ -93,7 +97,7 @@ class RobotService:
 
     def __init__(self, control: ControlLoop, drives: DriveSetup, *,
                  building: Building | None = None, routes: RouteBook | None = None,
-                 sessions: Sessions | None = None,
+                 sessions: Sessions | None = None, camera: CameraFeed | None = None,
                  undock_distance: float = 0.3) -> None:  # fmt: skip
         self.control = control
         self.drives = drives
@@ -129,6 +133,11 @@ class RobotService:
         # The mission under way and the last one to end, as the loop told them: changed
         # together, so that `status` never sees one gone and its end not yet known.
         self._missions: tuple[str | None, MissionChanged | None] = (None, None)
+        # The camera, and the consoles elsewhere that show it (c.View): it shares its
+        # frames while any does, each encoded once for them all (camera/shared_frame.py).
+        self.camera = camera
+        self._viewers: set[str] = set()
+        self._shared: tuple[np.ndarray, SharedFrame] | None = None
         control.subscribe(self._heard)
 
     def post(self, request: c.Request, answered: Answered = lambda reply: None) -> None:
@@ -165,7 +174,7 @@ class RobotService:
         if on_loop is not None:
             self.control.unsubscribe(on_loop)
 
-    def _tell(self, event: Controls | RouteShown | RoomRenamed | GoReported) -> None:
+    def _tell(self, event: Controls | RouteShown | RoomRenamed | GoReported | SharedFrame) -> None:
         for listener in self._listeners:
             listener(event)
 
@@ -195,6 +204,7 @@ class RobotService:
         """A console goes (hung up, or its connection died): if it held the controls,
         the keys it held are let go of now, and nobody holds them until one takes them.
         A mission it started carries on."""
+        self._view(console, on=False)
         with self._lock:
             if console in self._consoles:
                 self._consoles.remove(console)
@@ -618,6 +628,36 @@ class RobotService:
         self._tell(self.controls())
         return Reply(True, "you hold the controls")
 
+    def _do_view(self, request: c.View, console: str) -> Reply:
+        if self.camera is None:
+            return Reply(False, "no camera: the robot runs without one")
+        self._view(console, request.on)
+        return Reply(True)
+
+    def _view(self, console: str, on: bool) -> None:
+        with self._lock:
+            (self._viewers.add if on else self._viewers.discard)(console)
+            if self.camera is not None:
+                self.camera.share = self._share if self._viewers else None
+
+    def _share(self, image: np.ndarray, fps: float, keypoints: int | None,
+               markers: tuple[int, ...] | None) -> None:  # fmt: skip
+        """A frame for the consoles that show the camera, on the camera's thread: the
+        same image as last time (a robot standing still) is not encoded again."""
+        camera = self.camera
+        assert camera is not None
+        last = self._shared
+        if last is not None and last[0] is image:
+            frame = replace(last[1], fps=fps, markers=markers)
+        else:
+            try:
+                frame = share(image, camera.source.name, camera.size, fps, keypoints, markers)
+            except SharedFrameError as error:
+                self.control.note(f"camera: {error}")
+                return
+        self._shared = (image, frame)
+        self._tell(frame)
+
     def _do_heartbeat(self, request: c.Heartbeat) -> Reply:
         return Reply(True)
 
@@ -702,4 +742,5 @@ HANDLERS: dict[type[c.Request], Handler] = {
     c.Release: _asked(RobotService._do_release),
     c.Shutdown: _asked(RobotService._do_shutdown),
     c.Status: _asked(RobotService._do_status),
+    c.View: RobotService._do_view,
 }  # fmt: skip

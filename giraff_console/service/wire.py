@@ -9,6 +9,7 @@ crosses the socket is the dataclasses themselves, tagged by class name:
 - an exception (`Exchange.error` carries a GiraffError): `{"error": "BoardError",
   "message": str(error), "attrs": {...}}`, its instance attributes beside its message;
 - a `pathlib.Path`: `{"path": "/the/path"}`;
+- bytes (a camera frame's JPEG): `{"bytes": "<base64>"}`;
 - a tuple or a list: a list; a dataclass field annotated as a tuple comes back a tuple;
 - a dict with str keys: itself, unless one of its keys is a tag above, in which case
   it is wrapped as `{"dict": {...}}` so that it cannot be mistaken for one.
@@ -26,6 +27,8 @@ reads back. Both ends are this module, so that is enough; a gvr at vg = 1 is inf
 
 from __future__ import annotations
 
+import base64
+import binascii
 import dataclasses
 import enum
 import functools
@@ -34,7 +37,7 @@ import typing
 from pathlib import Path
 from typing import Any
 
-_TAGS = frozenset({"type", "enum", "error", "path", "dict"})
+_TAGS = frozenset({"type", "enum", "error", "path", "dict", "bytes"})
 
 _registry: dict[str, type] = {}
 
@@ -92,6 +95,8 @@ def encode(value: object) -> object:
         return data
     if isinstance(value, Path):
         return {"path": str(value)}
+    if isinstance(value, bytes):
+        return {"bytes": base64.b64encode(value).decode("ascii")}
     if isinstance(value, tuple | list):
         return [encode(item) for item in value]
     if isinstance(value, dict):
@@ -130,6 +135,11 @@ def decode(data: object) -> object:
         if not isinstance(data["path"], str):
             raise WireError(f"a path must be a str, not {data['path']!r:.40}")
         return Path(data["path"])
+    if "bytes" in data:
+        try:
+            return base64.b64decode(str(data["bytes"]), validate=True)
+        except (binascii.Error, ValueError):
+            raise WireError(f"bytes that are not base64: {data['bytes']!r:.40}") from None
     if "dict" in data:
         inner = data["dict"]
         if not isinstance(inner, dict):

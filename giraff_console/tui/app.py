@@ -19,7 +19,9 @@ from textual.containers import Horizontal, Vertical
 from textual.message import Message
 from textual.widgets import Footer
 
-from giraff_console.camera.feed import CameraFeed
+from giraff_console.camera.feed import CameraFeed, CameraPicture
+from giraff_console.camera.halfblock import HalfBlockRenderer
+from giraff_console.camera.shared_frame import SharedFrame, SharedFrameError, picture_of
 from giraff_console.camera.source import RESOLUTIONS as CAMERA_RESOLUTIONS
 from giraff_console.clock import Clock
 from giraff_console.planning import room_names
@@ -221,6 +223,11 @@ class GiraffConsole(RobotKeys, KeyGuard):
         self.controls: Controls | None = None
         # Why the daemon this console is attached to has gone, while it is gone.
         self.disconnected: str | None = None
+        # Attached: the daemon's frames are drawn here, for the pane's size in cells; the
+        # last one drawn, and the picture it made.
+        self._renderer = HalfBlockRenderer(os.environ.get("COLORTERM") in ("truecolor", "24bit"))
+        self._cells = (80, 20)
+        self._shared: tuple[bytes, tuple[int, int], CameraPicture] | None = None
         self.started = started
         self.stop_robot = stop
         self.timestamp = timestamp
@@ -275,7 +282,10 @@ class GiraffConsole(RobotKeys, KeyGuard):
             self.call_after_refresh(lambda: camera.set_cells(*self.camera_view.size))
             self.note(f"camera: {camera.note}")
         elif self.attached is not None:
-            self.camera_view.display = False  # the camera is the daemon's
+            # The daemon's camera, in frames it shares; drawn here at this pane's size.
+            self.camera_view.on_size = self._pane_size
+            self.call_after_refresh(lambda: self._pane_size(*self.camera_view.size))
+            self._watch_camera()
         # The robot runs once the screen hears it: its first notes are not lost.
         self.started()
         if self.play_at_start is not None:
@@ -362,6 +372,7 @@ class GiraffConsole(RobotKeys, KeyGuard):
         self.disconnected = None
         self.top_bar.show_disconnected(False)
         self.note(f"attached again to the robot's daemon at {self.attached}")
+        self._watch_camera()
         for text in self.welcomed(message.welcome):
             self.note(text)
         self.controls = message.welcome.controls
@@ -439,6 +450,27 @@ class GiraffConsole(RobotKeys, KeyGuard):
             self.post_message(DaemonLeft(event.why))
         elif isinstance(event, Attached):
             self.post_message(DaemonBack(event.welcome))
+        elif isinstance(event, SharedFrame):
+            self._draw_shared(event)
+
+    def _pane_size(self, columns: int, rows: int) -> None:
+        self._cells = (max(1, columns), max(1, rows))
+
+    def _draw_shared(self, frame: SharedFrame) -> None:
+        """A frame the daemon shared, drawn for the pane on the reading thread; the same
+        picture again (a robot standing still) only says its new rate."""
+        last = self._shared
+        cells = self._cells
+        if last is not None and last[0] == frame.jpeg and last[1] == cells:
+            picture = replace(last[2], fps=frame.fps, markers=frame.markers)
+        else:
+            try:
+                picture = picture_of(frame, self._renderer, cells)
+            except SharedFrameError as error:
+                self.post_message(StatusNote(f"camera: {error}"))
+                return
+        self._shared = (frame.jpeg, cells, picture)
+        self.post_message(CameraPictureUpdated(picture))
 
     def _post(self, message: Message) -> None:
         """`post_message` for the callbacks the services make, which return nothing."""
@@ -514,6 +546,13 @@ class GiraffConsole(RobotKeys, KeyGuard):
         if self.camera is not None:
             # Hidden, the camera is not drawn (camera/feed.py).
             self.camera.shown = LAYOUTS[self._layout] != "map"
+        elif self.attached is not None:
+            self._watch_camera()
+
+    def _watch_camera(self) -> None:
+        """Attached: ask the daemon for the camera's frames while the pane shows, and
+        for none while it does not (camera/shared_frame.py)."""
+        self.order(c.View(on=LAYOUTS[self._layout] != "map"))
 
     def action_zoom(self, factor: float) -> None:
         self.map_view.zoom(factor)

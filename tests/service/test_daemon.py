@@ -24,8 +24,11 @@ import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
+import cv2
+import numpy as np
 import pytest
 
+from giraff_console.camera.shared_frame import SharedFrame
 from giraff_console.link import BoardLink
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.go_to import GO_JSON_KEYS
@@ -41,7 +44,7 @@ from giraff_console.robot.teleop import Teleop
 from giraff_console.service import commands as c
 from giraff_console.service import wire
 from giraff_console.service.daemon import Answered, Asked, Hello, Welcome, daemon_alive
-from giraff_console.service.events import Controls, RoomRenamed, Situation
+from giraff_console.service.events import Controls, Reply, RoomRenamed, Situation
 from giraff_console.service.reattach import Attached, Disconnected, Reattaching
 from giraff_console.service.remote import RemoteRobot
 from giraff_console.service.robot_service import RobotService
@@ -288,6 +291,11 @@ def test_a_room_renamed_by_one_console_is_renamed_for_every_console(serve, attac
 # -- what outlives a console ----------------------------------------------------------
 
 
+def said(status: Reply, part: str) -> str:
+    """The line of a `status` answer about `part` (service/status.py)."""
+    return next(line for line in status.lines if line.startswith(f"{part}:"))
+
+
 def test_a_mission_goes_on_when_the_console_that_started_it_hangs_up(serve, attach):
     daemon = serve(*SIM, "--sim-speed", "16")
     starter = attach(daemon, "starter", take=True)
@@ -309,21 +317,22 @@ def test_a_mission_goes_on_when_the_console_that_started_it_hangs_up(serve, atta
     # The daemon sees the hang-up within a poll of the starter's connection, and lets go
     # of the controls it held.
     until = time.monotonic() + WAIT_S
-    while "starter" in later.execute(c.Status(), timeout=WAIT_S).lines[1]:
+    while "starter" in said(later.execute(c.Status(), timeout=WAIT_S), "controls"):
         assert time.monotonic() < until, "the starter's hang-up was never seen"
         time.sleep(0.1)
-    assert later.execute(c.Status(), timeout=WAIT_S).lines[1].startswith("controls: free")
+    assert said(later.execute(c.Status(), timeout=WAIT_S), "controls").startswith("controls: free")
     until = time.monotonic() + 30.0
     while True:
         assert time.monotonic() < until, f"the mission never ended:\n{daemon.notes()}"
         status = later.execute(c.Status(), timeout=WAIT_S)
         assert status.ok, status
-        if status.lines[2] != "last mission: none":
+        if said(status, "last mission") != "last mission: none":
             break
         time.sleep(0.3)
-    assert status.lines[0] == "mission: none", status.lines
+    assert said(status, "mission") == "mission: none", status.lines
     # The mission's own words on how it ended (an arrival by the odometry alone here).
-    assert status.lines[2].startswith(f"last mission: {started.name}: arrived"), status.lines
+    ended = said(status, "last mission")
+    assert ended.startswith(f"last mission: {started.name}: arrived"), status.lines
     assert daemon.alive(), daemon.notes()
 
 
@@ -445,8 +454,8 @@ def test_go_asks_the_running_daemon_and_reports_the_end(serve):
     status = run_cli("status", "--json")
     assert status.returncode == 0, status.stderr
     last = json.loads(status.stdout)["last_mission"]
-    assert (last["name"], last["running"], last["why"], last["outcome"]) == (
-        "go room-101", False, "done", "arrived_unverified")  # fmt: skip
+    assert (last["name"], last["why"], last["outcome"]) == (
+        "go room-101", "done", "arrived_unverified")  # fmt: skip
 
 
 def test_go_json_says_the_same_keys_with_and_without_a_daemon(serve):
@@ -654,3 +663,36 @@ def test_an_attached_console_sees_the_daemon_go_and_attaches_again_by_itself(ser
         assert again.alive()
     finally:
         robot.close()
+
+
+# -- the camera, for consoles in other processes ----------------------------------------
+
+
+def test_an_attached_console_that_shows_the_camera_gets_its_frames_with_overlays(serve, attach):
+    """Issue 26: the attached console was blind ("cam -"). One that asks (c.View) gets
+    the daemon's camera, processed (FAST corners, markers) and encoded small, at the
+    camera's rate; one that has not asked gets none."""
+    daemon = serve("--sim")
+    watcher, other = attach(daemon, "watcher"), attach(daemon, "other", take=False)
+    frames: queue.Queue[SharedFrame] = queue.Queue()
+    unasked: list[SharedFrame] = []
+    watcher.subscribe(lambda event: frames.put(event) if isinstance(event, SharedFrame) else None)
+    other.subscribe(lambda event: unasked.append(event) if isinstance(event, SharedFrame) else None)
+    assert watcher.execute(c.View(on=True), timeout=WAIT_S).ok
+    frames.get(timeout=WAIT_S)  # the first
+    started, counted, last = time.monotonic(), 0, None
+    while time.monotonic() - started < 3.0:
+        last = frames.get(timeout=WAIT_S)
+        counted += 1
+    assert counted / (time.monotonic() - started) >= 8.0
+    assert last is not None and last.size == (800, 600) and last.fps >= 8.0
+    assert last.keypoints is not None and last.markers == (16,)  # FAST on, marker 16 seen
+    image = cv2.imdecode(np.frombuffer(last.jpeg, np.uint8), cv2.IMREAD_COLOR)
+    assert image.shape[1] == 320 and len(last.jpeg) < 64 * 1024  # small: scaled, encoded
+    assert unasked == []
+    assert watcher.execute(c.View(on=False), timeout=WAIT_S).ok
+    time.sleep(0.5)
+    while not frames.empty():
+        frames.get_nowait()
+    time.sleep(0.5)
+    assert frames.empty()  # no frames once it stopped asking

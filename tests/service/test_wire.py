@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from giraff_console.camera.shared_frame import SharedFrame
 from giraff_console.link.board_probe import BoardFeatures
 from giraff_console.link.exchange import Exchange
 from giraff_console.link.motor_state import MotorState
@@ -17,7 +18,7 @@ from giraff_console.protocol.charger import ChargeStatus
 from giraff_console.protocol.errors import BoardError, UnknownNameError
 from giraff_console.robot.battery import Battery
 from giraff_console.robot.deadman import Intent
-from giraff_console.robot.localisation import Estimate
+from giraff_console.robot.localisation import Estimate, PoseBasis
 from giraff_console.robot.mission import Progress
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.replay import PlaybackStatus
@@ -25,6 +26,8 @@ from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.service.wire import WireError, decode, encode, register, registered
 
 register(
+    SharedFrame,
+    PoseBasis,
     Telemetry,
     LinkState,
     MotorState,
@@ -221,3 +224,13 @@ def test_two_classes_of_one_name_cannot_both_be_registered():
 
     with pytest.raises(ValueError, match="two classes named 'Pose'"):
         register(Pose)
+
+
+def test_a_shared_camera_frame_comes_back_with_its_jpeg_bytes():
+    frame = SharedFrame(bytes(range(256)) * 4, "synthetic", (800, 600), 9.5, 134, (16,))
+    assert cross(frame) == frame
+
+
+def test_bytes_that_are_not_base64_are_a_wire_error():
+    with pytest.raises(WireError, match="bytes that are not base64"):
+        decode({"bytes": "not base64!"})
