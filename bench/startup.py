@@ -15,8 +15,11 @@ median is printed:
   way: the floor any Textual screen pays.
 
 Every process runs with its own HOME and XDG folders in a temporary folder, so that no
-daemon is found, no settings file is read and nothing of the user's is written. Every
-wait has a timeout, and every process is killed at the end whatever happens.
+daemon is found, no settings file is read and nothing of the user's is written. Python
+may write its bytecode (PYTHONDONTWRITEBYTECODE is dropped), and a first round, not
+counted, writes it: an installed package has its bytecode, and compiling the sources
+again at every start would be counted as starting. Every wait has a timeout, and every
+process is killed at the end whatever happens.
 
 With --busy N, N busy loops (`python3 -c 'while 1: pass'`) run beside the
 measurements, as other work on a shared machine would, and are killed afterwards.
@@ -108,6 +111,7 @@ def cases() -> list[Case]:
 def environment(home: Path) -> dict[str, str]:
     env = dict(os.environ, HOME=str(home), TERM="xterm-256color",
                COLUMNS=str(COLUMNS), LINES=str(ROWS))  # fmt: skip
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     for name in ("CONFIG", "DATA", "STATE", "CACHE", "RUNTIME"):
         folder = home / name.lower()
         folder.mkdir(mode=0o700, exist_ok=True)
@@ -235,10 +239,12 @@ def main() -> int:
     load_before = os.getloadavg()[0]
     with tempfile.TemporaryDirectory(prefix="giraff-startup-") as home, busy_loops(args.busy):
         env = environment(Path(home))
-        for _ in range(args.runs):
+        for round_number in range(args.runs + 1):
             for case in chosen:
                 measure = measure_screen if case.screen_words else measure_command
-                results[case.name].append(measure(case, env))
+                measured = measure(case, env)
+                if round_number > 0:  # the first writes the bytecode
+                    results[case.name].append(measured)
         load_after = os.getloadavg()[0]
     print(f"{machine()}; {args.busy} busy loops beside; load average {load_before:.2f} "
           f"before, {load_after:.2f} after; medians of {args.runs}")  # fmt: skip
