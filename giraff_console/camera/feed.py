@@ -14,11 +14,10 @@ from dataclasses import dataclass
 
 from rich.segment import Segment
 
+from giraff_console.camera.defaults import DEFAULT_FPS
 from giraff_console.camera.halfblock import HalfBlockRenderer
 from giraff_console.camera.processors import Pipeline
 from giraff_console.camera.source import CameraSource, Frame
-
-DEFAULT_FPS = 10.0
 
 
 @dataclass(frozen=True)

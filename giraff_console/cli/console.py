@@ -12,7 +12,7 @@ from pathlib import Path
 
 from giraff_console.camera.processors import Undistortion
 from giraff_console.cli.daemon import attach_if_running
-from giraff_console.cli.drive import EXIT_USAGE
+from giraff_console.cli.exit_codes import EXIT_USAGE
 from giraff_console.cli.options import robot_options
 from giraff_console.cli.report import fail
 from giraff_console.clock import RealClock

@@ -16,14 +16,17 @@ import signal
 import sys
 from dataclasses import asdict
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from giraff_console.data_folders import patrol_runs
 from giraff_console.missions.patrol_log import list_runs
 from giraff_console.robot.last_stop import SIGNALS
 from giraff_console.service import commands as c
-from giraff_console.service.remote import DaemonGone, RemoteRobot, console_name
 from giraff_console.service.runtime_folder import socket_path
 from giraff_console.service.transport import NoDaemon, TransportError
+
+if TYPE_CHECKING:
+    from giraff_console.service.remote import RemoteRobot
 
 EXIT_DONE, EXIT_FAILED, EXIT_USAGE, EXIT_NO_DAEMON = 0, 1, 2, 3
 
@@ -64,6 +67,9 @@ def daemon_robot(kind: str, take: bool = False) -> RemoteRobot:
     """The running daemon's robot, attached as a console of `kind` that asks for the
     controls only if `take`. NoDaemon when none answers (no socket, or one left by a
     daemon that died); TransportError for one that is there but cannot be used."""
+    # Imported here, not with the parsers: it loads the robot's types (issue 26, item 6).
+    from giraff_console.service.remote import DaemonGone, RemoteRobot, console_name
+
     try:
         return RemoteRobot(socket_path(), console_name(kind), take=take)
     except DaemonGone as error:

@@ -28,6 +28,7 @@ from pathlib import Path
 
 from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.docking import ChargingDetour, Recharge
+from giraff_console.missions.names import PATROL_SUFFIX
 from giraff_console.missions.path_mission import PathMission
 from giraff_console.missions.route import Route
 from giraff_console.missions.route_replay import RouteReplay, replay_refusal
@@ -39,7 +40,6 @@ from giraff_console.robot.localisation import Estimate
 from giraff_console.robot.mission import Mission, Outcome, Progress
 from giraff_console.robot.odometry import Pose
 
-PATROL_SUFFIX = ".patrol.yaml"
 # A patrol is planned as a list of every leg of every round, so rounds are bounded; this
 # many rounds of one short stop is weeks of driving.
 MAX_ROUNDS = 10_000

@@ -22,16 +22,13 @@ from typing import Protocol, runtime_checkable
 import cv2
 import numpy as np
 
+from giraff_console.camera.defaults import EYE_FPS, EYE_SIZE
 from giraff_console.camera.markers import MarkerDetector, MarkerSighting, Region
 from giraff_console.camera.source import CameraSource, Frame
 from giraff_console.clock import Clock
 from giraff_console.robot.ekf import Observation
 from giraff_console.robot.localisation import Localisation
 from giraff_console.robot.marker_search import SEARCH_EVERY_S, Building, MarkerSearch
-
-# The Giraff's camera delivers about 10 frames a second at 800x600 (§3.3).
-EYE_FPS = 10.0
-EYE_SIZE = (800, 600)
 
 
 def observations(sightings: object) -> list[Observation]:
