@@ -26,12 +26,11 @@ from giraff_console.runtime.robot import Robot
 from giraff_console.service.remote import RemoteRobot
 from giraff_console.service.runtime_folder import socket_path
 from giraff_console.settings import Settings
+from giraff_console.tui.app import GiraffConsole
 
 
 def run_console(args: argparse.Namespace, settings: Settings, example: Path) -> int:
     """The operator console on a real board or the simulator (§3.2: it falls back)."""
-    from giraff_console.tui.app import GiraffConsole
-
     if args.calibration:
         try:
             Undistortion.from_file(args.calibration)
@@ -85,8 +84,6 @@ def run_attached_console(robot: RemoteRobot, args: argparse.Namespace, settings:
     """The console on a running daemon's robot: the map from the daemon's floor plan.
     Quitting, or the terminal going, leaves the daemon's missions running; a key held
     is let go of by the daemon (service/daemon.py)."""
-    from giraff_console.tui.app import GiraffConsole
-
     welcome = robot.welcome
     navigator = None
     note = "floor plan: none"
