@@ -38,6 +38,13 @@ def example_routes() -> Path:
     return Path(str(files("giraff_console") / "routes"))
 
 
+def config_path() -> Path:
+    """The settings file (settings.py reads it): here, apart from what reads it, so that
+    `--help` can name it without loading the robot's defaults (issue 26, item 6)."""
+    base = os.environ.get("XDG_CONFIG_HOME") or os.path.join(os.path.expanduser("~"), ".config")
+    return Path(base) / APP / "config.toml"
+
+
 def data_home() -> Path:
     """`$XDG_DATA_HOME/giraff-console`, or `~/.local/share/giraff-console` without it."""
     # The XDG spec says a relative XDG_DATA_HOME is invalid and must be ignored.

@@ -5,16 +5,26 @@ the thread that imports them. A SIGHUP landing on one of those threads would end
 process at once, leaving the robot on its last target; blocked on every thread, the
 console's own watcher takes it instead and stops the robot first (robot/last_stop.py).
 Commands that drive nothing unblock them again straight away (cli.py).
+
+Those pools are OpenBLAS's: numpy's and OpenCV's own copy each start a worker that
+busy-waits as it loads, about 0.09 s of CPU each, paid by every command that loads them
+(issue 26, item 6: a fifth of the console's first screen). The robot's matrices (the
+filter's, a survey's marker covariances, 750 across for 250 markers) are too small for a
+second thread to pay for itself, so BLAS runs on the calling thread unless the
+environment asks for more.
 """
 
 from __future__ import annotations
 
+import os
 import signal
 
 from giraff_console.robot.last_stop import SIGNALS
 
 
 def main() -> int:
+    # Read by each OpenBLAS as it loads, so before anything imports numpy or OpenCV.
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
     # Imported only now, so that no thread can start before the mask is in place.
     from giraff_console.cli import main as run

@@ -78,12 +78,12 @@ A run due while the last one of the same patrol is still going is skipped, and l
 
 from __future__ import annotations
 
-import os
 import re
 import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
+from giraff_console.data_folders import config_path
 from giraff_console.link import DEFAULT_TIMEOUT_S
 from giraff_console.missions.docking import ChargeLevels
 from giraff_console.missions.progress_watch import Patience
@@ -219,11 +219,6 @@ class Settings:
     battery: BatterySettings = field(default_factory=BatterySettings)
     schedule: tuple[ScheduledPatrol, ...] = ()
     source: str = "built-in defaults"
-
-
-def config_path() -> Path:
-    base = os.environ.get("XDG_CONFIG_HOME") or os.path.join(os.path.expanduser("~"), ".config")
-    return Path(base) / "giraff-console" / "config.toml"
 
 
 def load_settings(path: Path | None = None) -> Settings:

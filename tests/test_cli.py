@@ -8,6 +8,7 @@ import sys
 
 import pytest
 
+from giraff_console import __version__
 from tests.conftest import start_sim_process, stop_sim_process
 
 
@@ -26,6 +27,30 @@ def test_every_command_explains_itself(args, expected):
     result = run(*args, "--help")
     assert result.returncode == 0
     assert expected in result.stdout
+
+
+# What a command loads only when it runs: numpy, OpenCV, scipy and networkx for the robot
+# and its plans, Textual (and rich) for the screen, PyYAML for files (issue 26, item 6).
+HEAVY = ("numpy", "cv2", "scipy", "networkx", "textual", "rich", "yaml", "ruckig", "mcap")
+PARSE_ONLY = f"""
+import sys
+from giraff_console.cli import build_parser
+parser = build_parser()
+parser.format_help()
+try:
+    parser.parse_args(["--version"])
+except SystemExit:
+    pass
+print("loaded:", *(name for name in {HEAVY!r} if name in sys.modules))
+"""
+
+
+def test_version_and_help_load_none_of_the_heavy_libraries():
+    # Every command used to pay 0.8 s of CPU for them before reading its arguments.
+    result = subprocess.run([sys.executable, "-c", PARSE_ONLY], capture_output=True,
+                            text=True, timeout=60)  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines() == [f"giraff-console {__version__}", "loaded:"]
 
 
 def test_send_without_a_port_uses_the_built_in_simulator():

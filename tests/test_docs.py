@@ -20,7 +20,8 @@ import pytest
 from giraff_console.cli import build_parser
 from giraff_console.data_folders import example_floorplan, example_routes
 from giraff_console.missions.docking import DOCK
-from giraff_console.missions.patrol import load_patrol, patrol_file
+from giraff_console.missions.names import patrol_file
+from giraff_console.missions.patrol import load_patrol
 from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.service.commands import TYPED
 

@@ -15,11 +15,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 from rich.segment import Segment
 
+from giraff_console.camera.defaults import DEFAULT_FPS
 from giraff_console.camera.halfblock import HalfBlockRenderer
 from giraff_console.camera.processors import Pipeline
 from giraff_console.camera.source import CameraSource, Frame
 
-DEFAULT_FPS = 10.0
 # Who takes each frame for consoles elsewhere: the processed image, the rate, the FAST
 # corners and the markers found.
 Share = Callable[[np.ndarray, float, int | None, tuple[int, ...] | None], None]

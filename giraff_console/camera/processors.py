@@ -11,10 +11,10 @@ from typing import Protocol, cast
 import cv2
 import numpy as np
 
+from giraff_console.camera.defaults import FAST_THRESHOLD
 from giraff_console.yaml_source import YamlSourceError, parse_yaml
 
-# FAST's threshold in the thesis (B.9), and its pink: BGR (128, 0, 255).
-FAST_THRESHOLD = 50
+# FAST's pink in the thesis (B.9): BGR (128, 0, 255); its threshold is in defaults.py.
 PINK = (128, 0, 255)
 # The Canny thresholds of the thesis's demonstration (B.9, Figure 5.1).
 CANNY_LOW, CANNY_HIGH = 20, 50

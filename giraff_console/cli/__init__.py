@@ -4,6 +4,7 @@ lives in its own module beside this one."""
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import math
 import os
@@ -12,11 +13,14 @@ import signal
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
+# Only what the parser needs is imported here: every command, `--version` and `--help`
+# included, pays for these before it reads its arguments. What a command needs to run
+# (numpy, OpenCV, scipy, the planner, the robot, Textual) is imported by the command,
+# when it runs (issue 26, item 6; tests/test_cli.py keeps it so).
 from giraff_console import __version__
-from giraff_console.camera.feed import DEFAULT_FPS
-from giraff_console.camera.processors import FAST_THRESHOLD
-from giraff_console.cli.console import run_console
+from giraff_console.camera.defaults import DEFAULT_FPS, FAST_THRESHOLD
 from giraff_console.cli.daemon import (
     add_daemon_parsers,
     run_patrols,
@@ -31,33 +35,15 @@ from giraff_console.cli.send import add_send_parser, run_send
 from giraff_console.cli.serve import add_serve_parser, run_serve
 from giraff_console.cli.simulator_options import add_firmware_option
 from giraff_console.cli.survey import add_survey_parser, run_survey
-from giraff_console.clock import RealClock
-from giraff_console.data_folders import example_floorplan
-from giraff_console.planning.floorplan import FloorPlanError, check_floorplan, load_floorplan
-from giraff_console.planning.landmark_placement import (
-    DEFAULT_EVERY_M,
-    place_markers,
-    write_landmarks,
-)
-from giraff_console.planning.marker_pages import write_pages
-from giraff_console.planning.plan_drawing import draw_plan
-from giraff_console.planning.room_graph import PlanningError, UnknownRoomError
-from giraff_console.planning.room_segmentation import MIN_ROOM_M2
-from giraff_console.planning.route_planner import ROBOT_RADIUS_M, RoutePlanner, walls_of
+from giraff_console.data_folders import config_path, example_floorplan
+from giraff_console.planning.defaults import DEFAULT_EVERY_M, MIN_ROOM_M2, ROBOT_RADIUS_M
 from giraff_console.protocol.kinematics import WHEEL_BASE_M, WHEEL_BASE_RANGE_M
-from giraff_console.recording.mcap_export import export_session
-from giraff_console.recording.playback import open_log
-from giraff_console.recording.session import SessionError, SessionStart, read_meta
 from giraff_console.robot.last_stop import SIGNALS
-from giraff_console.robot.replay import replay_poses
-from giraff_console.runtime.camera import plan_camera
-from giraff_console.settings import Settings, SettingsError, config_path, load_settings
-from giraff_console.sim import BoardConfig, GiraffBoard, Imperfections, PtyServer
-from giraff_console.sim.camera_server import CameraServer, CameraServerError
-from giraff_console.sim.drive import TruePose
-from giraff_console.sim.firmware import DEFAULT_FIRMWARE, FIRMWARES
-from giraff_console.sim.modem_shim import main as print_modem_shim
-from giraff_console.sim.pose_log import PoseLog
+
+if TYPE_CHECKING:
+    from giraff_console.settings import Settings
+    from giraff_console.sim import GiraffBoard
+    from giraff_console.sim.camera_server import CameraServer
 
 # Exit code: a mistake in the command line or the settings.
 EXIT_USAGE = 2
@@ -382,18 +368,43 @@ def run(args: argparse.Namespace) -> int:
         return run_floorplan_rooms(args)
     if args.command == "floorplan":
         return run_floorplan_check(args)
-    # The commands that drive the robot, on the settings file's rates and limits.
+    # The commands that drive the robot, on the settings file's rates and limits: the
+    # console with no command (or replay), the only one that loads Textual.
+    command = DRIVING[args.command] if args.command in DRIVING else load_console()
+    from giraff_console.settings import SettingsError, load_settings
+
     try:
         settings = load_settings(args.config)
     except SettingsError as error:
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_USAGE
-    command = DRIVING.get(args.command, run_console)
     return command(args, settings, EXAMPLE_FLOORPLAN)
+
+
+def load_console() -> Callable[[argparse.Namespace, Settings, Path], int]:
+    """The console, loaded: most of the package, numpy, OpenCV and Textual.
+
+    All of it lives as long as the console runs. Python's collector walked it again and
+    again as it loaded, as the robot was built and as the first screen was drawn: 0.08 s
+    of that screen's 0.66 s of CPU (issue 26, item 6). So the collector waits until it
+    is loaded, then leaves it out of its rounds for good (gc.freeze); what the console
+    makes from then on is collected as before. Only the console: a program that calls
+    main() again and again (the tests) would keep whatever it had left to collect."""
+    gc.disable()
+    try:
+        from giraff_console.cli.console import run_console
+    finally:
+        gc.freeze()
+        gc.enable()
+    return run_console
 
 
 def run_plan(args: argparse.Namespace) -> int:
     """The route between two rooms, as text or JSON."""
+    from giraff_console.planning.floorplan import FloorPlanError, load_floorplan
+    from giraff_console.planning.room_graph import PlanningError, UnknownRoomError
+    from giraff_console.planning.route_planner import RoutePlanner, walls_of
+
     try:
         plan = load_floorplan(args.floorplan or EXAMPLE_FLOORPLAN)
         planner = RoutePlanner(plan, walls_of(plan), args.robot_radius)
@@ -414,6 +425,8 @@ def run_plan(args: argparse.Namespace) -> int:
 
 def run_floorplan_check(args: argparse.Namespace) -> int:
     """Every problem in a floor plan, one per line."""
+    from giraff_console.planning.floorplan import check_floorplan
+
     problems = check_floorplan(args.file)
     for problem in problems:
         print(problem)
@@ -425,6 +438,9 @@ def run_floorplan_check(args: argparse.Namespace) -> int:
 
 def run_floorplan_show(args: argparse.Namespace) -> int:
     """The plan drawn in the terminal."""
+    from giraff_console.planning.floorplan import FloorPlanError, load_floorplan
+    from giraff_console.planning.plan_drawing import draw_plan
+
     width = args.width or shutil.get_terminal_size().columns
     try:
         lines = draw_plan(load_floorplan(args.file), width)
@@ -439,6 +455,7 @@ def run_floorplan_import(args: argparse.Namespace) -> int:
     """A floor plan made from an Open-RMF building map, with a grid drawn from its walls or
     a ROS map's."""
     # Imported here: of all the commands, only this one reads RMF and ROS maps.
+    from giraff_console.planning.floorplan import FloorPlanError
     from giraff_console.planning.output_files import OutputError, check_outputs
     from giraff_console.planning.plan_writing import write_floorplan
     from giraff_console.planning.rmf_import import read_building
@@ -496,6 +513,10 @@ def run_floorplan_import(args: argparse.Namespace) -> int:
 
 def run_floorplan_landmarks(args: argparse.Namespace) -> int:
     """Markers placed on a floor plan and written into it, or its markers' pages."""
+    from giraff_console.planning.floorplan import FloorPlanError, load_floorplan
+    from giraff_console.planning.landmark_placement import place_markers, write_landmarks
+    from giraff_console.planning.marker_pages import write_pages
+
     try:
         plan = load_floorplan(args.file)
         if args.print_to is not None:
@@ -522,6 +543,7 @@ def run_floorplan_landmarks(args: argparse.Namespace) -> int:
 def run_floorplan_rooms(args: argparse.Namespace) -> int:
     """A floor plan of the rooms found in a scanned map, and a picture of them."""
     # Imported here: of all the commands, only this one segments maps.
+    from giraff_console.planning.floorplan import FloorPlanError
     from giraff_console.planning.output_files import OutputError, check_outputs
     from giraff_console.planning.plan_writing import write_floorplan
     from giraff_console.planning.room_picture import draw_rooms, encode_png
@@ -587,6 +609,11 @@ def run_floorplan_rooms(args: argparse.Namespace) -> int:
 
 def run_export(args: argparse.Namespace) -> int:
     """A recorded session as an MCAP file."""
+    from giraff_console.recording.mcap_export import export_session
+    from giraff_console.recording.playback import open_log
+    from giraff_console.recording.session import SessionError, SessionStart, read_meta
+    from giraff_console.robot.replay import replay_poses
+
     try:
         _, log = open_log(args.session)
         meta = read_meta(args.session) if args.session.is_dir() else {}
@@ -603,8 +630,18 @@ def run_export(args: argparse.Namespace) -> int:
 
 
 def run_sim(args: argparse.Namespace) -> int:
+    from giraff_console.sim.modem_shim import main as print_modem_shim
+
     if args.modem_shim:
         return print_modem_shim()
+    from giraff_console.clock import RealClock
+    from giraff_console.planning.floorplan import FloorPlanError, load_floorplan
+    from giraff_console.runtime.camera import plan_camera
+    from giraff_console.sim import BoardConfig, GiraffBoard, Imperfections
+    from giraff_console.sim.camera_server import CameraServer, CameraServerError
+    from giraff_console.sim.drive import TruePose
+    from giraff_console.sim.firmware import DEFAULT_FIRMWARE, FIRMWARES
+
     imperfections = Imperfections.realistic(args.seed) if args.imperfect else Imperfections()
     low, high = WHEEL_BASE_RANGE_M
     if not 0 <= args.battery <= 1 or not low <= args.wheel_base <= high:
@@ -657,6 +694,9 @@ def run_sim(args: argparse.Namespace) -> int:
 
 def serve_board(board: GiraffBoard, args: argparse.Namespace, camera: CameraServer | None) -> int:
     """The board on a new pty, and `camera` beside it, until SIGINT or SIGTERM."""
+    from giraff_console.sim import PtyServer
+    from giraff_console.sim.pose_log import PoseLog
+
     server = PtyServer(board, paced=args.pace)
     signal.signal(signal.SIGTERM, lambda *_: server.stop())
     signal.signal(signal.SIGINT, lambda *_: server.stop())

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from giraff_console.camera.processors import Undistortion
 from giraff_console.cli.daemon import attach_if_running, daemon_robot
-from giraff_console.cli.drive import EXIT_USAGE
+from giraff_console.cli.exit_codes import EXIT_USAGE
 from giraff_console.cli.options import robot_options
 from giraff_console.cli.report import fail
 from giraff_console.clock import RealClock
@@ -26,12 +26,11 @@ from giraff_console.service.reattach import Reattaching
 from giraff_console.service.remote import RemoteRobot
 from giraff_console.service.runtime_folder import socket_path
 from giraff_console.settings import Settings
+from giraff_console.tui.app import GiraffConsole
 
 
 def run_console(args: argparse.Namespace, settings: Settings, example: Path) -> int:
     """The operator console on a real board or the simulator (§3.2: it falls back)."""
-    from giraff_console.tui.app import GiraffConsole
-
     if args.calibration:
         try:
             Undistortion.from_file(args.calibration)
@@ -86,8 +85,6 @@ def run_attached_console(first: RemoteRobot, args: argparse.Namespace, settings:
     """The console on a running daemon's robot: the map from the daemon's floor plan.
     Quitting, or the terminal going, leaves the daemon's missions running; a key held
     is let go of by the daemon (service/daemon.py)."""
-    from giraff_console.tui.app import GiraffConsole
-
     # Through the daemon's restarts: attached again by itself, asking for the controls
     # as at the start (service/reattach.py).
     robot = Reattaching(first, lambda: daemon_robot("console", take=True))

@@ -18,20 +18,18 @@ import signal
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from giraff_console.data_folders import patrol_runs
-from giraff_console.link import Exchange
 from giraff_console.missions.patrol_log import list_runs
 from giraff_console.robot.last_stop import SIGNALS
-from giraff_console.robot.loop_events import MissionChanged, Note
-from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
-from giraff_console.service import wire
-from giraff_console.service.events import ServiceEvent
-from giraff_console.service.remote import DaemonGone, RemoteRobot, console_name
 from giraff_console.service.runtime_folder import socket_path
-from giraff_console.service.status import status_json, status_lines
 from giraff_console.service.transport import NoDaemon, TransportError
+
+if TYPE_CHECKING:
+    from giraff_console.service.events import ServiceEvent
+    from giraff_console.service.remote import RemoteRobot
 
 EXIT_DONE, EXIT_FAILED, EXIT_USAGE, EXIT_NO_DAEMON = 0, 1, 2, 3
 # Events `watch` holds for a reader slower than the robot.
@@ -89,6 +87,9 @@ def daemon_robot(kind: str, take: bool = False) -> RemoteRobot:
     """The running daemon's robot, attached as a console of `kind` that asks for the
     controls only if `take`. NoDaemon when none answers (no socket, or one left by a
     daemon that died); TransportError for one that is there but cannot be used."""
+    # Imported here, not with the parsers: it loads the robot's types (issue 26, item 6).
+    from giraff_console.service.remote import DaemonGone, RemoteRobot, console_name
+
     try:
         return RemoteRobot(socket_path(), console_name(kind), take=take)
     except DaemonGone as error:
@@ -96,6 +97,8 @@ def daemon_robot(kind: str, take: bool = False) -> RemoteRobot:
 
 
 def run_status(args: argparse.Namespace) -> int:
+    from giraff_console.service.status import status_json, status_lines
+
     robot = _attach("status")
     if robot is None:
         return EXIT_NO_DAEMON
@@ -112,6 +115,9 @@ def run_status(args: argparse.Namespace) -> int:
 
 
 def run_watch(args: argparse.Namespace) -> int:
+    from giraff_console.link import Exchange
+    from giraff_console.robot.telemetry import Telemetry
+
     if not args.telemetry_hz > 0:
         print("giraff-console: --telemetry-hz must be positive", file=sys.stderr)
         return EXIT_USAGE
@@ -167,6 +173,10 @@ def run_watch(args: argparse.Namespace) -> int:
 
 def _say(event: ServiceEvent, as_json: bool) -> None:
     """One event: as the socket carries it, or in words where it has any."""
+    from giraff_console.robot.loop_events import MissionChanged, Note
+    from giraff_console.robot.telemetry import Telemetry
+    from giraff_console.service import wire
+
     if as_json:
         print(json.dumps(wire.encode(event)), flush=True)
     elif isinstance(event, Note):

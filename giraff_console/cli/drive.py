@@ -4,7 +4,7 @@ its socket, the same way (issue 26). The notes and the progress go to standard e
 how it ended to standard output, in words or as JSON, and in the exit code.
 
 How a mission ends decides the exit code (Outcome, robot/mission.py): `--help` and the
-README list them from EXIT_CODES below.
+README list them from EXIT_CODES (exit_codes.py).
 """
 
 from __future__ import annotations
@@ -29,39 +29,6 @@ from giraff_console.service import commands as c
 from giraff_console.service.events import GoReported, Reply, ServiceEvent
 from giraff_console.service.remote import RemoteRobot
 
-EXIT_ARRIVED = 0  # also: a patrol whose every stop was reached, confirmed
-EXIT_FAILED = 1
-EXIT_USAGE = 2
-EXIT_UNVERIFIED = 3
-EXIT_STOPPED = 4
-EXIT_BOARD = 5
-EXIT_NOT_STARTED = 6
-# How each outcome ends the command.
-EXIT_CODES: dict[Outcome, int] = {
-    Outcome.ARRIVED: EXIT_ARRIVED,
-    Outcome.DONE: EXIT_ARRIVED,
-    Outcome.ARRIVED_UNVERIFIED: EXIT_UNVERIFIED,
-    Outcome.STALLED: EXIT_FAILED,
-    Outcome.BLOCKED: EXIT_FAILED,
-    Outcome.LOST: EXIT_FAILED,
-    Outcome.FAILED: EXIT_FAILED,
-    Outcome.REFUSED: EXIT_FAILED,
-    Outcome.STOPPED_BY_OPERATOR: EXIT_STOPPED,
-    Outcome.CANCELLED: EXIT_STOPPED,
-    Outcome.HALTED: EXIT_STOPPED,
-    Outcome.ESTOP: EXIT_BOARD,
-    Outcome.LINK_LOST: EXIT_BOARD,
-    Outcome.NOT_STARTED: EXIT_NOT_STARTED,
-    Outcome.UNVERIFIED: EXIT_NOT_STARTED,
-}
-EXIT_HELP = (
-    "Exit codes: 0 arrived with the pose confirmed by a marker (a patrol: every stop); "
-    "1 did not get there (stalled, blocked, lost, failed, a command refused; a patrol: a "
-    "stop missed), or no answer from the board; 2 a mistake in the command; 3 arrived, "
-    "but nothing confirmed the pose; 4 stopped by the operator, a signal or another "
-    "mission; 5 the board's ESTOP, or the link to it lost; 6 not started (the pose "
-    "cannot be trusted, or a playback runs)."
-)
 # Seconds between lines of progress when standard error is not a terminal.
 PROGRESS_EVERY_S = 5.0
 # Seconds of real time to wait for the board's first answer, and for the service's
@@ -235,10 +202,6 @@ def run_mission(robot: Robot, mission: Mission, ended: Callable[[MissionEnd], No
         shown.close()
     meanwhile()
     return True
-
-
-def exit_code(end: MissionEnd) -> int:
-    return EXIT_CODES[end.outcome]
 
 
 class ProgressShown:

@@ -6,7 +6,7 @@ The same request the console's `go` sends, to the same service: the robot's in t
 process (runtime/robot.py), or the daemon's when one runs (cli/drive.py). Either way
 progress goes to standard error, and how it went to standard output, the same words
 and the same `--json` keys (GoReport, missions/go_to.py); the exit code says how it
-ended (drive.EXIT_HELP).
+ended (exit_codes.EXIT_HELP).
 """
 
 from __future__ import annotations
@@ -14,27 +14,21 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
+# Light modules only: the parser is built with every command's (cli/__init__.py). What
+# `go` drives with is imported when it runs (issue 26, item 6).
 from giraff_console.cli.daemon import attach_if_running
-from giraff_console.cli.drive import (
-    EXIT_FAILED,
-    EXIT_HELP,
-    EXIT_USAGE,
-    Ended,
-    drive_here,
-    drive_there,
-    exit_code,
-    print_note,
-)
+from giraff_console.cli.exit_codes import EXIT_FAILED, EXIT_HELP, EXIT_USAGE, exit_code
 from giraff_console.cli.options import add_robot_options, robot_options
 from giraff_console.cli.report import fail
-from giraff_console.missions.docking import DOCK
-from giraff_console.missions.go_to import GO_JSON_KEYS, GoReport
-from giraff_console.runtime.options import UsageError
-from giraff_console.runtime.robot import Robot
+from giraff_console.missions.names import DOCK
 from giraff_console.service import commands as c
-from giraff_console.service.events import Reply
-from giraff_console.settings import Settings
+
+if TYPE_CHECKING:
+    from giraff_console.cli.drive import Ended
+    from giraff_console.service.events import Reply
+    from giraff_console.settings import Settings
 
 
 def add_go_parser(commands: argparse._SubParsersAction, example: Path) -> None:
@@ -58,6 +52,10 @@ def add_go_parser(commands: argparse._SubParsersAction, example: Path) -> None:
 
 def run_go(args: argparse.Namespace, settings: Settings, example: Path) -> int:
     """Drive to `args.room`; the exit code says how it went."""
+    from giraff_console.cli.drive import drive_here, drive_there, print_note
+    from giraff_console.runtime.options import UsageError
+    from giraff_console.runtime.robot import Robot
+
     request = c.Go(args.room)
     attached = attach_if_running(args, "go")
     if isinstance(attached, int):
@@ -80,6 +78,9 @@ def run_go(args: argparse.Namespace, settings: Settings, example: Path) -> int:
 
 def _said(request: c.Go, ended: Ended | Reply | None, as_json: bool) -> int:
     """Say how the go ended, on standard output; its exit code."""
+    from giraff_console.missions.go_to import GO_JSON_KEYS, GoReport
+    from giraff_console.service.events import Reply
+
     if ended is None:
         return fail("no answer from the board, or the daemon went", EXIT_FAILED)
     if isinstance(ended, Reply):

@@ -7,16 +7,17 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from giraff_console.camera.feed import DEFAULT_FPS
-from giraff_console.camera.processors import FAST_THRESHOLD
+# Light modules only: every command's parser is built with these (cli/__init__.py).
+from giraff_console.camera.defaults import DEFAULT_FPS, EYE_FPS, EYE_SIZE, FAST_THRESHOLD
 from giraff_console.cli.simulator_options import add_firmware_option
 from giraff_console.data_folders import default_recordings, default_routes
-from giraff_console.planning.floorplan import Landmarks
-from giraff_console.robot.marker_eye import EYE_FPS, EYE_SIZE
-from giraff_console.runtime.options import RobotOptions
-from giraff_console.settings import Settings
+
+if TYPE_CHECKING:
+    from giraff_console.planning.floorplan import Landmarks
+    from giraff_console.runtime.options import RobotOptions
+    from giraff_console.settings import Settings
 
 
 def add_board_options(parser: argparse.ArgumentParser, example: Path, *,
@@ -146,6 +147,7 @@ def robot_options(args: argparse.Namespace, settings: Settings, *, screen: bool 
                   surveying: Landmarks | None = None) -> RobotOptions:  # fmt: skip
     """The robot the command line asks for: the simulator with --sim, else --port, else
     the settings file's port (none: the simulator)."""
+    from giraff_console.runtime.options import RobotOptions
 
     def given(name: str, default: Any = None) -> Any:
         return getattr(args, name, default)

@@ -49,8 +49,7 @@ from giraff_console.protocol import (
 from giraff_console.robot.command_guard import check_command, check_line
 from giraff_console.robot.teleop import DriveLimits
 from giraff_console.robot.wheel_odometers import choose_reading
-from giraff_console.runtime.board import IN_PROCESS_SIMULATOR, simulator_url
-from giraff_console.settings import SettingsError, load_settings
+from giraff_console.runtime.simulator_url import IN_PROCESS_SIMULATOR, simulator_url
 
 EXIT_SENT, EXIT_REFUSED, EXIT_USAGE, EXIT_LINK_ERROR = 0, 1, 2, 3
 # What a move uses and the board can read back (A.4: every `set` has its `get`).
@@ -116,6 +115,10 @@ def add_send_parser(commands: argparse._SubParsersAction) -> None:
 
 def run_send(args: argparse.Namespace) -> int:
     """Check and send `args.commands`; the exit code says how it went."""
+    # Imported here, not with the parser: the settings' defaults load the robot's parts
+    # (issue 26, item 6).
+    from giraff_console.settings import SettingsError, load_settings
+
     try:
         commands = [parse_command(text) for text in args.commands]
         for command in commands:

@@ -22,20 +22,21 @@ import signal
 import sys
 import threading
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from giraff_console.cli.drive import EXIT_USAGE
+# Light modules only: the parser is built with every command's (cli/__init__.py). What
+# the daemon runs is imported when it runs (issue 26, item 6).
+from giraff_console.cli.exit_codes import EXIT_USAGE
 from giraff_console.cli.options import add_folder_options, add_robot_options, robot_options
 from giraff_console.cli.report import fail
 from giraff_console.robot.last_stop import SIGNALS
-from giraff_console.robot.loop_events import LoopEvent, Note
-from giraff_console.runtime.options import UsageError
-from giraff_console.runtime.robot import Robot
-from giraff_console.service.daemon import Daemon
-from giraff_console.service.patrol_schedule import PatrolSchedule
 from giraff_console.service.runtime_folder import runtime_folder, socket_path
 from giraff_console.service.transport import TransportError
-from giraff_console.service.virtual_port import VirtualPort
-from giraff_console.settings import Settings
+
+if TYPE_CHECKING:
+    from giraff_console.robot.loop_events import LoopEvent
+    from giraff_console.runtime.robot import Robot
+    from giraff_console.settings import Settings
 
 
 class Journal:
@@ -49,6 +50,9 @@ class Journal:
         self._thread.start()
 
     def hear(self, event: LoopEvent) -> None:
+        # Loaded by the robot before any event: the import only looks it up.
+        from giraff_console.robot.loop_events import Note
+
         if isinstance(event, Note):
             with contextlib.suppress(queue.Full):
                 self._notes.put_nowait(f"giraff-console: {event.text}\n")
@@ -88,6 +92,9 @@ def add_serve_parser(commands: argparse._SubParsersAction, example: Path) -> Non
 
 def run_serve(args: argparse.Namespace, settings: Settings, example: Path) -> int:
     """Serve the robot until a signal ends the daemon."""
+    from giraff_console.runtime.options import UsageError
+    from giraff_console.runtime.robot import Robot
+
     journal = Journal()
     try:
         # The journal hears the notes from the start: where the robot is taken to be,
@@ -105,6 +112,10 @@ def run_serve(args: argparse.Namespace, settings: Settings, example: Path) -> in
 
 
 def _serve(robot: Robot, args: argparse.Namespace, settings: Settings, example: Path) -> int:
+    from giraff_console.service.daemon import Daemon
+    from giraff_console.service.patrol_schedule import PatrolSchedule
+    from giraff_console.service.virtual_port import VirtualPort
+
     service, control = robot.service, robot.control
     try:
         path = socket_path(runtime_folder())

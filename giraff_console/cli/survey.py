@@ -22,36 +22,23 @@ import argparse
 import json
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
+# Light modules only: the parser is built with every command's (cli/__init__.py). What
+# the survey drives and maps with is imported when it runs (issue 26, item 6).
 from giraff_console.camera.marker_reach import STANDARD_SIZE_M
-from giraff_console.cli.drive import (
-    EXIT_ARRIVED,
-    EXIT_FAILED,
-    EXIT_USAGE,
-    print_note,
-    run_mission,
-)
+from giraff_console.cli.exit_codes import EXIT_ARRIVED, EXIT_FAILED, EXIT_USAGE
 from giraff_console.cli.options import add_robot_options, robot_options
 from giraff_console.cli.report import fail
-from giraff_console.missions.survey import (
-    Surveyed,
-    Tour,
-    plan_walls,
-    redraw_map,
-    surveyed,
-    tour,
-    write_surveyed,
-)
-from giraff_console.planning.floorplan import FloorPlanError, Landmarks, load_floorplan
-from giraff_console.planning.landmarks import DEFAULT_FAMILY
-from giraff_console.robot.localisation import PoseBasis, start_covariance
+from giraff_console.planning.defaults import DEFAULT_FAMILY
 from giraff_console.robot.mission import MissionEnd, Outcome
-from giraff_console.robot.survey_log import SurveyLog
-from giraff_console.runtime.options import UsageError
-from giraff_console.runtime.robot import Robot
-from giraff_console.service.daemon import daemon_alive
 from giraff_console.service.runtime_folder import socket_path
-from giraff_console.settings import Settings
+
+if TYPE_CHECKING:
+    from giraff_console.missions.survey import Surveyed
+    from giraff_console.planning.floorplan import Landmarks
+    from giraff_console.runtime.robot import Robot
+    from giraff_console.settings import Settings
 
 
 def add_survey_parser(commands: argparse._SubParsersAction, example: Path) -> None:
@@ -88,6 +75,11 @@ def add_survey_parser(commands: argparse._SubParsersAction, example: Path) -> No
 
 def run_survey(args: argparse.Namespace, settings: Settings, example: Path) -> int:
     """Survey, then write or print the markers; the exit code says how it went."""
+    from giraff_console.cli.drive import print_note
+    from giraff_console.runtime.options import UsageError
+    from giraff_console.runtime.robot import Robot
+    from giraff_console.service.daemon import daemon_alive
+
     try:
         options = robot_options(args, settings, surveying=_surveying(args))
     except UsageError as error:
@@ -104,6 +96,19 @@ def run_survey(args: argparse.Namespace, settings: Settings, example: Path) -> i
 
 
 def _survey(robot: Robot, args: argparse.Namespace, settings: Settings) -> int:
+    from giraff_console.cli.drive import run_mission
+    from giraff_console.missions.survey import (
+        Tour,
+        plan_walls,
+        redraw_map,
+        surveyed,
+        tour,
+        write_surveyed,
+    )
+    from giraff_console.planning.floorplan import FloorPlanError, load_floorplan
+    from giraff_console.robot.localisation import PoseBasis, start_covariance
+    from giraff_console.robot.survey_log import SurveyLog
+
     try:
         # The plan as its file has it: the markers a survey of some rooms keeps, and
         # their heights, which the camera cannot measure well.
@@ -162,6 +167,9 @@ def _survey(robot: Robot, args: argparse.Namespace, settings: Settings) -> int:
 def _surveying(args: argparse.Namespace) -> Landmarks:
     """The markers to look for, for a plan that has no `landmarks:` key: the options'
     family and size (the robot takes the plan's own where it has them)."""
+    from giraff_console.planning.floorplan import Landmarks
+    from giraff_console.runtime.options import UsageError
+
     if not (args.size > 0 and math.isfinite(args.size)):
         raise UsageError("--size must be a positive number of metres")
     return Landmarks(args.family, args.size, ())

@@ -26,6 +26,7 @@ from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.certainty import NEAR_ENOUGH_HEADING, trusted, unverified
 from giraff_console.missions.go_to import GoReport, GoTo, go_report
 from giraff_console.missions.lookout import Sense
+from giraff_console.missions.names import DOCK
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.path_mission import Course, PathMission
 from giraff_console.missions.progress_watch import Patience
@@ -39,8 +40,6 @@ from giraff_console.robot.localisation import Estimate
 from giraff_console.robot.mission import Mission, MissionEnd, Outcome, Progress
 from giraff_console.robot.odometry import Pose
 
-# What `go` takes to mean the dock rather than a room.
-DOCK = "dock"
 # The straight run onto the dock. Its middle is pinned (motion/shaping.py), so that the
 # turn into it ends half-way at the latest and the last half is straight. The robot
 # lines up for it with a turn on the spot, after which the casters turn it for most of

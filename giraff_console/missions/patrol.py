@@ -22,12 +22,13 @@ stop goes to the dock, charges, and carries on (missions/docking.py).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.docking import ChargingDetour, Recharge
+from giraff_console.missions.names import PATROL_SUFFIX
 from giraff_console.missions.path_mission import PathMission
 from giraff_console.missions.route import Route
 from giraff_console.missions.route_replay import RouteReplay, replay_refusal
@@ -39,7 +40,6 @@ from giraff_console.robot.localisation import Estimate
 from giraff_console.robot.mission import Mission, Outcome, Progress
 from giraff_console.robot.odometry import Pose
 
-PATROL_SUFFIX = ".patrol.yaml"
 # A patrol is planned as a list of every leg of every round, so rounds are bounded; this
 # many rounds of one short stop is weeks of driving.
 MAX_ROUNDS = 10_000
@@ -127,25 +127,6 @@ def load_patrol(path: Path) -> Patrol:
         [_stop(file, s, f"stops[{i}]") for i, s in enumerate(stops)],
         carry_on,
     )
-
-
-def list_patrols(directory: Path) -> list[str]:
-    """The names of the patrols in `directory`, sorted."""
-    return sorted(
-        path.name.removesuffix(PATROL_SUFFIX) for path in Path(directory).glob(f"*{PATROL_SUFFIX}")
-    )
-
-
-def patrol_file(name: str, folders: Sequence[Path]) -> Path:
-    """The file of patrol `name`: `name` itself when it is a patrol file's path, else
-    `NAME.patrol.yaml` in the first of `folders` that holds one (the operator's routes
-    folder before the examples shipped with the package, so that the operator's own
-    `night` is the one run). With none, the first folder's, for the error to name.
-    The routes a patrol drives are looked for beside its file."""
-    if name.endswith(PATROL_SUFFIX):
-        return Path(name)
-    candidates = [Path(folder) / f"{name}{PATROL_SUFFIX}" for folder in folders]
-    return next((path for path in candidates if path.is_file()), candidates[0])
 
 
 def _stop(file: YamlFile, item: object, where: str) -> Stop:

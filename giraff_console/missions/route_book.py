@@ -14,15 +14,8 @@ from pathlib import Path
 
 from giraff_console.missions.docking import DOCK, ChargeLevels, Recharge, back_to
 from giraff_console.missions.drive_setup import DriveSetup
-from giraff_console.missions.patrol import (
-    PATROL_SUFFIX,
-    PatrolError,
-    PatrolRun,
-    StopReached,
-    list_patrols,
-    load_patrol,
-    patrol_file,
-)
+from giraff_console.missions.names import PATROL_SUFFIX, list_patrols, patrol_file
+from giraff_console.missions.patrol import PatrolError, PatrolRun, StopReached, load_patrol
 from giraff_console.missions.patrol_log import PatrolRunLog
 from giraff_console.missions.route import (
     Route,

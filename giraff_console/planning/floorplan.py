@@ -22,7 +22,6 @@ from pathlib import Path
 from typing import Any
 
 import cv2
-import networkx as nx
 import numpy as np
 import yaml
 
@@ -530,11 +529,18 @@ def _check_reachable(reader: _Reader, rooms: list[str], doors: list[Door], start
     the building, closing one is something that happens while the robot runs."""
     if not rooms:
         return
-    graph = nx.Graph()
-    graph.add_nodes_from(rooms)
-    graph.add_edges_from(door.between for door in doors)
+    # A walk through the doors, either way, from the root. Not networkx, whose import
+    # alone cost every console a tenth of a second at its start (issue 26, item 6).
+    joined: dict[str, set[str]] = {room_id: set() for room_id in rooms}
+    for a, b in (door.between for door in doors):
+        joined.setdefault(a, set()).add(b)
+        joined.setdefault(b, set()).add(a)
     root = start if start is not None else rooms[0]
-    reached = nx.node_connected_component(graph, root)
+    reached, waiting = {root}, [root]
+    while waiting:
+        for room_id in joined[waiting.pop()] - reached:
+            reached.add(room_id)
+            waiting.append(room_id)
     for room_id in rooms:
         if room_id not in reached:
             reader.add(

@@ -20,6 +20,7 @@ from dataclasses import dataclass, replace
 import yaml
 
 from giraff_console.camera.marker_reach import STANDARD_SIZE_M
+from giraff_console.planning.defaults import DEFAULT_EVERY_M, DEFAULT_FAMILY
 from giraff_console.planning.floorplan import (
     Door,
     FloorPlan,
@@ -31,7 +32,6 @@ from giraff_console.planning.floorplan import (
     load_floorplan,
 )
 from giraff_console.planning.landmarks import (
-    DEFAULT_FAMILY,
     id_count,
     marker_poses,
     marker_walls,
@@ -41,7 +41,6 @@ from giraff_console.planning.landmarks import (
 from giraff_console.planning.marker_faces import Face, marker_faces
 from giraff_console.planning.stop_markers import place_for_stops, size_for_stops
 
-DEFAULT_EVERY_M = 4.0
 # Centre 1.10 m above the floor: below the camera in the robot's head (1.3 m), so a
 # marker near the robot is still in view, and above chairs and handrails.
 DEFAULT_HEIGHT_M = 1.10

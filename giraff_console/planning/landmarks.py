@@ -48,7 +48,6 @@ FAMILIES: dict[str, int] = {
     for name in dir(cv2.aruco)
     if name.startswith("DICT_")
 }
-DEFAULT_FAMILY = "apriltag_36h11"
 
 # A marker's centre may be this far from a wall (the outline edge): a hand-measured
 # position is good to a few centimetres, and a wall is about 10 cm thick.

@@ -42,14 +42,15 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from itertools import pairwise
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import networkx as nx
 import numpy as np
-from scipy.sparse import csr_array  # type: ignore[import-untyped]
-from scipy.sparse.csgraph import dijkstra  # type: ignore[import-untyped]
 
 from giraff_console.planning.floorplan import FloorPlan, Point
+
+if TYPE_CHECKING:
+    import networkx as nx
+    from scipy.sparse import csr_array  # type: ignore[import-untyped]
 
 Node = tuple[str, str]  # ("room", id) or ("door", id): the ends of a leg
 # The length of the way between two points of a room (its id), or None if there is none.
@@ -231,6 +232,8 @@ class RoomGraph:
         id) and ("door", id) with their `xy`, edges with their `weight` (measured, else
         straight), `measured` and `room`; legs with no way across are left out. A view
         for looking at, built on each call; routes are not searched on it."""
+        import networkx as nx  # only for this view (issue 26, item 6)
+
         graph = nx.Graph()
         for room in self.plan.rooms.values():
             graph.add_node(("room", room.id), xy=room.at)
@@ -278,6 +281,11 @@ class RoomGraph:
 
     def _tree(self, source: int, robot: _Robot | None) -> tuple[np.ndarray, np.ndarray]:
         """Dijkstra's costs and predecessors from `source`, kept until the next change."""
+        # Imported at the first route, not with the module: scipy costs the console's
+        # start a quarter of a second, and its first screen plans nothing (issue 26,
+        # item 6).
+        from scipy.sparse.csgraph import dijkstra  # type: ignore[import-untyped]
+
         if robot is None and source in self._trees:
             return self._trees[source]
         if self._matrix is None:
@@ -300,6 +308,8 @@ class RoomGraph:
     def _as_matrix(self, src: np.ndarray, dst: np.ndarray, weights: np.ndarray) -> csr_array:
         # No two legs join the same pair of nodes, so no entries are summed; csgraph
         # keeps explicit zeros as edges (a door at its room's point is a leg of 0 m).
+        from scipy.sparse import csr_array  # type: ignore[import-untyped]  # see _tree
+
         return csr_array((weights, (src, dst)), shape=(self._nodes, self._nodes))
 
     def _search(self, source: int, target: int, robot: _Robot | None) -> Route:

@@ -30,6 +30,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from giraff_console.planning.defaults import MIN_ROOM_M2
 from giraff_console.planning.floorplan import Door, Point
 from giraff_console.planning.grid import FREE, OccupancyGrid
 from giraff_console.planning.plan_writing import MadePlan, millimetres
@@ -44,8 +45,6 @@ from giraff_console.planning.room_doors import (
 from giraff_console.planning.route_planner import CLEARANCE_M, ROBOT_RADIUS_M
 from giraff_console.planning.scan_grid import CROP_MARGIN_M, SPECK_M2, SPECK_SIDE_M, clean_grid
 
-# Less floor than this is a cupboard, a bay window or noise, not a room to send a robot to.
-MIN_ROOM_M2 = 1.0
 # A piece of free space that splits off is a room when its widest point is at least this
 # much wider (in clearance, metres) than the split, and the split at most this fraction
 # of it. A 0.9 m doorway (0.45 m clearance) off a 2 m corridor (1 m) is 0.55 m and 0.45;

@@ -17,6 +17,7 @@ from itertools import pairwise
 import cv2
 import numpy as np
 
+from giraff_console.planning.defaults import ROBOT_RADIUS_M
 from giraff_console.planning.floorplan import Door, FloorPlan, Point
 from giraff_console.planning.grid import OCCUPIED, OccupancyGrid
 from giraff_console.planning.legs import GridLegs, polyline_length
@@ -24,9 +25,7 @@ from giraff_console.planning.rasterise import rasterise
 from giraff_console.planning.room_graph import NoRouteError, RoomGraph, Route
 from giraff_console.planning.ros_map import read_grid_image
 from giraff_console.planning.walls import grid_jambs, wall_edge
-from giraff_console.protocol.kinematics import BODY_RADIUS_M
 
-ROBOT_RADIUS_M = BODY_RADIUS_M
 # The walls are grown by this much more than the robot's radius, so that a path along
 # the edge of the free space keeps the robot off them, not touching.
 CLEARANCE_M = 0.05

@@ -22,19 +22,13 @@ from typing import Protocol, runtime_checkable
 import cv2
 import numpy as np
 
+from giraff_console.camera.defaults import EYE_FPS, EYE_SIZE
 from giraff_console.camera.markers import MarkerDetector, MarkerSighting, Region
 from giraff_console.camera.source import CameraSource, Frame
 from giraff_console.clock import Clock
 from giraff_console.robot.ekf import Observation
 from giraff_console.robot.localisation import Localisation
 from giraff_console.robot.marker_search import SEARCH_EVERY_S, Building, MarkerSearch
-
-# The frames a second the localisation looks for markers in: what the Giraff's camera
-# delivers at 800x600 (§3.3). A camera run faster for the screen (--camera-fps) is
-# still looked through at this rate (camera_setup.py): the rate the filter needs, not
-# the camera's.
-EYE_FPS = 10.0
-EYE_SIZE = (800, 600)
 
 
 def observations(sightings: object) -> list[Observation]:

@@ -22,12 +22,15 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy import sparse  # type: ignore[import-untyped]
 
 from giraff_console.robot.ekf import FilterNoise, Observation, usable
 from giraff_console.robot.odometry import Pose
+
+if TYPE_CHECKING:
+    from scipy import sparse  # type: ignore[import-untyped]
 
 # A marker seen only without its facing, on no wall and not known: nothing observes its
 # facing, so it is held, weakly, to face the robots that saw it (a printed marker is
@@ -250,6 +253,10 @@ class Graph:
         return r if active is None else r * active
 
     def jacobian(self, x: np.ndarray, active: np.ndarray | None = None) -> sparse.csr_matrix:
+        # Imported at the first solve, not with the module: scipy costs the console's
+        # start a quarter of a second, and only a survey solves (issue 26, item 6).
+        from scipy import sparse  # type: ignore[import-untyped]
+
         _, values = self.evaluate(x, jacobian=True)
         assert values is not None
         if self._structure is None:

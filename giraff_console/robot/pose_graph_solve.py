@@ -23,14 +23,15 @@ Why Gauss-Newton with a sparse LU here, and not scipy's least_squares
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy import sparse  # type: ignore[import-untyped]
-from scipy.sparse.linalg import splu  # type: ignore[import-untyped]
 
 from giraff_console.robot.ekf import CHI_SQUARE
 from giraff_console.robot.pose_graph_model import Graph
+
+if TYPE_CHECKING:
+    from scipy import sparse  # type: ignore[import-untyped]
 
 # The robust loss's scale, in standard deviations: a sighting further off than this
 # counts for less and less (Cauchy), so one misread marker cannot drag the rest.
@@ -57,6 +58,11 @@ SOLVE_COLUMNS = 32
 def _factor(matrix: sparse.spmatrix) -> Any:
     """SuperLU of a symmetric positive definite matrix: a fill-reducing ordering of A + A'
     and the diagonal as pivots, as for a Cholesky factor."""
+    # Imported at the first solve, not with the module: scipy costs the console's start
+    # a quarter of a second, and only a survey solves (issue 26, item 6).
+    from scipy import sparse  # type: ignore[import-untyped]
+    from scipy.sparse.linalg import splu  # type: ignore[import-untyped]
+
     return splu(sparse.csc_matrix(matrix), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                 options={"SymmetricMode": True})  # fmt: skip
 
@@ -75,6 +81,8 @@ def gauss_newton(graph: Graph, x: np.ndarray, active: np.ndarray, iterations: in
     their tangent, which stretches the map and costs more than the turn saves; half a
     step stretches it a quarter as much. Damping in proportion to the normal matrix's
     diagonal would instead crawl along that direction for a hundred steps."""
+    from scipy import sparse  # type: ignore[import-untyped]  # see _factor
+
     damping = 0.0
     cost, weights, r = _cost(graph, x, active, robust)
     for iteration in range(1, iterations + 1):

@@ -32,8 +32,6 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import sparse  # type: ignore[import-untyped]
-from scipy.sparse.linalg import splu  # type: ignore[import-untyped]
 
 from giraff_console.robot.ekf import Observation, wrap
 from giraff_console.robot.odometry import Pose
@@ -313,6 +311,11 @@ class _Rows:
 
     def solve(self, robust_from: int, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The solution, and the robust rows' weights at the end, starting from `weights`."""
+        # Imported at the first solve, not with the module: scipy costs the console's start
+        # a quarter of a second, and only a survey solves (issue 26, item 6).
+        from scipy import sparse  # type: ignore[import-untyped]
+        from scipy.sparse.linalg import splu  # type: ignore[import-untyped]
+
         a = sparse.csr_matrix((np.concatenate(self._values),
                                (np.concatenate(self._rows), np.concatenate(self._cols))),
                               shape=(self.count, self.unknowns))  # fmt: skip

@@ -22,6 +22,7 @@ from giraff_console.robot.deadman import Deadman
 from giraff_console.robot.localisation import PoseBasis
 from giraff_console.robot.pose_keeper import PoseKeeper, PoseKeeperError, read_kept
 from giraff_console.robot.teleop import Teleop
+from giraff_console.runtime.simulator_url import simulator_url
 from giraff_console.settings import Settings
 from giraff_console.sim import GiraffBoard
 
@@ -92,21 +93,6 @@ def keep_the_pose(control: ControlLoop, plan: Path) -> PoseKeeper:
     keeper = PoseKeeper(path, plan)
     control.subscribe(keeper.hear)
     return keeper
-
-
-IN_PROCESS_SIMULATOR = "giraff-sim://"
-
-
-def simulator_url(firmware: str | None, *, virtual_clock: bool = False,
-                  imperfect_seed: int | None = None) -> str:  # fmt: skip
-    """The in-process simulator's URL: with the firmware asked for (if any), on a
-    virtual clock, with the imperfection model seeded."""
-    options = ["clock=virtual"] if virtual_clock else []
-    if imperfect_seed is not None:
-        options += ["imperfect=1", f"seed={imperfect_seed}"]
-    if firmware is not None:
-        options.append(f"firmware={firmware}")
-    return IN_PROCESS_SIMULATOR + ("?" + "&".join(options) if options else "")
 
 
 def built_in_simulator(firmware: str | None, seed: int | None, faults: bool) -> serial.SerialBase:

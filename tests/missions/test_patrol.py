@@ -9,14 +9,13 @@ import pytest
 import yaml
 
 from giraff_console.link.motor_state import MotorState
+from giraff_console.missions.names import list_patrols, patrol_file
 from giraff_console.missions.patrol import (
     PatrolError,
     PatrolRun,
     Stop,
     StopReached,
-    list_patrols,
     load_patrol,
-    patrol_file,
 )
 from giraff_console.missions.route import PathSample, Route, TimedCommand
 from giraff_console.protocol.codec import parse_command

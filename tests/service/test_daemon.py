@@ -362,8 +362,14 @@ def test_status_says_where_the_robot_is_how_well_known_the_mission_left_and_the_
     serve,
 ):
     daemon = serve("--sim", "--firmware", "later", "--sim-speed", "4")
-    started = run_cli("status", "--json")
-    report = json.loads(started.stdout)
+    # The later board's charger is read a parameter each half second: all of it soon.
+    deadline = time.monotonic() + 2 * WAIT_S
+    while True:
+        report = json.loads(run_cli("status", "--json").stdout)
+        battery = report["battery"]
+        if (battery and battery["percent"] is not None) or time.monotonic() > deadline:
+            break
+        time.sleep(0.3)
     assert list(report) == STATUS_KEYS and report["schema"] == 1
     assert report["link"] == "connected"
     pose = report["pose"]
