@@ -19,7 +19,7 @@ Each setup runs its robot, then the real console in a detached tmux server of it
 The robot is either the simulator over a pty (`giraff-console sim --pty --pace` in
 another process, the loop on the real clock, as with a real board), or the built-in
 one (`--sim`). `serve --sim` runs its loop stepped on the simulator's virtual clock
-(headless.py), whose ticks are never late by that clock: its `late_ms` is always 0 and
+(runtime/robot.py), whose ticks are never late by that clock: its `late_ms` is always 0 and
 its `loop_hz` 20. So the benchmark also times the ticks as they arrive: "gap" is the
 time between one tick's telemetry and the next's, 50 ms when the loop keeps its rate.
 

@@ -14,7 +14,8 @@ someone else's. Nothing is typed but the layout key; the robot stands still thro
   starts (the camera and the map), then `m` (the map alone), then `m` (the camera alone).
 - "daemon serve --sim": `giraff-console serve --sim`, with no console attached: its
   control loop, the simulated camera as the localisation's eye; ended with SIGTERM.
-- "console attached": the bare `giraff-console` attached to that daemon, `m` pressed
+- "console attached": the bare `giraff-console` attached to that daemon, showing the
+  daemon's camera as it shares it, then `m` pressed
   once (the map alone); the daemon's share beside it, with one client to feed.
 
 For each, after `--settle` seconds, CPU is utime+stime from /proc over `--seconds` of
@@ -263,6 +264,10 @@ def run(only: set[str], folder: Path, settle: float, seconds: float) -> list[Row
             if "attached" in only:
                 attached = terminal(console)
                 attached.wait_for(b"keys -", START_TIMEOUT_S)
+                settled()
+                # The daemon's camera, shared with it (camera/shared_frame.py).
+                rows.append(measure("console attached, camera and map", attached.pid,
+                                    seconds, other=("daemon", daemon.pid)))  # fmt: skip
                 settled(lambda: attached.key(b"m"))
                 rows.append(measure("console attached, map alone", attached.pid, seconds,
                                     other=("daemon", daemon.pid)))  # fmt: skip

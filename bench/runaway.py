@@ -86,7 +86,7 @@ class Activity:
     # Code run in the console's process before it starts: a fault put in on purpose.
     fault: str | None = None
     # Ways to end it that do not apply: no terminal to close; SIGHUP, which the daemon
-    # ignores on purpose (serve_command.py: it has no terminal, and is there to outlive
+    # ignores on purpose (cli/serve.py: it has no terminal, and is there to outlive
     # the SSH session that started it).
     skip: tuple[str, ...] = ()
 
@@ -454,7 +454,7 @@ class DaemonConsole:
 
     def listening(self) -> bool:
         # The socket, then the line the daemon writes once it listens and the loop runs
-        # (serve_command.py): a client that found no daemon would drive a simulator of
+        # (cli/serve.py): a client that found no daemon would drive a simulator of
         # its own.
         return self.socket.exists() and b"serving the robot at" in self.out.read_bytes()
 

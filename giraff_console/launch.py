@@ -4,7 +4,7 @@ numpy's and OpenCV's thread pools start as they are imported, with the signal ma
 the thread that imports them. A SIGHUP landing on one of those threads would end the
 process at once, leaving the robot on its last target; blocked on every thread, the
 console's own watcher takes it instead and stops the robot first (robot/last_stop.py).
-Commands that drive nothing unblock them again straight away (cli.py).
+Commands that drive nothing unblock them again straight away (cli/__init__.py).
 
 Those pools are OpenBLAS's: numpy's and OpenCV's own copy each start a worker that
 busy-waits as it loads, about 0.09 s of CPU each, paid by every command that loads them

@@ -124,3 +124,14 @@ def test_floorplan_landmarks_places_and_prints_from_the_shell(tmp_path):
     assert sorted(p.name for p in (tmp_path / "pages").iterdir()) == [
         "marker-000.png", "marker-001.png", "markers.pdf"
     ]  # fmt: skip
+
+
+def test_every_outcome_has_an_exit_code_and_help_says_each_code():
+    """Issue 26: exit codes per outcome, listed in --help: a new Outcome without a code,
+    or a code --help does not mention, fails here."""
+    from giraff_console.cli.exit_codes import EXIT_CODES, EXIT_HELP
+    from giraff_console.robot.mission import Outcome
+
+    assert set(EXIT_CODES) == set(Outcome)
+    for code in set(EXIT_CODES.values()) | {2}:
+        assert f" {code} " in f" {EXIT_HELP}", code

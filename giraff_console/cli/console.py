@@ -65,7 +65,7 @@ def run_console(args: argparse.Namespace, settings: Settings, example: Path) -> 
             plan=plan,
             walls=robot.navigator.walls,
             started=robot.start,
-            stop=robot.close,
+            stop=robot.stop,
         )
         app.notes_at_start.append(plan_note(plan))
         app.notes_at_start.extend(robot.notes_at_start)

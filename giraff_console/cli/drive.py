@@ -3,8 +3,8 @@ and `patrol`, on the robot in this process (runtime/robot.py) or on the daemon's
 its socket, the same way (issue 26). The notes and the progress go to standard error;
 how it ended to standard output, in words or as JSON, and in the exit code.
 
-How a mission ends decides the exit code (Outcome, robot/mission.py): `--help` and the
-README list them from EXIT_CODES (exit_codes.py).
+How a mission ends decides the exit code (Outcome, robot/mission.py; EXIT_CODES in
+exit_codes.py, which `--help` and the README say in words).
 """
 
 from __future__ import annotations
@@ -16,11 +16,13 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import rich.progress
 from rich.console import Console
 
 from giraff_console.missions.go_to import GoReport
+from giraff_console.missions.names import PATROL_SUFFIX
 from giraff_console.robot.loop_events import MissionChanged, Note
 from giraff_console.robot.mission import TEXT_BAR, Mission, MissionEnd, Outcome, Progress
 from giraff_console.robot.telemetry import LinkState, Telemetry
@@ -35,6 +37,8 @@ PROGRESS_EVERY_S = 5.0
 # answer to the request (planning a route over a large building included).
 CONNECT_TIMEOUT_S = 10.0
 REPLY_TIMEOUT_S = 60.0
+# Seconds a go's report may follow its end (the service sends it just after).
+REPORT_WAIT_S = 2.0
 
 
 @dataclass(frozen=True)
@@ -56,7 +60,11 @@ def print_note(event: ServiceEvent) -> None:
 
 
 def mission_name(request: c.Go | c.RunPatrol) -> str:
-    return f"go {request.room}" if isinstance(request, c.Go) else f"patrol {request.name}"
+    """The name the loop gives the mission `request` starts: a go's room; a patrol's
+    name is its file's (missions/patrol.py), however the file was named."""
+    if isinstance(request, c.Go):
+        return f"go {request.room}"
+    return Path(request.name).name.removesuffix(PATROL_SUFFIX)
 
 
 def follow(events: queue.Queue[ServiceEvent], name: str, *, wants_report: bool,
@@ -64,15 +72,21 @@ def follow(events: queue.Queue[ServiceEvent], name: str, *, wants_report: bool,
            ) -> Ended | None:  # fmt: skip
     """Wait for the mission `name` to end, drawing its progress on standard error and
     handing every event to `also`; None if the robot goes first (`gone`). A go waits
-    for its report too, which the service sends just after the end."""
+    for its report too, which the service sends just after the end, but not for ever:
+    without it in REPORT_WAIT_S, the end alone."""
     started = False
     ended: MissionEnd | None = None
+    ended_at = 0.0
     shown = ProgressShown()
     try:
-        while not gone():
+        while True:
+            if ended is not None and time.monotonic() - ended_at > REPORT_WAIT_S:
+                return Ended(name, ended)
             try:
                 event = events.get(timeout=0.5)
             except queue.Empty:
+                if gone():  # and nothing more it said is waiting
+                    return Ended(name, ended) if ended is not None else None
                 shown.draw(None)
                 continue
             also(event)
@@ -84,14 +98,13 @@ def follow(events: queue.Queue[ServiceEvent], name: str, *, wants_report: bool,
                 elif event.end is not None and (
                     started or event.end.outcome is Outcome.NOT_STARTED
                 ):
-                    ended = event.end
+                    ended, ended_at = event.end, time.monotonic()
                     if not wants_report:
                         return Ended(name, ended)
             elif isinstance(event, GoReported) and ended is not None:
                 return Ended(name, ended, event.report)
     finally:
         shown.close()
-    return None
 
 
 def drive_here(robot: Robot, request: c.Go | c.RunPatrol,
@@ -115,7 +128,14 @@ def drive_here(robot: Robot, request: c.Go | c.RunPatrol,
                 # On the loop's thread, at the first tick that has the board: the mission
                 # is planned and starts at the same virtual time however fast the clock
                 # runs, before any frame the eye takes could make a run differ.
-                replies.put(service.execute(request))
+                ask()
+
+    def ask() -> None:
+        try:
+            replies.put(service.execute(request))
+        except Exception as error:  # a bug must not leave the command waiting
+            replies.put(Reply(False, f"failed: {type(error).__name__}: {error}"))
+            raise
 
     service.subscribe(events.put)
     service.subscribe(on_first_tick)
@@ -124,12 +144,15 @@ def drive_here(robot: Robot, request: c.Go | c.RunPatrol,
     if not connected.wait(CONNECT_TIMEOUT_S):
         return None
     if robot.stepped is None:
-        replies.put(service.execute(request))
-    reply = replies.get(timeout=REPLY_TIMEOUT_S)
+        ask()
+    try:
+        reply = replies.get(timeout=REPLY_TIMEOUT_S)
+    except queue.Empty:
+        return Reply(False, f"no answer from the robot in {REPLY_TIMEOUT_S:g} s")
     if not reply.ok:
         return reply
     return follow(events, mission_name(request), wants_report=isinstance(request, c.Go),
-                  gone=lambda: False, also=also)  # fmt: skip
+                  gone=lambda: not robot.control.running, also=also)  # fmt: skip
 
 
 def drive_there(remote: RemoteRobot, request: c.Go | c.RunPatrol,
@@ -140,7 +163,7 @@ def drive_there(remote: RemoteRobot, request: c.Go | c.RunPatrol,
     events: queue.Queue[ServiceEvent] = queue.Queue()
     remote.subscribe(events.put)
     try:
-        reply = remote.execute(request)
+        reply = remote.execute(request, timeout=REPLY_TIMEOUT_S)
         if not reply.ok:
             return reply
         if reply.text:

@@ -61,6 +61,12 @@ def run_go(args: argparse.Namespace, settings: Settings, example: Path) -> int:
     if isinstance(attached, int):
         return attached
     if attached is not None:
+        # A room the daemon's plan does not have is a mistake in the command, as it is
+        # without a daemon: said the same way, before anything is asked.
+        unknown = _no_room(attached.welcome.floorplan, args.room)
+        if unknown is not None:
+            attached.close()
+            return fail(unknown, EXIT_USAGE)
         try:
             return _said(request, drive_there(attached, request), args.json)
         except KeyboardInterrupt:
@@ -76,24 +82,51 @@ def run_go(args: argparse.Namespace, settings: Settings, example: Path) -> int:
         return _said(request, drive_here(robot, request), args.json)
 
 
+def _no_room(floorplan: Path | None, room: str) -> str | None:
+    """What to say of `room` if the daemon's floor plan has no such room; None if it
+    has, or if the plan cannot be read here (the daemon says then)."""
+    from giraff_console.planning.floorplan import FloorPlanError, load_floorplan
+
+    if floorplan is None or room == DOCK:
+        return None
+    try:
+        plan = load_floorplan(floorplan)
+    except (FloorPlanError, OSError):
+        return None
+    return None if room in plan.rooms else plan.no_room(room, also=[DOCK])
+
+
 def _said(request: c.Go, ended: Ended | Reply | None, as_json: bool) -> int:
     """Say how the go ended, on standard output; its exit code."""
-    from giraff_console.missions.go_to import GO_JSON_KEYS, GoReport
+    from giraff_console.cli.exit_codes import EXIT_CODES
+    from giraff_console.missions.go_to import GO_JSON_KEYS
+    from giraff_console.robot.mission import Outcome
     from giraff_console.service.events import Reply
 
     if ended is None:
         return fail("no answer from the board, or the daemon went", EXIT_FAILED)
     if isinstance(ended, Reply):
-        # Refused before it started: no report, the same keys.
+        # Refused before it started: how it would have ended, and the same keys.
+        outcome = ended.refused or Outcome.REFUSED
         if as_json:
             refused = dict.fromkeys(GO_JSON_KEYS) | {
-                "arrived": False, "outcome": None, "room": request.room, "why": "refused",
-                "detail": ended.text,
+                "arrived": False, "outcome": outcome.value, "room": request.room,
+                "why": "refused", "detail": ended.text,
             }  # fmt: skip
             print(json.dumps(refused))
-        return fail(ended.text, EXIT_FAILED)
+        return fail(ended.text, EXIT_CODES[outcome])
     report = ended.report
-    assert isinstance(report, GoReport)  # a go's end comes with its report (drive.follow)
+    if report is None:
+        # The end came, but not the report (drive.follow): say the end, the same keys.
+        end = ended.end
+        if as_json:
+            print(json.dumps(dict.fromkeys(GO_JSON_KEYS) | {
+                "arrived": False, "outcome": end.outcome.value, "room": request.room,
+                "why": end.why, "detail": end.detail,
+            }))  # fmt: skip
+        else:
+            print(f"{ended.name}: {end.words}")
+        return exit_code(end)
     data = report.as_json()
     if as_json:
         print(json.dumps(data))

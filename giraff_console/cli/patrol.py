@@ -74,7 +74,11 @@ def run_patrol(args: argparse.Namespace, settings: Settings, example: Path) -> i
     if isinstance(attached, int):
         return attached
     if attached is not None:
-        return _on_the_daemon(attached, c.RunPatrol(args.name), args.json)
+        # A patrol file named by its path is the daemon's to read, from its own folder.
+        name = args.name
+        if name.endswith(PATROL_SUFFIX):
+            name = str(Path(name).resolve())
+        return _on_the_daemon(attached, c.RunPatrol(name), args.json)
     try:
         patrol, routes = _load(args.name, data_folder(args.routes, settings.routes,
                                                       default_routes()))  # fmt: skip

@@ -20,11 +20,8 @@ from giraff_console.missions.names import DOCK
 from giraff_console.missions.patrol import Patrol, PatrolError, PatrolRun, Stop, StopReached
 from giraff_console.missions.route import Route
 from giraff_console.protocol.codec import Command
-from giraff_console.robot.mission import MissionEnd, Outcome
+from giraff_console.robot.mission import MissionEnd
 from giraff_console.runtime.robot import Robot
-
-# The stops that got there, confirmed or not, as their `outcome` is printed.
-ARRIVED_VALUES = frozenset(outcome.value for outcome in Outcome if outcome.arrived)
 
 
 def patrol_here(robot: Robot, patrol: Patrol, routes: dict[str, Route], as_json: bool) -> int:
@@ -76,6 +73,8 @@ class StopLog:
         self.routes = routes
         self.run: _TimedPatrol | None = None
         self.records: list[dict] = []
+        # The stops that did not get there (their outcome not an arrival).
+        self.failed = 0
         self.why = "not started"
         self.end: MissionEnd | None = None
         self.ended_at: float | None = None
@@ -106,6 +105,7 @@ class StopLog:
     def _record(self, round_number: int, index: int, end: MissionEnd,
                 max_jerk: float | None = None) -> None:  # fmt: skip
         control, now = self.robot.control, self.robot.control.clock.now()
+        self.failed += not end.outcome.arrived
         stop = self.patrol.stops[index - 1]
         started = self.run.started_at if self.run is not None else None
         if started is None:
@@ -184,8 +184,11 @@ class StopLog:
             "rounds": self.patrol.rounds,
             "stops": self.patrol.rounds * len(self.patrol.stops),
             "arrived": sum(record["arrived"] for record in self.records),
-            "failed": sum(record["outcome"] not in ARRIVED_VALUES for record in self.records),
+            "failed": self.failed,
+            # How it ended, with the keys a patrol asked of the daemon prints too.
+            "outcome": self.end.outcome.value if self.end is not None else None,
             "why": self.why,
+            "detail": self.end.detail if self.end is not None else "",
             "duration_s": round(end - started, 3) if started is not None and end else 0.0,
             "landmarks": self.robot.landmarks,
             "eye": eye.cost() if eye is not None else None,

@@ -1,9 +1,9 @@
 """`giraff-console serve`: the daemon that owns the robot (issue 15).
 
-It sets the robot up as `go` and `patrol` do (headless.py: the floor plan, the board or
-the simulator in the plan's building, the control loop, the markers), adds the route
-book and the recordings, and serves them as one RobotService on a Unix socket in the
-user's runtime folder. Consoles attach and leave; the robot, its missions and its
+It gets its robot as `go` and `patrol` do (runtime/robot.py: the floor plan, the board
+or the simulator in the plan's building, the control loop, the markers, the route book
+and the recordings, the service on them) and serves that RobotService on a Unix socket
+in the user's runtime folder. Consoles attach and leave; the robot, its missions and its
 patrols stay with the daemon, so closing an SSH session no longer ends the night's
 patrol.
 

@@ -293,6 +293,12 @@ class ControlLoop:
         self.between_ticks(start)
 
     @property
+    def running(self) -> bool:
+        """Whether the loop's thread runs (it ends once `stop` or a closing stop is done)."""
+        thread = self._thread
+        return thread is not None and thread.is_alive()
+
+    @property
     def missions_starting(self) -> int:
         """Missions handed to the loop that it has not yet started or refused: `mission`
         does not show them, and what must not change under a mission waits for them."""
@@ -582,14 +588,18 @@ class ControlLoop:
         self.note(f"{mission.name} started")
 
     def _end_mission(self, outcome: Outcome, why: str, stop: bool = True) -> None:
-        """End the mission with `outcome`, unless it judged its own end (a stall, an
-        arrival): the mission knows better than "done" or "stopped" how it went."""
+        """End the mission with `outcome`. A mission that ended itself (finished: DONE;
+        a problem: FAILED) and judged how (a stall, an arrival) knows better than "done"
+        or "stopped"; one the loop ends from outside (ESTOP, the operator, the link, a
+        command refused) ends as the loop says, whatever it had judged."""
         mission, self._mission = self._mission, None
         if mission is None:
             return
         end = MissionEnd(outcome, why)
         if isinstance(mission, Judged):
-            end = MissionEnd(mission.outcome or outcome, why, mission.detail)
+            ended_itself = outcome in (Outcome.DONE, Outcome.FAILED)
+            judged = mission.outcome if ended_itself else None
+            end = MissionEnd(judged or outcome, why, mission.detail)
         # Told first: whoever says what runs must not see it gone and its end not yet
         # known while the stop is being sent.
         self._tell(MissionChanged(mission.name, running=False, end=end))

@@ -125,6 +125,6 @@ def find_the_robot(control: ControlLoop, camera: CameraFeed, plan: FloorPlan,
 
 def plan_camera(plan: FloorPlan) -> WorldCamera:
     """The camera of the plan's building, its shut doors shut, as the console's own
-    simulator sees it (sim_site.py)."""
+    simulator sees it (runtime/sim_site.py)."""
     grid = walls_of(plan) if plan.grid is not None else None
     return WorldCamera(plan_world(plan), surroundings=shut_doors(plan, grid))

@@ -224,7 +224,10 @@ class Robot:
                 self.camera = self._feed(options, clock, simulator, plan.landmarks)
                 self.camera.shown = False
             return
-        if not (options.screen or looks or options.shares_camera):
+        # A real robot's camera is opened for the consoles elsewhere only if it is named
+        # (--camera) or opened for the markers anyway: camera 0 may be the video call's.
+        shares = options.shares_camera and (looks or options.camera is not None)
+        if not (options.screen or looks or shares):
             return
         feed = self._feed(options, clock, simulator, plan.landmarks if looks else None)
         found = find_the_robot(control, feed, plan, options.surveying is not None)
@@ -234,10 +237,10 @@ class Robot:
                 self.notes_at_start.append(found)
             return
         feed.shown = False  # nothing drawn here: the markers, and the consoles elsewhere
-        if not options.shares_camera:
+        if not shares:
             feed.pipeline.toggle("fast")  # on for a screen by default
         control.note(f"camera: {feed.note}" + (f"; {found}" if found else ""))
-        if not (feed.listeners or options.shares_camera):  # nothing it could place
+        if not (feed.listeners or shares):  # nothing it could place, nobody to show
             feed.stop()
             return
         self.camera = feed
@@ -292,20 +295,31 @@ class Robot:
         if self.camera is not None:
             self.camera.start()
 
+    def stop(self) -> bool:
+        """Stop the robot and end the loop, at once (a console leaving stops it first,
+        before its screen takes its time to close); True once it was commanded to stop
+        and the port closed (ControlLoop.stop)."""
+        return self.control.stop()
+
     def close(self) -> None:
         """Stop the robot and the loop, then what runs beside it: the service's
-        workers, the camera, and the pose kept (its last). Once; again does nothing."""
+        workers, the camera, and the pose kept (its last); the signal guard last of all.
+        Once; again does nothing. Each part is closed whatever the one before did."""
         if self._closed:
             return
         self._closed = True
-        self.control.stop()
-        self.service.close()
-        if self.camera is not None:
-            self.camera.stop()
-        if self.keeper is not None:
-            self.keeper.close()
-        if self._last_stop is not None:
-            self._last_stop.uninstall()
+        try:
+            self.stop()
+        finally:
+            try:
+                self.service.close()
+                if self.camera is not None:
+                    self.camera.stop()
+            finally:
+                if self.keeper is not None:
+                    self.keeper.close()
+                if self._last_stop is not None:
+                    self._last_stop.uninstall()
 
     def __enter__(self) -> Robot:
         return self

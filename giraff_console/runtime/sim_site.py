@@ -80,7 +80,7 @@ class SimulatedSite:
         self.range_finder = SimRangeFinder(
             lambda: board.true_pose, self.surroundings, sensing_range, SENSING_FOV_DEG
         )
-        # The camera's world from the plan itself, as headless.py draws a building whose
+        # The camera's world from the plan itself, as runtime/robot.py draws a building whose
         # markers moved: a plan without outlines has its grid read a second time, once.
         self.world = plan_world(plan)
         self._doors = {door.id: door for door in plan.doors}

@@ -15,6 +15,7 @@ from giraff_console.camera.shared_frame import SharedFrame
 from giraff_console.missions.go_to import GoReport
 from giraff_console.missions.navigation import NavigationState
 from giraff_console.robot.loop_events import LoopEvent, MissionChanged
+from giraff_console.robot.mission import Outcome
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
 
@@ -26,6 +27,9 @@ class Reply:
     ok: bool
     text: str = ""
     lines: tuple[str, ...] = ()
+    # A mission refused before it started: how it ended, as if it had (not_started,
+    # unverified, blocked), for the front ends that report it (cli/go.py).
+    refused: Outcome | None = None
 
 
 @dataclass(frozen=True)
@@ -74,6 +78,8 @@ class Situation:
     playing: bool
     # The latest snapshot: where the robot is, the mission's progress, the battery.
     telemetry: Telemetry | None = None
+    # The camera's frames a second (None: no camera; 0 while nothing wants its frames).
+    camera_fps: float | None = None
 
 
 @dataclass(frozen=True)

@@ -34,6 +34,7 @@ class Outbox:
         # holds up nothing (issue 26).
         self.wants_frames = False
         self._frame: SharedFrame | None = None
+        self._took_snapshot = False
         self._closed = False
         self.overflowed = False
 
@@ -71,11 +72,16 @@ class Outbox:
                 return self._messages.popleft()
             if self.overflowed:
                 return None
-            if self._latest is not None:
-                latest, self._latest = self._latest, None
-                return latest
-            frame, self._frame = self._frame, None
-            return frame
+            # A snapshot and a frame by turns: a console that reads slowly gets both,
+            # each the newest, rather than snapshots alone.
+            frame_first = self._frame is not None and (self._latest is None or self._took_snapshot)
+            if frame_first:
+                frame, self._frame = self._frame, None
+                self._took_snapshot = False
+                return frame
+            latest, self._latest = self._latest, None
+            self._took_snapshot = latest is not None
+            return latest
 
     @property
     def closed(self) -> bool:

@@ -89,7 +89,8 @@ class Reattaching:
         robot.post(request, answered)
 
     def close(self) -> None:
-        """Hang up, and attach no more."""
+        """Hang up, and attach no more (an attaching under way is let go of by the
+        watcher as it ends)."""
         self._exit.set()
         self._watcher.join(2.0)
         robot, self._robot = self._robot, None
@@ -106,10 +107,14 @@ class Reattaching:
             if robot is None or robot.gone is None:
                 continue
             self._robot = None
-            robot.close()
+            # Told first: hanging up joins the connection's threads, which takes time.
             self._tell(Disconnected(robot.gone))
+            robot.close()
             again = self._again()
             if again is None:
+                return
+            if self._exit.is_set():  # closed while it attached: not to be kept
+                again.close()
                 return
             again.subscribe(self._tell)
             self._robot, self._last = again, again.welcome

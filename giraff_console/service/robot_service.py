@@ -360,15 +360,16 @@ class RobotService:
         if navigator is None:
             return Reply(False, "go: no floor plan (start the console with --floorplan FILE)")
         if self.control.playback is not None:
-            return Reply(False, "go: playing back; p returns to live first")
+            return Reply(False, "go: playing back; p returns to live first",
+                         refused=Outcome.NOT_STARTED)  # fmt: skip
         # Refused here, not by the mission's first tick after a reply that says it goes.
         refusal = unverified(self.control.estimate(), f"go {request.room}")
         if refusal is not None:
-            return Reply(False, f"go: {refusal}")
+            return Reply(False, f"go: {refusal}", refused=Outcome.UNVERIFIED)
         try:
             mission = self.drives.go(request.room)
         except (PlanningError, ValueError) as error:  # ValueError: a pose off the map
-            return Reply(False, f"go: {error}")
+            return Reply(False, f"go: {error}", refused=Outcome.BLOCKED)
         planned = navigator.state.planned
         text = f"going to {request.room}"
         if planned is not None:
@@ -639,6 +640,8 @@ class RobotService:
             (self._viewers.add if on else self._viewers.discard)(console)
             if self.camera is not None:
                 self.camera.share = self._share if self._viewers else None
+            if not self._viewers:
+                self._shared = None  # no frame kept for nobody
 
     def _share(self, image: np.ndarray, fps: float, keypoints: int | None,
                markers: tuple[int, ...] | None) -> None:  # fmt: skip
@@ -692,6 +695,7 @@ class RobotService:
             recording=self.sessions is not None and self.sessions.recording,
             playing=self.control.playback is not None,
             telemetry=self.telemetry,
+            camera_fps=self.camera.rate if self.camera is not None else None,
         )
 
     def note(self, text: str) -> None:

@@ -29,6 +29,7 @@ def status_lines(situation: Situation, consoles: tuple[str, ...]) -> tuple[str, 
         f"pose: {_pose(telemetry)}",
         f"mission: {_mission(situation, telemetry)}",
         f"battery: {_battery(telemetry.battery if telemetry else None)}",
+        f"camera: {_camera(situation.camera_fps)}",
         f"controls: {situation.holder or 'free'}; consoles: {', '.join(consoles) or 'none'}",
     ]
     last = situation.last_mission
@@ -57,6 +58,7 @@ def status_json(situation: Situation, consoles: tuple[str, ...]) -> dict[str, An
         },
         "recording": situation.recording,
         "playing": situation.playing,
+        "camera_fps": _rounded(situation.camera_fps),
     }  # fmt: skip
 
 
@@ -127,6 +129,12 @@ def _battery_json(battery: Battery | None) -> dict[str, Any] | None:
         return None
     return {"percent": _rounded(battery.percent), "volts": _rounded(battery.voltage),
             "charging": battery.charging, "status": battery.status.name.lower()}  # fmt: skip
+
+
+def _camera(fps: float | None) -> str:
+    if fps is None:
+        return "none"
+    return f"{fps:.0f} fps" if fps else "idle (nothing is looking through it)"
 
 
 def _rounded(value: float | None) -> float | None:

@@ -5,7 +5,7 @@ position in space" (§3.2.2), so nothing could stop it; this one knows where the
 is, and a robot that drives into a wall must stop there with its wheels stalled, as a
 real one does (§2.3.2: "motion is commanded but the odometry stops changing"). The
 robot is a disc (the Giraff's base is about 0.6 m across) and walls, closed doors and
-boxes are line segments; the floor plan's side (sim_site.py) hands them over, since the
+boxes are line segments; the floor plan's side (runtime/sim_site.py) hands them over, since the
 simulator knows no floor plans.
 
 Only motion into something is refused: a robot against a wall can back off, drive

@@ -483,7 +483,11 @@ class GiraffConsole(RobotKeys, KeyGuard):
         this thread, in the order typed; the others (planning a route takes a few hundred
         milliseconds) in a worker, so that the keys are answered meanwhile."""
         if self.disconnected is not None:
-            return  # no daemon to ask: the keys do nothing until one is back
+            # No daemon to ask: the keys do nothing until one is back. A stop says so,
+            # once for each press, so that nobody believes it was sent.
+            if isinstance(request, c.Halt):
+                self.note("stop not sent: disconnected from the daemon")
+            return
         if request.quick:
             self.robot.post(request, lambda reply: self._post(Answer(request, reply)))
         else:

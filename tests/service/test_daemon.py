@@ -355,7 +355,7 @@ def test_status_json_says_who_holds_the_controls(serve, attach):
 
 # The keys of `status --json`, schema 1 (docs/daemon.md): added to, never changed.
 STATUS_KEYS = ["schema", "link", "pose", "mission", "battery", "holder", "consoles",
-               "last_mission", "recording", "playing", "socket"]  # fmt: skip
+               "last_mission", "recording", "playing", "camera_fps", "socket"]  # fmt: skip
 
 
 def test_status_says_where_the_robot_is_how_well_known_the_mission_left_and_the_battery(
@@ -376,6 +376,7 @@ def test_status_says_where_the_robot_is_how_well_known_the_mission_left_and_the_
     assert pose["x"] == pytest.approx(2.0, abs=0.01) and pose["y"] == pytest.approx(7.0, abs=0.01)
     assert pose["sigma_m"] > 0 and pose["basis"] in ("given", "marker")
     assert report["battery"]["percent"] is not None  # the later board has a charger
+    assert report["camera_fps"] is not None  # the daemon has a camera to share
     going = subprocess.Popen(program("go", "kitchen"), stdout=subprocess.DEVNULL,
                              stderr=subprocess.DEVNULL, env=dict(os.environ))  # fmt: skip
     try:
@@ -386,8 +387,8 @@ def test_status_says_where_the_robot_is_how_well_known_the_mission_left_and_the_
                 break
             time.sleep(0.2)
         lines = words.stdout.splitlines()
-        assert [line.split(":")[0] for line in lines[:6]] == [
-            "link", "pose", "mission", "battery", "controls", "last mission"]  # fmt: skip
+        assert [line.split(":")[0] for line in lines[:7]] == [
+            "link", "pose", "mission", "battery", "camera", "controls", "last mission"]  # fmt: skip
         assert lines[2].startswith("mission: go kitchen") and "left, ETA" in lines[2], lines
         assert "±" in lines[1] and "%" in lines[3], lines
         moving = json.loads(run_cli("status", "--json").stdout)["mission"]
@@ -441,7 +442,7 @@ def test_stop_daemon_ends_the_daemon_and_removes_its_socket(serve):
     result = run_cli("stop", "--daemon")
     assert result.returncode == 0, result.stderr
     assert "the daemon is ending" in result.stderr
-    # Ended by the request, not a signal: 0 (serve_command.run_serve); within the 5 s
+    # Ended by the request, not a signal: 0 (cli/serve.py run_serve); within the 5 s
     # that systemd gives it before it kills it (docs/giraff-console.service).
     assert daemon.process.wait(timeout=5.0) == 0, daemon.notes()
     assert not daemon.socket.exists()
@@ -479,6 +480,20 @@ def test_go_json_says_the_same_keys_with_and_without_a_daemon(serve):
         assert (report["outcome"], report["room"], report["arrived"]) == (
             "arrived_unverified", "room-101", False)  # fmt: skip
         assert report["pose_true"] is not None and report["error_m"] < 0.05
+
+
+def test_a_patrol_asked_of_the_daemon_by_its_files_path_ends_and_says_how(serve, tmp_path):
+    """Issue 26's review: the daemon's patrol is named by its file's name, and a path
+    is the daemon's to read: the command followed a mission named "patrol NAME" that
+    never came, and waited for ever."""
+    patrol = tmp_path / "short.patrol.yaml"
+    patrol.write_text("rounds: 1\nstops:\n  - {room: room-101}\n")
+    serve(*SIM, "--sim-speed", "16")
+    result = run_cli("patrol", str(patrol), "--json")
+    # No markers: the one stop reached by the odometry alone, unconfirmed: exit 3.
+    assert result.returncode == 3, f"{result.stdout}\n{result.stderr}"
+    said = json.loads(result.stdout.splitlines()[-1])
+    assert (said["patrol"], said["outcome"]) == (str(patrol), "arrived_unverified")
 
 
 # -- what does not disturb it ---------------------------------------------------------

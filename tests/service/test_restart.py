@@ -147,8 +147,10 @@ def test_after_a_crash_without_a_camera_nothing_drives(site):
         result = run_cli("go", GOAL, "--json", timeout=MISSION_TIMEOUT_S)
     finally:
         stop_daemon(daemon)
-    # Refused before anything moves: the daemon's reply says why.
-    assert result.returncode == 1
-    assert '"why": "refused"' in result.stdout and "only assumed" in result.stderr
+    # Refused before anything moves: the daemon's reply says why, and the exit code and
+    # the JSON say it never started for want of a pose anyone confirmed (issue 26).
+    assert result.returncode == 6
+    assert '"why": "refused"' in result.stdout and '"outcome": "unverified"' in result.stdout
+    assert "only assumed" in result.stderr
     time.sleep(0.5)
     assert travelled(true_poses(site["log"]), since=restarted) == 0.0

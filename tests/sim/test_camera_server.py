@@ -261,7 +261,7 @@ def test_a_socket_in_use_is_left_alone_and_a_stale_one_replaced(server):
 
 def test_the_simulator_s_camera_shows_the_plan_s_closed_doors():
     """`sim --camera` draws the building as the console's own simulator does: a door the
-    plan says is closed fills its doorway (cli.py plan_camera)."""
+    plan says is closed fills its doorway (runtime/camera.py plan_camera)."""
     from giraff_console.planning.floorplan import load_floorplan
     from giraff_console.runtime.camera import plan_camera
 

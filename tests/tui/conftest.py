@@ -62,7 +62,7 @@ class Rig:
             self.board.place(TruePose(start.x, start.y, start.heading))
         else:
             # The simulated robot stands where it starts, as `giraff-console --sim`
-            # has it (cli.py): a pose given, not assumed.
+            # has it (runtime/robot.py): a pose given, not assumed.
             self.control.place(self.control.pose, PoseBasis.GIVEN)
         self.camera = None
         if camera and plan is not None:
