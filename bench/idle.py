@@ -263,7 +263,9 @@ def run(only: set[str], folder: Path, settle: float, seconds: float) -> list[Row
                 rows.append(measure("daemon serve --sim", daemon.pid, seconds, main=False))
             if "attached" in only:
                 attached = terminal(console)
-                attached.wait_for(b"keys -", START_TIMEOUT_S)
+                # The daemon's camera, once its frames come: drawn 10 times a second, the
+                # main view's "keys -" soon leaves the tail of what was written.
+                attached.wait_for(b"cam 800x600", START_TIMEOUT_S)
                 settled()
                 # The daemon's camera, shared with it (camera/shared_frame.py).
                 rows.append(measure("console attached, camera and map", attached.pid,
