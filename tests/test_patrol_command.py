@@ -11,6 +11,8 @@ import pytest
 import yaml
 
 from giraff_console.cli import main
+from giraff_console.data_folders import patrol_runs
+from giraff_console.missions.patrol_log import list_runs
 
 # A small camera, a few frames a second: enough to find the robot by, and quick.
 SMALL_EYE = ("--eye-size", "400x300", "--eye-fps", "5")
@@ -162,3 +164,18 @@ def test_a_marker_that_cannot_be_moved_so_is_a_usage_error(tmp_path, capsys, opt
     code, _, err = patrol(capsys, "nurse", "--routes", str(tmp_path), "--sim",
                           "--move-marker", option)  # fmt: skip
     assert code == 2 and message in err
+
+
+def test_a_patrol_run_from_the_shell_is_logged_where_patrols_lists_it(tmp_path, capsys):
+    """Issue 26: headless patrol runs were missing from `giraff-console patrols`."""
+    path = write_patrol(tmp_path, "short", [{"room": "nurse-station"}])
+    code, lines, err = patrol(capsys, str(path), "--sim", "--sim-speed", "inf", "--json",
+                              "--no-landmarks")  # fmt: skip
+    assert code == 3, err  # reached by the odometry alone, unconfirmed
+    assert lines[-1]["outcome"] == "arrived_unverified"
+    [run] = list_runs(patrol_runs())
+    assert (run.patrol, run.state, run.stops, run.by) == ("short", "ended", 1, "the patrol command")
+    assert main(["patrols"]) == 0
+    assert "short  by the patrol command: ended, 1 stop, every stop reached" in (
+        capsys.readouterr().out
+    )

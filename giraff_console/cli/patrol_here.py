@@ -19,6 +19,7 @@ from giraff_console.missions.go_to import GoReport
 from giraff_console.missions.names import DOCK
 from giraff_console.missions.patrol import Patrol, PatrolError, PatrolRun, Stop, StopReached
 from giraff_console.missions.route import Route
+from giraff_console.missions.route_book import RunLog
 from giraff_console.protocol.codec import Command
 from giraff_console.robot.mission import MissionEnd
 from giraff_console.runtime.robot import Robot
@@ -41,6 +42,9 @@ def patrol_here(robot: Robot, patrol: Patrol, routes: dict[str, Route], as_json:
     except PatrolError as error:
         return fail(str(error), EXIT_USAGE)
     log.run = run
+    # Logged where `giraff-console patrols` lists it, as the console's and the daemon's
+    # runs are (issue 26).
+    log.runs.start(patrol.name, scheduled=False, by="the patrol command")
     if not run_mission(robot, run, log.ended, lambda: log.print_lines(as_json)):
         return fail("no answer from the board", EXIT_FAILED)
     summary = log.summary()
@@ -71,6 +75,7 @@ class StopLog:
         self.robot = robot
         self.patrol = patrol
         self.routes = routes
+        self.runs = RunLog(robot.routes.runs, robot.control.note, None)
         self.run: _TimedPatrol | None = None
         self.records: list[dict] = []
         # The stops that did not get there (their outcome not an arrival).
@@ -90,11 +95,13 @@ class StopLog:
         why = "done" if stop.reached else f"failed: {stop.detail}"
         self._record(stop.round, stop.stop_index, MissionEnd(stop.outcome, why, stop.detail),
                      stop.max_jerk)  # fmt: skip
+        self.runs.reached(stop, self.robot.control.estimate().pose)
         dwell = self.patrol.stops[stop.stop_index - 1].dwell if stop.reached else 0.0
         self._leg_from = self.robot.control.clock.now() + dwell
 
     def ended(self, end: MissionEnd) -> None:
         self.end, self.why = end, end.why
+        self.runs.end(end, self.runs.reached_count)
         self.ended_at = self.robot.control.clock.now()
         count = len(self.patrol.stops)
         leg = len(self.records)

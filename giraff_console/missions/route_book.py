@@ -252,7 +252,7 @@ class RouteBook:
                 return False
             routes[stop.route] = route
         go = self.drives.go if self.navigator is not None else None
-        log = _RunLog(self.runs, self.report, self.sessions if patrol.snapshots else None)
+        log = RunLog(self.runs, self.report, self.sessions if patrol.snapshots else None)
         try:
             control = self.control
             run = PatrolRun(patrol, routes, lambda stop: log.reached(stop, control.pose),
@@ -334,7 +334,7 @@ class RouteBook:
             teacher.observe_pose(self.control.clock.now(), event.pose)
 
 
-class _RunLog:
+class RunLog:
     """A patrol run as it goes, in its log (when the book has a folder for them), with a
     snapshot at each stop (when the patrol takes them) and a note of each problem."""
 
