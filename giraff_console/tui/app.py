@@ -286,7 +286,12 @@ class GiraffConsole(RobotKeys, KeyGuard):
             self.camera_view.on_size = self._pane_size
             self.call_after_refresh(lambda: self._pane_size(*self.camera_view.size))
             self._watch_camera()
-        # The robot runs once the screen hears it: its first notes are not lost.
+        # The robot runs once the screen hears it (its first notes are not lost) and has
+        # been drawn once: its threads do not hold up the first screen (issue 26).
+        self.call_after_refresh(self._start)
+
+    def _start(self) -> None:
+        """The robot running, then the session asked for played back on it."""
         self.started()
         if self.play_at_start is not None:
             self.order(c.Play(self.play_at_start))
