@@ -1,8 +1,11 @@
 """The one composition root (design.md, "The shape"; issue 26): the robot built once.
 
-Every front end gets its robot here and talks to it through `robot.service` alone: the
-console in its own process, `go`, `patrol`, `survey`, the daemon (`serve`) and the
-test rig. What they used to build each for themselves, four times over, is built here
+Every front end gets its robot here: the console in its own process, `go`, `patrol`,
+`survey` and the daemon (`serve`). The screen, `go` and the daemon's consoles talk to it
+through `robot.service` alone; a patrol run from the shell and a survey hand their own
+mission to its loop (cli/drive.py, run_mission). The test rigs, which tick a loop
+themselves on a virtual clock, still build theirs. What the front ends used to build
+each for themselves, four times over, is built here
 from the settings file and the front end's options (runtime/options.py): the board link
 or the simulator in the plan's building, the control loop with its localisation, the
 camera and the marker eye, the missions' set-up, the recorder, the route book and the
