@@ -176,7 +176,8 @@ def run_queue(pid: int) -> tuple[float, int]:
 def end_process(process: subprocess.Popen, sig: int = signal.SIGTERM) -> None:
     """`sig`, then SIGKILL if it outlives END_TIMEOUT_S; reaped either way."""
     if process.poll() is None:
-        process.send_signal(sig)
+        with contextlib.suppress(ProcessLookupError):  # ended meanwhile
+            process.send_signal(sig)
         try:
             process.wait(END_TIMEOUT_S)
         except subprocess.TimeoutExpired:

@@ -52,11 +52,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+# The same waits, and the same words for the machine, as the daemon's benchmark.
+from bench.daemon_load import cpu_model, end_process, loadavg  # noqa: E402
+
 HZ = os.sysconf("SC_CLK_TCK")
 COLUMNS, ROWS = 120, 40
 START_TIMEOUT_S = 60.0  # a console's start-up on a loaded machine
 SOCKET_TIMEOUT_S = 30.0
-END_TIMEOUT_S = 10.0
 SETUPS = ("minimal", "console", "daemon", "attached")
 
 
@@ -84,18 +88,6 @@ def cpu_seconds(pid: int, tid: int | None = None) -> float:
     path = f"/proc/{pid}/stat" if tid is None else f"/proc/{pid}/task/{tid}/stat"
     fields = Path(path).read_text().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / HZ  # fields 14 and 15 of stat(5)
-
-
-def end_process(process: subprocess.Popen, sig: int = signal.SIGTERM) -> None:
-    """`sig`, then SIGKILL if it outlives END_TIMEOUT_S; reaped either way."""
-    if process.poll() is None:
-        with contextlib.suppress(ProcessLookupError):
-            process.send_signal(sig)
-        try:
-            process.wait(END_TIMEOUT_S)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait(END_TIMEOUT_S)
 
 
 class Terminal:
@@ -279,18 +271,6 @@ def run(only: set[str], folder: Path, settle: float, seconds: float) -> list[Row
 
 
 # -- figures ---------------------------------------------------------------------------
-
-
-def cpu_model() -> str:
-    with contextlib.suppress(OSError), open("/proc/cpuinfo") as cpuinfo:
-        for line in cpuinfo:
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    return platform.processor() or "unknown CPU"
-
-
-def loadavg() -> str:
-    return " ".join(Path("/proc/loadavg").read_text().split()[:3])
 
 
 def main() -> int:
