@@ -25,6 +25,7 @@ from giraff_console.cli.daemon import (
     run_stop,
     run_watch,
 )
+from giraff_console.cli.exit_codes import EXIT_USAGE
 from giraff_console.cli.export import add_export_parser, run_export
 from giraff_console.cli.floorplan import add_floorplan_parser, run_floorplan
 from giraff_console.cli.go import add_go_parser, run_go
@@ -41,8 +42,6 @@ from giraff_console.robot.last_stop import SIGNALS
 if TYPE_CHECKING:
     from giraff_console.settings import Settings
 
-# Exit code: a mistake in the command line or the settings.
-EXIT_USAGE = 2
 
 # Shipped in the package, so that the console, `plan` and `go` work from any folder.
 EXAMPLE_FLOORPLAN = example_floorplan()

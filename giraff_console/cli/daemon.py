@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from giraff_console.cli.exit_codes import EXIT_FAILED, EXIT_USAGE
 from giraff_console.data_folders import patrol_runs
 from giraff_console.missions.patrol_log import list_runs
 from giraff_console.robot.last_stop import SIGNALS
@@ -31,7 +32,8 @@ if TYPE_CHECKING:
     from giraff_console.service.events import ServiceEvent
     from giraff_console.service.remote import RemoteRobot
 
-EXIT_DONE, EXIT_FAILED, EXIT_USAGE, EXIT_NO_DAEMON = 0, 1, 2, 3
+# `status`, `stop`, `patrols` and `watch`: done, or no daemon to ask.
+EXIT_DONE, EXIT_NO_DAEMON = 0, 3
 # Events `watch` holds for a reader slower than the robot.
 WATCH_QUEUE = 1000
 

@@ -117,18 +117,6 @@ def drive_here(robot: Robot, request: c.Go | c.RunPatrol,
     service = robot.service
     events: queue.Queue[ServiceEvent] = queue.Queue()
     replies: queue.Queue[Reply] = queue.Queue()
-    connected = threading.Event()
-
-    def on_first_tick(event: ServiceEvent) -> None:
-        if not (isinstance(event, Telemetry) and event.link is LinkState.CONNECTED):
-            return
-        if not connected.is_set():
-            connected.set()
-            if robot.stepped is not None:
-                # On the loop's thread, at the first tick that has the board: the mission
-                # is planned and starts at the same virtual time however fast the clock
-                # runs, before any frame the eye takes could make a run differ.
-                ask()
 
     def ask() -> None:
         try:
@@ -138,10 +126,10 @@ def drive_here(robot: Robot, request: c.Go | c.RunPatrol,
             raise
 
     service.subscribe(events.put)
-    service.subscribe(on_first_tick)
-    robot.guard()
-    robot.start()
-    if not connected.wait(CONNECT_TIMEOUT_S):
+    # Stepped, on the loop's thread at the first tick that has the board: the mission is
+    # planned and starts at the same virtual time however fast the clock runs, before
+    # any frame the eye takes could make a run differ. In real time, from here.
+    if not start_on_the_board(robot, ask if robot.stepped is not None else lambda: None):
         return None
     if robot.stepped is None:
         ask()
@@ -182,6 +170,25 @@ def drive_there(remote: RemoteRobot, request: c.Go | c.RunPatrol,
         remote.close()
 
 
+def start_on_the_board(robot: Robot, act: Callable[[], None]) -> bool:
+    """Guard and start the robot, and `act` on the loop's thread at the first tick that
+    has the board: the same virtual time however fast a stepped clock runs. False if the
+    board has not answered within CONNECT_TIMEOUT_S."""
+    connected = threading.Event()
+
+    def first(event: ServiceEvent) -> None:
+        if isinstance(event, Telemetry) and event.link is LinkState.CONNECTED \
+                and not connected.is_set():  # fmt: skip
+            connected.set()
+            robot.service.unsubscribe(first)  # once is all it is for
+            act()
+
+    robot.service.subscribe(first)
+    robot.guard()
+    robot.start()
+    return connected.wait(CONNECT_TIMEOUT_S)
+
+
 def run_mission(robot: Robot, mission: Mission, ended: Callable[[MissionEnd], None],
                 meanwhile: Callable[[], None] = lambda: None) -> bool:  # fmt: skip
     """Start the robot, drive `mission` (one the service has no request for: a patrol's
@@ -189,8 +196,7 @@ def run_mission(robot: Robot, mission: Mission, ended: Callable[[MissionEnd], No
     answered. `ended` gets how it ended, on the loop's thread; `meanwhile` is called on
     this thread every half second while it drives, and once after. The robot is
     stopped by the caller's `with`."""
-    control = robot.control
-    connected, done = threading.Event(), threading.Event()
+    control, done = robot.control, threading.Event()
 
     def finish(end: MissionEnd) -> None:
         try:
@@ -198,23 +204,15 @@ def run_mission(robot: Robot, mission: Mission, ended: Callable[[MissionEnd], No
         finally:
             done.set()  # whatever the report did: the command must end
 
-    def start(event: ServiceEvent) -> None:
-        # On the loop's thread, at the first tick that has the board: the mission
-        # starts at the same virtual time however fast the clock runs.
-        if isinstance(event, Telemetry) and event.link is LinkState.CONNECTED \
-                and not connected.is_set():  # fmt: skip
-            connected.set()
-            try:
-                control.run_mission(mission, finish)
-            except Exception:
-                # The command must not wait on it.
-                finish(MissionEnd(Outcome.HALTED, "stopped: internal error"))
-                raise
+    def start() -> None:
+        try:
+            control.run_mission(mission, finish)
+        except Exception:
+            # The command must not wait on it.
+            finish(MissionEnd(Outcome.HALTED, "stopped: internal error"))
+            raise
 
-    robot.service.subscribe(start)
-    robot.guard()
-    robot.start()
-    if not connected.wait(CONNECT_TIMEOUT_S):
+    if not start_on_the_board(robot, start):
         return False
     shown = ProgressShown()
     try:

@@ -27,6 +27,7 @@ from giraff_console.service import commands as c
 
 if TYPE_CHECKING:
     from giraff_console.cli.drive import Ended
+    from giraff_console.robot.mission import MissionEnd
     from giraff_console.service.events import Reply
     from giraff_console.settings import Settings
 
@@ -96,11 +97,21 @@ def _no_room(floorplan: Path | None, room: str) -> str | None:
     return None if room in plan.rooms else plan.no_room(room, also=[DOCK])
 
 
+def _without_report(request: c.Go, end: MissionEnd) -> dict:
+    """`go --json`'s keys for a go with no report (refused, or its report lost): how it
+    ended, and null for every figure."""
+    from giraff_console.missions.go_to import GO_JSON_KEYS
+
+    return dict.fromkeys(GO_JSON_KEYS) | {
+        "arrived": False, "outcome": end.outcome.value, "room": request.room,
+        "why": end.why, "detail": end.detail,
+    }  # fmt: skip
+
+
 def _said(request: c.Go, ended: Ended | Reply | None, as_json: bool) -> int:
     """Say how the go ended, on standard output; its exit code."""
     from giraff_console.cli.exit_codes import EXIT_CODES
-    from giraff_console.missions.go_to import GO_JSON_KEYS
-    from giraff_console.robot.mission import Outcome
+    from giraff_console.robot.mission import MissionEnd, Outcome
     from giraff_console.service.events import Reply
 
     if ended is None:
@@ -109,21 +120,14 @@ def _said(request: c.Go, ended: Ended | Reply | None, as_json: bool) -> int:
         # Refused before it started: how it would have ended, and the same keys.
         outcome = ended.refused or Outcome.REFUSED
         if as_json:
-            refused = dict.fromkeys(GO_JSON_KEYS) | {
-                "arrived": False, "outcome": outcome.value, "room": request.room,
-                "why": "refused", "detail": ended.text,
-            }  # fmt: skip
-            print(json.dumps(refused))
+            print(json.dumps(_without_report(request, MissionEnd(outcome, "refused", ended.text))))
         return fail(ended.text, EXIT_CODES[outcome])
     report = ended.report
     if report is None:
         # The end came, but not the report (drive.follow): say the end, the same keys.
         end = ended.end
         if as_json:
-            print(json.dumps(dict.fromkeys(GO_JSON_KEYS) | {
-                "arrived": False, "outcome": end.outcome.value, "room": request.room,
-                "why": end.why, "detail": end.detail,
-            }))  # fmt: skip
+            print(json.dumps(_without_report(request, end)))
         else:
             print(f"{ended.name}: {end.words}")
         return exit_code(end)
