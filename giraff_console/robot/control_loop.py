@@ -153,9 +153,11 @@ class ControlLoop:
         run = self._run if stepped is None else lambda: self._run_stepped(stepped)
         self._thread = threading.Thread(target=run, name="control-loop", daemon=True)
         self._thread.start()
-        if stepped is None and self._thread.native_id is not None:
-            # On the real clock only: a stepped loop runs as fast as it is let, and must
-            # not take a CPU from everything else.
+        if (stepped is None or stepped <= 1) and self._thread.native_id is not None:
+            # A loop that keeps real time (the real clock, or a simulator's virtual one
+            # stepped at real time, as the daemon's is) sleeps between ticks and must
+            # tick on time: it is a robot's loop. One stepped faster runs as fast as it
+            # is let, a batch job that must not take a CPU from everything else.
             self.priority = run_promptly(self._thread.native_id)
             log.info("control loop: %s", self.priority)
 

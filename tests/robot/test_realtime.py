@@ -3,11 +3,14 @@ so that its ticks keep time on a busy PC (issue 15), and says so when it may not
 
 from __future__ import annotations
 
+import math
 import os
 import resource
 import subprocess
 import sys
 import threading
+
+import pytest
 
 from giraff_console.clock import RealClock
 from giraff_console.link import BoardLink
@@ -62,7 +65,7 @@ print(os.sched_getscheduler(0) == os.SCHED_OTHER)
     assert "rtprio" in said and unchanged == "True"
 
 
-def test_the_loop_on_the_real_clock_asks_for_it_and_a_stepped_one_does_not():
+def test_the_loop_on_the_real_clock_asks_for_it():
     link = BoardLink.open("giraff-sim://")
     control = ControlLoop(lambda: link, teleop=Teleop(), deadman=Deadman(RealClock()),
                           clock=RealClock())  # fmt: skip
@@ -87,5 +90,27 @@ def test_the_loop_on_the_real_clock_asks_for_it_and_a_stepped_one_does_not():
         control.between_ticks(lambda: (start_one(), done.set()))
         assert done.wait(TIMEOUT_S)
         assert started == [os.SCHED_OTHER]
+    finally:
+        assert control.stop()
+
+
+@pytest.mark.parametrize(("speed", "asks"), [(1.0, True), (0.5, True), (4.0, False),
+                                             (math.inf, False)])  # fmt: skip
+def test_a_stepped_loop_asks_for_it_only_when_it_keeps_real_time(speed: float, asks: bool):
+    """The daemon's simulator is stepped at real time: its loop is a robot's loop, on
+    time beside busy work (issue 26); one stepped faster is a batch job."""
+    link = BoardLink.open("giraff-sim://?clock=virtual")
+    clock = link.port.clock
+    control = ControlLoop(lambda: link, teleop=Teleop(), deadman=Deadman(clock), clock=clock)
+    control.start(stepped=speed)
+    try:
+        thread = control._thread
+        assert thread is not None and thread.native_id is not None
+        policy = os.sched_getscheduler(thread.native_id) & ~os.SCHED_RESET_ON_FORK
+        assert (policy == os.SCHED_RR) == (asks and allowed())
+        if asks:
+            assert control.priority.startswith("real-time" if allowed() else "normal priority")
+        else:
+            assert control.priority == "not running"
     finally:
         assert control.stop()
