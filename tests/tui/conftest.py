@@ -2,46 +2,65 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
 from textual import events
 
 from giraff_console.link import BoardLink
-from giraff_console.missions.drive_setup import DriveSetup
-from giraff_console.missions.navigation import Navigator
-from giraff_console.missions.route_book import RouteBook
-from giraff_console.missions.sessions import Sessions
-from giraff_console.planning.floorplan import load_floorplan
-from giraff_console.planning.route_planner import walls_of
-from giraff_console.recording.session import RecordingSetup
-from giraff_console.robot.control_loop import ControlLoop
-from giraff_console.robot.deadman import Deadman, Intent
-from giraff_console.robot.localisation import PoseBasis
-from giraff_console.robot.teleop import Teleop
-from giraff_console.runtime.camera import camera_feed, find_the_robot
-from giraff_console.runtime.sim_site import SimulatedSite
-from giraff_console.service.robot_service import RobotService
-from giraff_console.sim.drive import TruePose
+from giraff_console.robot.deadman import Intent
+from giraff_console.runtime.options import RobotOptions
+from giraff_console.runtime.robot import Robot
+from giraff_console.settings import Settings
+from giraff_console.sim.battery import Battery
 from giraff_console.tui.app import GiraffConsole
 from giraff_console.tui.messages import CameraPictureUpdated
 
 TICK = 0.05
 EXAMPLE = Path(__file__).resolve().parents[2] / "giraff_console/floorplans/care-home.yaml"
+# One open room, the robot at the origin facing +x where the simulator starts it: the
+# console with no building of its own to show.
+OPEN_FLOOR = Path(__file__).resolve().parents[1] / "console/open-floor.yaml"
 
 
 class Rig:
-    """The app, its control loop and the simulated board behind it."""
+    """The app on the robot the console runs on, built by the composition root
+    (runtime/robot.py) on the simulator and its virtual clock; its control loop is not
+    started but ticked here, by hand."""
 
     def __init__(self, camera: bool = False, recordings: Path | None = None,
-                 floorplan: Path | None = None, board: str = "") -> None:  # fmt: skip
-        """`board`: more options for the simulator's URL, e.g. `&firmware=later`."""
-        self.link = BoardLink.open(f"giraff-sim://?clock=virtual{board}")
-        self.clock = self.link.port.clock
-        self.board = self.link.port.board
-        self.control = ControlLoop(
-            lambda: self.link, teleop=Teleop(), deadman=Deadman(self.clock), clock=self.clock
+                 floorplan: Path | None = None, firmware: str | None = None,
+                 battery: float | None = None) -> None:  # fmt: skip
+        """`floorplan`: the building shown on the map (None: an open floor, no map);
+        `recordings`: where sessions go, and routes beside them; `firmware`, `battery`:
+        the simulated board's (later firmware has a battery; its charge, 0 to 1)."""
+        options = RobotOptions(
+            floorplan=floorplan or OPEN_FLOOR,
+            recordings=recordings,
+            routes=recordings.parent / "routes" if recordings is not None else None,
+            screen=True,
+            # On the simulator's virtual clock, which the rig moves on itself.
+            sim_speed=math.inf,
+            firmware=firmware,
+            # The markers find the robot through the camera, which only a camera rig
+            # shows (`show_camera`); without it, dead reckoning alone, as before.
+            landmarks=camera,
         )
+        settings = Settings()
+        robot = self.parts = Robot(options, settings, EXAMPLE)
+        self.clock = robot.control.clock
+        assert robot.site is not None
+        self.board = robot.site.board
+        if battery is not None:
+            self.board.battery = Battery(battery, self.clock.now())
+        self.control = robot.control
+        # The link the loop will use, opened now, so that a test can watch its traffic
+        # from the first exchange; a reconnection opens another, as on the robot.
+        connect = robot.control.connect
+        self.link: BoardLink = connect()
+        links = [self.link]
+        self.control.connect = lambda: links.pop() if links else connect()
         # Counted, so that a key can be waited for until it has reached the loop.
         self.presses = 0
         press = self.control.press
@@ -51,50 +70,25 @@ class Rig:
             press(intent)
 
         self.control.press = counted_press
-        self.navigator = None
-        plan = None
-        if floorplan is not None:
-            plan = load_floorplan(floorplan)
-            self.navigator = Navigator(plan, walls_of(plan))
-            start = self.navigator.start_pose
-            assert start is not None
-            self.control.place(start, PoseBasis.GIVEN)
-            self.board.place(TruePose(start.x, start.y, start.heading))
-        else:
-            # The simulated robot stands where it starts, as `giraff-console --sim`
-            # has it (runtime/robot.py): a pose given, not assumed.
-            self.control.place(self.control.pose, PoseBasis.GIVEN)
-        self.camera = None
-        if camera and plan is not None:
-            # The camera sees the plan's building and its markers, which the detector
-            # finds and the localisation is fed, as `giraff-console --sim` does.
-            site = SimulatedSite(self.board, plan, self.navigator.start_pose)
-            self.camera = camera_feed(None, self.link.port, world=site.world,
-                                      surroundings=site.surroundings,
-                                      landmarks=plan.landmarks, clock=self.clock)  # fmt: skip
-            find_the_robot(self.control, self.camera, plan)
-        elif camera:
-            self.camera = camera_feed(None, self.link.port)
+        self.navigator = robot.navigator if floorplan is not None else None
+        self.camera = robot.camera if camera else None
         if self.camera is not None:
             # Frames are stamped on the virtual clock, like the log, so that they line up.
             self.camera.source.clock = self.clock.now
-        self.sessions = self.routes = None
-        drives = DriveSetup.on_loop(self.control, self.navigator)
-        if recordings is not None:
-            setup = RecordingSetup(port="giraff-sim://?clock=virtual")
-            self.sessions = Sessions(self.control, self.camera, recordings, setup, print)
-            routes = recordings.parent / "routes"
-            self.routes = RouteBook(self.control, self.sessions, routes, print, drives)
-        self.robot = RobotService(self.control, drives, routes=self.routes,
-                                  sessions=self.sessions)  # fmt: skip
+        self.sessions = robot.sessions if recordings is not None else None
+        self.routes = robot.routes if recordings is not None else None
+        self.robot = robot.service
+        plan = robot.plan if floorplan is not None else None
         self.app = GiraffConsole(
-            self.robot,
+            robot.service,
             clock=self.clock,
-            plan=self.navigator.plan if self.navigator is not None else None,
-            walls=self.navigator.walls if self.navigator is not None else None,
-            stop=self.control.stop,
+            plan=plan,
+            walls=robot.navigator.walls if plan is not None else None,
+            stop=robot.stop,
             simulator=True,
             camera=self.camera,
+            undock_distance=settings.teleop.undock_distance,
+            battery_low=settings.battery.low,
             timestamp=lambda: f"{self.clock.now():.2f}s",
             cursor_blink=False,
         )

@@ -13,7 +13,6 @@ from giraff_console.tui.top_bar import battery_text, stalk_text
 from tests.tui.conftest import Rig
 
 SIZE = (120, 30)
-LATER = "&firmware=later"
 # Long enough for the loop to have read every charger parameter (one each 0.5 s) and h.
 SETTLE_S = 4.0
 
@@ -78,18 +77,18 @@ async def test_the_thesis_board_shows_no_battery_and_no_stalk(rig):
 
 
 async def test_a_later_board_shows_its_battery_and_stalk():
-    rig = Rig(board=LATER + "&battery=0.6")
+    rig = Rig(firmware="later", battery=0.6)
     async with rig.app.run_test(size=SIZE) as pilot:
         await rig.run(pilot, SETTLE_S)
         line = top_line(rig)
-        shown = re.search(r"BAT (\d+)% (\d+\.\d) V", line)
+        shown = re.search(r"BAT (\d+)% (?:⚡ )?(\d+\.\d) V", line)
         assert shown, line
         assert int(shown.group(1)) == pytest.approx(100 * rig.board.battery_level, abs=1.5)
         assert "stalk 0 1.16 m" in line
 
 
 async def test_at_80_columns_the_pose_and_battery_stay_and_the_camera_part_goes():
-    rig = Rig(board=LATER + "&battery=0.6")
+    rig = Rig(firmware="later", battery=0.6)
     async with rig.app.run_test(size=(80, 24)) as pilot:
         await rig.run(pilot, SETTLE_S)
         line = top_line(rig)
@@ -98,7 +97,7 @@ async def test_at_80_columns_the_pose_and_battery_stay_and_the_camera_part_goes(
 
 
 async def test_stalk_n_sets_h_and_the_top_line_follows():
-    rig = Rig(board=LATER)
+    rig = Rig(firmware="later")
     async with rig.app.run_test(size=SIZE) as pilot:
         await rig.run(pilot, 1.0)
         sent = sent_commands(rig)
@@ -110,7 +109,7 @@ async def test_stalk_n_sets_h_and_the_top_line_follows():
 
 
 async def test_stalk_up_and_down_step_from_the_reported_height():
-    rig = Rig(board=LATER)
+    rig = Rig(firmware="later")
     async with rig.app.run_test(size=SIZE) as pilot:
         await rig.run(pilot, 1.0)
         rig.app.run_command("stalk 500")
@@ -128,7 +127,7 @@ async def test_stalk_up_and_down_step_from_the_reported_height():
 
 
 async def test_the_keys_g_and_v_raise_and_lower_it_without_asking():
-    rig = Rig(board=LATER)
+    rig = Rig(firmware="later")
     async with rig.app.run_test(size=SIZE) as pilot:
         await rig.run(pilot, 1.0)
         sent = sent_commands(rig)
@@ -141,7 +140,7 @@ async def test_the_keys_g_and_v_raise_and_lower_it_without_asking():
 
 
 async def test_the_stalk_stays_within_its_range():
-    rig = Rig(board=LATER)
+    rig = Rig(firmware="later")
     async with rig.app.run_test(size=SIZE) as pilot:
         await rig.run(pilot, 1.0)
         sent = sent_commands(rig)
@@ -157,7 +156,7 @@ async def test_the_stalk_stays_within_its_range():
 
 
 async def test_a_typed_set_h_out_of_range_is_refused_by_the_guard():
-    rig = Rig(board=LATER)
+    rig = Rig(firmware="later")
     async with rig.app.run_test(size=SIZE) as pilot:
         await rig.run(pilot, 1.0)
         sent = sent_commands(rig)

@@ -26,7 +26,7 @@ async def test_holding_up_moves_the_robot_and_the_pose_on_screen(rig):
 
 @pytest.mark.parametrize("firmware", ["later", "giraff-x"])
 async def test_holding_the_keys_drives_and_the_pose_follows_on_later_firmware(firmware):
-    rig = Rig(board=f"&firmware={firmware}")
+    rig = Rig(firmware=firmware)
     async with rig.app.run_test(size=SIZE) as pilot:
         await rig.run(pilot, 0.1)
         await rig.hold(pilot, "up", 2.0)
@@ -112,14 +112,14 @@ async def test_poll_toggle_and_help_screen(rig):
         assert rig.app.screen.__class__.__name__ != "HelpScreen"
 
 
-async def test_go_without_a_floor_plan_says_how_to_get_one(rig):
+async def test_go_to_a_room_the_floor_plan_has_not_says_which_it_has(rig):
+    """On the rig's open floor (one room, no map shown)."""
     async with rig.app.run_test(size=SIZE) as pilot:
         rig.app.run_command("go kitchen")
         await pilot.pause()
-        assert "go: no floor plan (start the console with --floorplan FILE)" in " ".join(
-            rig.app.status_log.texts
-        )
+        assert "go: no room called 'kitchen' (rooms: floor)" in " ".join(rig.app.status_log.texts)
         assert not rig.app.map_view.display
+        assert not rig.control.running
 
 
 async def test_escape_while_moving_asks_then_quits_and_leaves_the_robot_stopped(rig):

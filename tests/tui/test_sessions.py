@@ -62,7 +62,7 @@ async def record_a_drive(rig: Rig, pilot) -> tuple[list, list[str]]:
 async def test_a_session_plays_back_with_the_pose_and_transcript_it_was_recorded_with(
     tmp_path, firmware
 ):
-    rig = Rig(recordings=tmp_path, board=f"&firmware={firmware}")
+    rig = Rig(recordings=tmp_path, firmware=firmware)
     async with rig.app.run_test(size=SIZE) as pilot:
         live_poses, live_lines = await record_a_drive(rig, pilot)
         session = rig.sessions.latest()
@@ -70,7 +70,7 @@ async def test_a_session_plays_back_with_the_pose_and_transcript_it_was_recorded
         assert "recording stopped" in " ".join(rig.app.status_log.texts)
         assert rig.board.true_pose.x > 0.5  # it really drove
 
-    replay = Rig(recordings=tmp_path, board=f"&firmware={firmware}")
+    replay = Rig(recordings=tmp_path, firmware=firmware)
     async with replay.app.run_test(size=SIZE) as pilot:
         await replay.run(pilot, 0.2)
         played_poses: list = []
