@@ -29,27 +29,21 @@ import numpy as np
 import pytest
 
 from giraff_console.camera.shared_frame import SharedFrame
-from giraff_console.link import BoardLink
-from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.go_to import GO_JSON_KEYS
-from giraff_console.missions.navigation import Navigator
 from giraff_console.planning.floorplan import load_floorplan
-from giraff_console.planning.route_planner import walls_of
-from giraff_console.robot.control_loop import ControlLoop
-from giraff_console.robot.deadman import Deadman, Intent
-from giraff_console.robot.localisation import PoseBasis
+from giraff_console.robot.deadman import Intent
 from giraff_console.robot.loop_events import LoopEvent, MissionChanged, Note
 from giraff_console.robot.telemetry import Telemetry
-from giraff_console.robot.teleop import Teleop
+from giraff_console.runtime.options import RobotOptions
+from giraff_console.runtime.robot import Robot
 from giraff_console.service import commands as c
 from giraff_console.service import wire
 from giraff_console.service.daemon import Answered, Asked, Hello, Welcome, daemon_alive
 from giraff_console.service.events import Controls, Reply, RoomRenamed, Situation
 from giraff_console.service.reattach import Attached, Disconnected, Reattaching
 from giraff_console.service.remote import RemoteRobot
-from giraff_console.service.robot_service import RobotService
 from giraff_console.service.runtime_folder import socket_path
-from giraff_console.sim.drive import TruePose
+from giraff_console.settings import Settings
 from tests.planning.scanned_building import write_scanned_plan
 from tests.service.daemon_rig import (
     DaemonProcess,
@@ -585,16 +579,8 @@ def test_status_shows_a_mission_running_or_how_it_ended_never_neither():
     """What `status` answers (RobotService.situation) as a mission ends. In process, on
     a virtual clock, the loop stepped by hand: a listener looks at the situation each
     time the loop speaks, as a `status` from another console may at any moment."""
-    plan = load_floorplan(CARE_HOME)
-    link = BoardLink.open("giraff-sim://?clock=virtual")
-    clock = link.port.clock
-    control = ControlLoop(lambda: link, teleop=Teleop(), deadman=Deadman(clock), clock=clock)
-    navigator = Navigator(plan, walls_of(plan))
-    start = navigator.start_pose
-    assert start is not None
-    control.place(start, PoseBasis.GIVEN)
-    link.port.board.place(TruePose(start.x, start.y, start.heading))
-    service = RobotService(control, DriveSetup.on_loop(control, navigator))
+    robot = Robot(RobotOptions(floorplan=CARE_HOME, landmarks=False), Settings(), CARE_HOME)
+    control, clock, service = robot.control, robot.control.clock, robot.service
     seen: list[tuple[LoopEvent, Situation]] = []
     control.subscribe(lambda event: seen.append((event, service.situation())))
 
@@ -612,7 +598,7 @@ def test_status_shows_a_mission_running_or_how_it_ended_never_neither():
         assert service.execute(c.StopMission()).ok
         run(3)
     finally:
-        link.close()
+        robot.close()
     assert service.situation().last_mission is not None
     neither = [event for event, situation in seen[going:]
                if situation.mission is None and situation.last_mission is None]  # fmt: skip
