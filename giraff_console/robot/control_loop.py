@@ -488,12 +488,8 @@ class ControlLoop:
                               stop=False)  # fmt: skip
             self._drop_link()
         except BoardRebootedError as error:
-            # Its odometers restarted from zero: keep the pose, take new references.
-            self.note(f"{error}; its settings are back at power-up")
             self._end_mission(Outcome.LINK_LOST, "stopped: the board restarted", stop=False)
-            self.feed.rebooted()
-            self.teleop.forget_board()
-            self.deadman.release()
+            self._board_restarted(error)
         except GiraffError as error:
             # A poll the board refuses, say: a mission must not go on blind, nor be
             # tried again twenty times a second.
@@ -645,6 +641,8 @@ class ControlLoop:
             except LinkError as error:
                 self.note(f"LINK LOST: {error}")
                 self._drop_link()
+            except BoardRebootedError as error:
+                self._board_restarted(error)
         else:
             self._fail_jobs()
         if self._replayer.playback.finished(now):
@@ -731,6 +729,15 @@ class ControlLoop:
         self._end_playback("playback stopped: internal error")
         self._drop_link()
 
+    def _board_restarted(self, error: BoardRebootedError) -> None:
+        """The board restarted: its settings are back at power-up, which teleop's picture
+        of them (what the guard checks by) must say; its odometers restarted from zero:
+        keep the pose, take new references."""
+        self.note(f"{error}; its settings are back at power-up")
+        self.feed.rebooted()
+        self.teleop.forget_board()
+        self.deadman.release()
+
     def _run_jobs(self, link: BoardLink, stops_only: bool = False) -> None:
         while self._halt is None:  # stopping now: nothing typed goes out
             try:
@@ -743,6 +750,11 @@ class ControlLoop:
             try:
                 result: object = job(link)
             except LinkError:
+                raise
+            except BoardRebootedError:
+                # Found by a typed command (jobs go before the tick's poll): the tick's
+                # to deal with, as if its poll had found it (and to say), or the guard
+                # would go on checking by settings the board no longer holds.
                 raise
             except GiraffError as error:
                 result = error

@@ -75,6 +75,26 @@ class Send(Request):
     quick: ClassVar[bool] = True
 
 
+# The most controller commands asked for at once (SendCommands): the loop sends them
+# all in one go, between two of its ticks, so that nothing changes the board's settings
+# between their check and the last of them; a longer batch would hold the loop longer.
+MAX_COMMANDS = 32
+
+
+@dataclass(frozen=True)
+class SendCommands(Request):
+    """Controller commands as typed, for `giraff-console send`: each checked against the
+    limits and the board's settings as the ones before it leave them, all on the loop's
+    thread before any is sent (if one is refused, none is sent), then sent in order;
+    answered once the board has answered them all, with its answers (Reply.sent).
+
+    Only the holder of the controls may send a `set` or a bare command; anyone may read
+    (robot_service._moves)."""
+
+    texts: tuple[str, ...]
+    moves: ClassVar[bool] = True
+
+
 @dataclass(frozen=True)
 class Stalk(Request):
     """The head's height stalk: `to` 0..1000, or `step` steps from its last height."""
@@ -329,8 +349,8 @@ class Shutdown(Request):
 
 
 REQUESTS: tuple[type[Request], ...] = (
-    Press, Halt, Speed, Send, Stalk, Poll, Go, RunPatrol, Follow, Replay, Undock,
-    Pause, Resume, StopMission, Door, Block, Record, Play, Seek, Rate, Step, Teach, Mark,
+    Press, Halt, Speed, Send, SendCommands, Stalk, Poll, Go, RunPatrol, Follow, Replay,
+    Undock, Pause, Resume, StopMission, Door, Block, Record, Play, Seek, Rate, Step, Teach, Mark,
     Place, Name, Done, Routes, TakeControls, Heartbeat, Status, Release, Shutdown, View,
 )  # fmt: skip
 

@@ -59,11 +59,14 @@ from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.service import commands as c
 from giraff_console.service import wire
 from giraff_console.service.events import (
+    Answer,
     Controls,
     GoReported,
     Reply,
     RoomRenamed,
     RouteShown,
+    SendEnd,
+    Sent,
     Situation,
 )
 from giraff_console.service.outbox import Outbox
@@ -310,8 +313,8 @@ def _lock_beside(path: Path) -> int:
 # What crosses the socket: the daemon's own messages, the requests, and everything the
 # robot says (a snapshot and all it holds, an exchange with its errors, notes).
 wire.register(
-    Hello, Welcome, Asked, Answered, Reply, Controls, RouteShown, RoomRenamed, Situation,
-    GoReported, GoReport, SharedFrame, *c.REQUESTS,
+    Hello, Welcome, Asked, Answered, Reply, Sent, Answer, SendEnd, Controls, RouteShown,
+    RoomRenamed, Situation, GoReported, GoReport, SharedFrame, *c.REQUESTS,
     Telemetry, LinkState, MotorState, Pose, Intent, PlaybackStatus, Progress, Battery,
     ChargeStatus, BoardFeatures, Estimate, PoseBasis, Exchange, Note, MissionChanged, MissionEnd,
     Outcome,

@@ -7,6 +7,7 @@ these from it.
 
 from __future__ import annotations
 
+import enum
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol, TypeAlias
@@ -14,10 +15,43 @@ from typing import Protocol, TypeAlias
 from giraff_console.camera.shared_frame import SharedFrame
 from giraff_console.missions.go_to import GoReport
 from giraff_console.missions.navigation import NavigationState
+from giraff_console.protocol import GiraffError, ReplyValue
 from giraff_console.robot.loop_events import LoopEvent, MissionChanged
 from giraff_console.robot.mission import Outcome
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
+
+
+class SendEnd(enum.Enum):
+    """How controller commands asked for together (c.SendCommands) went."""
+
+    ANSWERED = "answered"  # every one sent, and answered
+    REFUSED = "refused"  # one refused before any was sent (the guard, a mission, a playback)
+    BOARD_REFUSED = "board_refused"  # the board refused one, or garbled its answer:
+    # those before it were sent and answered, none after it was sent
+    NO_LINK = "no_link"  # no link to the board, or it failed: one sent may not have arrived
+
+
+@dataclass(frozen=True)
+class Answer:
+    """The board's answer to one controller command: its decoded value (None for `OK`
+    or a reply in an encoding of its own, such as the charger's), the lines as they
+    came, or the error instead."""
+
+    command: str  # as it went on the wire
+    value: ReplyValue = None
+    lines: tuple[str, ...] = ()
+    error: GiraffError | None = None
+
+
+@dataclass(frozen=True)
+class Sent:
+    """What became of controller commands asked for together: the answers, in order,
+    to those sent, and why the rest were not (`why`: the refusal or the failure)."""
+
+    end: SendEnd
+    answers: tuple[Answer, ...] = ()
+    why: str = ""
 
 
 @dataclass(frozen=True)
@@ -30,6 +64,9 @@ class Reply:
     # A mission refused before it started: how it ended, as if it had (not_started,
     # unverified, blocked), for the front ends that report it (cli/go.py).
     refused: Outcome | None = None
+    # Controller commands asked for with their answers (c.SendCommands): what came of
+    # them, for `giraff-console send`.
+    sent: Sent | None = None
 
 
 @dataclass(frozen=True)

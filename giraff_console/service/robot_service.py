@@ -47,6 +47,7 @@ from giraff_console.robot.safety import stop_robot
 from giraff_console.robot.stalk import head_height, stepped
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
+from giraff_console.service.command_batch import CommandBatch
 from giraff_console.service.events import (
     Answered,
     Controls,
@@ -54,6 +55,8 @@ from giraff_console.service.events import (
     Reply,
     RoomRenamed,
     RouteShown,
+    SendEnd,
+    Sent,
     ServiceListener,
     Situation,
 )
@@ -72,6 +75,9 @@ def _moves(request: c.Request) -> bool:
     not, so that a watcher may ask for bulk_data."""
     if isinstance(request, c.Send):
         return request.text.split()[:1] != ["get"]
+    if isinstance(request, c.SendCommands):
+        # As parse_command reads them, whatever their case.
+        return any(text.lower().split()[:1] != ["get"] for text in request.texts)
     return request.moves
 
 
@@ -331,6 +337,25 @@ class RobotService:
 
         self.control.submit(job, done)
         return Reply(True)
+
+    def _do_sendcommands(self, request: c.SendCommands) -> Reply:
+        """Check them all, send them in order and answer with the board's answers, on
+        the loop's thread (service/command_batch.py); this waits for them."""
+
+        def refused(why: str) -> Reply:
+            return Reply(False, why, sent=Sent(SendEnd.REFUSED, why=why))
+
+        if not 1 <= len(request.texts) <= c.MAX_COMMANDS:
+            return refused(f"refused: from 1 to {c.MAX_COMMANDS} commands at once, not "
+                           f"{len(request.texts)}")  # fmt: skip
+        try:
+            commands = [parse_command(text) for text in request.texts]
+        except CommandError as error:
+            return refused(f"refused: {error}")
+        if self.control.playback is not None:
+            return refused("not sent: playing back, nothing goes to the robot (p returns to live)")
+        sent = CommandBatch(commands, self.control).send()
+        return Reply(sent.end is SendEnd.ANSWERED, sent.why, sent=sent)
 
     def _do_stalk(self, request: c.Stalk) -> Reply:
         telemetry = self.telemetry
@@ -719,6 +744,7 @@ HANDLERS: dict[type[c.Request], Handler] = {
     c.Speed: _asked(RobotService._do_speed),
     c.Poll: _asked(RobotService._do_poll),
     c.Send: _asked(RobotService._do_send),
+    c.SendCommands: _asked(RobotService._do_sendcommands),
     c.Stalk: _asked(RobotService._do_stalk),
     c.Go: _asked(RobotService._do_go),
     c.RunPatrol: RobotService._do_runpatrol,

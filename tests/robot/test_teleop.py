@@ -201,6 +201,21 @@ def test_a_board_that_restarts_keeps_the_pose_and_is_reported(console):
     assert console.loop.odometry.pose.x == pytest.approx(x, abs=1e-6)
 
 
+def test_a_restart_found_by_a_typed_command_leaves_the_board_s_settings_unknown(console):
+    from giraff_console.protocol import Command
+
+    console.run(0.2)
+    assert console.loop.teleop.board_settings  # set within the limits as it connected
+    console.link.port.dtr = False
+    console.link.port.dtr = True  # the board reboots: back at v = a = 0.6, vg = 1
+    # A typed command goes before the tick's poll, and so finds the restart: the loop
+    # must hear of it, or the guard goes on checking moves by settings now gone.
+    console.loop.submit(lambda link: link.send(Command("get", "v")))
+    console.run(0.1)
+    assert any("restarted" in report for report in console.reports)
+    assert console.loop.teleop.board_settings == {}
+
+
 def test_a_stop_reads_the_style_so_a_turn_is_never_stopped_with_metres():
     from giraff_console.link import MotorState
     from giraff_console.robot.safety import stop_commands
