@@ -20,11 +20,16 @@ driver sees a board error rather than silence:
   This is checked on the loop's thread just before the command would go out, so a
   mission that started meanwhile is not raced.
 - A stop from the program (`set p 0`, and the drivers' `set a 0` and `set v 0`,
-  wire-facts "Stopping") is always taken, and stops the robot as the operator's stop
-  does: the keys let go, a mission ended, and the console's own braking stop
-  (robot/safety.py) rather than a `set p 0` the board would brake through and come back
-  from (B.2). The board keeps its `v` and `a` (a = 0 is undocumented, and v = 0 the guard
-  refuses), so the program's next move is refused until it sets both again.
+  wire-facts "Stopping") stops a move of its own as the operator's stop does: the
+  console's braking stop (robot/safety.py) rather than a `set p 0` the board would
+  brake through and come back from (B.2). The board keeps its `v` and `a` (a = 0 is
+  undocumented, and v = 0 the guard refuses), so the program's next move is refused
+  until it sets both again.
+- The same idioms from a program that is not driving (the deployed drivers send them
+  at start-up, and one on every loop while idle, wire-facts "What the deployed drivers
+  do"; `set r 50`, `set vgr 0` and `set vg 0` with them) are answered as the board
+  answers a set and change nothing, said once in the log: they never end the
+  daemon's mission or let go of the operator's keys.
 - The operator's stop always wins: it ends a mission and lets go of the keys, and from
   then on the program cannot start a move while a mission or the keys drive; the stop
   goes out as a job after the program's one command in flight, and the loop's
@@ -79,8 +84,16 @@ REPLY_MARGIN_S = 0.5
 MAX_LINE_BYTES = 256
 
 # What the program's stop sends to the board (wire-facts "Stopping"): any of them
-# stops the robot.
+# stops a move of the program's own.
 STOPS = frozenset({"p", "v", "a"})
+# The drivers' stop and idle idioms, as (setting, value): from a program that is not
+# driving they are answered and change nothing (wire-facts "What the deployed drivers do").
+IDLE_IDIOMS = frozenset({("p", 0.0), ("v", 0.0), ("a", 0.0), ("vg", 0.0), ("vgr", 0.0),
+                         ("r", 50.0)})  # fmt: skip
+NOT_DRIVING = (
+    "the program on the virtual port is not driving: its stops and idle settings "
+    "(set v 0, set p 0, set r 50, ...) are answered and change nothing"
+)
 ONLY_READS = "the virtual port may only read"
 MISSION_RUNNING = f"refused: a mission is running; {ONLY_READS}"
 OPERATOR_DRIVING = f"refused: the operator is driving; {ONLY_READS}"
@@ -125,6 +138,8 @@ class VirtualPort:
         self._zeroed: set[str] = set()
         # Whether a move of the program's is under way: stopped if it hangs up.
         self._moved = False
+        # Whether the log has said, since the program came, that its idle idioms do nothing.
+        self._idle_noted = False
 
     # -- from other threads -------------------------------------------------------------
 
@@ -212,6 +227,7 @@ class VirtualPort:
         # To the program the board just powered up: its odometers start from zero.
         self.shared.forget()
         self._zeroed.clear()
+        self._idle_noted = False
 
     def _receive(self, data: bytes) -> None:
         """Bytes from the program: every line its CR ends is answered in turn."""
@@ -279,8 +295,13 @@ class VirtualPort:
                     return [f"Unknown name: {command.name}"]
                 return [_error(f"refused: {error}")]
             return self._run_job(self._read(command))
-        if command.kind == "set" and command.name in STOPS and command.values == (0,):
-            return self._stop(command)
+        idiom = (
+            command.kind == "set"
+            and len(command.values) == 1
+            and ((command.name, float(command.values[0])) in IDLE_IDIOMS)
+        )
+        if idiom:
+            return self._stop_or_idle(command)
         known = SETTINGS if command.kind == "set" else BARE_COMMANDS
         if command.name not in known:
             return [f"Unknown name: {command.name}"]  # as the board answers (sim/board.py)
@@ -326,23 +347,33 @@ class VirtualPort:
             return OPERATOR_DRIVING
         return None
 
-    def _stop(self, command: Command) -> Lines:
-        """The program's stop, taken as the operator's is (service's halt): the keys
-        let go, a mission ended, and the console's braking stop."""
-        self.control.halt()
-        self.control.stop_mission(why="stopped by the program on the virtual port")
+    def _stop_or_idle(self, command: Command) -> Lines:
+        """A driver's stop or idle idiom. Decided on the loop's thread, where a mission
+        or the keys cannot start between the check and the stop: a move of the
+        program's own is stopped with the console's braking stop (a `set r 50` or `set
+        vgr 0` then is a setting like any other); from a program that is not driving,
+        it is answered as the board answers and changes nothing."""
         teleop = self.control.teleop
+        stops = command.name in STOPS
 
         def stop(link: BoardLink) -> Lines:
-            self._zeroed |= {command.name} - {"p"}
+            if stops:
+                # The program believes the board holds 0: its next move must set it again.
+                self._zeroed |= {command.name} - {"p"}
+            if not self._moved or self._only_reads() is not None:
+                if not self._idle_noted:
+                    self._idle_noted = True
+                    self.control.note(NOT_DRIVING)
+                return [_echo(command)]
+            if not stops:
+                return self._drive(command)(link)
             self._moved = False
             if not stop_robot(link, teleop.board_settings):
                 return [_error("could not command a stop: check the robot")]
-            # What a board echoes for the value set (the link takes a set answered
-            # with or without it, wire-facts).
-            return [encode_float(0.0)]
+            return [_echo(command)]
 
-        return self._run_job(stop, stop=True)
+        # A stop is run even during a playback, as the operator's is; a setting is not.
+        return self._run_job(stop, stop=stops)
 
     def _stop_left_move(self, link: BoardLink) -> None:
         """The program hung up after a move of its own: stop it, unless the operator or
@@ -435,6 +466,12 @@ def _zeroed_message(zeroed: set[str]) -> str | None:
         return None
     names = " and ".join(sorted(zeroed))
     return ZEROED.format(names=f"{names} {'were' if len(zeroed) > 1 else 'was'}", them=names)
+
+
+def _echo(command: Command) -> str:
+    """What a board answers to a set of one value (the value, as it encodes it; the
+    link, and the drivers, take a set answered with or without it, wire-facts)."""
+    return encode_float(float(command.values[0]))
 
 
 def _error(text: str) -> str:

@@ -18,10 +18,10 @@ from giraff_console.protocol.replies import parse_reply
 from giraff_console.robot.command_guard import check_command
 from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
-from giraff_console.robot.mission import DRIVING, MissionEnd, Outcome, Progress
+from giraff_console.robot.mission import DRIVING, MissionEnd, Progress
 from giraff_console.robot.teleop import Teleop
 from giraff_console.service.shared_readings import SharedReadings, add_to_list
-from giraff_console.service.virtual_port import MISSION_RUNNING, VirtualPort
+from giraff_console.service.virtual_port import MISSION_RUNNING, NOT_DRIVING, VirtualPort
 from tests.listening import notes_into, only
 
 pytestmark = pytest.mark.timeout(60)
@@ -229,15 +229,33 @@ def test_set_p_during_a_mission_is_refused_and_never_reaches_the_board(later, pr
     assert later.control.mission is not None and not later.ended  # the mission drives on
 
 
-def test_a_stop_from_the_program_is_taken_even_during_a_mission(later, program):
+def test_a_driver_s_stop_and_idle_idioms_change_nothing_during_the_daemon_s_mission(later, program):
+    """One deployed driver starts with `set v 0`; the other sends its stop idiom on
+    every loop while idle (wire-facts, "What the deployed drivers do"): neither may end
+    the daemon's mission (issue 27)."""
     later.control.run_mission(Creep(), later.ended.append)
     later.run(1.0)
+    sent = len(later.exchanges)
+    for _ in range(3):
+        for text in ("set v 0", "set vg 0", "set p 0", "set a 0", "set r 50", "set vgr 0"):
+            assert program.ask(text) == [encode_float(float(text.split()[2]))]
+        later.run(0.1)
+    later.run(0.5)
+    assert later.control.mission is not None and not later.ended  # the mission drives on
+    assert later.board.true_pose.x > 0.4
+    theirs = [e.command for e in later.exchanges[sent:] if not e.automatic]
+    assert not [c for c in theirs if c.split()[1:2] in (["v"], ["vg"], ["a"], ["r"], ["vgr"])]
+    assert [n for n in later.notes if "is not driving" in n] == [NOT_DRIVING]  # said once
+
+
+def test_a_stop_from_the_program_stops_its_own_move(later, program):
+    assert program.ask("set p 0.25") == [encode_float(0.25)]
+    later.run(0.3)
+    assert MotorState.from_bulk(program.bulk(), 0.0).moving
     assert program.ask("set p 0") == [encode_float(0.0)]
-    assert later.ended == [
-        MissionEnd(Outcome.STOPPED_BY_OPERATOR, "stopped by the program on the virtual port")
-    ]
     later.run(1.5)
     assert not MotorState.from_bulk(program.bulk(), 0.0).moving
+    assert later.board.true_pose.x < 0.25
     # The console's braking stop, not a `set p 0` to brake through and come back from.
     assert not later.sent("set p 0")
 
