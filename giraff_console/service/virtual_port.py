@@ -62,6 +62,7 @@ from giraff_console.protocol.errors import BoardError, CommandError, GiraffError
 from giraff_console.protocol.framing import BANNER_PREFIX, COMMAND_END, LINE_END, PROMPT
 from giraff_console.robot.command_guard import BARE_COMMANDS, READINGS, SETTINGS, check_command
 from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.robot.realtime import run_promptly
 from giraff_console.robot.safety import stop_robot
 from giraff_console.robot.wheel_odometers import Reading, firmware_reading
 from giraff_console.service.shared_readings import SharedReadings
@@ -148,6 +149,10 @@ class VirtualPort:
         self.control.subscribe(self.shared.tap)
         self._thread = threading.Thread(target=self._run, name="virtual-port", daemon=True)
         self._thread.start()
+        if self._thread.native_id is not None:
+            # The board's stand-in answers as promptly as the loop it waits on runs
+            # (robot/realtime.py): it sleeps in select between lines.
+            log.info("virtual port: %s", run_promptly(self._thread.native_id))
 
     def close(self, timeout: float = 5.0) -> bool:
         """Stop serving and close the port: the program then reads EOF or EIO. True if
