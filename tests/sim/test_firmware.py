@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import math
+import struct
 
 import pytest
 import serial
@@ -188,6 +189,20 @@ def test_charger_data_gives_one_parameter_per_read_in_turn():
     assert values["b"] < 0  # discharging
     assert values["t"] == pytest.approx(25.0)
     assert (values["D"], values["d"], values["W"]) == (0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize("name", ["later", "giraff-x"])
+def test_every_charger_parameter_is_sent_as_a_float_w_included(name):
+    # Both deployed drivers read `W:F#<hex>` and recognise nothing else (wire-facts "What
+    # the deployed drivers do", Battery): one never gets a level from `W:I#`.
+    sim = board(name, battery=0.75)
+    sim.advance(10.0)
+    lines = [sim.cmd("get charger_data") for _ in PARAMETERS]
+    assert [line.split(",")[1][:4] for line in lines] == [f"{p}:F#" for p in PARAMETERS]
+    (w_line,) = [line for line in lines if ",W:" in line]
+    drawn = struct.unpack("<f", bytes.fromhex(w_line.split("#")[2][:8]))[0]
+    c = -327_360.0  # the driver's constant and formula: level = |(c - W) / c|
+    assert abs((c - drawn) / c) == pytest.approx(sim.board.battery_level, abs=1e-6)
 
 
 def open_port(query: str) -> serial.SerialBase:
