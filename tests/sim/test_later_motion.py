@@ -31,7 +31,9 @@ def test_mode_2_turns_at_vg_degrees_per_second_either_way(p):
     sim = board("later")
     sim.run("set mode 2", "set r 0", f"set a {A}", f"set v {V}", "set vg 30", f"set p {p}")
     sim.advance(1.0)  # past the ramp (0.8 s)
-    assert heading_rate(sim) == pytest.approx(-30.0, abs=1e-6)  # positive vg: clockwise
+    # Positive vg: counter-clockwise, forwards and backwards (wire-facts "What the
+    # deployed drivers do", Sign in `mode 2`).
+    assert heading_rate(sim) == pytest.approx(30.0, abs=1e-6)
     bulk = sim.bulk()
     assert bulk["mode"] == 2 | 128
     assert bulk["cdis"] == pytest.approx(math.copysign(0.16 + V * 1.2, p), abs=1e-6)
@@ -54,7 +56,74 @@ def test_mode_2_renewed_every_tick_keeps_turning_smoothly():
     for _ in range(40):  # a driver renewing p = 1 at 20 Hz (wire-facts "mode 2")
         sim.run("set p 1")
         sim.advance(0.05)
-    assert heading_rate(sim, 0.05) == pytest.approx(20.0, abs=1e-6)
+    assert heading_rate(sim, 0.05) == pytest.approx(-20.0, abs=1e-6)  # negative vg: right
+
+
+@pytest.mark.parametrize("vg", [25, -25])
+def test_a_positive_vg_curves_left_as_the_drivers_angular_velocity_does(vg):
+    # The drivers send ROS's angular velocity (positive counter-clockwise) as vg
+    # unchanged, and their robots turn left (wire-facts "What the deployed drivers do").
+    sim = board("later")
+    sim.run("set mode 2", f"set a {A}", f"set v {V}", f"set vg {vg}", "set p 1.5")
+    sim.advance(1.0)
+    # cvg is the board's gear ratio, positive to the right (A.2.3).
+    assert math.copysign(1, sim.bulk()["cvg"]) == -math.copysign(1, vg)
+    sim.run_until_stopped()
+    pose = sim.board.true_pose
+    assert math.copysign(1, pose.heading) == math.copysign(1, vg)
+    assert math.copysign(1, pose.y) == math.copysign(1, vg)  # it went that way too
+
+
+def spin(sim: SimBench, vg: float, p: float, seconds: float, tick: float = 0.05) -> None:
+    """A driver turning on the spot in mode 2: v = 0, vg, p renewed every tick."""
+    sim.run("set v 0", f"set vg {vg}")
+    for _ in range(round(seconds / tick)):
+        sim.run(f"set p {p}")
+        sim.advance(tick)
+
+
+@pytest.mark.parametrize("name", ["later", "giraff-x"])
+@pytest.mark.parametrize(("vg", "p"), [(30, 1), (30, -1), (-45, 1), (-45, -1)])
+def test_mode_2_with_v_0_turns_on_the_spot_at_vg_degrees_per_second(name, vg, p):
+    # The drivers turn on the spot with set v 0, a non-zero vg and p = +-1, and the board
+    # turns at that rate (wire-facts "What the deployed drivers do"); the direction is
+    # vg's, whatever p's sign.
+    sim = board(name)
+    sim.run("set mode 2", f"set a {A}")
+    spin(sim, vg, p, 2.0)  # the wheels reach radians(45) * 0.2495 m/s in 0.4 s at most
+    assert heading_rate(sim, 0.05) == pytest.approx(vg, abs=1e-6)
+    pose = sim.board.true_pose
+    assert (pose.x, pose.y) == (0.0, 0.0)
+    assert sim.bulk()["mode"] == 2 | 128
+
+
+def test_a_turn_on_the_spot_that_is_not_renewed_ends_after_p_metres_of_each_wheel():
+    # A driver that dies mid-turn leaves a bounded turn (assumption: |p| metres of wheel
+    # travel, as every move counts p in wheel metres: 229.6 degrees for p = 1).
+    sim = board("later")
+    sim.run("set mode 2", f"set a {A}", "set v 0", "set vg 30", "set p 1")
+    sim.run_until_stopped(limit=30.0)
+    assert math.degrees(sim.board.true_pose.heading) == pytest.approx(TURN_FACTOR_DEG_PER_M)
+
+
+@pytest.mark.parametrize("stop", [("set v 0", "set vg 0", "set p 0"),
+                                  ("set a 0", "set v 0", "set p 0")])  # fmt: skip
+def test_the_drivers_stop_idioms_stop_a_turn_on_the_spot(stop):
+    sim = board("later")
+    sim.run("set mode 2", f"set a {A}")
+    spin(sim, 30, 1, 2.0)
+    sim.run(*stop)
+    assert sim.run_until_stopped(step=0.01) < 0.3  # braking at a from 0.13 m/s
+    heading = sim.board.true_pose.heading
+    sim.advance(5.0)
+    assert sim.board.true_pose.heading == heading
+
+
+def test_the_thesis_board_refuses_a_turn_with_v_0_as_before():
+    sim = board("thesis")
+    sim.run("set mode 2", f"set a {A}", "set v 0", "set vg 30")
+    assert sim.cmd("set p 1") == "Error: Argument out of range"
+    assert sim.board.true_pose.heading == 0.0
 
 
 def curve(sim: SimBench, twm: bool) -> None:
