@@ -46,6 +46,13 @@ from giraff_console.sim.profile import plan_move
 
 # The board holds up to four moves, the running one included (B.1 GIRAFF_BUFFERS).
 QUEUE_SLOTS = 4
+# `r` above this is curved motion (A.4.2).
+CURVED_R_ABOVE = 50.0
+# The `r` a `twm` move runs with when the board's own is not curved: any r above 50 is
+# the same curved style. `twm` carries its own curvature whatever `r` was: a deployed
+# driver sends its curves with `twm` after a stop idiom that left r = 50, and its robot
+# still curves (wire-facts "What the deployed drivers do", `twm` on Giraff-X).
+TWM_R = 100.0
 # Curves are integrated in steps of at most this much path.
 _STEP_M = 0.005
 
@@ -100,8 +107,11 @@ class Drive:
     def slots_used(self) -> int:
         return len(self._pending) + (self._move is not None)
 
-    def queue_move(self, now: float) -> bool:
-        """`set p`: start, preempt or buffer a move. False when the queue is full."""
+    def queue_move(self, now: float, curved: bool = False) -> bool:
+        """`set p`: start, preempt or buffer a move. False when the queue is full.
+
+        `curved` (Giraff-X's `twm`) makes the move a curved one whatever the board's `r`,
+        which itself is left as it was."""
         self.advance(now)
         if self.firmware.zero_speed_brakes and self._is_stop(self.next):
             # Later firmware: a stop, never refused, whatever the queue holds.
@@ -115,6 +125,8 @@ class Drive:
         # "Buffer next move": the bit applies to one move only (B.2 QueueMotion).
         stored = replace(self.next, mode=self.next.mode & self._move_mode_bits)
         self.next = replace(stored)
+        if curved and stored.r <= CURVED_R_ABOVE:
+            stored = replace(stored, r=TWM_R)
         if self.estop:
             return True
         if self._move is None or buffered:
@@ -494,7 +506,7 @@ class Drive:
                 vgr=params.vgr,
                 cdp=cdp,
                 length=profile.length,
-                curved=params.r > 50 and params.cdp != 0 and params.vg != 0,
+                curved=params.r > CURVED_R_ABOVE and params.cdp != 0 and params.vg != 0,
                 reversal_at=profile.reversal_arc_length,
             )
         move = RunningMove(

@@ -153,6 +153,22 @@ def test_twm_is_the_same_move_as_separate_sets():
     assert one.board.true_pose.heading < -0.1  # it did curve, to the right
 
 
+@pytest.mark.parametrize("r", [50, 1, 0])
+def test_twm_carries_its_own_curvature_whatever_r_was(r):
+    # A driver sends its curves with twm after a stop idiom that left r = 50, and the
+    # robot still curves (wire-facts "What the deployed drivers do", twm on Giraff-X).
+    after_stop, curved = board("giraff-x"), board("giraff-x")
+    after_stop.run("set a 0", "set v 0", "set p 0", f"set r {r}", "set vgr 0")
+    curve(curved, twm=True)
+    after_stop.run(f"set a {A}", "set mode 0")
+    assert after_stop.cmd("set twm 0.3 1.5 0.4 0.35 2.5 0") == ""
+    for sim in (after_stop, curved):
+        sim.run_until_stopped()
+    assert after_stop.board.true_pose == curved.board.true_pose
+    assert after_stop.board.true_pose.heading < -0.1  # it curved (to the right: vg > 0)
+    assert after_stop.value("get r") == r  # the board's r itself is left alone
+
+
 @pytest.mark.parametrize(
     ("values", "error"),
     [
