@@ -93,7 +93,7 @@ class GiraffBoard:
         )
         self.drive.pose = pose
         self.head = Head(self.config.homing_seconds, self.config.tilt_speed, now)
-        if self.config.auto_home:
+        if self.config.auto_home or self.firmware.homes_at_power_up:
             self.head.home(now)
         self.buttons = [0, 0]
         self.dial = 0
