@@ -8,7 +8,7 @@ import math
 import pytest
 
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, WHEEL_BASE_M
-from giraff_console.sim import BoardConfig
+from giraff_console.sim import BoardConfig, TruePose
 from giraff_console.sim.firmware import FIRMWARES
 from tests.conftest import SimBench
 
@@ -244,3 +244,45 @@ def test_the_true_pose_turns_by_the_real_wheel_base(name):
     assert sim.bulk()["cang"] == -90.0
     expected = -math.radians(90) * WHEEL_BASE_M / 0.467
     assert sim.board.true_pose.heading == pytest.approx(expected, abs=1e-9)
+
+
+ROS1_STOP = ("set a 0", "set v 0", "set p 0", "set r 50", "set vgr 0")
+ROS2_IDLE = ("set v 0", "set vg 0", "set p 0")
+MOVES = {
+    "straight": ("set mode 0", "set r 1", f"set a {A}", f"set v {V}", "set p 10"),
+    "rotation": ("set mode 0", "set r 0", f"set a {A}", f"set v {V}", "set p 720"),
+    "curve": ("set mode 0", "set r 100", f"set a {A}", f"set v {V}", "set vg 0.2", "set vgr 0.4",
+              "set cdp 8", "set p 10"),
+    "mode 2 curve": ("set mode 2", f"set a {A}", f"set v {V}", "set vg 20", "set p 1"),
+    "mode 2 spin": ("set mode 2", f"set a {A}", "set v 0", "set vg 30", "set p 1"),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("name", ["later", "giraff-x"])
+@pytest.mark.parametrize("move", MOVES)
+@pytest.mark.parametrize("stop", [ROS1_STOP, ROS2_IDLE], ids=["ros1 stop", "ros2 idle"])
+def test_the_drivers_stop_idioms_are_answered_and_stop_every_kind_of_move(name, move, stop):
+    # Both drivers stop with set a 0 / set v 0 / set p 0 (wire-facts "Stopping"); a
+    # zero acceleration must never divide by zero, be refused, or leave the robot moving.
+    sim = board(name)
+    sim.run(*MOVES[move])
+    sim.advance(1.5)
+    for command in stop:
+        reply = sim.cmd(command)
+        assert "rror" not in reply and "Unknown" not in reply, (command, reply)
+    assert sim.run_until_stopped(step=0.01) <= V / A + 0.02  # braked at a, not dropped
+    pose = sim.board.true_pose
+    sim.advance(10.0)
+    assert sim.board.true_pose == pose
+
+
+@pytest.mark.parametrize("name", ["later", "giraff-x"])
+def test_a_move_asked_for_with_a_0_never_starts(name):
+    # What a zero acceleration means to a real board is undocumented: the safe reading
+    # is a stop, so a driver that left a = 0 after its stop idiom does not set off.
+    sim = board(name)
+    sim.run("set a 0", "set r 1", f"set v {V}", "set p 1")
+    sim.run("set mode 2", "set vg 30", "set p 1")
+    sim.run("set v 0", "set p 1")
+    sim.advance(5.0)
+    assert sim.board.true_pose == TruePose()
