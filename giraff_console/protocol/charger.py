@@ -21,8 +21,6 @@ from giraff_console.protocol.errors import ProtocolError
 
 # The charger's parameters, in the order a board reports them, read after read.
 PARAMETERS = ("B", "b", "t", "D", "d", "W")
-# `W` is a whole number of watt-seconds; the others are measurements in floats.
-INTEGER_PARAMETERS = frozenset({"W"})
 
 # No charger line a board sends is anywhere near this long; longer text is noise.
 _MAX_LINE_CHARS = 60
@@ -96,14 +94,14 @@ def crc16_ccitt_false(data: bytes) -> int:
 def format_charger(status: ChargeStatus | int, parameter: str, value: float) -> str:
     """The charger line for one reading, as a later board writes it (no line end).
 
-    `W` goes out as an integer (`I#`), every other parameter as a float (`F#`).
+    Every parameter goes out as a float (`F#`), `W` included: both deployed drivers read
+    `W` as `W:F#<hex>` and recognise nothing else (wire-facts "What the deployed drivers
+    do", Battery), so that is what real boards send. `parse_charger` still reads `I#`,
+    which the format allows (wire-facts "Battery": `<T>` is `F` or `I`).
     """
     code = ChargeStatus(status)
     if parameter not in PARAMETERS:
         raise ValueError(f"unknown charger parameter: {parameter!r}")
-    if parameter in INTEGER_PARAMETERS:
-        field = "I#" + struct.pack("<i", round(value)).hex()
-    else:
-        field = "F#" + struct.pack("<f", value).hex()
+    field = "F#" + struct.pack("<f", value).hex()
     text = f"S:S#{int(code)},{parameter}:{field}"
     return f"{text} U#{crc16_ccitt_false(text.encode('ascii')):04x}"

@@ -123,6 +123,7 @@ class Battery:
             "D": lambda: self.dock_voltage,
             "d": lambda: self.dock_current,
             # Drawn watt-seconds count down from 0 (full), as the driver's formula needs.
-            "W": lambda: -float(round(self.drawn_ws)),
+            # Sent as a float (`W:F#`) like the rest: protocol.charger.format_charger.
+            "W": lambda: 0.0 - self.drawn_ws,  # 0.0, not -0.0, when full
         }
         return values[parameter]()

@@ -93,7 +93,7 @@ class GiraffBoard:
         )
         self.drive.pose = pose
         self.head = Head(self.config.homing_seconds, self.config.tilt_speed, now)
-        if self.config.auto_home:
+        if self.config.auto_home or self.firmware.homes_at_power_up:
             self.head.home(now)
         self.buttons = [0, 0]
         self.dial = 0
@@ -215,11 +215,12 @@ class GiraffBoard:
             self.head.set_tilt(value, now)
         return self._echo(self._float(value))
 
-    def _queue(self, name: str, value: float, now: float) -> str | None:
-        """Queue the move that `set p` or `set undock` asks for; the error, if any."""
+    def _queue(self, name: str, value: float, now: float, curved: bool = False) -> str | None:
+        """Queue the move that `set p` or `set undock` asks for; the error, if any.
+        `curved`: a curved move whatever `r` is (`twm`)."""
         drive = self.drive
         try:
-            if name == "p" and not drive.queue_move(now):
+            if name == "p" and not drive.queue_move(now, curved):
                 return "ERROR: Queue rollover"
             if name == "undock" and not drive.queue_undock(value, now):
                 return "ERROR: Queue rollover"
@@ -229,7 +230,10 @@ class GiraffBoard:
 
     def _set_twm(self, texts: list[str], now: float) -> str | None:
         """Giraff-X's `set twm vg cdp vgr v p 0`: sets vg, cdp, vgr and v, then queues the
-        move exactly as `set p` would, with the board's r, a and mode. Answered with the
+        move as `set p` would, with the board's a and mode, but always as a curved move
+        (r > 50) whatever the board's r: a deployed driver sends its curves with `twm`
+        after a stop idiom that left r = 50, and its robot still curves (wire-facts "What
+        the deployed drivers do"). The board's r itself is not changed. Answered with the
         prompt alone (assumption: no source shows its answer). What the closing 0 means is
         not documented; drivers always send 0, and anything else is refused."""
         if len(texts) < len(TWM_SETTINGS) + 1:
@@ -243,7 +247,7 @@ class GiraffBoard:
             return "Error: Unknown argument"
         for name, value in zip(TWM_SETTINGS, values[:-1], strict=True):
             setattr(self.drive.next, name, value)
-        return self._queue("p", values[-2], now)
+        return self._queue("p", values[-2], now, curved=True)
 
     def _echo(self, encoded: str) -> str | None:
         if self.config.set_reply == "none":

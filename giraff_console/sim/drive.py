@@ -39,11 +39,20 @@ from giraff_console.sim.move import (
     Style,
     TruePose,
     mode2_gear,
+    mode2_spin,
+    mode2_turns_on_the_spot,
 )
 from giraff_console.sim.profile import plan_move
 
 # The board holds up to four moves, the running one included (B.1 GIRAFF_BUFFERS).
 QUEUE_SLOTS = 4
+# `r` above this is curved motion (A.4.2).
+CURVED_R_ABOVE = 50.0
+# The `r` a `twm` move runs with when the board's own is not curved: any r above 50 is
+# the same curved style. `twm` carries its own curvature whatever `r` was: a deployed
+# driver sends its curves with `twm` after a stop idiom that left r = 50, and its robot
+# still curves (wire-facts "What the deployed drivers do", `twm` on Giraff-X).
+TWM_R = 100.0
 # Curves are integrated in steps of at most this much path.
 _STEP_M = 0.005
 
@@ -98,10 +107,13 @@ class Drive:
     def slots_used(self) -> int:
         return len(self._pending) + (self._move is not None)
 
-    def queue_move(self, now: float) -> bool:
-        """`set p`: start, preempt or buffer a move. False when the queue is full."""
+    def queue_move(self, now: float, curved: bool = False) -> bool:
+        """`set p`: start, preempt or buffer a move. False when the queue is full.
+
+        `curved` (Giraff-X's `twm`) makes the move a curved one whatever the board's `r`,
+        which itself is left as it was."""
         self.advance(now)
-        if self.firmware.zero_speed_brakes and (self.next.v == 0 or self.next.a == 0):
+        if self.firmware.zero_speed_brakes and self._is_stop(self.next):
             # Later firmware: a stop, never refused, whatever the queue holds.
             self.next = replace(self.next, mode=self.next.mode & self._move_mode_bits)
             self.brake()
@@ -113,6 +125,8 @@ class Drive:
         # "Buffer next move": the bit applies to one move only (B.2 QueueMotion).
         stored = replace(self.next, mode=self.next.mode & self._move_mode_bits)
         self.next = replace(stored)
+        if curved and stored.r <= CURVED_R_ABOVE:
+            stored = replace(stored, r=TWM_R)
         if self.estop:
             return True
         if self._move is None or buffered:
@@ -141,8 +155,27 @@ class Drive:
             self._start_next()
         return True
 
+    def _angular(self, params: MoveParams) -> bool:
+        return bool(self.firmware.angular_mode and params.mode & ANGULAR_MODE_BIT)
+
+    def _is_stop(self, params: MoveParams) -> bool:
+        """A `set p` that later firmware takes as a stop: v = 0 or a = 0, except mode 2's
+        turn on the spot (v = 0 with a non-zero vg).
+
+        A zero acceleration is always a stop, never a move: what a real board does with
+        `a = 0` is undocumented, the thesis's simulator divides by it, and both deployed
+        drivers send `set a 0` as part of their stop idiom (wire-facts "Stopping"), so the
+        safe reading is the one that never leaves the robot moving.
+        """
+        if self._angular(params) and mode2_turns_on_the_spot(params):
+            return False
+        return params.v == 0 or params.a == 0
+
     def _check_plannable(self) -> None:
-        if self.next.v == 0 or self.next.a == 0:
+        params = self.next
+        if self._angular(params) and mode2_turns_on_the_spot(params):
+            return
+        if params.v == 0 or params.a == 0:
             raise MoveRefused("speed and acceleration must be non-zero")
 
     def brake(self) -> None:
@@ -425,8 +458,15 @@ class Drive:
 
     def _start(self, params: MoveParams) -> None:
         angular = bool(params.mode & ANGULAR_MODE_BIT)
-        # In mode 2, r is not read: the move is a path, curved by vg (wire-facts "mode 2").
-        style = Style.PATH if angular else Style.of(params.r)
+        # In mode 2, r is not read: the move is a path, curved by vg (wire-facts "mode 2"),
+        # or with v = 0 a turn on the spot at vg degrees per second (wire-facts "What the
+        # deployed drivers do").
+        spin = angular and mode2_turns_on_the_spot(params)
+        if spin:
+            style = Style.ROTATE
+            angular = False
+        else:
+            style = Style.PATH if angular else Style.of(params.r)
         current = self._move
         if current is not None and current.style is not style and self.velocity != 0:
             self._brake_then(current, params)
@@ -437,6 +477,8 @@ class Drive:
         if current is not None and current.style is not Style.PATH:
             self.imperfections.rotated_in_place(current.position * TURN_FACTOR_DEG_PER_M)
         absolute = bool(params.mode & ModeBit.ABSOLUTE) and style is not Style.ROTATE_AS_DISTANCE
+        # Mode 2 renews its moves with p = +-1: relative, whatever the absolute bit.
+        absolute = absolute and not spin
         # Relative moves count from their own start. Absolute moves count from when
         # absolute mode was enabled, until the style changes (A.4.8).
         if not (absolute and self._counter_absolute and style is self._counter_style):
@@ -446,11 +488,14 @@ class Drive:
         origin = self.cang if style is Style.ROTATE else self.cdis
         relative = params.p - origin if absolute else params.p
         cdp = params.cdp - origin if absolute else params.cdp
-        if style is not Style.PATH:
+        peak = abs(params.v)
+        if spin:
+            relative, peak = mode2_spin(params)
+        elif style is not Style.PATH:
             relative /= TURN_FACTOR_DEG_PER_M
         if relative != 0:
             relative += math.copysign(self.imperfections.distance_error(), relative)
-        profile = plan_move(relative, start_velocity, abs(params.v), abs(params.a))
+        profile = plan_move(relative, start_velocity, peak, abs(params.a))
         gear = NO_GEAR
         angular_gear = mode2_gear(params) if angular else None
         if style is Style.PATH and angular_gear is None:
@@ -461,7 +506,7 @@ class Drive:
                 vgr=params.vgr,
                 cdp=cdp,
                 length=profile.length,
-                curved=params.r > 50 and params.cdp != 0 and params.vg != 0,
+                curved=params.r > CURVED_R_ABOVE and params.cdp != 0 and params.vg != 0,
                 reversal_at=profile.reversal_arc_length,
             )
         move = RunningMove(

@@ -43,6 +43,10 @@ class Firmware:
     # `set p` with v = 0 or a = 0 brakes the robot to a stop instead of being refused:
     # both real drivers stop a robot that way (wire-facts "Stopping").
     zero_speed_brakes: bool = False
+    # The head homes by itself at power-up (A.4.10): neither deployed driver sends `home`,
+    # and one waits for `tilt_homing_state` to read 3 before it starts (wire-facts "Tilt
+    # before homing"). The thesis's simulator homes only when told (or with auto_home).
+    homes_at_power_up: bool = False
 
 
 _LATER = {
@@ -52,6 +56,7 @@ _LATER = {
     "charger": True,
     "angular_mode": True,
     "zero_speed_brakes": True,
+    "homes_at_power_up": True,
 }
 
 FIRMWARES: dict[str, Firmware] = {

@@ -77,7 +77,30 @@ def mode2_gear(params: MoveParams) -> float:
     """Mode 2's gear ratio: turning at `vg` degrees per second at the peak speed `v`.
 
     The curvature is radians(vg) / v, and the board's gear ratio for it kappa * 0.2495
-    (wire-facts "Quirks"). A positive vg turns clockwise, as a positive gear ratio and a
-    positive rotation do: an assumption, since no source gives mode 2's sign.
+    (wire-facts "Quirks"). A positive vg turns counter-clockwise (to the left), so the
+    gear ratio, positive to the right, is its negative: the deployed drivers send ROS's
+    angular velocity, positive to the left, as `vg` unchanged, and their robots turn left
+    (wire-facts "What the deployed drivers do", Sign in `mode 2`).
     """
-    return math.radians(params.vg) / abs(params.v) * TURN_RADIUS_M
+    return -math.radians(params.vg) / abs(params.v) * TURN_RADIUS_M
+
+
+def mode2_turns_on_the_spot(params: MoveParams) -> bool:
+    """A mode 2 move with v = 0 and a non-zero vg turns on the spot at vg degrees per
+    second (wire-facts "What the deployed drivers do": the drivers turn this way, and
+    the board does). It needs a direction (p != 0) and an acceleration (a != 0):
+    otherwise it is a stop, like every `set p` with a zero v or a on later boards."""
+    return params.v == 0 and params.vg != 0 and params.a != 0 and params.p != 0
+
+
+def mode2_spin(params: MoveParams) -> tuple[float, float]:
+    """Mode 2's turn on the spot: each wheel's travel (metres, positive clockwise, as
+    the board's rotations count) and its peak speed (m/s), by the board's 0.499 m.
+
+    How far one `set p` turns is not documented (assumption): |p| metres of each wheel's
+    travel, as every other move counts p in wheel metres (229.6 degrees for p = 1), so a
+    driver that dies mid-turn leaves a bounded turn, as `p = +-1` bounds its straight
+    runs. The turn's direction is vg's alone (counter-clockwise when positive), whatever
+    p's sign: the drivers send p = +-1 from the sign of their forward speed, which is 0.
+    """
+    return -math.copysign(abs(params.p), params.vg), math.radians(abs(params.vg)) * TURN_RADIUS_M

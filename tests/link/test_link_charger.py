@@ -86,3 +86,13 @@ def test_the_thesis_board_has_no_charger():
     link = BoardLink.open("giraff-sim://?clock=virtual")
     with pytest.raises(UnknownNameError):
         link.charger()
+
+
+def test_the_link_reads_a_later_simulators_battery_sent_as_floats():
+    # The simulator sends `W:F#` as the deployed drivers expect (wire-facts "What the
+    # deployed drivers do"); the console's own link reads it as it read `W:I#`.
+    link = BoardLink.open("giraff-sim://?clock=virtual&firmware=later&battery=0.4")
+    readings = {reading.parameter: reading for reading in (link.charger() for _ in PARAMETERS)}
+    assert readings["W"].value == pytest.approx(-0.6 * 327_360.0, abs=0.1)
+    assert readings["W"].status is ChargeStatus.NOT_DOCKED
+    link.close()

@@ -54,8 +54,8 @@ def test_what_the_simulator_writes_reads_back(status, parameter):
     value = -42_000 if parameter == "W" else -1.25
     line = format_charger(status, parameter, value)
     assert parse_charger(line) == ChargerReading(status, parameter, value)
-    kind = "I" if parameter == "W" else "F"
-    assert line.startswith(f"S:S#{status.value},{parameter}:{kind}#")
+    # All six as floats, W too: what the deployed drivers read (wire-facts).
+    assert line.startswith(f"S:S#{status.value},{parameter}:F#")
 
 
 def test_the_checksum_written_is_crc16_ccitt_false_of_the_text_before_it():

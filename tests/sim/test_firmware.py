@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import math
+import struct
 
 import pytest
 import serial
@@ -11,7 +12,7 @@ import serial
 import giraff_console  # noqa: F401  (registers giraff-sim://)
 from giraff_console.protocol.charger import PARAMETERS, ChargeStatus, parse_charger
 from giraff_console.protocol.kinematics import WHEEL_BASE_M
-from giraff_console.sim import BoardConfig
+from giraff_console.sim import BoardConfig, HomingState
 from giraff_console.sim.firmware import FIRMWARES
 from giraff_console.sim.odometers import ENCODER_COUNTS_PER_M
 from tests.conftest import SimBench
@@ -190,6 +191,20 @@ def test_charger_data_gives_one_parameter_per_read_in_turn():
     assert (values["D"], values["d"], values["W"]) == (0.0, 0.0, 0.0)
 
 
+@pytest.mark.parametrize("name", ["later", "giraff-x"])
+def test_every_charger_parameter_is_sent_as_a_float_w_included(name):
+    # Both deployed drivers read `W:F#<hex>` and recognise nothing else (wire-facts "What
+    # the deployed drivers do", Battery): one never gets a level from `W:I#`.
+    sim = board(name, battery=0.75)
+    sim.advance(10.0)
+    lines = [sim.cmd("get charger_data") for _ in PARAMETERS]
+    assert [line.split(",")[1][:4] for line in lines] == [f"{p}:F#" for p in PARAMETERS]
+    (w_line,) = [line for line in lines if ",W:" in line]
+    drawn = struct.unpack("<f", bytes.fromhex(w_line.split("#")[2][:8]))[0]
+    c = -327_360.0  # the driver's constant and formula: level = |(c - W) / c|
+    assert abs((c - drawn) / c) == pytest.approx(sim.board.battery_level, abs=1e-6)
+
+
 def open_port(query: str) -> serial.SerialBase:
     return serial.serial_for_url(f"giraff-sim://?clock=virtual{query}", timeout=0.5)
 
@@ -224,3 +239,33 @@ def test_the_stalk_keeps_its_height_when_the_board_loses_power():
     sim.board.power_off()
     sim.advance(5.0)
     assert sim.value("get h") == 250
+
+
+@pytest.mark.parametrize("name", ["later", "giraff-x"])
+def test_later_boards_home_the_head_by_themselves_at_power_up(name):
+    # Boards home by themselves at power-up (A.4.10); neither deployed driver sends
+    # `home`, and one waits for tilt_homing_state = 3 (wire-facts "Tilt before homing").
+    sim = board(name)
+    assert sim.value("get tilt_homing_state") == HomingState.HOMING
+    sim.advance(3.0)  # the homing sequence
+    assert sim.value("get tilt_homing_state") == HomingState.DONE
+    sim.run("set tilt_angle_from_home 0.6")
+    sim.advance(2.0)  # at 0.5 rad/s from home
+    assert sim.value("get tilt_angle_from_home") == pytest.approx(0.6, abs=1e-6)
+
+
+@pytest.mark.parametrize("name", ["later", "giraff-x"])
+def test_a_later_board_homes_again_after_a_power_cut(name):
+    sim = board(name)
+    sim.advance(5.0)
+    sim.board.power_off()
+    assert sim.value("get tilt_homing_state") == HomingState.HOMING
+
+
+def test_the_thesis_board_still_waits_to_be_told_to_home():
+    sim = board("thesis")
+    sim.advance(5.0)
+    assert sim.value("get tilt_homing_state") == HomingState.NOT_STARTED
+    sim.run("set tilt_angle_from_home 0.6")  # before homing: lands wrong (A.4.12)
+    sim.advance(5.0)
+    assert sim.value("get tilt_angle_from_home") == pytest.approx(0.95, abs=1e-6)
