@@ -1,152 +1,259 @@
-"""The virtual motor port of a running daemon, used as another program would (issue 15).
+"""Benchmark: programs written for real Giraffs, on a board and through the daemon's
+virtual port (issue 27).
 
-Starts `giraff-console serve --sim --firmware later --virtual-port` (a board whose
-imdl/imdr are reset by every read, the hard case), drives the robot 10 m by the keys
-through a console attached to the daemon, and meanwhile reads `get bulk_data` on the
-virtual port every 0.3 s as a driver program would, adding up its increments. At the
-end it compares the program's distance with the daemon's own odometry, which polls the
-same board twenty times a second; without the sharing out of increments the program
-would see a few percent of the travel. Then it starts a mission and sends `set p 0.5`
-from the program, which must be refused with a message.
+The programs are the two raw clients of tests/drivers/clients.py, modelled on
+wire-facts' description of the deployed ROS 1 and ROS 2 drivers ("What the deployed
+drivers do"): the ROS 2-like one loops at 40 Hz sending its idle stop idiom and reading
+`bulk_data`; the ROS 1-like one loops at 30 Hz reading `bulk_data`, `enc0`, `enc1`, `h`
+and `charger_data`. For each:
 
-    python bench/virtual_port.py [--metres 10] [--busy 2]
+- **direct**: on `giraff-console sim --pty --pace --firmware later` (a board whose
+  every byte takes as long as on a 115200-baud line), the client starts and polls for
+  `--seconds`: the latency of its replies (command written to prompt read) and the
+  rate of its loop. This is the peer: what the program sees on a board of its own.
+- **through the port**: on `giraff-console serve --sim --firmware later
+  --virtual-port`, the client starts on the port and polls on a thread of its own while
+  the daemon runs `--missions` `go` missions between the dock and room-101 (8.5 m each),
+  asked by a console attached as an operator's is. Counted: the missions that arrived,
+  the daemon's odometry alarms (its notes of wheel readings that disagree), the
+  missions ended by the program, the error replies the client got (at its start-up
+  and after), and the same latency and loop rate.
+
+`--busy N` runs N busy loops beside it all (`python3 -c 'while 1: pass'`). Every wait has
+a timeout; every process started is ended whatever happens.
+
+Usage: python bench/virtual_port.py [--clients ros2,ros1] [--missions 10] [--seconds 20] [--busy 2]
 """
 
 from __future__ import annotations
 
 import argparse
-import math
 import os
+import platform
 import select
 import shutil
+import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
+from collections.abc import Iterator
+from contextlib import ExitStack, contextmanager
+from dataclasses import dataclass, field
 from pathlib import Path
 
-from giraff_console.protocol.replies import parse_reply
-from giraff_console.robot.deadman import Intent
-from giraff_console.robot.loop_events import MissionChanged
-from giraff_console.robot.telemetry import Telemetry
-from giraff_console.service import commands as c
-from giraff_console.service.remote import RemoteRobot
-from giraff_console.service.runtime_folder import socket_path
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))  # the clients live with the tests
 
-PROMPT = b"OK >\r\n"
-# A hall with room to drive 10 m straight ahead from its start.
-OPEN_FLOOR = Path(__file__).resolve().parent.parent / "tests/console/open-floor.yaml"
+from giraff_console.robot.loop_events import MissionChanged, Note  # noqa: E402
+from giraff_console.service import commands as c  # noqa: E402
+from giraff_console.service.remote import RemoteRobot  # noqa: E402
+from giraff_console.service.runtime_folder import socket_path  # noqa: E402
+from tests.drivers.clients import DriverClient, Ros1LikeClient, Ros2LikeClient  # noqa: E402
+from tests.drivers.wire import RawPort  # noqa: E402
+
+WHEEL_BASE_M = 0.499  # the simulator's, by default
+START_TIMEOUT_S = 60.0
+MISSION_TIMEOUT_S = 120.0
+ROOMS = ("room-101", "dock")
+# What the daemon's odometry check says when no wheel reading agrees with cdis
+# (robot/odometer_check.py), or its feed when a reading jumps.
+ALARMS = ("no wheel reading agrees", "odometry")
+BY_THE_PROGRAM = "virtual port"
 
 
-def ask(fd: int, line: str | None, timeout: float = 5.0) -> list[str]:
-    """Send `line` to the board-like pty and return the reply lines before the prompt;
-    None sends nothing and reads the greeting."""
-    if line is not None:
-        os.write(fd, line.encode() + b"\r")
-    data = b""
-    deadline = time.monotonic() + timeout
-    while not data.endswith(PROMPT):
-        left = deadline - time.monotonic()
-        if left <= 0 or not select.select([fd], [], [], left)[0]:
-            raise TimeoutError(f"no prompt after {line!r}: {data!r}")
-        data += os.read(fd, 4096)
-    return [part for part in data[: -len(PROMPT)].decode().split("\r\n") if part]
+@dataclass
+class Run:
+    """One client's figures in one setting."""
+
+    name: str
+    seconds: float
+    traffic: list[float] = field(default_factory=list)  # latencies, s
+    loops: list[float] = field(default_factory=list)  # loop periods, s
+    errors: list[tuple[str, str]] = field(default_factory=list)
+    missions: int = 0
+    arrived: int = 0
+    alarms: list[str] = field(default_factory=list)
+    ended_by_program: int = 0
+
+    def row(self) -> str:
+        late = sorted(self.traffic) or [float("nan")]
+        p99 = late[min(len(late) - 1, round(0.99 * (len(late) - 1)))]
+        rate = 1 / statistics.median(self.loops) if self.loops else float("nan")
+        missions = ""
+        if self.missions:
+            missions = (f"   {self.arrived}/{self.missions} arrived, {len(self.alarms)} alarms, "
+                        f"{self.ended_by_program} ended by the program")  # fmt: skip
+        return (f"{self.name:<34} {statistics.median(late) * 1000:6.1f} {p99 * 1000:6.1f} "
+                f"{late[-1] * 1000:7.1f} ms  {rate:5.1f} Hz  {len(self.errors):3d} errors"
+                f"{missions}")  # fmt: skip
+
+
+def client_for(kind: str, port: RawPort) -> DriverClient:
+    if kind == "ros2":
+        return Ros2LikeClient(port, WHEEL_BASE_M)
+    return Ros1LikeClient(port, WHEEL_BASE_M)
+
+
+def poll_once(client: DriverClient) -> None:
+    """One of the client's idle loops, paced at its own rate."""
+    if isinstance(client, Ros2LikeClient):
+        client.idle(1)
+    else:
+        assert isinstance(client, Ros1LikeClient)
+        started = time.monotonic()
+        client.poll()
+        delay = 1 / client.RATE_HZ - (time.monotonic() - started)
+        if delay > 0:
+            time.sleep(delay)
+        client.traffic.loops.append(time.monotonic() - started)
+
+
+@contextmanager
+def started(command: list[str], env: dict[str, str]) -> Iterator[subprocess.Popen[str]]:
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                               stdin=subprocess.DEVNULL, text=True, env=env)  # fmt: skip
+    try:
+        yield process
+    finally:
+        process.terminate()
+        try:
+            process.wait(10)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait(10)
+
+
+def first_line(process: subprocess.Popen[str], what: str) -> str:
+    assert process.stdout is not None
+    if not select.select([process.stdout], [], [], START_TIMEOUT_S)[0]:
+        raise TimeoutError(f"{what} printed nothing within {START_TIMEOUT_S} s")
+    line = process.stdout.readline().strip()
+    if not line:
+        raise RuntimeError(f"{what} ended before printing its port")
+    return line
+
+
+def direct(kind: str, seconds: float, env: dict[str, str]) -> Run:
+    command = [sys.executable, "-m", "giraff_console", "sim", "--pty", "--pace",
+               "--firmware", "later"]  # fmt: skip
+    with started(command, env) as simulator:
+        port = RawPort.open(first_line(simulator, "the simulator"))
+        try:
+            client = client_for(kind, port)
+            client.start()
+            client.traffic.latencies.clear()
+            end = time.monotonic() + seconds
+            while time.monotonic() < end:
+                poll_once(client)
+        finally:
+            port.close()
+    return Run(f"{kind}, direct (a 115200-baud line)", seconds, client.traffic.latencies,
+               client.traffic.loops, client.traffic.errors)  # fmt: skip
+
+
+def through_the_port(kind: str, missions: int, env: dict[str, str]) -> Run:
+    command = [sys.executable, "-m", "giraff_console", "serve", "--sim", "--firmware", "later",
+               "--virtual-port"]  # fmt: skip
+    with started(command, env) as daemon, ExitStack() as stack:
+        path = first_line(daemon, "the daemon")
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while not socket_path().exists():
+            if time.monotonic() > deadline:
+                raise TimeoutError("the daemon's socket never came")
+            time.sleep(0.1)
+        robot = RemoteRobot(socket_path(), "bench", take=True)
+        stack.callback(robot.close)
+        ends: list[MissionChanged] = []
+        alarms: list[str] = []
+
+        def heard(event: object) -> None:
+            if isinstance(event, MissionChanged) and not event.running:
+                ends.append(event)
+            elif isinstance(event, Note) and any(word in event.text for word in ALARMS):
+                alarms.append(event.text)
+
+        robot.subscribe(heard)
+        port = RawPort.open(path)
+        stack.callback(port.close)
+        client = client_for(kind, port)
+        client.start()
+        done = threading.Event()
+        failed: list[BaseException] = []
+
+        def poll() -> None:
+            try:
+                while not done.is_set():
+                    poll_once(client)
+            except BaseException as error:  # told below, not lost on a thread
+                failed.append(error)
+
+        poller = threading.Thread(target=poll, name="client", daemon=True)
+        started_at = time.monotonic()
+        poller.start()
+        run = Run(f"{kind}, through the port, daemon on go", 0.0)
+        try:
+            for number in range(missions):
+                room = ROOMS[number % len(ROOMS)]
+                asked = len(ends)
+                replies: list[object] = []
+                robot.post(c.Go(room), replies.append)
+                deadline = time.monotonic() + MISSION_TIMEOUT_S
+                while len(ends) == asked and not failed:
+                    if time.monotonic() > deadline:
+                        raise TimeoutError(f"go {room} did not end within {MISSION_TIMEOUT_S} s")
+                    time.sleep(0.05)
+                if failed:
+                    raise RuntimeError(f"the client failed: {failed[0]!r}")
+                end = ends[-1].end
+                run.missions += 1
+                run.arrived += end is not None and end.outcome.arrived
+                run.ended_by_program += end is not None and BY_THE_PROGRAM in end.why
+        finally:
+            done.set()
+            poller.join(10)
+        run.seconds = time.monotonic() - started_at
+        run.traffic, run.loops = client.traffic.latencies, client.traffic.loops
+        run.errors, run.alarms = client.traffic.errors, alarms
+        return run
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--metres", type=float, default=10.0)
-    parser.add_argument("--busy", type=int, default=2, help="busy loops beside it")
+    parser.add_argument("--clients", default="ros2,ros1")
+    parser.add_argument("--missions", type=int, default=10)
+    parser.add_argument("--seconds", type=float, default=20.0)
+    parser.add_argument("--busy", type=int, default=0, help="busy loops beside it")
     args = parser.parse_args()
+    kinds = [kind for kind in args.clients.split(",") if kind]
+    if not set(kinds) <= {"ros1", "ros2"} or not kinds:
+        parser.error("--clients: ros1 and/or ros2")
     folder = Path(tempfile.mkdtemp(prefix="xdg-", dir="/tmp"))
     os.environ["XDG_RUNTIME_DIR"] = str(folder)
+    env = {**os.environ, "XDG_RUNTIME_DIR": str(folder), "PYTHONPATH": str(ROOT)}
     busy = [subprocess.Popen([sys.executable, "-c", "while 1: pass"]) for _ in range(args.busy)]
-    daemon = subprocess.Popen(
-        [sys.executable, "-m", "giraff_console", "serve", "--sim", "--firmware", "later",
-         "--virtual-port", "--floorplan", str(OPEN_FLOOR)],
-        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL, text=True,
-    )  # fmt: skip
+    runs: list[Run] = []
     try:
-        assert daemon.stdout is not None
-        if not select.select([daemon.stdout], [], [], 20)[0]:
-            raise TimeoutError("the daemon printed no virtual port")
-        pty = daemon.stdout.readline().strip()
-        deadline = time.monotonic() + 20
-        while not socket_path().exists():
-            if time.monotonic() > deadline:
-                raise TimeoutError("no socket")
-            time.sleep(0.1)
-        return measure(pty, args.metres)
+        for kind in kinds:
+            runs.append(direct(kind, args.seconds, env))
+            runs.append(through_the_port(kind, args.missions, env))
     finally:
-        daemon.terminate()
-        try:
-            daemon.wait(10)
-        except subprocess.TimeoutExpired:
-            daemon.kill()
         for process in busy:
             process.kill()
+            process.wait(10)
         shutil.rmtree(folder, ignore_errors=True)
-
-
-def measure(pty: str, metres: float) -> int:
-    fd = os.open(pty, os.O_RDWR | os.O_NOCTTY)
-    robot = RemoteRobot(socket_path(), "bench", take=True)
-    poses: list[tuple[float, float]] = []
-    ended: list[MissionChanged] = []
-
-    def heard(event: object) -> None:
-        if isinstance(event, Telemetry):
-            poses.append((event.pose.x, event.pose.y))
-        elif isinstance(event, MissionChanged) and not event.running:
-            ended.append(event)
-
-    robot.subscribe(heard)
-    try:
-        ask(fd, None)  # the greeting, as a board gives it when its port is opened
-        time.sleep(1.0)  # the daemon's first polls
-        ask(fd, "get bulk_data")  # what came before the run is not the program's
-        start = poses[-1]
-        program = reads = 0
-        next_read = time.monotonic()
-        # At 0.4 m/s, with room to spare on a loaded machine.
-        deadline = time.monotonic() + metres / 0.4 * 3 + 10
-        refusals: list[str] = []
-        while math.dist(poses[-1], start) < metres:
-            if time.monotonic() > deadline:
-                raise TimeoutError(f"only {math.dist(poses[-1], start):.2f} m driven; "
-                                   f"{refusals[-1:]}")  # fmt: skip
-            robot.post(
-                c.Press(Intent.FORWARD),
-                lambda reply: None if reply.ok else refusals.append(reply.text),
-            )
-            if time.monotonic() >= next_read:
-                value = parse_reply(ask(fd, "get bulk_data")).value
-                assert isinstance(value, dict)
-                program += (value["imdl"] + value["imdr"]) / 2
-                reads += 1
-                next_read += 0.3
-            time.sleep(0.03)
-        robot.execute(c.Halt())
-        time.sleep(2.0)  # to rest
-        value = parse_reply(ask(fd, "get bulk_data")).value
-        assert isinstance(value, dict)
-        program += (value["imdl"] + value["imdr"]) / 2
-        daemon = math.dist(poses[-1], start)
-        print(f"driven by the keys: the daemon's odometry {daemon:.4f} m; the program's "
-              f"{program:.4f} m from {reads + 1} reads; difference "
-              f"{abs(daemon - program) * 100:.2f} cm")  # fmt: skip
-        reply = robot.execute(c.Go("floor"))
-        time.sleep(1.0)
-        refused = ask(fd, "set p 0.5")
-        print(f"go floor: {reply.text[:60]}...; the program's `set p 0.5` meanwhile: "
-              f"{refused}")  # fmt: skip
-        robot.execute(c.Halt())
-        ok = abs(daemon - program) <= 0.01 and any("refused" in line for line in refused)
-        print("PASS" if ok else "FAIL")
-        return 0 if ok else 1
-    finally:
-        robot.close()
-        os.close(fd)
+    load = os.getloadavg()[0]
+    print(f"machine: {platform.machine()}, {os.cpu_count()} cores; load average {load:.1f}; "
+          f"{args.busy} busy loops beside it")  # fmt: skip
+    print(f"{'':<34} {'p50':>6} {'p99':>6} {'max':>7}     loop rate")
+    for run in runs:
+        print(run.row())
+        for command, line in run.errors[:6]:
+            print(f"    error: {command!r} -> {line!r}")
+        for alarm in run.alarms[:3]:
+            print(f"    alarm: {alarm}")
+    return 0
 
 
 if __name__ == "__main__":
