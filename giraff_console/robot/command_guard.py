@@ -16,8 +16,16 @@ that goes on the wire (the value as `format_number` writes it, the name in lower
   (r = 0) `p` is in degrees (A.2.2).
 - A Giraff-X `set twm vg cdp vgr v p 0` (wire-facts, "Later firmware") is checked as the
   move it is: each value within the bounds of its own setting, the closing value 0, and
-  then the move as a `set p` with the board's settings overlaid by the twm's own; it is
-  a curved move, so the board must hold r > 50 (A.4.2).
+  then the move as a `set p` with the board's settings overlaid by the twm's own. It
+  carries its own curvature whatever the board's r (wire-facts, "What the deployed
+  drivers do": a driver leaves r = 50 and still curves), so it is a curve on the outer
+  wheel; in mode 2 what it means is not documented, and it is refused.
+- Later boards' undocumented `mode 2` (wire-facts): `v` and `p` as in relative mode, `vg`
+  an angular velocity in degrees per second, positive to the left. A move in it curves
+  by the gear ratio radians(vg) / v * 0.2495 (wire-facts, "Quirks"), held below the
+  thesis's 0.51 and reaching as far on the outer wheel; with v = 0 it turns on the spot
+  at vg, at most MAX_SPIN_DEG_S, by |p| metres of each wheel (the simulator's reading
+  of what the drivers send, sim/move.py `mode2_spin`). `r` is not read in it.
 - No line is longer than MAX_LINE_CHARS.
 
 The board brakes at the acceleration `a` of its last move, so `a` bounds a runaway too:
@@ -37,7 +45,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from giraff_console.protocol.codec import DECIMALS, TWM, TWM_SETTINGS, Command
+from giraff_console.protocol.codec import DECIMALS, TWM, TWM_SETTINGS, Command, format_number
 from giraff_console.protocol.errors import CommandError
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, TURN_RADIUS_M
 from giraff_console.robot.teleop import DriveLimits
@@ -94,6 +102,13 @@ MAX_STYLE = 1000.0
 MAX_STRAIGHT_STYLE = 50.0
 # The resolution of a value on the wire (codec.format_number).
 _WIRE_STEP = 10.0**-DECIMALS
+# Later boards' `mode 2`, in which `vg` is an angular velocity (wire-facts); the modes
+# the guard lets a move run in.
+VELOCITY_MODE = 2
+MODES = (0, VELOCITY_MODE)
+# The fastest turn on the spot in mode 2, degrees per second: each wheel then goes
+# radians(90) * 0.2495 = 0.39 m/s, within the console's top speed of 0.4 m/s.
+MAX_SPIN_DEG_S = 90.0
 
 
 @dataclass(frozen=True)
@@ -107,10 +122,14 @@ class Bound:
     open_low: bool = False
     open_high: bool = False
     whole: bool = False
+    # The only values it may take, when they are not a range.
+    only: tuple[float, ...] = ()
 
     def admits(self, value: float) -> bool:
         """True if `value`, as it goes on the wire, is within the bounds. Values go out
         rounded to DECIMALS places, so a closed bound is met to within that."""
+        if self.only:
+            return value in self.only
         if self.whole and value != int(value):
             return False
         above = value > self.low if self.open_low else value >= self.low - _WIRE_STEP
@@ -119,38 +138,49 @@ class Bound:
 
     def __str__(self) -> str:
         unit = f" {self.unit}" if self.unit else ""
+        if self.only:
+            return " or ".join(f"{value:.4g}" for value in self.only) + unit
         if self.low == self.high:
             return f"{self.low:.4g}{unit}"
         low, high = "(" if self.open_low else "[", ")" if self.open_high else "]"
         return f"in {low}{self.low:.4g}, {self.high:.4g}{high}{unit}"
 
 
-def setting_bounds(limits: DriveLimits, speed: float | None = None) -> dict[str, Bound]:
+def setting_bounds(limits: DriveLimits, speed: float | None = None,
+                   mode: float = 0) -> dict[str, Bound]:  # fmt: skip
     """Every setting the guard lets through, with its bounds and the reason for them.
 
     `p` and twm are not here: how far a move may reach depends on the style, and a twm
     is a move (see check_command).
     `speed`, when known, bounds how fast the robot may be going as a move starts.
+    `mode`: the board's, which says what `vg` is (a gear ratio, or in mode 2 degrees
+    per second).
     """
     gentlest = limits.min_accel if speed is None else braking_accel(speed, limits.runaway)
+    if mode == VELOCITY_MODE:
+        vg = Bound(-MAX_SPIN_DEG_S, MAX_SPIN_DEG_S, "in mode 2 vg is degrees per second "
+                   "(wire-facts); turning on the spot faster, the wheels would outrun the "
+                   "console's top speed", "degrees/s")  # fmt: skip
+    else:
+        vg = Bound(-GEAR_RATIO_LIMIT, GEAR_RATIO_LIMIT, "|vg| must stay below 0.51 "
+                   "(§3.2.1.4)", open_low=True, open_high=True)  # fmt: skip
     return {
-        "v": Bound(0, limits.max_speed, "the console's top speed (design.md); a move at "
-                   "zero speed cannot be planned", "m/s", open_low=True),
+        "v": Bound(0, limits.max_speed, "the console's top speed (design.md)", "m/s"),
         "a": Bound(gentlest, limits.accel, "it must stop the robot within the runaway "
                    "limit from the fastest it may be going, and no harder than the "
                    "console's own acceleration (B.2 DEF_ACCEL)", "m/s^2",
                    open_low=gentlest <= _WIRE_STEP),  # never a = 0 (wire-facts)
-        "vg": Bound(-GEAR_RATIO_LIMIT, GEAR_RATIO_LIMIT, "|vg| must stay below 0.51 "
-                    "(§3.2.1.4)", open_low=True, open_high=True),
+        "vg": vg,
         "vgr": Bound(-MAX_GEAR_RATE, MAX_GEAR_RATE, "a steeper ramp of the gear ratio is "
                      "a jump, which jerks the robot (A.2.3)", "per metre"),
         "cdp": Bound(-limits.reach, limits.reach, "it is a point within the move "
                      "(A.4.15), and no move reaches further than the console's reach", "m"),
         "r": Bound(0, MAX_STYLE, "the movement styles of A.4.2: 0 rotates, up to 50 "
                    "drives straight, above 50 curves"),
-        "mode": Bound(0, 0, "commands drive in relative, unbuffered mode 0: "
-                      "absolute targets can lie anywhere, and buffered moves add up (A.4.8)",
-                      whole=True),
+        "mode": Bound(0, VELOCITY_MODE, "commands drive in relative, unbuffered mode 0, "
+                      "or in later boards' mode 2, relative too (wire-facts): absolute "
+                      "targets can lie anywhere, and buffered moves add up (A.4.8)",
+                      only=MODES),
         "tilt_angle_from_home": Bound(0.087, 2.094, "the head's travel from home "
                                       "(wire-facts, Head)", "rad"),
         "h": Bound(0, 1000, "the height stalk's range (wire-facts)", whole=True),
@@ -200,7 +230,7 @@ def check_command(command: Command, limits: DriveLimits, board: Mapping[str, str
     if name == "p":
         _check_move(value, limits, board, speed)
     else:
-        _check_setting(name, value, limits, speed)
+        _check_setting(name, value, limits, speed, _held_mode(board))
 
 
 def braking_accel(speed: float, runaway: float) -> float:
@@ -208,8 +238,18 @@ def braking_accel(speed: float, runaway: float) -> float:
     return speed * speed / (2 * runaway)
 
 
-def _check_setting(name: str, value: float, limits: DriveLimits, speed: float | None) -> None:
-    bound = setting_bounds(limits, speed).get(name)
+def _held_mode(board: Mapping[str, str]) -> float:
+    """The board's mode as it says what `vg` is: 0 when unknown (a gear ratio, the
+    tighter bound)."""
+    try:
+        return float(board.get("mode", "0"))
+    except ValueError:
+        return 0.0
+
+
+def _check_setting(name: str, value: float, limits: DriveLimits, speed: float | None,
+                   mode: float = 0) -> None:  # fmt: skip
+    bound = setting_bounds(limits, speed, mode).get(name)
     if bound is None:
         known = ", ".join(sorted(SETTINGS - REFUSED_SETTINGS.keys()))
         raise CommandError(f"the board has no setting called {name!r} (settings: {known})")
@@ -221,7 +261,7 @@ def _check_twm(command: Command, limits: DriveLimits, board: Mapping[str, str],
                speed: float | None) -> None:  # fmt: skip
     """A twm sets vg, cdp, vgr and v and moves by p (wire-facts): each value within its
     own setting's bounds, then the move as `set p` would be, with the board's settings
-    overlaid by the twm's. It carries no style: the board must already hold a curve."""
+    overlaid by the twm's, as a curve whatever the board's r."""
     # The values as they go on the wire, which is what the board will act on.
     *carried, end = (float(word) for word in command.text.split()[2:])
     if end != 0:
@@ -229,28 +269,22 @@ def _check_twm(command: Command, limits: DriveLimits, board: Mapping[str, str],
             f"a twm ends in 0 (`set twm {' '.join(TWM_SETTINGS)} 0`, wire-facts); what "
             "another value would do is not documented"
         )
+    if _held_mode(board) == VELOCITY_MODE:
+        raise CommandError("a twm in mode 2 is not documented (wire-facts); set mode 0 first")
     for name, value in zip(TWM_SETTINGS[:-1], carried[:-1], strict=True):
         _check_setting(name, value, limits, speed)
-    if "r" not in board:
-        raise CommandError("the board's r is unknown; set it first")
-    try:
-        style = float(board["r"])
-    except ValueError:
-        raise CommandError(f"the board's r is not a number: {board['r']!r}") from None
-    if not style > MAX_STRAIGHT_STYLE:
-        raise CommandError(
-            f"a twm is a curved move: the board must hold r above {MAX_STRAIGHT_STYLE:g} "
-            f"(A.4.2), not {board['r']}"
-        )
-    _check_move(carried[-1], limits, {**board, **command.settings}, speed)
+    # A curve whatever the board's r (wire-facts): checked as one, on the outer wheel.
+    curve = {**board, **command.settings, "r": format_number(MAX_STYLE)}
+    _check_move(carried[-1], limits, curve, speed)
 
 
 def _check_move(target: float, limits: DriveLimits, board: Mapping[str, str],
                 speed: float | None) -> None:  # fmt: skip
-    """A move uses r, mode, v, a and vg as the board holds them; each must be known and
-    within its bounds, and the target within the runaway limit."""
+    """A move uses mode, v, a and vg as the board holds them, and r but in mode 2; each
+    must be known and within its bounds, and the target within the runaway limit."""
+    velocity = "mode" in board and _held_mode(board) == VELOCITY_MODE
     held: dict[str, float] = {}
-    for needed in ("r", "mode", "v", "a", "vg"):
+    for needed in ("mode", "v", "a", "vg") if velocity else ("r", "mode", "v", "a", "vg"):
         if needed not in board:
             unread = " (its writable bits cannot be read back, A.4.8)" if needed == "mode" else ""
             raise CommandError(f"the board's {needed} is unknown{unread}; set it first")
@@ -258,16 +292,41 @@ def _check_move(target: float, limits: DriveLimits, board: Mapping[str, str],
             held[needed] = float(board[needed])
         except ValueError:
             raise CommandError(f"the board's {needed} is not a number: {board[needed]!r}") from None
-        _check_setting(needed, held[needed], limits, speed)
-    rotating = held["r"] == 0
-    # In a curve (r > 50) the outer wheel goes 1 + |vg| times as far as the middle
-    # (A.2.3); turning on the spot `p` is degrees, v and a the wheels' (A.2.2).
-    outer = 1 + abs(held["vg"]) if held["r"] > MAX_STRAIGHT_STYLE else 1.0
-    reach = abs(target) / TURN_FACTOR_DEG_PER_M if rotating else abs(target) * outer
-    if reach > limits.reach + _WIRE_STEP:
+        _check_setting(needed, held[needed], limits, speed, held.get("mode", 0.0))
+    if velocity:
+        reach, unit = _velocity_reach(target, held["v"], held["vg"], limits)
+    else:
+        if not held["v"] > 0:
+            raise CommandError("v must be above 0 for a move in mode 0: a move at zero speed "
+                               "cannot be planned")  # fmt: skip
+        rotating = held["r"] == 0
+        # In a curve (r > 50) the outer wheel goes 1 + |vg| times as far as the middle
+        # (A.2.3); turning on the spot `p` is degrees, v and a the wheels' (A.2.2).
+        outer = 1 + abs(held["vg"]) if held["r"] > MAX_STRAIGHT_STYLE else 1.0
+        reach = abs(target) / TURN_FACTOR_DEG_PER_M if rotating else abs(target) * outer
         unit = (
             f"{limits.reach * TURN_FACTOR_DEG_PER_M:.0f} degrees"
             if rotating
             else f"{limits.reach} m" + (" on the outer wheel" if outer > 1 else "")
         )
+    if reach > limits.reach + _WIRE_STEP:
         raise CommandError(f"p beyond {unit}; a dead console would let the robot run that far")
+
+
+def _velocity_reach(target: float, v: float, vg: float, limits: DriveLimits) -> tuple[float, str]:
+    """How far a mode 2 move to `target` takes the farthest wheel, and the limit in words.
+    With v = 0 it turns on the spot at vg by |p| metres of each wheel; else it curves by
+    the gear ratio radians(vg) / v * 0.2495 (wire-facts, "Quirks"), which must stay below
+    the thesis's 0.51 (§3.2.1.4)."""
+    if v == 0:
+        if vg == 0:
+            raise CommandError("in mode 2 a move needs v above 0, or vg to turn on the spot")
+        return abs(target), f"{limits.reach} m of each wheel"
+    gear = math.radians(abs(vg)) / v * TURN_RADIUS_M
+    if not gear < GEAR_RATIO_LIMIT:
+        raise CommandError(
+            f"in mode 2, {abs(vg):g} degrees/s at {v:g} m/s is a gear ratio of {gear:.2f}; "
+            f"it must stay below {GEAR_RATIO_LIMIT} (§3.2.1.4)"
+        )
+    unit = f"{limits.reach} m" + (" on the outer wheel" if gear > 0 else "")
+    return abs(target) * (1 + gear), unit

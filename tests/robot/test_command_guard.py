@@ -99,7 +99,8 @@ def test_home_is_the_only_bare_command():
     ["set vgr 2.01", "set vgr -3", "set cdp 0.26", "set cdp -1", "set r -1", "set r 1000.5",
      "set r 100000", "set vg 0.51", "set vg -0.51", "set mode 1", "set mode 0.5",
      "set tilt_angle_from_home 3", "set tilt_angle_from_home 0", "set h 1001", "set h 1.5",
-     "set enc0 7", "set v 0", "set v 0.41", "set a 0.6", "set p 58"],
+     "set enc0 7", "set v -0.1", "set v 0.41", "set a 0.6", "set p 58", "set mode 2.5",
+     "set mode 4"],
 )  # fmt: skip
 def test_every_setting_has_bounds(text):
     assert refusal(text, BOARD | {"r": "0"} if text == "set p 58" else BOARD)
@@ -109,7 +110,8 @@ def test_every_setting_has_bounds(text):
     "text",
     ["set vgr 2", "set vgr -1", "set vgr 0", "set cdp 0.24", "set cdp -0.25", "set r 0",
      "set r 1", "set r 1000", "set vg -0.5", "set mode 0", "set tilt_angle_from_home 1",
-     "set h 1000", "set enc1 0", "set v 0.05", "set a 0.5", "set p -0.25"],
+     "set h 1000", "set enc1 0", "set v 0.05", "set a 0.5", "set p -0.25", "set v 0",
+     "set mode 2"],
 )  # fmt: skip
 def test_values_within_the_bounds_pass(text):
     assert refusal(text) is None
@@ -152,8 +154,50 @@ def test_a_line_longer_than_the_board_s_is_refused():
 
 
 def test_the_value_checked_is_the_value_sent():
-    # 1e-12 goes on the wire as 0: a move at zero speed.
-    assert "v must be" in refusal("set v 0.000000000001")
+    # 0.5099999999999 goes on the wire as 0.51, at the gear ratio's limit.
+    assert "vg must be" in refusal("set vg 0.5099999999999")
+
+
+def test_zero_speed_is_a_setting_but_not_a_move_in_mode_0():
+    """`set v 0` is one of the deployed drivers' stop idioms (wire-facts)."""
+    assert refusal("set v 0") is None
+    assert "v must be above 0" in refusal("set p 0.1", BOARD | {"v": "0"})
+
+
+# -- later boards' mode 2 (wire-facts; issue 27) ------------------------------------------
+
+VELOCITY = {"mode": "2", "v": "0.3", "vg": "0", "a": "0.5"}
+
+
+def test_in_mode_2_vg_is_degrees_per_second_and_r_is_not_needed():
+    assert refusal("set vg 28.6", VELOCITY) is None  # 0.5 rad/s, as a driver sends it
+    assert refusal("set vg -90", VELOCITY) is None
+    assert "vg must be in [-90, 90] degrees/s" in refusal("set vg 91", VELOCITY)
+    # In mode 0 the same value is a gear ratio far beyond the thesis's limit.
+    assert "vg must be" in refusal("set vg 28.6")
+    assert refusal("set p 0.25", VELOCITY) is None
+    assert "p beyond 0.25 m" in refusal("set p 1", VELOCITY)  # the driver's renewed p = 1
+
+
+def test_a_mode_2_curve_reaches_as_far_on_its_outer_wheel_and_keeps_below_0_51():
+    # 28.6 degrees/s at 0.3 m/s: a gear ratio of 0.416, the outer wheel 1.416 times as far.
+    curving = VELOCITY | {"vg": "28.6"}
+    assert refusal("set p 0.17", curving) is None
+    assert "on the outer wheel" in refusal("set p 0.2", curving)
+    # 28.6 degrees/s at 0.1 m/s would be a gear ratio of 1.25.
+    assert "below 0.51" in refusal("set p 0.1", curving | {"v": "0.1"})
+
+
+def test_a_mode_2_turn_on_the_spot_moves_each_wheel_by_p_within_the_reach():
+    spinning = VELOCITY | {"v": "0", "vg": "30"}
+    assert refusal("set p 0.25", spinning) is None
+    assert refusal("set p -0.25", spinning) is None
+    assert "p beyond 0.25 m of each wheel" in refusal("set p 1", spinning)
+    assert "needs v above 0, or vg" in refusal("set p 0.1", VELOCITY | {"v": "0"})
+
+
+def test_a_twm_in_mode_2_is_refused():
+    assert "mode 2" in refusal("set twm 0.3 0.2 1 0.25 0.1 0", CURVE | {"mode": "2"})
 
 
 def test_the_console_s_own_settings_pass():
@@ -188,10 +232,11 @@ _TWM = st.builds(
 )
 _LINE = st.one_of(
     _set("r", st.sampled_from([0, 1, 50, 51, 1000, -1, 1001])),
-    _set("mode", st.sampled_from([0, 0, 1, 4])),
+    _set("mode", st.sampled_from([0, 0, 1, 2, 4])),
     _set("v", st.floats(0, 0.45)),
     _set("a", st.floats(0.25, 0.6)),
     _set("vg", st.floats(-0.6, 0.6)),
+    _set("vg", st.floats(-100, 100)),  # degrees per second, in mode 2
     _set("vgr", st.floats(-2.5, 2.5)),
     _set("cdp", st.floats(-0.3, 0.3)),
     _set("p", st.floats(-0.3, 0.3)),
@@ -215,6 +260,14 @@ _LINES = st.one_of(
     # Or on a curve with all a twm needs, with twms among the lines (Giraff-X).
     st.builds(lambda accel, lines: ["set r 1000", "set mode 0", f"set a {accel}", *lines],
               st.floats(0.32, 0.5), st.lists(_TWM | _LINE, min_size=1, max_size=9)),
+    # Or in later boards' mode 2, as the deployed drivers drive (wire-facts): curving at
+    # vg degrees per second, or turning on the spot with v = 0.
+    st.builds(lambda setup, lines: [*setup, *lines],
+              st.tuples(st.just("set mode 2"), _set("a", st.floats(0.32, 0.5)),
+                        _set("v", st.sampled_from([0.0]) | st.floats(0.05, 0.4)),
+                        _set("vg", st.floats(-100, 100) | st.floats(-15, 15)),
+                        ).flatmap(st.permutations),
+              st.lists(_LINE, min_size=1, max_size=9)),
 )  # fmt: skip
 
 
@@ -236,10 +289,20 @@ def test_no_accepted_line_puts_a_target_beyond_the_reach(lines):
         command = _accepted(text, board)
         if command is None or command.name not in ("p", "twm"):
             continue
-        target, style = float(board["p"]), float(board["r"])
-        # On the outer wheel in a curve (A.2.3), in wheel metres turning on the spot.
-        outer = 1 + abs(float(board["vg"])) if style > 50 else 1.0
-        reach = target / TURN_FACTOR_DEG_PER_M if style <= 0 else target * outer
+        target, vg, speed = float(board["p"]), float(board["vg"]), float(board["v"])
+        if float(board["mode"]) == 2:
+            # Turning on the spot by p metres of each wheel, or curving at the gear ratio
+            # that turns at vg degrees per second at v (sim/move.py).
+            gear = math.radians(abs(vg)) / speed * TURN_RADIUS_M if speed else 0.0
+            assert gear < 0.51
+            reach = target * (1 + gear)
+        elif command.name == "twm":  # a curve whatever r (wire-facts)
+            reach = target * (1 + abs(vg))
+        else:
+            style = float(board["r"])
+            # On the outer wheel in a curve (A.2.3), in wheel metres turning on the spot.
+            outer = 1 + abs(vg) if style > 50 else 1.0
+            reach = target / TURN_FACTOR_DEG_PER_M if style <= 0 else target * outer
         assert abs(reach) <= LIMITS.reach + 1e-9
         # And the board will brake from any speed it may have within that distance.
         assert float(board["v"]) <= LIMITS.max_speed
@@ -312,13 +375,21 @@ def test_a_twm_ends_in_zero(end):
     assert "ends in 0" in refusal(f"set twm 0.3 0.2 1 0.25 0.1 {end}", CURVE)
 
 
-@pytest.mark.parametrize("style", ["0", "1", "50", "-1"])
-def test_a_twm_is_refused_unless_the_board_holds_a_curve(style):
-    assert "curved move" in refusal("set twm 0.3 0.2 1 0.25 0.1 0", CURVE | {"r": style})
-    assert refusal("set twm 0.3 0.2 1 0.25 0.1 0", CURVE | {"r": "50.5"}) is None
+@pytest.mark.parametrize("style", ["0", "1", "50", "1000"])
+def test_a_twm_is_a_curve_whatever_the_board_s_r(style):
+    """A driver leaves r = 50 after its stop idiom and its twm still curves (wire-facts,
+    "What the deployed drivers do"): checked on the outer wheel all the same."""
+    board = CURVE | {"r": style}
+    assert refusal("set twm 0.3 0.2 1 0.25 0.1 0", board) is None
+    assert "on the outer wheel" in refusal("set twm 0.5 0.2 1 0.25 0.2 0", board)
 
 
-@pytest.mark.parametrize("unknown", ["r", "a", "mode"])
+def test_a_twm_does_not_need_r():
+    board = {name: text for name, text in CURVE.items() if name != "r"}
+    assert refusal("set twm 0.3 0.2 1 0.25 0.1 0", board) is None
+
+
+@pytest.mark.parametrize("unknown", ["a", "mode"])
 def test_a_twm_needs_what_it_does_not_carry_to_be_known(unknown):
     board = {name: text for name, text in CURVE.items() if name != unknown}
     assert f"the board's {unknown} is unknown" in refusal("set twm 0.3 0.2 1 0.25 0.1 0", board)
