@@ -233,6 +233,63 @@ def check_command(command: Command, limits: DriveLimits, board: Mapping[str, str
         _check_setting(name, value, limits, speed, _held_mode(board))
 
 
+def clamp_command(command: Command, limits: DriveLimits, board: Mapping[str, str]) -> Command:
+    """`command` with its values brought within their bounds where that can only make a
+    move shorter, slower or gentler, for a program that cannot read the guard's reasons
+    (the virtual port: the deployed drivers never read a `set`'s reply, wire-facts):
+    a speed, a turn rate or a gear ratio's ramp down to its limit; an acceleration into
+    the range that still stops the robot within the runaway limit; a move's target down
+    to the reach for what the board holds. Anything else, and a move that cannot go at
+    all, is returned unchanged for `check_command` to refuse with its reason."""
+    if command.kind != "set":
+        return command
+    mode = _held_mode(board)
+    if command.name == TWM:
+        *carried, end = command.values
+        if end != 0 or mode == VELOCITY_MODE:
+            return command
+        values = [_clamped(name, float(value), limits, mode)
+                  for name, value in zip(TWM_SETTINGS[:-1], carried[:-1], strict=True)]  # fmt: skip
+        curve = {**board, **dict(zip(TWM_SETTINGS[:-1], map(format_number, values), strict=True)),
+                 "r": format_number(MAX_STYLE)}  # fmt: skip
+        target = _clamped_target(float(carried[-1]), limits, curve)
+        return Command("set", TWM, (*values, target, end))
+    if command.name == "p":
+        return Command("set", "p", _clamped_target(float(command.values[0]), limits, board))
+    if command.name in CLAMPED:
+        return Command("set", command.name, _clamped(command.name, float(command.values[0]),
+                                                     limits, mode))  # fmt: skip
+    return command
+
+
+# The settings whose values `clamp_command` brings within their bounds.
+CLAMPED = frozenset({"v", "a", "vg", "vgr", "cdp"})
+
+
+def _clamped(name: str, value: float, limits: DriveLimits, mode: float) -> float:
+    """`value` within `name`'s bounds (inside an open bound by one step on the wire)."""
+    if name == "vg" and mode != VELOCITY_MODE:
+        # A gear ratio: no steeper than the console's own curves (below 0.51).
+        return max(-limits.max_gear, min(limits.max_gear, value))
+    bound = setting_bounds(limits, None, mode)[name]
+    low = bound.low + (_WIRE_STEP if bound.open_low else 0.0)
+    high = bound.high - (_WIRE_STEP if bound.open_high else 0.0)
+    return max(low, min(high, value))
+
+
+def _clamped_target(target: float, limits: DriveLimits, board: Mapping[str, str]) -> float:
+    """`target` no further than the reach for what the board holds (unchanged if a move
+    cannot go with it: check_command says why)."""
+    try:
+        per_unit, _ = _reach_per_unit(limits, board, None)
+    except CommandError:
+        return target
+    # Rounded down on the wire's resolution, so that the value sent is within the reach.
+    furthest = round(math.floor(limits.reach / per_unit / _WIRE_STEP + 1e-6) * _WIRE_STEP,
+                     DECIMALS)  # fmt: skip
+    return math.copysign(min(abs(target), furthest), target)
+
+
 def braking_accel(speed: float, runaway: float) -> float:
     """The gentlest acceleration that stops the robot from `speed` within `runaway`."""
     return speed * speed / (2 * runaway)
@@ -282,6 +339,15 @@ def _check_move(target: float, limits: DriveLimits, board: Mapping[str, str],
                 speed: float | None) -> None:  # fmt: skip
     """A move uses mode, v, a and vg as the board holds them, and r but in mode 2; each
     must be known and within its bounds, and the target within the runaway limit."""
+    per_unit, unit = _reach_per_unit(limits, board, speed)
+    if abs(target) * per_unit > limits.reach + _WIRE_STEP:
+        raise CommandError(f"p beyond {unit}; a dead console would let the robot run that far")
+
+
+def _reach_per_unit(limits: DriveLimits, board: Mapping[str, str],
+                    speed: float | None) -> tuple[float, str]:  # fmt: skip
+    """How far the farthest wheel goes for each unit of a move's `p` with what the board
+    holds, and the reach in words; CommandError if a move cannot go with it."""
     velocity = "mode" in board and _held_mode(board) == VELOCITY_MODE
     held: dict[str, float] = {}
     for needed in ("mode", "v", "a", "vg") if velocity else ("r", "mode", "v", "a", "vg"):
@@ -294,39 +360,31 @@ def _check_move(target: float, limits: DriveLimits, board: Mapping[str, str],
             raise CommandError(f"the board's {needed} is not a number: {board[needed]!r}") from None
         _check_setting(needed, held[needed], limits, speed, held.get("mode", 0.0))
     if velocity:
-        reach, unit = _velocity_reach(target, held["v"], held["vg"], limits)
-    else:
-        if not held["v"] > 0:
-            raise CommandError("v must be above 0 for a move in mode 0: a move at zero speed "
-                               "cannot be planned")  # fmt: skip
-        rotating = held["r"] == 0
-        # In a curve (r > 50) the outer wheel goes 1 + |vg| times as far as the middle
-        # (A.2.3); turning on the spot `p` is degrees, v and a the wheels' (A.2.2).
-        outer = 1 + abs(held["vg"]) if held["r"] > MAX_STRAIGHT_STYLE else 1.0
-        reach = abs(target) / TURN_FACTOR_DEG_PER_M if rotating else abs(target) * outer
-        unit = (
-            f"{limits.reach * TURN_FACTOR_DEG_PER_M:.0f} degrees"
-            if rotating
-            else f"{limits.reach} m" + (" on the outer wheel" if outer > 1 else "")
-        )
-    if reach > limits.reach + _WIRE_STEP:
-        raise CommandError(f"p beyond {unit}; a dead console would let the robot run that far")
+        return _velocity_reach_per_metre(held["v"], held["vg"], limits)
+    if not held["v"] > 0:
+        raise CommandError("v must be above 0 for a move in mode 0: a move at zero speed "
+                           "cannot be planned")  # fmt: skip
+    if held["r"] == 0:
+        # Turning on the spot `p` is degrees, v and a the wheels' (A.2.2).
+        return 1 / TURN_FACTOR_DEG_PER_M, f"{limits.reach * TURN_FACTOR_DEG_PER_M:.0f} degrees"
+    # In a curve (r > 50) the outer wheel goes 1 + |vg| times as far as the middle (A.2.3).
+    outer = 1 + abs(held["vg"]) if held["r"] > MAX_STRAIGHT_STYLE else 1.0
+    return outer, f"{limits.reach} m" + (" on the outer wheel" if outer > 1 else "")
 
 
-def _velocity_reach(target: float, v: float, vg: float, limits: DriveLimits) -> tuple[float, str]:
-    """How far a mode 2 move to `target` takes the farthest wheel, and the limit in words.
-    With v = 0 it turns on the spot at vg by |p| metres of each wheel; else it curves by
-    the gear ratio radians(vg) / v * 0.2495 (wire-facts, "Quirks"), which must stay below
-    the thesis's 0.51 (§3.2.1.4)."""
+def _velocity_reach_per_metre(v: float, vg: float, limits: DriveLimits) -> tuple[float, str]:
+    """A mode 2 move: with v = 0 it turns on the spot at vg by |p| metres of each wheel;
+    else it curves by the gear ratio radians(vg) / v * 0.2495 (wire-facts, "Quirks"),
+    which must stay below the thesis's 0.51 (§3.2.1.4), its outer wheel going 1 + that
+    times as far."""
     if v == 0:
         if vg == 0:
             raise CommandError("in mode 2 a move needs v above 0, or vg to turn on the spot")
-        return abs(target), f"{limits.reach} m of each wheel"
+        return 1.0, f"{limits.reach} m of each wheel"
     gear = math.radians(abs(vg)) / v * TURN_RADIUS_M
     if not gear < GEAR_RATIO_LIMIT:
         raise CommandError(
             f"in mode 2, {abs(vg):g} degrees/s at {v:g} m/s is a gear ratio of {gear:.2f}; "
             f"it must stay below {GEAR_RATIO_LIMIT} (§3.2.1.4)"
         )
-    unit = f"{limits.reach} m" + (" on the outer wheel" if gear > 0 else "")
-    return abs(target) * (1 + gear), unit
+    return 1 + gear, f"{limits.reach} m" + (" on the outer wheel" if gear > 0 else "")

@@ -12,12 +12,14 @@ from hypothesis import strategies as st
 from giraff_console.protocol import Command, CommandError, format_number, parse_command
 from giraff_console.protocol.kinematics import TURN_FACTOR_DEG_PER_M, TURN_RADIUS_M
 from giraff_console.robot.command_guard import (
+    CLAMPED,
     READINGS,
     REFUSED_SETTINGS,
     SETTINGS,
     braking_accel,
     check_command,
     check_line,
+    clamp_command,
     setting_bounds,
 )
 from giraff_console.robot.teleop import DriveLimits, Teleop
@@ -435,3 +437,64 @@ def test_a_twm_longer_than_the_board_s_line_is_refused():
 def test_a_twm_with_the_wrong_number_of_values_is_refused_as_typed():
     assert "usage: set twm vg cdp vgr v p 0" in refusal("set twm 0.3 0.2 1 0.25 0.1", CURVE)
     assert "usage" in refusal("set twm 0", CURVE)
+
+
+# -- clamped for a program that does not read the reasons (the virtual port, issue 27) ----
+
+
+def clamped(text: str, board: dict[str, str] = BOARD) -> str:
+    return clamp_command(parse_command(text), LIMITS, board).text
+
+
+@pytest.mark.parametrize(
+    ("text", "board", "becomes"),
+    [("set a 0.2", BOARD, "set a 0.32"), ("set a 0.6", BOARD, "set a 0.5"),
+     ("set vgr 20", BOARD, "set vgr 2"), ("set v 0.6", BOARD, "set v 0.4"),
+     ("set vg 28.6", BOARD, "set vg 0.5"), ("set vg 120", VELOCITY, "set vg 90"),
+     ("set cdp 1", BOARD, "set cdp 0.25"), ("set p 1", BOARD, "set p 0.25"),
+     ("set p -1", BOARD, "set p -0.25"), ("set p -90", BOARD | {"r": "0"}, "set p -57.410600714"),
+     ("set p 1", VELOCITY | {"v": "0", "vg": "30"}, "set p 0.25"),
+     ("set twm 0.6 1 20 0.6 1 0", CURVE | {"r": "50"}, "set twm 0.5 0.25 2 0.4 0.166666666 0")],
+)  # fmt: skip
+def test_the_deployed_drivers_values_are_clamped_within_the_limits(text, board, becomes):
+    """What the drivers send (wire-facts, "What the deployed drivers do"), brought within
+    the limits, and then let through."""
+    assert clamped(text, board) == becomes
+    assert refusal(becomes, board) is None
+
+
+@pytest.mark.parametrize(
+    ("text", "board"),
+    [("set mode 3", BOARD), ("set enc0 5", BOARD), ("set undock 1", BOARD),
+     ("set p 1", BOARD | {"v": "0"}), ("set p 0.1", VELOCITY | {"vg": "50", "v": "0.05"}),
+     ("set p 1", {"mode": "0"}), ("get v", BOARD), ("home", BOARD)],
+)  # fmt: skip
+def test_what_cannot_be_made_safe_by_clamping_is_left_for_the_guard_to_refuse(text, board):
+    assert clamped(text, board) == parse_command(text).text
+
+
+@settings(max_examples=1000, deadline=None)
+@given(_LINES)
+def test_a_clamped_command_is_never_refused_for_what_clamping_brings_within_bounds(lines):
+    """Whatever the guard still refuses after clamping, it is not the command's own
+    clamped value out of its bounds, nor its target beyond the reach (a setting the board
+    already holds may be: clamping changes only what is sent)."""
+    board: dict[str, str] = {}
+    for text in lines:
+        try:
+            command = parse_command(text)
+        except CommandError:
+            continue
+        own = {command.name} & CLAMPED if command.kind == "set" else set()
+        if command.name == "twm":
+            own = {"vg", "cdp", "vgr", "v"}
+        try:
+            command = clamp_command(command, LIMITS, board)
+            check_command(command, LIMITS, board)
+        except CommandError as error:
+            why = str(error)
+            if command.name in ("p", "twm"):
+                assert not why.startswith("p beyond"), (text, why)
+            assert not any(why.startswith(f"{name} must be in") for name in own), (text, why)
+            continue
+        board.update(command.settings)
