@@ -23,13 +23,15 @@ from rich.console import Console
 
 from giraff_console.missions.go_to import GoReport
 from giraff_console.missions.names import PATROL_SUFFIX
+from giraff_console.missions.patrol_report import PatrolReport
 from giraff_console.robot.loop_events import MissionChanged, Note
 from giraff_console.robot.mission import TEXT_BAR, Mission, MissionEnd, Outcome, Progress
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.runtime.robot import Robot
 from giraff_console.service import commands as c
-from giraff_console.service.events import GoReported, Reply, ServiceEvent
+from giraff_console.service.events import GoReported, PatrolReported, Reply, ServiceEvent
 from giraff_console.service.remote import RemoteRobot
+from giraff_console.service.robot_service import HERE
 
 # Seconds between lines of progress when standard error is not a terminal.
 PROGRESS_EVERY_S = 5.0
@@ -37,17 +39,17 @@ PROGRESS_EVERY_S = 5.0
 # answer to the request (planning a route over a large building included).
 CONNECT_TIMEOUT_S = 10.0
 REPLY_TIMEOUT_S = 60.0
-# Seconds a go's report may follow its end (the service sends it just after).
+# Seconds a mission's report may follow its end (the service sends it just after).
 REPORT_WAIT_S = 2.0
 
 
 @dataclass(frozen=True)
 class Ended:
-    """How the mission asked for ended, with a go's report."""
+    """How the mission asked for ended, with its report: a go's, or a patrol's."""
 
     name: str
     end: MissionEnd
-    report: GoReport | None = None
+    report: GoReport | PatrolReport | None = None
 
 
 def print_note(event: ServiceEvent) -> None:
@@ -67,13 +69,22 @@ def mission_name(request: c.Go | c.RunPatrol) -> str:
     return Path(request.name).name.removesuffix(PATROL_SUFFIX)
 
 
-def follow(events: queue.Queue[ServiceEvent], name: str, *, wants_report: bool,
+def report_of(event: ServiceEvent, name: str) -> GoReport | PatrolReport | None:
+    """The report of the mission `name` that `event` brings, if it brings one."""
+    if isinstance(event, GoReported) and f"go {event.report.room}" == name:
+        return event.report
+    if isinstance(event, PatrolReported) and event.report.patrol == name:
+        return event.report
+    return None
+
+
+def follow(events: queue.Queue[ServiceEvent], name: str, *,
            gone: Callable[[], bool], also: Callable[[ServiceEvent], None] = lambda e: None,
            ) -> Ended | None:  # fmt: skip
     """Wait for the mission `name` to end, drawing its progress on standard error and
-    handing every event to `also`; None if the robot goes first (`gone`). A go waits
-    for its report too, which the service sends just after the end, but not for ever:
-    without it in REPORT_WAIT_S, the end alone."""
+    handing every event to `also`; None if the robot goes first (`gone`). It waits
+    for the mission's report too (a go's, a patrol's), which the service sends just
+    after the end, but not for ever: without it in REPORT_WAIT_S, the end alone."""
     started = False
     ended: MissionEnd | None = None
     ended_at = 0.0
@@ -99,28 +110,29 @@ def follow(events: queue.Queue[ServiceEvent], name: str, *, wants_report: bool,
                     started or event.end.outcome is Outcome.NOT_STARTED
                 ):
                     ended, ended_at = event.end, time.monotonic()
-                    if not wants_report:
-                        return Ended(name, ended)
-            elif isinstance(event, GoReported) and ended is not None:
-                return Ended(name, ended, event.report)
+            elif ended is not None:
+                report = report_of(event, name)
+                if report is not None:
+                    return Ended(name, ended, report)
     finally:
         shown.close()
 
 
 def drive_here(robot: Robot, request: c.Go | c.RunPatrol,
                also: Callable[[ServiceEvent], None] = lambda event: None,
-               ) -> Ended | Reply | None:  # fmt: skip
+               console: str = HERE) -> Ended | Reply | None:  # fmt: skip
     """Start the robot in this process, ask its service for `request` as soon as the
-    board answers, and follow the mission to its end: how it ended, the service's
-    refusal, or None if the board never answered. The robot is stopped by the caller's
-    `with`. A signal stops the robot first and ends the mission (robot/last_stop.py)."""
+    board answers, for `console` (attached, if not this console), and follow the
+    mission to its end: how it ended, the service's refusal, or None if the board never
+    answered. The robot is stopped by the caller's `with`. A signal stops the robot
+    first and ends the mission (robot/last_stop.py)."""
     service = robot.service
     events: queue.Queue[ServiceEvent] = queue.Queue()
     replies: queue.Queue[Reply] = queue.Queue()
 
     def ask() -> None:
         try:
-            replies.put(service.execute(request))
+            replies.put(service.execute(request, console))
         except Exception as error:  # a bug must not leave the command waiting
             replies.put(Reply(False, f"failed: {type(error).__name__}: {error}"))
             raise
@@ -139,8 +151,8 @@ def drive_here(robot: Robot, request: c.Go | c.RunPatrol,
         return Reply(False, f"no answer from the robot in {REPLY_TIMEOUT_S:g} s")
     if not reply.ok:
         return reply
-    return follow(events, mission_name(request), wants_report=isinstance(request, c.Go),
-                  gone=lambda: not robot.control.running, also=also)  # fmt: skip
+    return follow(events, mission_name(request), gone=lambda: not robot.control.running,
+                  also=also)  # fmt: skip
 
 
 def drive_there(remote: RemoteRobot, request: c.Go | c.RunPatrol,
@@ -156,8 +168,8 @@ def drive_there(remote: RemoteRobot, request: c.Go | c.RunPatrol,
             return reply
         if reply.text:
             print(f"giraff-console: {reply.text}", file=sys.stderr)
-        return follow(events, mission_name(request), wants_report=isinstance(request, c.Go),
-                      gone=lambda: remote.gone is not None, also=also)  # fmt: skip
+        return follow(events, mission_name(request), gone=lambda: remote.gone is not None,
+                      also=also)  # fmt: skip
     except KeyboardInterrupt:
         # A stop, which also ends a mission still being planned (RobotService); a second
         # Ctrl-C (or `timeout -s INT`'s) must not cut it short.
@@ -191,8 +203,8 @@ def start_on_the_board(robot: Robot, act: Callable[[], None]) -> bool:
 
 def run_mission(robot: Robot, mission: Mission, ended: Callable[[MissionEnd], None],
                 meanwhile: Callable[[], None] = lambda: None) -> bool:  # fmt: skip
-    """Start the robot, drive `mission` (one the service has no request for: a patrol's
-    timed run, a survey) to its end, and stop the robot; False if the board never
+    """Start the robot, drive `mission` (one the service has no request for: a survey)
+    to its end, and stop the robot; False if the board never
     answered. `ended` gets how it ended, on the loop's thread; `meanwhile` is called on
     this thread every half second while it drives, and once after. The robot is
     stopped by the caller's `with`."""

@@ -206,6 +206,8 @@ class PatrolRun:
         self._dwell_end: float | None = None
         self._paused_at: float | None = None
         self._now: float | None = None
+        # When it first drove (its first tick): its reports' times count from it.
+        self.started_at: float | None = None
         # A patrol set off on a low battery charges first.
         self._start_leg()
 
@@ -247,6 +249,8 @@ class PatrolRun:
         return RouteReplay(route)
 
     def step(self, now: float, state: MotorState | None) -> list[Command]:
+        if self.started_at is None:
+            self.started_at = now
         if self._paused_at is not None or self.finished or self._problem is not None:
             return []
         self._now = now

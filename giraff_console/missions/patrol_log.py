@@ -82,7 +82,7 @@ class PatrolRunLog:
             return self._first("start", patrol, {"scheduled": scheduled, "by": by})
 
     def stop(self, record: dict[str, Any]) -> str | None:
-        """A line for a stop: the caller's record of it (cli/patrol_here.py's StopLog)."""
+        """A line for a stop: the caller's record of it (route_book.py's RunLog)."""
         line: dict[str, Any] = {"event": "stop", "at": _stamp(self._now())}
         line.update(record)
         line["event"] = "stop"

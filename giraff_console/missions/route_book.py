@@ -2,7 +2,9 @@
 
 Teaching records a session as well, so that what the operator saw while teaching can be
 played back; the route file names that session. A patrol records one too, and saves a
-camera snapshot into it at each stop when its file asks for snapshots.
+camera snapshot into it at each stop, when its file asks for snapshots and the robot has
+a camera to take them with. How each stop went, and the run, are reported as they end
+(missions/patrol_report.py): the service tells them to every front end.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.names import PATROL_SUFFIX, list_patrols, patrol_file
 from giraff_console.missions.patrol import PatrolError, PatrolRun, StopReached, load_patrol
 from giraff_console.missions.patrol_log import PatrolRunLog
+from giraff_console.missions.patrol_report import PatrolReporter, PatrolReports
 from giraff_console.missions.route import (
     Route,
     RouteError,
@@ -230,10 +233,13 @@ class RouteBook:
             back_to=lambda pose: self.drives.arrive("where it left off", back_to(pose)),
         )
 
-    def patrol(self, name: str, *, by: str = "a console", scheduled: bool = False) -> bool:
+    def patrol(self, name: str, *, by: str = "a console", scheduled: bool = False,
+               reports: PatrolReports | None = None) -> bool:  # fmt: skip
         """Run patrol `name` from `<name>.patrol.yaml` in the routes folder, else from
         the examples shipped with the package; `by` who asked, for its log. The routes it
-        drives are looked for beside its file."""
+        drives are looked for beside its file. Each stop, and the run at its end, is
+        reported to `reports` (missions/patrol_report.py). It takes its snapshots, when
+        its file asks for them, with the camera: without one it records no session."""
         if not self._free():
             return False
         folders = [self.directory] if self.examples is None else [self.directory, self.examples]
@@ -252,21 +258,33 @@ class RouteBook:
                 return False
             routes[stop.route] = route
         go = self.drives.go if self.navigator is not None else None
-        log = RunLog(self.runs, self.report, self.sessions if patrol.snapshots else None)
+        snapshots = patrol.snapshots and self.sessions.camera is not None
+        log = RunLog(self.runs, self.report, self.sessions if snapshots else None)
+        control = self.control
+        plan = self.navigator.plan if self.navigator is not None else None
+        told = PatrolReporter(patrol, routes, control, plan, reports) if reports else None
+
+        def reached(stop: StopReached) -> None:
+            log.reached(stop, control.pose)
+            if told is not None:
+                told.reached(stop)
+
         try:
-            control = self.control
-            run = PatrolRun(patrol, routes, lambda stop: log.reached(stop, control.pose),
-                            go=go, follow=self.drives.follow, recharge=self._recharge(),
-                            pose=lambda: control.pose, notify=self.report,
-                            estimate=control.estimate)  # fmt: skip
+            run = PatrolRun(patrol, routes, reached, go=go, follow=self.drives.follow,
+                            recharge=self._recharge(), pose=lambda: control.pose,
+                            notify=self.report, estimate=control.estimate)  # fmt: skip
         except PatrolError as error:
             self.report(str(error))
             return False
-        if patrol.snapshots:
+        if told is not None:
+            told.run = run
+        if snapshots:
             self._record(owner=run)
         log.start(patrol.name, scheduled=scheduled, by=by)
 
         def ended(end: MissionEnd) -> None:
+            if told is not None:
+                told.ended(end)
             # On the loop's thread: closing the files may take a while on a slow disk.
             _in_background(lambda: log.end(end, log.reached_count))
             _in_background(lambda: self._stop_recording(owner=run))

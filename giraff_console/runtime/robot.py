@@ -1,9 +1,9 @@
 """The one composition root (design.md, "The shape"; issue 26): the robot built once.
 
 Every front end gets its robot here: the console in its own process, `go`, `patrol`,
-`survey` and the daemon (`serve`). The screen, `go` and the daemon's consoles talk to it
-through `robot.service` alone; a patrol run from the shell and a survey hand their own
-mission to its loop (cli/drive.py, run_mission). The test rigs, which tick a loop
+`survey` and the daemon (`serve`). The screen, `go`, `patrol` and the daemon's consoles
+talk to it through `robot.service` alone; a survey hands its own mission to its loop
+(cli/drive.py, run_mission). The test rigs, which tick a loop
 themselves on a virtual clock, still build theirs. What the front ends used to build
 each for themselves, four times over, is built here
 from the settings file and the front end's options (runtime/options.py): the board link
@@ -34,6 +34,7 @@ from giraff_console.clock import Clock, RealClock
 from giraff_console.data_folders import data_folder, default_recordings, default_routes
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import Navigator
+from giraff_console.missions.patrol_report import Sight
 from giraff_console.missions.sessions import Sessions
 from giraff_console.planning.floorplan import FloorPlan, FloorPlanError, Landmarks, load_floorplan
 from giraff_console.planning.landmarks import marker_beliefs
@@ -185,7 +186,7 @@ class Robot:
         self.service = RobotService(
             control, self.drives, building=self.site, routes=self.routes,
             sessions=self.sessions, camera=self.camera,
-            undock_distance=settings.teleop.undock_distance,
+            undock_distance=settings.teleop.undock_distance, sight=self.sight,
         )  # fmt: skip
 
     @staticmethod
@@ -275,6 +276,10 @@ class Robot:
     def landmarks(self) -> bool:
         """Whether markers find the robot: through the eye or the camera."""
         return self.eye is not None or (self.camera is not None and bool(self.camera.listeners))
+
+    def sight(self) -> Sight:
+        """What finds the robot, and what the eye has cost: for a patrol's report."""
+        return Sight(self.landmarks, self.eye.cost() if self.eye is not None else None)
 
     def true_pose(self) -> Pose | None:
         """Where the simulated robot really is (never the console's to know); None on a

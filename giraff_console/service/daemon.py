@@ -37,6 +37,7 @@ from giraff_console.link.board_probe import BoardFeatures
 from giraff_console.link.errors import LinkDisconnected, LinkError, LinkTimeout
 from giraff_console.link.motor_state import MotorState
 from giraff_console.missions.go_to import GoReport
+from giraff_console.missions.patrol_report import PatrolReport, StopReport
 from giraff_console.protocol.charger import ChargeStatus
 from giraff_console.protocol.errors import (
     ArgumentError,
@@ -62,6 +63,8 @@ from giraff_console.service.events import (
     Answer,
     Controls,
     GoReported,
+    PatrolReported,
+    PatrolStopReported,
     Reply,
     RoomRenamed,
     RouteShown,
@@ -314,7 +317,8 @@ def _lock_beside(path: Path) -> int:
 # robot says (a snapshot and all it holds, an exchange with its errors, notes).
 wire.register(
     Hello, Welcome, Asked, Answered, Reply, Sent, Answer, SendEnd, Controls, RouteShown,
-    RoomRenamed, Situation, GoReported, GoReport, SharedFrame, *c.REQUESTS,
+    RoomRenamed, Situation, GoReported, GoReport, PatrolStopReported, StopReport,
+    PatrolReported, PatrolReport, SharedFrame, *c.REQUESTS,
     Telemetry, LinkState, MotorState, Pose, Intent, PlaybackStatus, Progress, Battery,
     ChargeStatus, BoardFeatures, Estimate, PoseBasis, Exchange, Note, MissionChanged, MissionEnd,
     Outcome,

@@ -15,6 +15,7 @@ from typing import Protocol, TypeAlias
 from giraff_console.camera.shared_frame import SharedFrame
 from giraff_console.missions.go_to import GoReport
 from giraff_console.missions.navigation import NavigationState
+from giraff_console.missions.patrol_report import PatrolReport, StopReport
 from giraff_console.protocol import GiraffError, ReplyValue
 from giraff_console.robot.loop_events import LoopEvent, MissionChanged
 from giraff_console.robot.mission import Outcome
@@ -127,7 +128,27 @@ class GoReported:
     report: GoReport
 
 
-ServiceEvent: TypeAlias = LoopEvent | Controls | RouteShown | RoomRenamed | GoReported | SharedFrame
+@dataclass(frozen=True)
+class PatrolStopReported:
+    """A stop of a patrol the service runs has ended: arrived, failed and passed over,
+    or the patrol ended on its way there. How it went, as `patrol --json` prints its
+    line, the same in the console's process and across the daemon's socket (issue 26)."""
+
+    report: StopReport
+
+
+@dataclass(frozen=True)
+class PatrolReported:
+    """A patrol the service ran has ended (after its stops' reports): how it went, as
+    `patrol --json` prints its last line."""
+
+    report: PatrolReport
+
+
+ServiceEvent: TypeAlias = (
+    LoopEvent | Controls | RouteShown | RoomRenamed | GoReported | PatrolStopReported
+    | PatrolReported | SharedFrame
+)  # fmt: skip
 ServiceListener: TypeAlias = Callable[[ServiceEvent], None]
 Answered: TypeAlias = Callable[[Reply], None]
 

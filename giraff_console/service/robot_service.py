@@ -31,6 +31,7 @@ from giraff_console.missions.certainty import unverified
 from giraff_console.missions.docking import DOCK
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import NavigationState
+from giraff_console.missions.patrol_report import PatrolReports, Sight
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
 from giraff_console.planning.room_graph import PlanningError
@@ -52,6 +53,8 @@ from giraff_console.service.events import (
     Answered,
     Controls,
     GoReported,
+    PatrolReported,
+    PatrolStopReported,
     Reply,
     RoomRenamed,
     RouteShown,
@@ -104,7 +107,8 @@ class RobotService:
     def __init__(self, control: ControlLoop, drives: DriveSetup, *,
                  building: Building | None = None, routes: RouteBook | None = None,
                  sessions: Sessions | None = None, camera: CameraFeed | None = None,
-                 undock_distance: float = 0.3) -> None:  # fmt: skip
+                 undock_distance: float = 0.3,
+                 sight: Callable[[], Sight] | None = None) -> None:  # fmt: skip
         self.control = control
         self.drives = drives
         self.navigator = drives.navigator
@@ -112,6 +116,9 @@ class RobotService:
         self.routes = routes
         self.sessions = sessions
         self.undock_distance = undock_distance
+        # What finds the robot, for a patrol's report (runtime/robot.py knows its eye);
+        # without it, what the localisation says.
+        self.sight = sight or (lambda: Sight(landmarks=control.estimate().landmarks))
         # What the services say goes out to every listener, as the loop's own notes do.
         for part in (routes, sessions):
             if part is not None:
@@ -180,7 +187,8 @@ class RobotService:
         if on_loop is not None:
             self.control.unsubscribe(on_loop)
 
-    def _tell(self, event: Controls | RouteShown | RoomRenamed | GoReported | SharedFrame) -> None:
+    def _tell(self, event: Controls | RouteShown | RoomRenamed | GoReported | PatrolStopReported
+              | PatrolReported | SharedFrame) -> None:  # fmt: skip
         for listener in self._listeners:
             listener(event)
 
@@ -426,7 +434,19 @@ class RobotService:
         return Reply(done, "" if done else "not done: the note above says why")
 
     def _do_runpatrol(self, request: c.RunPatrol, console: str) -> Reply:
-        return self._book(lambda book: book.patrol(request.name, by=console))
+        return self._book(lambda book: book.patrol(request.name, by=console,
+                                                   reports=self._patrol_reports()))  # fmt: skip
+
+    def _patrol_reports(self) -> PatrolReports:
+        """A patrol's reports, each stop's and the run's, told to every listener: the
+        patrol command prints them, in this process or another (issue 26)."""
+        building = self.building
+        return PatrolReports(
+            stop=lambda report: self._tell(PatrolStopReported(report)),
+            end=lambda report: self._tell(PatrolReported(report)),
+            true_pose=building.true_pose if building is not None else lambda: None,
+            sight=self.sight,
+        )  # fmt: skip
 
     def run_scheduled(self, patrol: str) -> Reply:
         """Start a scheduled patrol, unless the robot is in use (`in_use`). The controls'
@@ -438,7 +458,8 @@ class RobotService:
         if self.routes is None:
             return Reply(False, "routes are not available")
         with self._plan_lock:
-            return Reply(self.routes.patrol(patrol, by="schedule", scheduled=True))
+            return Reply(self.routes.patrol(patrol, by="schedule", scheduled=True,
+                                            reports=self._patrol_reports()))  # fmt: skip
 
     def _do_follow(self, request: c.Follow) -> Reply:
         return self._book(lambda book: book.follow(request.name))

@@ -30,6 +30,7 @@ import pytest
 
 from giraff_console.camera.shared_frame import SharedFrame
 from giraff_console.missions.go_to import GO_JSON_KEYS
+from giraff_console.missions.patrol_report import PATROL_JSON_KEYS, STOP_JSON_KEYS
 from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.robot.deadman import Intent
 from giraff_console.robot.loop_events import LoopEvent, MissionChanged, Note
@@ -487,7 +488,47 @@ def test_a_patrol_asked_of_the_daemon_by_its_files_path_ends_and_says_how(serve,
     # No markers: the one stop reached by the odometry alone, unconfirmed: exit 3.
     assert result.returncode == 3, f"{result.stdout}\n{result.stderr}"
     said = json.loads(result.stdout.splitlines()[-1])
-    assert (said["patrol"], said["outcome"]) == (str(patrol), "arrived_unverified")
+    # The patrol's name, as without a daemon: its file's, however the file was named.
+    assert (said["patrol"], said["outcome"]) == ("short", "arrived_unverified")
+
+
+def _patrol_lines(result: subprocess.CompletedProcess[str]) -> list[str]:
+    assert result.returncode == 3, f"{result.stdout}\n{result.stderr}"
+    return result.stdout.splitlines()
+
+
+def _shape(line: str) -> str:
+    """A line of `patrol`'s words with its figures taken out: what it says, not how far."""
+    return re.sub(r"-?\d+(\.\d+)?", "N", line)
+
+
+def test_patrol_prints_the_same_lines_with_and_without_a_daemon(serve, tmp_path):
+    """Issue 26: through the daemon `patrol --json` printed one line of four keys; on
+    its own a line for each stop and one for the patrol. Both now ask the same service,
+    which reports each stop as it ends and the patrol at its end, the same way."""
+    patrol = tmp_path / "there-and-back.patrol.yaml"
+    patrol.write_text("rounds: 1\nstops:\n  - {room: room-101}\n  - {room: dock}\n")
+    alone = _patrol_lines(run_cli("patrol", str(patrol), "--json", *SIM, "--sim-speed", "inf"))
+    alone_words = _patrol_lines(run_cli("patrol", str(patrol), *SIM, "--sim-speed", "inf"))
+    serve(*SIM, "--sim-speed", "16")
+    asked = _patrol_lines(run_cli("patrol", str(patrol), "--json"))
+    asked_words = _patrol_lines(run_cli("patrol", str(patrol)))
+    here, there = [json.loads(line) for line in alone], [json.loads(line) for line in asked]
+    assert len(here) == len(there) == 3, (alone, asked)
+    for mine, theirs in zip(here, there, strict=True):
+        assert list(mine) == list(theirs)
+    assert list(here[0]) == list(STOP_JSON_KEYS) and list(here[-1]) == list(PATROL_JSON_KEYS)
+    # The same patrol in the same simulated building: the same stops, ended the same way.
+    for lines in (here, there):
+        *stops, summary = lines
+        assert [(s["stop"], s["room"], s["outcome"]) for s in stops] == [
+            (1, "room-101", "arrived_unverified"), (2, "dock", "arrived_unverified")]  # fmt: skip
+        assert all(s["pose_true"] is not None and s["error_m"] < 0.05 for s in stops)
+        assert (summary["patrol"], summary["outcome"], summary["stops"], summary["failed"]) == (
+            "there-and-back", "arrived_unverified", 2, 0)  # fmt: skip
+    # In words too: a line a stop and one for the patrol, said alike.
+    assert [_shape(line) for line in alone_words] == [_shape(line) for line in asked_words]
+    assert len(alone_words) == 3 and alone_words[-1].startswith("patrol there-and-back: done")
 
 
 # -- what does not disturb it ---------------------------------------------------------
