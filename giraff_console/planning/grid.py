@@ -68,16 +68,18 @@ class OccupancyGrid:
         not 255, as nav2's map_server reads them."""
         pixels = np.asarray(pixels)
         top = float(np.iinfo(pixels.dtype).max) if pixels.dtype.kind in "ui" else 255.0
+        if pixels.ndim == 2 and pixels.dtype in (np.uint8, np.uint16):
+            # A grey image, as maps are: each value's cell worked out once, by the same
+            # sums, then looked up for every pixel (the example's 450,000 pixels in a
+            # fifth of the time; read twice as the console starts, issue 26, item 6).
+            return cls(_trinary(np.arange(int(top) + 1), top, negate, occupied_thresh,
+                                free_thresh)[pixels], resolution, origin)  # fmt: skip
         if pixels.ndim == 3:
             channels = 3 if pixels.shape[2] >= 3 else 1
             value = pixels[:, :, :channels].astype(np.float64).mean(axis=2)
         else:
             value = pixels.astype(np.float64)
-        occupancy = value / top if negate else (top - value) / top
-        cells = np.full(value.shape, UNKNOWN, dtype=np.uint8)
-        cells[occupancy > occupied_thresh] = OCCUPIED
-        cells[occupancy < free_thresh] = FREE
-        return cls(cells, resolution, origin)
+        return cls(_trinary(value, top, negate, occupied_thresh, free_thresh), resolution, origin)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -164,3 +166,15 @@ def blocked_changes(before: np.ndarray, after: np.ndarray) -> list[tuple[Cell, b
     if before.shape != after.shape:
         raise ValueError(f"grids differ in shape: {before.shape} and {after.shape}")
     return [((int(r), int(c)), bool(after[r, c])) for r, c in np.argwhere(before != after)]
+
+
+def _trinary(value: np.ndarray, top: float, negate: int, occupied_thresh: float,
+             free_thresh: float) -> np.ndarray:  # fmt: skip
+    """The cells for pixel values out of `top`, as map_server's trinary mode reads them
+    (OccupancyGrid.from_image)."""
+    value = value.astype(np.float64)
+    occupancy = value / top if negate else (top - value) / top
+    cells = np.full(value.shape, UNKNOWN, dtype=np.uint8)
+    cells[occupancy > occupied_thresh] = OCCUPIED
+    cells[occupancy < free_thresh] = FREE
+    return cells

@@ -14,6 +14,7 @@ the edges of its grid's occupied cells, which are the simulator's walls too
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -110,8 +111,22 @@ def angle_between(a: float, b: float) -> float:
 
 def inside(point: Point, outline: Sequence[Point]) -> bool:
     """Whether the point lies inside the polygon (on an edge counts as outside)."""
-    contour = np.array(outline, dtype=np.float32).reshape(-1, 1, 2)
+    try:
+        contour = _contour(outline)
+    except TypeError:  # points as lists, not read from a file: made afresh
+        contour = np.array(outline, dtype=np.float32).reshape(-1, 1, 2)
     return cv2.pointPolygonTest(contour, (float(point[0]), float(point[1])), False) > 0
+
+
+@functools.lru_cache(maxsize=1024)
+def _contour(outline: Sequence[Point]) -> np.ndarray:
+    """An outline as OpenCV takes it, made once: a plan's markers are checked against
+    every room's outline as the plan loads (landmark_checks.py: for the example's 176
+    markers, 2,662 arrays each time it was loaded). Read-only, as it is shared. Outlines
+    are tuples (floorplan.Room), hashable."""
+    contour = np.array(outline, dtype=np.float32).reshape(-1, 1, 2)
+    contour.flags.writeable = False
+    return contour
 
 
 def room_in_front(plan: FloorPlan, at: Point, facing: float) -> Room | None:
@@ -138,15 +153,19 @@ class MarkerWalls:
         self.d = self.b - self.a
         span = np.einsum("ij,ij->i", self.d, self.d)
         self.span = np.where(span == 0, 1.0, span)
+        # The same by coordinate, for `distances`: measured three times for each marker as
+        # a plan loads, and half the time of the 2-D form (issue 26, item 6).
+        self._ax, self._ay = self.a[:, 0].copy(), self.a[:, 1].copy()
+        self._dx, self._dy = self.d[:, 0].copy(), self.d[:, 1].copy()
 
     def __bool__(self) -> bool:
         return bool(self.segments)
 
     def distances(self, point: Point) -> np.ndarray:
         """The distance from `point` to each wall."""
-        p = np.array(point, dtype=np.float64)
-        t = np.clip(np.einsum("ij,ij->i", p - self.a, self.d) / self.span, 0.0, 1.0)
-        return np.hypot(*(p - self.a - t[:, None] * self.d).T)
+        rx, ry = float(point[0]) - self._ax, float(point[1]) - self._ay
+        t = np.clip((rx * self._dx + ry * self._dy) / self.span, 0.0, 1.0)
+        return np.hypot(rx - t * self._dx, ry - t * self._dy)
 
 
 def marker_walls(plan: FloorPlan) -> MarkerWalls:

@@ -13,6 +13,7 @@ put half-way along a lane in open floor).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import pairwise
 
@@ -54,8 +55,25 @@ def wall_segments(plan: FloorPlan, closed: frozenset[str] = frozenset()) -> list
             continue
         corners = [*room.outline, room.outline[0]]
         for a, b in pairwise(corners):
-            segments += _cut(a, b, [door for door in plan.doors if _on_edge(door, a, b)], shut)
+            segments += _cut(a, b, _doors_on(plan.doors, a, b), shut)
     return segments
+
+
+def _doors_on(doors: Sequence[Door], a: Point, b: Point) -> list[Door]:
+    """The doors on the edge a-b (_on_edge), the edge measured once for all of them: the
+    example's 384 edges times its 34 doors, each time its walls are drawn (three times
+    as the console starts, issue 26, item 6)."""
+    length = math.dist(a, b)
+    if length == 0:
+        return []
+    ux, uy = (b[0] - a[0]) / length, (b[1] - a[1]) / length
+    on = []
+    for door in doors:
+        px, py = door.at[0] - a[0], door.at[1] - a[1]
+        t = px * ux + py * uy
+        if 0 <= t <= length and abs(px * uy - py * ux) <= DOOR_TOLERANCE_M:
+            on.append(door)
+    return on
 
 
 def doorway(plan: FloorPlan, door: Door, grid: OccupancyGrid | None = None) -> tuple[Point, Point]:

@@ -17,7 +17,6 @@ from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal, Vertical
 from textual.message import Message
-from textual.widgets import Footer
 
 from giraff_console.camera.feed import CameraFeed, CameraPicture
 from giraff_console.camera.halfblock import HalfBlockRenderer
@@ -42,6 +41,7 @@ from giraff_console.tui.camera_view import CameraView
 from giraff_console.tui.command_line import CommandLine
 from giraff_console.tui.help_screen import HelpScreen
 from giraff_console.tui.key_guard import KeyGuard
+from giraff_console.tui.keys_footer import KeysFooter
 from giraff_console.tui.main_view import MainView
 from giraff_console.tui.map_scene import MapScene, located, plan_scene
 from giraff_console.tui.map_view import MapView
@@ -253,7 +253,7 @@ class GiraffConsole(RobotKeys, KeyGuard):
                 yield MainView(id="main")
             yield Transcript(id="transcript")
         yield self.command_line
-        yield Footer()
+        yield KeysFooter()
 
     def on_mount(self) -> None:
         self.top_bar = self.query_one(TopBar)
