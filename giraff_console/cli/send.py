@@ -34,8 +34,8 @@ the same. So `--unsafe` opens the port itself, as a bench tool, and is refused w
 daemon runs (the daemon holds the board; stop it first).
 
 Exit codes: 0 all sent and answered, 1 a command refused (by the guard, the service or
-the board), 2 a bad settings file or a mistake in the options, 3 a link (or a daemon)
-that could not be used.
+the board) or an operator's stop that came first, 2 a bad settings file or a mistake in
+the options, 3 a link (or a daemon) that could not be used, or a board that restarted.
 """
 
 from __future__ import annotations
@@ -100,8 +100,9 @@ def add_send_parser(commands: argparse._SubParsersAction) -> None:
         "console may let the robot run. If one command is refused, none is sent. A get "
         "may be sent by anyone; a set needs the controls (nobody else holding them) and no "
         f"mission running. At most {_max_commands()} commands at once. Exits 0 when all "
-        "were answered, 1 when one was refused (by the console or the board), 2 for a bad "
-        "settings file or options, 3 when the port (or the daemon) cannot be used.",
+        "were answered, 1 when one was refused (by the console or the board) or an "
+        "operator's stop came first, 2 for a bad settings file or options, 3 when the port "
+        "(or the daemon) cannot be used or the board restarted.",
         epilog='example: giraff-console send "set v 0.3" "get v" "get bulk_data"',
     )
     send.add_argument(
@@ -388,7 +389,7 @@ def print_sent(sent: Sent, count: int) -> int:
             print("giraff-console: nothing after it was sent", file=sys.stderr)
         return EXIT_REFUSED
     print(f"giraff-console: {sent.why}", file=sys.stderr)
-    return EXIT_LINK_ERROR
+    return EXIT_REFUSED if sent.end is SendEnd.STOPPED else EXIT_LINK_ERROR
 
 
 def say_which_board(features: BoardFeatures, odometers: str) -> None:
@@ -470,18 +471,7 @@ def send_unsafe(args: argparse.Namespace, commands: Sequence[Command], settings:
 def send_unchecked(link: BoardLink, commands: Sequence[Command]) -> Sent:
     """Send `commands` in order, unchecked, until the board refuses one or the link
     fails: what came of them, as the service says it (Sent)."""
-    from giraff_console.link import LinkError
-    from giraff_console.service.events import Answer, SendEnd, Sent
+    from giraff_console.service.command_batch import send_in_order
 
-    answers: list[Answer] = []
-    for command in commands:
-        try:
-            exchange = link.send(command)
-        except LinkError as error:
-            answers.append(Answer(command.text, error=error))
-            return Sent(SendEnd.NO_LINK, tuple(answers), str(error))
-        except GiraffError as error:
-            answers.append(Answer(command.text, error=error))
-            return Sent(SendEnd.BOARD_REFUSED, tuple(answers), str(error))
-        answers.append(Answer(command.text, exchange.value, exchange.lines))
-    return Sent(SendEnd.ANSWERED, tuple(answers))
+    sent, _ = send_in_order(link, commands)
+    return sent

@@ -273,6 +273,11 @@ class ControlLoop:
         self.between_ticks(seek)
 
     @property
+    def stopping(self) -> bool:
+        """Whether an emergency stop is under way: nothing typed goes out meanwhile."""
+        return self._halt is not None
+
+    @property
     def playback(self) -> Playback | None:
         replayer = self._replayer
         return None if replayer is None else replayer.playback
@@ -406,7 +411,12 @@ class ControlLoop:
                 # Behind by more than a tick (a busy machine): go on from now, rather
                 # than run ticks back to back to catch up.
                 real_next = max(real_next + step / speed, time.monotonic() - self.period)
-                self._wake.wait(max(0.0, real_next - time.monotonic()))
+                if self._wake.wait(max(0.0, real_next - time.monotonic())):
+                    # Woken early (a key, a job): only the real time gone by passes on
+                    # the virtual clock, or every request would speed the simulator up.
+                    early_by = max(0.0, real_next - time.monotonic())
+                    step = max(0.0, step - early_by * speed)
+                    real_next -= early_by
                 self._wake.clear()
             clock.advance(step)
 
@@ -739,7 +749,11 @@ class ControlLoop:
         self.deadman.release()
 
     def _run_jobs(self, link: BoardLink, stops_only: bool = False) -> None:
-        while self._halt is None:  # stopping now: nothing typed goes out
+        # Those queued by now: a job that queues another (reads one at a time) lets the
+        # loop tick first.
+        for _ in range(self._jobs.qsize()):
+            if self._halt is not None:  # stopping now: nothing typed goes out
+                return
             try:
                 job, done, stop = self._jobs.get_nowait()
             except queue.Empty:

@@ -20,13 +20,19 @@ Whoever asks waits for the answers, never for ever:
 
 A lost link, and a board found to have restarted, are passed on to the loop after the
 answers are kept: it drops the link, or forgets the board's settings, as for any
-command (ControlLoop._run_jobs).
+command (ControlLoop._run_jobs). So is a failure of the console's own, once the asker
+is told.
+
+An operator's stop wins over a batch: it is looked for before each command, and what
+is left is not sent (SendEnd.STOPPED); the loop's stop then goes out. A batch of reads
+alone holds the loop for one read at a time, a job each, so that the loop ticks
+between them and a mission steers on.
 """
 
 from __future__ import annotations
 
 import threading
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 from giraff_console.link import BoardLink, LinkError
 from giraff_console.protocol import BoardRebootedError, Command, CommandError, GiraffError
@@ -43,9 +49,16 @@ COMMAND_WAIT_S = 3.0
 class CommandBatch:
     """`commands`, to be checked and sent by `control`'s loop (`send`)."""
 
-    def __init__(self, commands: Sequence[Command], control: ControlLoop) -> None:
+    def __init__(self, commands: Sequence[Command], control: ControlLoop,
+                 stopped: Callable[[], bool] = lambda: False) -> None:  # fmt: skip
+        """`stopped`: whether an operator's stop has come since the batch was asked for
+        (asked on the loop's thread, before each command)."""
         self.commands = tuple(commands)
         self._control = control
+        self._stopped = stopped
+        # Reads alone go one a job (the module's note); the answers so far.
+        self._reads_only = all(command.kind == "get" for command in self.commands)
+        self._answers: list[Answer] = []
         self._lock = threading.Lock()
         self._taken = False
         self._abandoned = False
@@ -83,25 +96,27 @@ class CommandBatch:
         with self._lock:
             if self._abandoned:
                 return None  # its asker was told nothing was sent
-            self._taken = True
-        refused = self._refusal()
-        if refused is not None:
-            return Sent(SendEnd.REFUSED, why=refused)
-        answers: list[Answer] = []
-        for command in self.commands:
-            try:
-                exchange = link.send(command)
-            except (LinkError, BoardRebootedError) as error:
-                answers.append(Answer(command.text, error=error))
-                lost = isinstance(error, LinkError)
-                self._finish(Sent(SendEnd.NO_LINK if lost else SendEnd.BOARD_REFUSED,
-                                  tuple(answers), str(error)))  # fmt: skip
-                raise  # the loop's: it drops the link, or forgets the board's settings
-            except GiraffError as error:
-                answers.append(Answer(command.text, error=error))
-                return Sent(SendEnd.BOARD_REFUSED, tuple(answers), str(error))
-            answers.append(Answer(command.text, exchange.value, exchange.lines))
-        return Sent(SendEnd.ANSWERED, tuple(answers))
+            first, self._taken = not self._taken, True
+        if first:
+            refused = self._refusal()
+            if refused is not None:
+                return Sent(SendEnd.REFUSED, why=refused)
+        left = self.commands[len(self._answers) :]
+        if self._reads_only:
+            left = left[:1]
+        try:
+            sent, lost = send_in_order(link, left, self._stopped, self._answers)
+        except Exception:
+            self._finish(Sent(SendEnd.FAILED, tuple(self._answers),
+                              "the console failed sending them (logged)"))  # fmt: skip
+            raise  # the loop's: it logs it and stops the robot
+        if lost is not None:
+            self._finish(sent)
+            raise lost  # the loop's: it drops the link, or forgets the board's settings
+        if sent.end is SendEnd.ANSWERED and len(self._answers) < len(self.commands):
+            self._control.submit(self._job, self._done)  # the next read, after a tick
+            return None
+        return sent
 
     def _refusal(self) -> str | None:
         """Why the batch may not go now, or None: the guard, each command checked against
@@ -126,8 +141,9 @@ class CommandBatch:
         return None
 
     def _done(self, outcome: object) -> None:
-        """The job's result, or why the loop did not run it: no link (LinkError, from
-        ControlLoop._fail_jobs), or a playback, during which only stops are sent."""
+        """The job's result (None: more to come), or why the loop did not run it: no
+        link (LinkError, from ControlLoop._fail_jobs), or a playback, during which only
+        stops are sent."""
         if isinstance(outcome, Sent):
             self._finish(outcome)
         elif isinstance(outcome, LinkError):
@@ -140,3 +156,31 @@ class CommandBatch:
             if self._sent is None:
                 self._sent = sent
         self._finished.set()
+
+
+def send_in_order(link: BoardLink, commands: Sequence[Command],
+                  stopped: Callable[[], bool] = lambda: False,
+                  answers: list[Answer] | None = None,
+                  ) -> tuple[Sent, LinkError | BoardRebootedError | None]:  # fmt: skip
+    """Send `commands` in order until the board refuses one, the link fails or `stopped`
+    says a stop came; what came of them, with every answer so far (`answers`, added to),
+    and the lost link or restarted board for the loop to act on."""
+    answers = [] if answers is None else answers
+    for command in commands:
+        if stopped():
+            return Sent(SendEnd.STOPPED, tuple(answers), f"stopped before {command}: "
+                        "the operator's stop came first; it and those after it were not "
+                        "sent"), None  # fmt: skip
+        try:
+            exchange = link.send(command)
+        except LinkError as error:
+            answers.append(Answer(command.text, error=error))
+            return Sent(SendEnd.NO_LINK, tuple(answers), str(error)), error
+        except BoardRebootedError as error:
+            answers.append(Answer(command.text, error=error))
+            return Sent(SendEnd.BOARD_RESTARTED, tuple(answers), str(error)), error
+        except GiraffError as error:
+            answers.append(Answer(command.text, error=error))
+            return Sent(SendEnd.BOARD_REFUSED, tuple(answers), str(error)), None
+        answers.append(Answer(command.text, exchange.value, exchange.lines))
+    return Sent(SendEnd.ANSWERED, tuple(answers)), None

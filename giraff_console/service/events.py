@@ -31,6 +31,10 @@ class SendEnd(enum.Enum):
     BOARD_REFUSED = "board_refused"  # the board refused one, or garbled its answer:
     # those before it were sent and answered, none after it was sent
     NO_LINK = "no_link"  # no link to the board, or it failed: one sent may not have arrived
+    BOARD_RESTARTED = "board_restarted"  # the board was found to have restarted: what it
+    # took before is lost with its settings, and none after it was sent
+    STOPPED = "stopped"  # an operator's stop came between two: none after it was sent
+    FAILED = "failed"  # the console failed sending them (a bug, logged): none after was sent
 
 
 @dataclass(frozen=True)

@@ -362,7 +362,11 @@ class RobotService:
             return refused(f"refused: {error}")
         if self.control.playback is not None:
             return refused("not sent: playing back, nothing goes to the robot (p returns to live)")
-        sent = CommandBatch(commands, self.control).send()
+        stops, control = self._stops, self.control
+        # An operator's stop since they were asked, or the loop's own, wins over them.
+        batch = CommandBatch(commands, control,
+                             stopped=lambda: self._stops != stops or control.stopping)  # fmt: skip
+        sent = batch.send()
         return Reply(sent.end is SendEnd.ANSWERED, sent.why, sent=sent)
 
     def _do_stalk(self, request: c.Stalk) -> Reply:

@@ -22,14 +22,16 @@ driver sees a board error rather than silence:
 - A stop from the program (`set p 0`, and the drivers' `set a 0` and `set v 0`,
   wire-facts "Stopping") stops a move of its own as the operator's stop does: the
   console's braking stop (robot/safety.py) rather than a `set p 0` the board would
-  brake through and come back from (B.2). The board keeps its `v` and `a` (a = 0 is
-  undocumented, and v = 0 the guard refuses), so the program's next move is refused
-  until it sets both again.
-- The same idioms from a program that is not driving (the deployed drivers send them
-  at start-up, and one on every loop while idle, wire-facts "What the deployed drivers
-  do"; `set r 50`, `set vgr 0` and `set vg 0` with them) are answered as the board
-  answers a set and change nothing, said once in the log: they never end the
-  daemon's mission or let go of the operator's keys.
+  brake through and come back from (B.2).
+- The drivers' stop and idle settings (`set v 0`, `set vg 0`, `set vgr 0`, `set r 50`;
+  they send them at start-up, and one on every loop while idle, wire-facts "What the
+  deployed drivers do") go to the board, guarded, when nobody else drives. While a
+  mission or the operator's keys drive, they are answered as the board answers and
+  change nothing, said once in the log: they never end the daemon's mission. They are
+  kept, and go to the board, guarded, before the program's next command, so that the
+  board holds what the program believes it does. `set a 0`, whose meaning on a board
+  is not documented and which the guard refuses, is never sent: the program's next
+  move is refused until it sets `a` again.
 - The operator's stop always wins: it ends a mission and lets go of the keys, and from
   then on the program cannot start a move while a mission or the keys drive; the stop
   goes out as a job after the program's one command in flight, and the loop's
@@ -56,9 +58,14 @@ import time
 import tty
 from collections.abc import Callable
 
-from giraff_console.link import DEFAULT_TIMEOUT_S, BoardLink, LinkError
+from giraff_console.link import DEFAULT_TIMEOUT_S, BoardLink, Exchange, LinkError
 from giraff_console.protocol.codec import TWM, Command, encode_float, parse_command
-from giraff_console.protocol.errors import BoardError, CommandError, GiraffError
+from giraff_console.protocol.errors import (
+    BoardError,
+    BoardRebootedError,
+    CommandError,
+    GiraffError,
+)
 from giraff_console.protocol.framing import BANNER_PREFIX, COMMAND_END, LINE_END, PROMPT
 from giraff_console.robot.command_guard import BARE_COMMANDS, READINGS, SETTINGS, check_command
 from giraff_console.robot.control_loop import ControlLoop
@@ -80,6 +87,10 @@ POLL_S = 0.05
 IDLE_POLL_S = 0.02
 # More than a job may need on the loop beyond the link's own timeouts: a tick to start.
 REPLY_MARGIN_S = 0.5
+# The program's lines are taken at most this often, about what a 115200-baud line
+# carries for the shortest exchange (`get v` and its 18-character answer take 2.1 ms):
+# the deployed drivers send at most five a loop at 25-40 Hz (wire-facts), 200 a second.
+MIN_LINE_S = 0.003
 # A board's line buffer: a longer line is refused whole, not run in part (as
 # sim/line.py assumes; the guard refuses anything over 64 characters anyway).
 MAX_LINE_BYTES = 256
@@ -92,12 +103,14 @@ STOPS = frozenset({"p", "v", "a"})
 IDLE_IDIOMS = frozenset({("p", 0.0), ("v", 0.0), ("a", 0.0), ("vg", 0.0), ("vgr", 0.0),
                          ("r", 50.0)})  # fmt: skip
 NOT_DRIVING = (
-    "the program on the virtual port is not driving: its stops and idle settings "
-    "(set v 0, set p 0, set r 50, ...) are answered and change nothing"
+    "while others drive, the program on the virtual port's stops and idle settings "
+    "(set v 0, set p 0, set r 50, ...) are answered and change nothing; its settings go "
+    "to the board before its next command"
 )
 ONLY_READS = "the virtual port may only read"
 MISSION_RUNNING = f"refused: a mission is running; {ONLY_READS}"
 OPERATOR_DRIVING = f"refused: the operator is driving; {ONLY_READS}"
+PLAYING_BACK = f"refused: a session is being played back; {ONLY_READS}"
 ZEROED = "refused: {names} set to 0 to stop the robot; set {them} again before a move"
 # The board's own answers to lines it cannot run (sim/board.py, wire-facts "Errors").
 NOT_OPTIONAL = "Error: Argument wasn't optional"
@@ -137,8 +150,13 @@ class VirtualPort:
         self._unsent = bytearray()
         # Settings the program zeroed to stop (STOPS) that the board still holds.
         self._zeroed: set[str] = set()
+        # Idle settings the program sent while others drove, for the board before its
+        # next command (the loop's thread).
+        self._pending: dict[str, Command] = {}
         # Whether a move of the program's is under way: stopped if it hangs up.
         self._moved = False
+        # When the program's last line was taken (time.monotonic()).
+        self._last_line = 0.0
         # Whether the log has said, since the program came, that its idle idioms do nothing.
         self._idle_noted = False
 
@@ -232,6 +250,7 @@ class VirtualPort:
         # To the program the board just powered up: its odometers start from zero.
         self.shared.forget()
         self._zeroed.clear()
+        self._pending.clear()
         self._idle_noted = False
 
     def _receive(self, data: bytes) -> None:
@@ -241,6 +260,10 @@ class VirtualPort:
                 line, overflow = self._partial.decode("ascii", "replace"), self._overflow
                 self._partial.clear()
                 self._overflow = False
+                # No faster than a board's line could carry them: a program that floods
+                # the port must not have the loop (at real-time priority) tick for each.
+                self._exit.wait(max(0.0, self._last_line + MIN_LINE_S - time.monotonic()))
+                self._last_line = time.monotonic()
                 replies = [LINE_TOO_LONG] if overflow else self._answer(line)
                 for reply in [*replies, PROMPT]:
                     self._unsent += _line(reply)
@@ -331,21 +354,43 @@ class VirtualPort:
                 refused = self._held or _zeroed_message(self._zeroed)
             if refused is not None:
                 return [_error(refused)]
-            teleop = self.control.teleop
-            try:
-                check_command(command, teleop.limits, teleop.board_settings)
-            except CommandError as error:
-                return [_error(f"refused: {error}")]
-            exchange = link.send(command)
+            refused = self._send_pending(link)
+            if refused is not None:
+                return [_error(refused)]
+            exchange = self._send_guarded(link, command)
+            if isinstance(exchange, str):
+                return [_error(exchange)]
             self._zeroed -= set(command.settings)
             self._moved = self._moved or moves
             return list(exchange.lines)
 
         return drive
 
+    def _send_guarded(self, link: BoardLink, command: Command) -> Exchange | str:
+        """`command` through the guard to the board (the loop's thread); why not, if not."""
+        teleop = self.control.teleop
+        try:
+            check_command(command, teleop.limits, teleop.board_settings)
+        except CommandError as error:
+            return f"refused: {error}"
+        return link.send(command)
+
+    def _send_pending(self, link: BoardLink) -> str | None:
+        """The idle settings kept while others drove, to the board before the program's
+        next command (the loop's thread); why the command may not go, if one is refused."""
+        while self._pending:
+            name, command = next(iter(self._pending.items()))
+            sent = self._send_guarded(link, command)
+            if isinstance(sent, str):
+                return f"{sent} (the {command} this program sent before)"
+            del self._pending[name]
+        return None
+
     def _only_reads(self) -> str | None:
         """Why the program may only read now, if it may (the loop's thread)."""
         control = self.control
+        if control.playback is not None:
+            return PLAYING_BACK
         if control.mission is not None:
             return MISSION_RUNNING
         if control.deadman.held() is not None or control.teleop.active:
@@ -354,31 +399,39 @@ class VirtualPort:
 
     def _stop_or_idle(self, command: Command) -> Lines:
         """A driver's stop or idle idiom. Decided on the loop's thread, where a mission
-        or the keys cannot start between the check and the stop: a move of the
-        program's own is stopped with the console's braking stop (a `set r 50` or `set
-        vgr 0` then is a setting like any other); from a program that is not driving,
-        it is answered as the board answers and changes nothing."""
+        or the keys cannot start between the check and what is done: a move of the
+        program's own is stopped with the console's braking stop; with nobody else
+        driving, an idle setting goes to the board, guarded; while others drive, it is
+        answered as the board answers and kept for before the program's next command."""
         teleop = self.control.teleop
-        stops = command.name in STOPS
+        name = command.name
 
-        def stop(link: BoardLink) -> Lines:
-            if stops:
-                # The program believes the board holds 0: its next move must set it again.
-                self._zeroed |= {command.name} - {"p"}
-            if not self._moved or self._only_reads() is not None:
-                if not self._idle_noted:
-                    self._idle_noted = True
-                    self.control.note(NOT_DRIVING)
+        def stop_or_idle(link: BoardLink) -> Lines:
+            others = self._only_reads()
+            if name in STOPS and self._moved and others is None:
+                self._moved = False
+                if name == "a":
+                    self._zeroed.add("a")
+                if not stop_robot(link, teleop.board_settings):
+                    return [_error("could not command a stop: check the robot")]
                 return [_echo(command)]
-            if not stops:
-                return self._drive(command)(link)
-            self._moved = False
-            if not stop_robot(link, teleop.board_settings):
-                return [_error("could not command a stop: check the robot")]
+            if name == "p":
+                return [_echo(command)]  # no move of its own to stop
+            if name == "a":
+                # Never sent (undocumented, refused by the guard): it sets a again first.
+                self._zeroed.add("a")
+                return [_echo(command)]
+            if others is None:
+                sent = self._send_guarded(link, command)
+                return [_error(sent)] if isinstance(sent, str) else list(sent.lines)
+            self._pending[name] = command
+            if not self._idle_noted:
+                self._idle_noted = True
+                self.control.note(NOT_DRIVING)
             return [_echo(command)]
 
-        # A stop is run even during a playback, as the operator's is; a setting is not.
-        return self._run_job(stop, stop=stops)
+        # Run even during a playback (a stop is, the operator's too), to be answered.
+        return self._run_job(stop_or_idle, stop=True)
 
     def _stop_left_move(self, link: BoardLink) -> None:
         """The program hung up after a move of its own: stop it, unless the operator or
@@ -395,9 +448,16 @@ class VirtualPort:
                 return None  # given up on: nothing goes out late
             try:
                 return job(link)
-            except LinkError as error:
-                # The loop drops the link and never calls `done` for this job.
+            except (LinkError, BoardRebootedError) as error:
+                # The loop drops the link, or forgets the board's settings, and never
+                # calls `done` for this job: the program is told now.
                 request.finish(error)
+                raise
+            except GiraffError:
+                raise  # the board's answer: the loop gives it to `done`
+            except Exception:
+                # A failure of the console's own: the loop logs it and stops the robot.
+                request.finish(GiraffError("the console failed (logged)"))
                 raise
 
         self.control.submit(claimed, request.finish, stop=stop)

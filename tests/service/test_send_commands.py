@@ -190,7 +190,7 @@ def test_a_board_that_restarted_leaves_its_settings_unknown_to_the_guard(rig):
     # The batch finds it (jobs go before the tick's poll): the loop is told, and the
     # guard no longer takes the old settings for the board's.
     reply = rig.ask("get v")
-    assert reply.sent.end is SendEnd.BOARD_REFUSED, reply
+    assert reply.sent.end is SendEnd.BOARD_RESTARTED, reply
     assert rig.site.control.teleop.board_settings == {}
     move = rig.ask("set p 0.2")
     assert move.sent.end is SendEnd.REFUSED and "unknown" in move.sent.why
@@ -212,3 +212,52 @@ def test_what_came_of_them_crosses_the_daemon_s_socket_as_it_is():
     assert isinstance(error, BoardError) and str(error) == str(sent.answers[3].error)
     assert back.sent.answers[0].value == {"cang": 0.0, "mode": 128}
     assert isinstance(back.sent.answers[0].value["mode"], int)
+
+
+def test_an_operator_s_stop_during_the_commands_keeps_the_rest_from_going(rig):
+    """The operator's stop wins over a batch (review of issue 26): a halt that comes while
+    the batch goes out leaves the rest unsent, and the robot stopped."""
+    halted = threading.Event()
+
+    def halt_after_the_first_move(event: object) -> None:
+        if isinstance(event, Exchange) and event.command == "set p 0.2" and not halted.is_set():
+            halted.set()
+            rig.service.execute(c.Halt())
+
+    rig.site.control.subscribe(halt_after_the_first_move)
+    reply = rig.ask(*SAFE_MOVE, "get bulk_data", "set p 0.2")
+    assert reply.sent is not None and reply.sent.end is SendEnd.STOPPED
+    assert [answer.command for answer in reply.sent.answers] == list(SAFE_MOVE)
+    assert "the operator's stop came first" in reply.sent.why
+    assert rig.sent.count("set p 0.2") == 1
+    assert rig.travel_after(2.0) < 0.2
+
+
+def test_reads_alone_go_one_a_tick_so_that_the_loop_ticks_between_them(rig):
+    ticks_between: list[int] = []
+    ticks = [0]
+
+    def heard(event: object) -> None:
+        if isinstance(event, Exchange) and event.command == "get v" and not event.automatic:
+            ticks_between.append(ticks[0])
+
+    def counted_tick() -> None:
+        ticks[0] += 1
+        tick()
+
+    tick = rig.site.control.tick
+    rig.site.control.tick = counted_tick
+    rig.site.control.subscribe(heard)
+    reply = rig.ask(*["get v"] * 5)
+    assert reply.sent is not None and reply.sent.end is SendEnd.ANSWERED
+    assert len(reply.sent.answers) == 5
+    assert len(set(ticks_between)) == 5  # each in a tick of its own
+
+
+def test_a_failure_of_the_console_s_own_is_told_at_once_not_waited_for(rig, monkeypatch):
+    def broken(*args: object, **kwargs: object) -> None:
+        raise RuntimeError("a bug")
+
+    monkeypatch.setattr(command_batch, "send_in_order", broken)
+    reply = rig.ask("get v")
+    assert reply.sent is not None and reply.sent.end is SendEnd.FAILED

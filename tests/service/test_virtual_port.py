@@ -21,7 +21,12 @@ from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.mission import DRIVING, MissionEnd, Progress
 from giraff_console.robot.teleop import Teleop
 from giraff_console.service.shared_readings import SharedReadings, add_to_list
-from giraff_console.service.virtual_port import MISSION_RUNNING, NOT_DRIVING, VirtualPort
+from giraff_console.service.virtual_port import (
+    MIN_LINE_S,
+    MISSION_RUNNING,
+    NOT_DRIVING,
+    VirtualPort,
+)
 from tests.listening import notes_into, only
 
 pytestmark = pytest.mark.timeout(60)
@@ -245,7 +250,7 @@ def test_a_driver_s_stop_and_idle_idioms_change_nothing_during_the_daemon_s_miss
     assert later.board.true_pose.x > 0.4
     theirs = [e.command for e in later.exchanges[sent:] if not e.automatic]
     assert not [c for c in theirs if c.split()[1:2] in (["v"], ["vg"], ["a"], ["r"], ["vgr"])]
-    assert [n for n in later.notes if "is not driving" in n] == [NOT_DRIVING]  # said once
+    assert [n for n in later.notes if n == NOT_DRIVING] == [NOT_DRIVING]  # said once
 
 
 def test_a_stop_from_the_program_stops_its_own_move(later, program):
@@ -282,15 +287,43 @@ def test_a_command_outside_the_limits_is_refused_with_the_guard_s_message(later,
     assert later.board.true_pose.x == pytest.approx(0.2, abs=0.01)
 
 
-def test_after_a_driver_s_stop_a_move_waits_for_v_and_a_again(later, program):
+def test_after_a_driver_s_stop_a_move_waits_for_a_and_v_again(later, program):
     for name in ("a", "v", "p"):  # how both real drivers stop (wire-facts)
         assert program.ask(f"set {name} 0") == [encode_float(0.0)]
     refused = program.ask("set p 0.2")
-    assert refused == ["Error: refused: a and v were set to 0 to stop the robot; set a and v "
-                       "again before a move"]  # fmt: skip
+    assert refused == ["Error: refused: a was set to 0 to stop the robot; set a again before "
+                       "a move"]  # fmt: skip
     program.ask("set a 0.5")
+    # The board holds the v = 0 the program sent: no move at zero speed in mode 0.
+    assert "v must be above 0" in program.ask("set p 0.2")[0]
     program.ask("set v 0.3")
     assert program.ask("set p 0.2") == [encode_float(0.2)]
+
+
+def test_idle_settings_go_to_the_board_when_nobody_else_drives(later, program):
+    """A driver that believes it set vg 0 must not get a curve (review of issue 27)."""
+    later.control.teleop.board_set("vg", "0.3")  # left by someone before
+    for text in ("set vg 0", "set vgr 0", "set r 50"):
+        program.ask(text)
+    assert later.sent("set vg 0") and later.sent("set r 50")
+    assert later.control.teleop.board_settings["vg"] == "0"
+
+
+def test_idle_settings_sent_during_a_mission_go_to_the_board_before_the_next_command(
+    later, program
+):
+    later.control.run_mission(Creep(), later.ended.append)
+    later.run(0.5)
+    assert later.control.teleop.board_settings["r"] != "50"
+    program.ask("set r 50")
+    later.run(0.5)
+    assert not later.sent("set r 50")
+    later.control.stop_mission()
+    later.run(1.5)
+    assert program.ask("set v 0.3") == [encode_float(0.3)]
+    sent = [e.command for e in later.exchanges if not e.automatic]
+    assert sent.index("set r 50") < sent.index("set v 0.3")
+    assert later.control.teleop.board_settings["r"] == "50"
 
 
 def test_the_operator_can_hold_the_program_still(later, program):
@@ -448,3 +481,28 @@ def test_the_reply_keeps_the_board_s_hex_case_and_untouched_fields():
     twice = encode_float(0.2)
     assert added == f"imdl:F*{twice[2:].upper()},imdr:{twice},mode:I*02000000"
     assert add_to_list(line, {"imdl": 0.0}) == line
+
+
+def test_a_program_that_floods_the_port_is_answered_no_faster_than_a_board_s_line():
+    """Each line is a job the loop wakes for, at real-time priority: a flood is taken at
+    the pace of a board's line, not as fast as the program writes (review of issue 27)."""
+    link = BoardLink.open("giraff-sim://?clock=virtual&firmware=later")
+    control = ControlLoop(lambda: link, teleop=Teleop(), deadman=Deadman(link.port.clock),
+                          clock=link.port.clock)  # fmt: skip
+    control.start(stepped=1.0)
+    port = VirtualPort(control)
+    port.start()
+    lines = 100
+    try:
+        program = Program(port.path, lambda: time.sleep(0.001))
+        assert program.replies()  # the greeting
+        started = time.monotonic()
+        os.write(program.fd, b"get v\r" * lines)
+        for _ in range(lines):
+            assert len(program.replies()) == 1
+        took = time.monotonic() - started
+        program.close()
+    finally:
+        assert port.close()
+        assert control.stop()
+    assert took >= (lines - 1) * MIN_LINE_S
