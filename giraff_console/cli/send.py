@@ -286,7 +286,8 @@ def send_here(args: argparse.Namespace, commands: Sequence[Command], settings: S
         first, notes = _first_snapshot(events)
         if first is None or first.link is not LinkState.CONNECTED:
             for text in notes:
-                print(f"giraff-console: {text}", file=sys.stderr)
+                # One try: the loop's promise to retry is not send's.
+                print(f"giraff-console: {text.partition('; retrying')[0]}", file=sys.stderr)
             print("giraff-console: no link to the board; nothing was sent", file=sys.stderr)
             return EXIT_LINK_ERROR
         if first.board is not None:
@@ -300,7 +301,9 @@ def send_here(args: argparse.Namespace, commands: Sequence[Command], settings: S
 
 def _moved(sent: Sent) -> bool:
     """Whether a command that may move the robot (a set, home) reached the board."""
-    return any(answer.error is None and answer.command.split()[0] != "get"
+    from giraff_console.protocol import parse_command
+
+    return any(answer.error is None and parse_command(answer.command).kind != "get"
                for answer in sent.answers)  # fmt: skip
 
 

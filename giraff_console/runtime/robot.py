@@ -1,10 +1,10 @@
 """The one composition root (design.md, "The shape"; issue 26): the robot built once.
 
 Every front end gets its robot here: the console in its own process, `go`, `patrol`,
-`survey` and the daemon (`serve`). The screen, `go`, `patrol` and the daemon's consoles
-talk to it through `robot.service` alone; a survey hands its own mission to its loop
-(cli/drive.py, run_mission). The test rigs, which tick a loop
-themselves on a virtual clock, still build theirs. What the front ends used to build
+`send`, `survey` and the daemon (`serve`), and the console's test rig, which ticks the
+loop itself on the simulator's virtual clock. The screen, `go`, `patrol`, `send` and
+the daemon's consoles talk to it through `robot.service` alone; a survey hands its own
+mission to its loop (cli/drive.py, run_mission). What the front ends used to build
 each for themselves, four times over, is built here
 from the settings file and the front end's options (runtime/options.py): the board link
 or the simulator in the plan's building, the control loop with its localisation, the

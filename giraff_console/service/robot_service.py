@@ -77,11 +77,19 @@ def _moves(request: c.Request) -> bool:
     """Whether `request` may move the robot: a controller command that only reads does
     not, so that a watcher may ask for bulk_data."""
     if isinstance(request, c.Send):
-        return request.text.split()[:1] != ["get"]
+        return not _reads(request.text)
     if isinstance(request, c.SendCommands):
-        # As parse_command reads them, whatever their case.
-        return any(text.lower().split()[:1] != ["get"] for text in request.texts)
+        return not all(map(_reads, request.texts))
     return request.moves
+
+
+def _reads(text: str) -> bool:
+    """Whether a controller command as typed only reads (one that does not parse may
+    move, for all that is known, and is refused when it is looked at)."""
+    try:
+        return parse_command(text).kind == "get"
+    except CommandError:
+        return False
 
 
 def _finite(request: c.Request) -> bool:

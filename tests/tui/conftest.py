@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -93,6 +94,13 @@ class Rig:
             cursor_blink=False,
         )
 
+    def __enter__(self) -> Rig:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        """The robot closed: its service's workers, its camera, its link."""
+        self.parts.close()
+
     async def show_camera(self, pilot) -> None:
         """One camera frame, captured and rendered as the feed's thread would."""
         picture = self.camera.picture()
@@ -154,18 +162,21 @@ class Rig:
 
 
 @pytest.fixture
-def rig() -> Rig:
-    return Rig()
+def rig() -> Iterator[Rig]:
+    with Rig() as rig:
+        yield rig
 
 
 @pytest.fixture
-def camera_rig() -> Rig:
-    return Rig(camera=True)
+def camera_rig() -> Iterator[Rig]:
+    with Rig(camera=True) as rig:
+        yield rig
 
 
 @pytest.fixture
-def care_home_rig() -> Rig:
-    return Rig(floorplan=EXAMPLE)
+def care_home_rig() -> Iterator[Rig]:
+    with Rig(floorplan=EXAMPLE) as rig:
+        yield rig
 
 
 def record_demo_session(root: Path) -> Path:
