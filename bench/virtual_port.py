@@ -19,17 +19,26 @@ and `charger_data`. For each:
   missions ended by the program, the error replies the client got (at its start-up
   and after), and the same latency and loop rate.
 
+With `--kills N`, instead: the robot built in this process as the daemon builds it (the
+composition root, with its virtual port), and N times a ROS 2-like client in a process
+of its own drives at the console's top speed (0.4 m/s, forwards and backwards in turn)
+and is killed (SIGKILL) after 1 to 2 s: how far the robot went after the kill, by the
+simulator's true pose, against the runaway limit of 0.3 m (design.md).
+
 `--busy N` runs N busy loops beside it all (`python3 -c 'while 1: pass'`). Every wait has
 a timeout; every process started is ended whatever happens.
 
 Usage: python bench/virtual_port.py [--clients ros2,ros1] [--missions 10] [--seconds 20] [--busy 2]
+       python bench/virtual_port.py --kills 30 [--busy 2]
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import platform
+import random
 import select
 import shutil
 import statistics
@@ -47,9 +56,13 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))  # the clients live with the tests
 
 from giraff_console.robot.loop_events import MissionChanged, Note  # noqa: E402
+from giraff_console.robot.odometry import Pose  # noqa: E402
+from giraff_console.runtime.options import RobotOptions  # noqa: E402
+from giraff_console.runtime.robot import Robot  # noqa: E402
 from giraff_console.service import commands as c  # noqa: E402
 from giraff_console.service.remote import RemoteRobot  # noqa: E402
 from giraff_console.service.runtime_folder import socket_path  # noqa: E402
+from giraff_console.settings import Settings  # noqa: E402
 from tests.drivers.clients import DriverClient, Ros1LikeClient, Ros2LikeClient  # noqa: E402
 from tests.drivers.wire import RawPort  # noqa: E402
 
@@ -90,7 +103,7 @@ class Run:
                 f"{missions}")  # fmt: skip
 
 
-def client_for(kind: str, port: RawPort) -> DriverClient:
+def client_for(kind: str, port: RawPort) -> Ros1LikeClient | Ros2LikeClient:
     if kind == "ros2":
         return Ros2LikeClient(port, WHEEL_BASE_M)
     return Ros1LikeClient(port, WHEEL_BASE_M)
@@ -219,13 +232,71 @@ def through_the_port(kind: str, missions: int, env: dict[str, str]) -> Run:
         return run
 
 
+DRIVING_CLIENT = """
+import sys
+sys.path.insert(0, {root!r})
+from tests.drivers.clients import Ros2LikeClient
+from tests.drivers.wire import RawPort
+client = Ros2LikeClient(RawPort.open({path!r}), {wheel_base})
+client.start()
+print("driving", flush=True)
+client.run({speed}, 0.0, lambda: False, 60.0)
+"""
+RUNAWAY_M = 0.3  # design.md, "Safety rules"
+
+
+def kills(count: int) -> list[float]:
+    """How far the robot went after each of `count` drivers was killed at speed."""
+    floor = ROOT / "tests/console/open-floor.yaml"
+    options = RobotOptions(floorplan=floor, firmware="later", landmarks=False,
+                           virtual_port=True)  # fmt: skip
+    travels: list[float] = []
+    with Robot(options, Settings(), floor) as robot:
+        robot.start()
+        assert robot.port is not None
+        for number in range(count):
+            script = DRIVING_CLIENT.format(root=str(ROOT), path=robot.port.path,
+                                           wheel_base=WHEEL_BASE_M,
+                                           speed=0.4 if number % 2 == 0 else -0.4)  # fmt: skip
+            with started([sys.executable, "-c", script], dict(os.environ)) as client:
+                if first_line(client, "the client") != "driving":
+                    raise RuntimeError("the client did not start driving")
+                time.sleep(random.uniform(1.0, 2.0))
+                client.kill()
+                client.wait(10)
+                killed_at = robot.true_pose()
+            assert killed_at is not None
+            travels.append(went_on(robot, killed_at))
+    return travels
+
+
+def went_on(robot: Robot, start: Pose) -> float:
+    """How far the robot goes from `start` until it has been still for 0.5 s."""
+    deadline = time.monotonic() + 10.0
+    last, still_since, farthest = start, time.monotonic(), 0.0
+    while time.monotonic() - still_since < 0.5:
+        if time.monotonic() > deadline:
+            raise TimeoutError("the robot did not stop within 10 s")
+        time.sleep(0.02)
+        now = robot.true_pose()
+        assert now is not None
+        farthest = max(farthest, math.hypot(now.x - start.x, now.y - start.y))
+        if math.hypot(now.x - last.x, now.y - last.y) > 1e-4:
+            still_since = time.monotonic()
+        last = now
+    return farthest
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--clients", default="ros2,ros1")
     parser.add_argument("--missions", type=int, default=10)
     parser.add_argument("--seconds", type=float, default=20.0)
     parser.add_argument("--busy", type=int, default=0, help="busy loops beside it")
+    parser.add_argument("--kills", type=int, default=0, help="drivers killed at speed")
     args = parser.parse_args()
+    if args.kills:
+        return report_kills(args.kills, args.busy)
     kinds = [kind for kind in args.clients.split(",") if kind]
     if not set(kinds) <= {"ros1", "ros2"} or not kinds:
         parser.error("--clients: ros1 and/or ros2")
@@ -254,6 +325,22 @@ def main() -> int:
         for alarm in run.alarms[:3]:
             print(f"    alarm: {alarm}")
     return 0
+
+
+def report_kills(count: int, busy_loops: int) -> int:
+    busy = [subprocess.Popen([sys.executable, "-c", "while 1: pass"]) for _ in range(busy_loops)]
+    try:
+        travels = kills(count)
+    finally:
+        for process in busy:
+            process.kill()
+            process.wait(10)
+    print(f"machine: {platform.machine()}, {os.cpu_count()} cores; load average "
+          f"{os.getloadavg()[0]:.1f}; {busy_loops} busy loops beside it")  # fmt: skip
+    print(f"{count} drivers killed at 0.4 m/s: the robot went on {min(travels):.3f} to "
+          f"{max(travels):.3f} m (median {statistics.median(travels):.3f}); "
+          f"{sum(t > RUNAWAY_M for t in travels)} beyond the {RUNAWAY_M} m limit")  # fmt: skip
+    return 0 if max(travels) <= RUNAWAY_M else 1
 
 
 if __name__ == "__main__":

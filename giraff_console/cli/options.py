@@ -143,8 +143,8 @@ def add_robot_options(parser: argparse.ArgumentParser, example: Path, *,
 
 
 def robot_options(args: argparse.Namespace, settings: Settings, *, screen: bool = False,
-                  shares_camera: bool = False,
-                  surveying: Landmarks | None = None) -> RobotOptions:  # fmt: skip
+                  shares_camera: bool = False, surveying: Landmarks | None = None,
+                  virtual_port: bool = False) -> RobotOptions:  # fmt: skip
     """The robot the command line asks for: the simulator with --sim, else --port, else
     the settings file's port (none: the simulator)."""
     from giraff_console.runtime.options import RobotOptions
@@ -166,6 +166,7 @@ def robot_options(args: argparse.Namespace, settings: Settings, *, screen: bool 
         screen=screen,
         shares_camera=shares_camera,
         surveying=surveying,
+        virtual_port=virtual_port,
         firmware=given("firmware"),
         sim_speed=args.sim_speed,
         imperfect_seed=given("seed", 1) if given("imperfect", False) else None,

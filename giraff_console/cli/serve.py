@@ -99,8 +99,9 @@ def run_serve(args: argparse.Namespace, settings: Settings, example: Path) -> in
     try:
         # The journal hears the notes from the start: where the robot is taken to be,
         # and what the camera can do, are said as it is set up.
-        robot = Robot(robot_options(args, settings, shares_camera=True), settings, example,
-                      notes=journal.hear)  # fmt: skip
+        options = robot_options(args, settings, shares_camera=True,
+                                virtual_port=args.virtual_port)  # fmt: skip
+        robot = Robot(options, settings, example, notes=journal.hear)
     except UsageError as error:
         journal.close()
         return fail(str(error), EXIT_USAGE)
@@ -114,7 +115,6 @@ def run_serve(args: argparse.Namespace, settings: Settings, example: Path) -> in
 def _serve(robot: Robot, args: argparse.Namespace, settings: Settings, example: Path) -> int:
     from giraff_console.service.daemon import Daemon
     from giraff_console.service.patrol_schedule import PatrolSchedule
-    from giraff_console.service.virtual_port import VirtualPort
 
     service, control = robot.service, robot.control
     try:
@@ -124,22 +124,7 @@ def _serve(robot: Robot, args: argparse.Namespace, settings: Settings, example: 
     except TransportError as error:
         return fail(str(error), EXIT_USAGE)
     schedule = PatrolSchedule(service, settings.schedule, robot.routes.runs)
-    port_for_others = None
-    if args.virtual_port:
-        try:
-            port_for_others = VirtualPort(control, link_timeout=settings.timeout)
-        except OSError as error:
-            return fail(f"--virtual-port: no pseudo-terminal: {error}", EXIT_USAGE)
-        # The operator's stop wins (§4.5): the program may not move the robot again
-        # until a console says `release`.
-        held = port_for_others.hold
-        service.on_stop.append(
-            lambda: held(
-                "the operator stopped the robot; `release` in "
-                "a console lets the program move it again"
-            )
-        )
-        service.on_release.append(lambda: held(None))
+    port_for_others = robot.port
     # Before any thread starts: a signal stops the robot from the loop's own thread,
     # then the daemon stops taking consoles and ends.
     signal.signal(signal.SIGHUP, signal.SIG_IGN)
@@ -150,7 +135,6 @@ def _serve(robot: Robot, args: argparse.Namespace, settings: Settings, example: 
         sys.stderr.write(f"giraff-console: the control loop runs at {control.priority}\n")
     sys.stderr.flush()
     if port_for_others is not None:
-        port_for_others.start()
         # On standard output, alone, for a script to read.
         print(port_for_others.path, flush=True)
         sys.stderr.write(f"giraff-console: virtual motor port at {port_for_others.path}\n")

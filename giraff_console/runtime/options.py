@@ -48,6 +48,8 @@ class RobotOptions:
     shares_camera: bool = False
     # Markers to be found afresh by a survey (their family and size; none known yet).
     surveying: Landmarks | None = None
+    # A board-like pseudo-terminal for another program, a client of the service (§4.5).
+    virtual_port: bool = False
     # The simulator's.
     firmware: str | None = None
     sim_speed: float = 1.0

@@ -67,6 +67,7 @@ from giraff_console.runtime.options import (
 )
 from giraff_console.runtime.sim_site import SimulatedSite, plan_world
 from giraff_console.service.robot_service import RobotService
+from giraff_console.service.virtual_port import VirtualPort
 from giraff_console.settings import Settings
 from giraff_console.sim.drive import TruePose
 
@@ -188,6 +189,13 @@ class Robot:
             sessions=self.sessions, camera=self.camera,
             undock_distance=settings.teleop.undock_distance, sight=self.sight,
         )  # fmt: skip
+        # Another program's way to the board, through the service (§4.5).
+        self.port: VirtualPort | None = None
+        if options.virtual_port:
+            try:
+                self.port = VirtualPort(self.service, link_timeout=settings.timeout)
+            except OSError as error:
+                raise UsageError(f"--virtual-port: no pseudo-terminal: {error}") from None
 
     @staticmethod
     def _plan(options: RobotOptions, example: Path) -> FloorPlan:
@@ -298,10 +306,12 @@ class Robot:
         return self._last_stop
 
     def start(self) -> None:
-        """Run the control loop, and the camera beside it."""
+        """Run the control loop, and the camera and the virtual port beside it."""
         self.control.start(stepped=self.stepped)
         if self.camera is not None:
             self.camera.start()
+        if self.port is not None:
+            self.port.start()
 
     def stop(self) -> bool:
         """Stop the robot and end the loop, at once (a console leaving stops it first,
@@ -317,6 +327,8 @@ class Robot:
             return
         self._closed = True
         try:
+            if self.port is not None:
+                self.port.close()  # the program sees the port go, then the robot stops
             self.stop()
         finally:
             try:

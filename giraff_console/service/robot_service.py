@@ -238,11 +238,21 @@ class RobotService:
             self.control.note(f"{console} left; its keys let go; the controls are free")
         self._tell(self.controls())
 
+    def let_go(self, console: str) -> None:
+        """`console` no longer drives (a program on the virtual port that stopped its
+        move): if it held the controls, nobody holds them until one takes them."""
+        with self._lock:
+            held = self._holder == console
+            if held:
+                self._holder = None
+        if held:
+            self._tell(self.controls())
+
     def controls(self) -> Controls:
         with self._lock:
             return Controls(self._holder, tuple(self._consoles))
 
-    def _may_move(self, console: str) -> str | None:
+    def may_move(self, console: str) -> str | None:
         """Why `console` may not move the robot now, or None. Nobody holding the controls
         (a console left, or a command from the shell) lets the first to move take them."""
         with self._lock:
@@ -278,7 +288,7 @@ class RobotService:
         if not _finite(request):
             return Reply(False, "refused: a number that is not a number")
         if _moves(request):
-            refused = self._may_move(console)
+            refused = self.may_move(console)
             if refused is not None:
                 return Reply(False, refused)
         handler = HANDLERS[type(request)]

@@ -19,19 +19,20 @@ driver sees a board error rather than silence:
   nothing else: `Error: refused: a mission is running; the virtual port may only read`.
   This is checked on the loop's thread just before the command would go out, so a
   mission that started meanwhile is not raced.
-- A stop from the program (`set p 0`, and the drivers' `set a 0` and `set v 0`,
+- The program's stop (`set p 0`, with the drivers' `set a 0` and `set v 0` before it,
   wire-facts "Stopping") stops a move of its own as the operator's stop does: the
   console's braking stop (robot/safety.py) rather than a `set p 0` the board would
-  brake through and come back from (B.2).
-- The drivers' stop and idle settings (`set v 0`, `set vg 0`, `set vgr 0`, `set r 50`;
-  they send them at start-up, and one on every loop while idle, wire-facts "What the
-  deployed drivers do") go to the board, guarded, when nobody else drives. While a
-  mission or the operator's keys drive, they are answered as the board answers and
-  change nothing, said once in the log: they never end the daemon's mission. They are
-  kept, and go to the board, guarded, before the program's next command, so that the
-  board holds what the program believes it does. `set a 0`, whose meaning on a board
-  is not documented and which the guard refuses, is never sent: the program's next
-  move is refused until it sets `a` again.
+  brake through and come back from (B.2); and gives the controls back.
+- The drivers' settings of their stop and idle idioms (`set v 0`, `set vg 0`, `set vgr
+  0`, `set r 50`; they send them at start-up, and one on every loop while idle,
+  wire-facts "What the deployed drivers do") go to the board, guarded, when nobody else
+  drives, as settings that apply from the next move. While a mission or the operator's
+  keys drive, they (and `set p 0`) are answered as the board answers and change
+  nothing, said once in the log: they never end the daemon's mission. They are kept,
+  and go to the board, guarded, before the program's next command, so that the board
+  holds what the program believes it does. `set a 0`, whose meaning on a board is not
+  documented and which the guard refuses, is never sent: the program's next move is
+  refused until it sets `a` again.
 - The operator's stop always wins: it ends a mission and lets go of the keys, and from
   then on the program cannot start a move while a mission or the keys drive; the stop
   goes out as a job after the program's one command in flight, and the loop's
@@ -67,11 +68,18 @@ from giraff_console.protocol.errors import (
     GiraffError,
 )
 from giraff_console.protocol.framing import BANNER_PREFIX, COMMAND_END, LINE_END, PROMPT
-from giraff_console.robot.command_guard import BARE_COMMANDS, READINGS, SETTINGS, check_command
-from giraff_console.robot.control_loop import ControlLoop
+from giraff_console.robot.command_guard import (
+    BARE_COMMANDS,
+    READINGS,
+    SETTINGS,
+    check_command,
+    clamp_command,
+)
 from giraff_console.robot.realtime import run_promptly
 from giraff_console.robot.safety import stop_robot
 from giraff_console.robot.wheel_odometers import Reading, firmware_reading
+from giraff_console.service.events import Controls
+from giraff_console.service.robot_service import RobotService
 from giraff_console.service.shared_readings import SharedReadings
 
 log = logging.getLogger(__name__)
@@ -95,9 +103,6 @@ MIN_LINE_S = 0.003
 # sim/line.py assumes; the guard refuses anything over 64 characters anyway).
 MAX_LINE_BYTES = 256
 
-# What the program's stop sends to the board (wire-facts "Stopping"): any of them
-# stops a move of the program's own.
-STOPS = frozenset({"p", "v", "a"})
 # The drivers' stop and idle idioms, as (setting, value): from a program that is not
 # driving they are answered and change nothing (wire-facts "What the deployed drivers do").
 IDLE_IDIOMS = frozenset({("p", 0.0), ("v", 0.0), ("a", 0.0), ("vg", 0.0), ("vgr", 0.0),
@@ -106,6 +111,15 @@ NOT_DRIVING = (
     "while others drive, the program on the virtual port's stops and idle settings "
     "(set v 0, set p 0, set r 50, ...) are answered and change nothing; its settings go "
     "to the board before its next command"
+)
+# What the console's braking stop sets (robot/safety.py), put back after it as the
+# program left it.
+RESTORED = ("mode", "a", "cdp")
+# Who the program is to the service and the consoles: it holds the controls as a
+# console does.
+PROGRAM = "the program on the virtual port"
+OPERATOR_STOPPED = (
+    "the operator stopped the robot; `release` in a console lets the program move it again"
 )
 ONLY_READS = "the virtual port may only read"
 MISSION_RUNNING = f"refused: a mission is running; {ONLY_READS}"
@@ -121,15 +135,24 @@ Lines = list[str]
 
 
 class VirtualPort:
-    """A board-like pseudo-terminal for one program at a time, served through `control`.
+    """A board-like pseudo-terminal for one program at a time, a client of `service`
+    as a console is: the program attaches as PROGRAM while it has the port open, and may
+    drive when it holds the controls (it takes them when nobody holds them). Its commands
+    run as jobs on the service's control loop, the one owner of the link.
 
     `link_timeout` is the `[link] timeout` the loop's link waits for each reply; a reply
     to the program comes within twice that and REPLY_MARGIN_S (a resync and the
     command), or an error line does.
     """
 
-    def __init__(self, control: ControlLoop, *, link_timeout: float = DEFAULT_TIMEOUT_S) -> None:
-        self.control = control
+    def __init__(self, service: RobotService, *,
+                 link_timeout: float = DEFAULT_TIMEOUT_S) -> None:  # fmt: skip
+        self.service = service
+        self.control = service.control
+        # The operator's stop wins (§4.5): the program may not move the robot again until
+        # a console says `release`.
+        service.on_stop.append(lambda: self.hold(OPERATOR_STOPPED))
+        service.on_release.append(lambda: self.hold(None))
         self.reply_timeout = 2 * link_timeout + REPLY_MARGIN_S
         self.shared = SharedReadings(self._increments)
         self._leader, follower = os.openpty()
@@ -148,7 +171,7 @@ class VirtualPort:
         self._partial = bytearray()
         self._overflow = False
         self._unsent = bytearray()
-        # Settings the program zeroed to stop (STOPS) that the board still holds.
+        # Settings the program zeroed to stop that the board still holds (`a`).
         self._zeroed: set[str] = set()
         # Idle settings the program sent while others drove, for the board before its
         # next command (the loop's thread).
@@ -165,6 +188,7 @@ class VirtualPort:
     def start(self) -> None:
         """Tap the loop's exchanges and serve the port on a thread of its own."""
         self.control.subscribe(self.shared.tap)
+        self.service.subscribe(self._heard)
         self._thread = threading.Thread(target=self._run, name="virtual-port", daemon=True)
         self._thread.start()
         if self._thread.native_id is not None:
@@ -180,6 +204,9 @@ class VirtualPort:
         if thread is not None:
             thread.join(timeout)
         self.control.unsubscribe(self.shared.tap)
+        self.service.unsubscribe(self._heard)
+        if self._connected:
+            self.service.detach(PROGRAM)
         ended = thread is None or not thread.is_alive()
         if ended and self._leader >= 0:
             leader, self._leader = self._leader, -1
@@ -193,6 +220,12 @@ class VirtualPort:
         """Refuse the program's moves with `why` from now on (the operator stopped the
         robot, say), or, with None, no longer. Reads and stops are always taken."""
         self._held = None if why is None else f"refused: {why}"
+
+    def _heard(self, event: object) -> None:
+        """The controls taken from the program: a move of its own is stopped, unless a
+        mission or the keys drive now (they brake it themselves)."""
+        if isinstance(event, Controls) and event.holder != PROGRAM and self._moved:
+            self.control.submit(self._stop_left_move, _log_failure, stop=True)
 
     def __enter__(self) -> VirtualPort:
         self.start()
@@ -223,6 +256,8 @@ class VirtualPort:
             if not self._connected:
                 self._connected = True
                 self._greet_at = time.monotonic() + BOOT_DELAY_S
+                # A console that does not take the controls until it drives.
+                self.service.attach(PROGRAM, take=False)
             if readable:
                 try:
                     data = os.read(self._leader, 4096)
@@ -301,6 +336,7 @@ class VirtualPort:
         if self._moved:
             self._moved = False
             self.control.submit(self._stop_left_move, _log_failure, stop=True)
+        self.service.detach(PROGRAM)
 
     # -- answering ----------------------------------------------------------------------
 
@@ -351,16 +387,23 @@ class VirtualPort:
             refused = self._only_reads()
             moves = command.kind == "set" and command.name in ("p", TWM)
             if refused is None and moves:
-                refused = self._held or _zeroed_message(self._zeroed)
+                # A move needs the controls, taken if nobody holds them; a setting only
+                # that nobody else drives.
+                refused = (self.service.may_move(PROGRAM) or self._held
+                           or _zeroed_message(self._zeroed))  # fmt: skip
             if refused is not None:
                 return [_error(refused)]
             refused = self._send_pending(link)
             if refused is not None:
                 return [_error(refused)]
-            exchange = self._send_guarded(link, command)
+            # The drivers never read a set's reply (wire-facts): what can be made safe
+            # by bringing it within the limits is, and goes; the rest is refused.
+            teleop = self.control.teleop
+            clamped = clamp_command(command, teleop.limits, teleop.board_settings)
+            exchange = self._send_guarded(link, clamped)
             if isinstance(exchange, str):
                 return [_error(exchange)]
-            self._zeroed -= set(command.settings)
+            self._zeroed -= set(clamped.settings)
             self._moved = self._moved or moves
             return list(exchange.lines)
 
@@ -403,25 +446,26 @@ class VirtualPort:
         program's own is stopped with the console's braking stop; with nobody else
         driving, an idle setting goes to the board, guarded; while others drive, it is
         answered as the board answers and kept for before the program's next command."""
-        teleop = self.control.teleop
         name = command.name
 
         def stop_or_idle(link: BoardLink) -> Lines:
             others = self._only_reads()
-            if name in STOPS and self._moved and others is None:
-                self._moved = False
-                if name == "a":
-                    self._zeroed.add("a")
-                if not stop_robot(link, teleop.board_settings):
-                    return [_error("could not command a stop: check the robot")]
-                return [_echo(command)]
             if name == "p":
-                return [_echo(command)]  # no move of its own to stop
+                if not (self._moved and others is None):
+                    return [_echo(command)]  # no move of its own to stop
+                self._moved = False
+                if not self._brake(link):
+                    return [_error("could not command a stop: check the robot")]
+                # It no longer drives: the controls are free for a console or a mission.
+                self.service.let_go(PROGRAM)
+                return [_echo(command)]
             if name == "a":
                 # Never sent (undocumented, refused by the guard): it sets a again first.
                 self._zeroed.add("a")
                 return [_echo(command)]
             if others is None:
+                # A setting, as on a board: it applies from the next move (`set v 0` with
+                # `vg` in mode 2 is a turn on the spot, wire-facts).
                 sent = self._send_guarded(link, command)
                 return [_error(sent)] if isinstance(sent, str) else list(sent.lines)
             self._pending[name] = command
@@ -434,10 +478,28 @@ class VirtualPort:
         return self._run_job(stop_or_idle, stop=True)
 
     def _stop_left_move(self, link: BoardLink) -> None:
-        """The program hung up after a move of its own: stop it, unless the operator or
-        a mission drives now."""
+        """The program hung up, or lost the controls, after a move of its own: stop it,
+        unless the operator or a mission drives now."""
+        self._moved = False
         if self._only_reads() is None:
-            stop_robot(link, self.control.teleop.board_settings)
+            self._brake(link)
+
+    def _brake(self, link: BoardLink) -> bool:
+        """The console's braking stop (robot/safety.py), then the settings it changed for
+        the stop (mode, a, cdp) back as the program left them, for its next move: a
+        driver in mode 2 does not set it again (wire-facts). True if it worked."""
+        teleop = self.control.teleop
+        before = dict(teleop.board_settings)
+        if not stop_robot(link, teleop.board_settings):
+            return False
+        for name in RESTORED:
+            if name in before and teleop.board_settings.get(name) != before[name]:
+                value = float(before[name])
+                number = int(value) if value.is_integer() else value
+                sent = self._send_guarded(link, Command("set", name, number))
+                if isinstance(sent, str):
+                    log.warning("virtual port: after a stop, %s", sent)
+        return True
 
     def _run_job(self, job: Callable[[BoardLink], Lines], stop: bool = False) -> Lines:
         """Run `job` on the loop's thread and wait for its lines, within reply_timeout."""

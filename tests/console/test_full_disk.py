@@ -10,7 +10,9 @@ import contextlib
 import re
 import shlex
 import shutil
+import tempfile
 import time
+from pathlib import Path
 
 import pytest
 
@@ -30,9 +32,15 @@ def status_text(screen: str) -> str:
 
 def test_a_full_disk_stops_the_recording_and_driving_goes_on(tmp_path):
     robot = SimulatedRobot(tmp_path)
-    console = shlex.join(console_command(robot.path, "--recordings", str(tmp_path / "rec")))
+    # A short folder: the status pane is 18 columns wide, and the message that the
+    # recording stopped names its file; under a long path (pytest-xdist's) its first
+    # words scroll out of the pane before they can be read.
+    short = Path(tempfile.mkdtemp(prefix="fd-", dir="/tmp"))
+    recordings = short / "rec"
+    console = shlex.join(console_command(robot.path, "--recordings", str(recordings)))
     # Each is ended on every way out, so that no console is left holding the board's pty.
     with contextlib.ExitStack() as cleanup:
+        cleanup.callback(shutil.rmtree, short, ignore_errors=True)
         cleanup.callback(robot.close)
         tmux = Tmux(["sh", "-c", shlex.quote(f"ulimit -f {LIMIT_KB}; exec {console}")])
         cleanup.callback(tmux.kill)
@@ -53,5 +61,5 @@ def test_a_full_disk_stops_the_recording_and_driving_goes_on(tmp_path):
         samples = robot.samples()
         assert pose_at(samples, time.monotonic()).x - pose_at(samples, start).x > 0.5
         assert "LINK LOST" not in tmux.screen()
-    (session,) = (tmp_path / "rec").iterdir()
-    assert (session / "control.log").stat().st_size <= LIMIT_KB * 1024
+        (session,) = recordings.iterdir()
+        assert (session / "control.log").stat().st_size <= LIMIT_KB * 1024

@@ -62,7 +62,8 @@ class Odometry:
     x: float = 0.0
     y: float = 0.0
     heading: float = 0.0
-    distance: float = 0.0
+    distance: float = 0.0  # travelled either way
+    travelled: float = 0.0  # forwards less backwards
 
     def add(self, left: float, right: float) -> None:
         turn = (right - left) / self.wheel_base
@@ -72,6 +73,7 @@ class Odometry:
         self.y += centre * math.sin(middle)
         self.heading += turn
         self.distance += abs(centre)
+        self.travelled += centre
 
 
 @dataclass
@@ -355,41 +357,86 @@ class Ros1LikeClient(DriverClient):
             self.poll()
         self.poll()  # the encoders at rest
 
+    # How far ahead a move is re-targeted, at most (wire-facts "Known failures": the
+    # drivers re-targeted up to 1 m or 90 degrees ahead), and how close to its end a
+    # move counts as done.
+    AHEAD_M = 1.0
+    AHEAD_DEG = 90.0
+    DONE_M = 0.002
+    DONE_DEG = 0.2
+    MOVE_TRIES = 20
+
     def drive(self, metres: float, speed: float = 0.3) -> None:
         """A straight move of `metres` in mode 0 (relative, r <= 50), to its end."""
-        for name, value in (("mode", 0), ("r", 50), ("a", self.ACCEL), ("v", speed),
-                            ("p", metres)):  # fmt: skip
+        for name, value in (("mode", 0), ("r", 50), ("a", self.ACCEL), ("v", speed)):
             self.set(name, value)
-        self.wait_until_still()
+        start = self.odometry.travelled
+        self._move(lambda: metres - (self.odometry.travelled - start), self.AHEAD_M,
+                   speed * speed / (2 * self.ACCEL), self.DONE_M,
+                   lambda rest: [f"set p {rest:.4f}"])  # fmt: skip
         self.stop_idiom()
 
     def turn(self, degrees: float, speed: float = 0.15) -> None:
         """Turn on the spot, counter-clockwise for positive `degrees` (r = 0: p in degrees,
         positive clockwise, wire-facts "Quirks")."""
-        for name, value in (("mode", 0), ("r", 0), ("a", self.ACCEL), ("v", speed),
-                            ("p", -degrees)):  # fmt: skip
+        for name, value in (("mode", 0), ("r", 0), ("a", self.ACCEL), ("v", speed)):
             self.set(name, value)
-        self.wait_until_still()
+        start = self.odometry.heading
+        # Braking from the wheels' speed, in degrees of the robot's turn.
+        brake = math.degrees(speed * speed / (2 * self.ACCEL) / (self.odometry.wheel_base / 2))
+        self._move(lambda: degrees - math.degrees(self.odometry.heading - start),
+                   self.AHEAD_DEG, brake, self.DONE_DEG,
+                   lambda rest: [f"set p {-rest:.4f}"])  # fmt: skip
         self.stop_idiom()
 
     def curve(self, metres: float, speed: float, degrees_per_m: float) -> None:
         """A curve of `metres` turning `degrees_per_m`, counter-clockwise positive: the
         gear ratio is -kappa * 0.2495 (positive to the right, wire-facts "Quirks"),
-        ramped by the start-up's vgr, held to the end (cdp = the length). With `twm` on
+        ramped by the start-up's vgr, held to the end (cdp = what is left). With `twm` on
         Giraff-X, after the stop idiom left r = 50 (wire-facts "twm on Giraff-X");
         otherwise as separate sets with r > 50."""
         gear = -math.radians(degrees_per_m) * BOARD_TURN_RADIUS_M
         self.set("a", self.ACCEL)
-        if self.twm:
-            self.set("mode", 0)
-            self.exchange(f"set twm {gear:.4f} {metres:.4f} 20 {speed:.4f} {metres:.4f} 0")
-        else:
-            for name, value in (("mode", 0), ("r", 100), ("vg", f"{gear:.4f}"),
-                                ("cdp", metres), ("vgr", 20), ("v", speed),
-                                ("p", metres)):  # fmt: skip
+        self.set("mode", 0)
+        if not self.twm:
+            for name, value in (("r", 100), ("vg", f"{gear:.4f}"), ("vgr", 20), ("v", speed)):
                 self.set(name, value)
-        self.wait_until_still()
+
+        def commands(rest: float) -> list[str]:
+            if self.twm:
+                return [f"set twm {gear:.4f} {rest:.4f} 20 {speed:.4f} {rest:.4f} 0"]
+            return [f"set cdp {rest:.4f}", f"set p {rest:.4f}"]
+
+        start = self.odometry.travelled
+        self._move(lambda: metres - (self.odometry.travelled - start), self.AHEAD_M,
+                   speed * speed / (2 * self.ACCEL), self.DONE_M, commands)  # fmt: skip
         self.stop_idiom()
+
+    def _move(self, left: Callable[[], float], ahead: float, brake: float, done: float,
+              commands: Callable[[float], list[str]]) -> None:  # fmt: skip
+        """Re-target the move each loop, from where the robot is, at most `ahead` of it,
+        while more than the braking distance `brake` is left (by the client's odometry);
+        then send what is left and wait until still. Again if the robot stopped short
+        (the virtual port keeps each target within the console's reach)."""
+        period = 1.0 / self.RATE_HZ
+        for _ in range(self.MOVE_TRIES):
+            started = time.monotonic()
+            while abs(left()) > brake + done:
+                rest = left()
+                for command in commands(math.copysign(min(abs(rest), ahead), rest)):
+                    self.exchange(command)
+                next_start = _pace(period, started)
+                self.traffic.loops.append(next_start - started)
+                started = next_start
+                self.poll()
+            if abs(left()) <= done:
+                return
+            for command in commands(left()):
+                self.exchange(command)
+            self.wait_until_still()
+            if abs(left()) <= done:
+                return
+        raise TimeoutError(f"{left():.4f} still to go after {self.MOVE_TRIES} tries")
 
 
 def shorter_way(step: int) -> int:

@@ -197,12 +197,12 @@ def test_the_ros1_like_client_drives_1_m_and_turns_90_on_its_odometry(
     client.stop_idiom()
     client.drive(1.0)
     truth = sim.board.true_pose
-    assert truth.x == pytest.approx(1.0, abs=1e-6)
+    assert truth.x == pytest.approx(1.0, abs=POSITION_TOLERANCE_M)
     assert_on_the_true_pose(client, truth, "after 1 m")
     client.turn(90.0)
     truth = sim.board.true_pose
-    # The board turns 90 degrees by its 0.499 m; the robot by its own wheel base.
-    assert math.degrees(truth.heading) == pytest.approx(90.0 * 0.499 / wheel_base, abs=1e-6)
+    # Re-targeted by its own odometry, which knows the robot's wheel base.
+    assert math.degrees(truth.heading) == pytest.approx(90.0, abs=HEADING_TOLERANCE_DEG)
     assert_on_the_true_pose(client, truth, "after turning 90 deg on the spot")
     assert client.traffic.errors == []
 

@@ -12,6 +12,7 @@ from collections.abc import Callable, Iterator
 import pytest
 
 from giraff_console.link import BoardLink, Exchange, MotorState, probe
+from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.protocol.codec import Command, encode_float
 from giraff_console.protocol.errors import BoardError, CommandError, UnknownNameError
 from giraff_console.protocol.replies import parse_reply
@@ -20,6 +21,7 @@ from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.mission import DRIVING, MissionEnd, Progress
 from giraff_console.robot.teleop import Teleop
+from giraff_console.service.robot_service import RobotService
 from giraff_console.service.shared_readings import SharedReadings, add_to_list
 from giraff_console.service.virtual_port import (
     MIN_LINE_S,
@@ -73,7 +75,8 @@ class Bench:
         self.control.subscribe(notes_into(self.notes))
         self.control.tick()  # connected and probed
         assert self.control.link is not None, self.notes
-        self.port = VirtualPort(self.control, link_timeout=link_timeout)
+        self.service = RobotService(self.control, DriveSetup.on_loop(self.control, None))
+        self.port = VirtualPort(self.service, link_timeout=link_timeout)
         self.port.start()
         self.driving: Intent | None = None
         self.ended: list[MissionEnd] = []
@@ -193,7 +196,7 @@ def test_our_own_link_connects_to_the_virtual_port_as_to_a_board():
     control = ControlLoop(lambda: link, teleop=Teleop(), deadman=Deadman(link.port.clock),
                           clock=link.port.clock)  # fmt: skip
     control.start(stepped=1.0)  # the loop on its own thread, as in the daemon
-    port = VirtualPort(control)
+    port = VirtualPort(RobotService(control, DriveSetup.on_loop(control, None)))
     port.start()
     try:
         client = BoardLink.open(port.path, timeout=2.0)
@@ -273,18 +276,29 @@ def test_while_the_operator_drives_the_program_may_only_read(later, program):
     assert not later.sent("set p 0.15")
 
 
-def test_a_command_outside_the_limits_is_refused_with_the_guard_s_message(later, program):
-    for text, command in (("set v 5", Command("set", "v", 5)),
-                          ("set p 5", Command("set", "p", 5)),
-                          ("set undock 1", Command("set", "undock", 1))):  # fmt: skip
+def test_what_cannot_be_made_safe_is_refused_with_the_guard_s_message(later, program):
+    for text, command in (("set undock 1", Command("set", "undock", 1)),
+                          ("set mode 1", Command("set", "mode", 1)),
+                          ("set enc0 7", Command("set", "enc0", 7))):  # fmt: skip
         assert program.ask(text) == [refusal(command, later)]
         assert not later.sent(text)
-    # Within the limits it goes to the board, and the loop knows what the board holds.
+
+
+def test_values_beyond_the_limits_are_brought_within_them_where_that_is_safe(later, program):
+    """The deployed drivers never read a set's reply (wire-facts): a faster speed or a
+    further target than the console allows goes at the limit (issue 27)."""
+    assert program.ask("set v 5") == [encode_float(0.4)]
+    assert later.control.teleop.board_settings["v"] == "0.4"
+    assert program.ask("set a 0.2") == [encode_float(0.32)]
+    assert program.ask("set p 5") == [encode_float(0.25)]  # the reach
+    assert not later.sent("set p 5") and later.sent("set p 0.25")
+    later.run(3.0)
+    assert later.board.true_pose.x == pytest.approx(0.25, abs=0.01)
+    # Within the limits it goes to the board as sent.
     assert program.ask("set v 0.3") == [encode_float(0.3)]
-    assert later.control.teleop.board_settings["v"] == "0.3"
     assert program.ask("set p 0.2") == [encode_float(0.2)]
     later.run(2.0)
-    assert later.board.true_pose.x == pytest.approx(0.2, abs=0.01)
+    assert later.board.true_pose.x == pytest.approx(0.45, abs=0.01)
 
 
 def test_after_a_driver_s_stop_a_move_waits_for_a_and_v_again(later, program):
@@ -490,7 +504,7 @@ def test_a_program_that_floods_the_port_is_answered_no_faster_than_a_board_s_lin
     control = ControlLoop(lambda: link, teleop=Teleop(), deadman=Deadman(link.port.clock),
                           clock=link.port.clock)  # fmt: skip
     control.start(stepped=1.0)
-    port = VirtualPort(control)
+    port = VirtualPort(RobotService(control, DriveSetup.on_loop(control, None)))
     port.start()
     lines = 100
     try:
