@@ -103,7 +103,10 @@ MAX_NUMBER = 1e6
 # Settings that name a folder; data_folders.py says where they are without them.
 FOLDER_KEYS = ("recordings", "routes")
 # Settings whose value is text.
-TEXT_KEYS = ("port", "power_line", "odometers", "twm", *FOLDER_KEYS)
+# What a program on the virtual port may do (serve --virtual-port, docs/daemon.md):
+# drive when nobody else holds the controls, or only read.
+VIRTUAL_PORT_CHOICES = ("drives", "reads")
+TEXT_KEYS = ("port", "power_line", "odometers", "twm", "virtual_port", *FOLDER_KEYS)
 # Tables within the file, each its own dataclass below.
 TABLES = ("teleop", "motion", "board", "battery")
 # The array of tables of scheduled patrols, and the keys of each.
@@ -213,12 +216,18 @@ class Settings:
     robot_radius: float = ROBOT_RADIUS_M
     recordings: str | None = None
     routes: str | None = None
+    virtual_port: str = "drives"
     teleop: TeleopSettings = field(default_factory=TeleopSettings)
     motion: MotionSettings = field(default_factory=MotionSettings)
     board: BoardSettings = field(default_factory=BoardSettings)
     battery: BatterySettings = field(default_factory=BatterySettings)
     schedule: tuple[ScheduledPatrol, ...] = ()
     source: str = "built-in defaults"
+
+    @property
+    def port_program_drives(self) -> bool:
+        """Whether a program on the virtual port may take the controls and drive."""
+        return self.virtual_port == VIRTUAL_PORT_CHOICES[0]
 
 
 def load_settings(path: Path | None = None) -> Settings:
@@ -247,6 +256,8 @@ def load_settings(path: Path | None = None) -> Settings:
                             source=str(path))  # fmt: skip
         if settings.power_line not in ("dtr", "rts", "both", "none"):
             raise ValueError("power_line must be dtr, rts, both or none")
+        if settings.virtual_port not in VIRTUAL_PORT_CHOICES:
+            raise ValueError(f"virtual_port must be {' or '.join(VIRTUAL_PORT_CHOICES)}")
         if settings.timeout <= 0 or settings.control_rate <= 0 or settings.robot_radius <= 0:
             raise ValueError("timeout, control_rate and robot_radius must be positive")
         teleop.limits()

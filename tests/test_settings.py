@@ -48,6 +48,7 @@ def test_the_board_and_battery_tables(tmp_path):
     assert (defaults.board.wheel_base, defaults.board.odometers) == (0.499, "auto")
     assert defaults.board.twm == "auto"
     assert (defaults.battery.low, defaults.battery.charged) == (25, 90)
+    assert defaults.port_program_drives
 
 
 @pytest.mark.parametrize(
@@ -58,6 +59,8 @@ def test_the_board_and_battery_tables(tmp_path):
         ('timeout = "fast"', "timeout has the wrong type"),
         ("port = 3", "port has the wrong type"),
         ('power_line = "dsr"', "power_line must be"),
+        ('virtual_port = "writes"', "virtual_port must be drives or reads"),
+        ("virtual_port = true", "virtual_port has the wrong type"),
         ("[teleop]\nmax_speed = 0.6\nspeed = 0.6", "within 0.25 m"),
         ("[teleop]\nmax_speed = 0.6\nspeed = 0.6\naccel = 1.0", "over the 0.25 m limit"),
         ("[teleop]\ngrace = 0", "grace and repeat_timeout must be positive"),

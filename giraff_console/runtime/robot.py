@@ -193,7 +193,8 @@ class Robot:
         self.port: VirtualPort | None = None
         if options.virtual_port:
             try:
-                self.port = VirtualPort(self.service, link_timeout=settings.timeout)
+                self.port = VirtualPort(self.service, link_timeout=settings.timeout,
+                                        drives=settings.port_program_drives)  # fmt: skip
             except OSError as error:
                 raise UsageError(f"--virtual-port: no pseudo-terminal: {error}") from None
 

@@ -122,6 +122,7 @@ OPERATOR_STOPPED = (
     "the operator stopped the robot; `release` in a console lets the program move it again"
 )
 ONLY_READS = "the virtual port may only read"
+READS_ONLY = f'refused: the settings say virtual_port = "reads"; {ONLY_READS}'
 MISSION_RUNNING = f"refused: a mission is running; {ONLY_READS}"
 OPERATOR_DRIVING = f"refused: the operator is driving; {ONLY_READS}"
 PLAYING_BACK = f"refused: a session is being played back; {ONLY_READS}"
@@ -145,9 +146,12 @@ class VirtualPort:
     command), or an error line does.
     """
 
-    def __init__(self, service: RobotService, *,
-                 link_timeout: float = DEFAULT_TIMEOUT_S) -> None:  # fmt: skip
+    def __init__(self, service: RobotService, *, link_timeout: float = DEFAULT_TIMEOUT_S,
+                 drives: bool = True) -> None:  # fmt: skip
+        """`drives`: whether the program may take the controls and drive (the settings'
+        `virtual_port`), or only read."""
         self.service = service
+        self.drives = drives
         self.control = service.control
         # The operator's stop wins (§4.5): the program may not move the robot again until
         # a console says `release`.
@@ -389,8 +393,8 @@ class VirtualPort:
             if refused is None and moves:
                 # A move needs the controls, taken if nobody holds them; a setting only
                 # that nobody else drives.
-                refused = (self.service.may_move(PROGRAM) or self._held
-                           or _zeroed_message(self._zeroed))  # fmt: skip
+                refused = (READS_ONLY if not self.drives else self.service.may_move(PROGRAM)
+                           or self._held or _zeroed_message(self._zeroed))  # fmt: skip
             if refused is not None:
                 return [_error(refused)]
             refused = self._send_pending(link)

@@ -27,6 +27,7 @@ from giraff_console.service.virtual_port import (
     MIN_LINE_S,
     MISSION_RUNNING,
     NOT_DRIVING,
+    READS_ONLY,
     VirtualPort,
 )
 from tests.listening import notes_into, only
@@ -520,3 +521,21 @@ def test_a_program_that_floods_the_port_is_answered_no_faster_than_a_board_s_lin
         assert port.close()
         assert control.stop()
     assert took >= (lines - 1) * MIN_LINE_S
+
+
+def test_settings_that_let_the_program_only_read_refuse_its_moves():
+    """`virtual_port = "reads"` (the settings file): it reads and sets, but never drives."""
+    bench = Bench("later")
+    bench.port.drives = False
+    program = Program(bench.port.path, bench.control.tick)
+    try:
+        assert program.replies()  # the greeting
+        assert program.ask("set v 0.3") == [encode_float(0.3)]
+        assert program.ask("set p 0.2") == [f"Error: {READS_ONLY}"]
+        assert not bench.sent("set p 0.2")
+        assert list(program.bulk()) == BULK_FIELDS
+        assert bench.service.controls().holder is None
+    finally:
+        program.close()
+        assert bench.port.close()
+        bench.link.close()
