@@ -35,7 +35,6 @@ Usage: python bench/virtual_port.py [--clients ros2,ros1] [--missions 10] [--sec
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import platform
 import random
@@ -56,7 +55,6 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))  # the clients live with the tests
 
 from giraff_console.robot.loop_events import MissionChanged, Note  # noqa: E402
-from giraff_console.robot.odometry import Pose  # noqa: E402
 from giraff_console.runtime.options import RobotOptions  # noqa: E402
 from giraff_console.runtime.robot import Robot  # noqa: E402
 from giraff_console.service import commands as c  # noqa: E402
@@ -64,6 +62,7 @@ from giraff_console.service.remote import RemoteRobot  # noqa: E402
 from giraff_console.service.runtime_folder import socket_path  # noqa: E402
 from giraff_console.settings import Settings  # noqa: E402
 from tests.drivers.clients import DriverClient, Ros1LikeClient, Ros2LikeClient  # noqa: E402
+from tests.drivers.kill import driving_client, went_on  # noqa: E402
 from tests.drivers.wire import RawPort  # noqa: E402
 
 WHEEL_BASE_M = 0.499  # the simulator's, by default
@@ -232,16 +231,6 @@ def through_the_port(kind: str, missions: int, env: dict[str, str]) -> Run:
         return run
 
 
-DRIVING_CLIENT = """
-import sys
-sys.path.insert(0, {root!r})
-from tests.drivers.clients import Ros2LikeClient
-from tests.drivers.wire import RawPort
-client = Ros2LikeClient(RawPort.open({path!r}), {wheel_base})
-client.start()
-print("driving", flush=True)
-client.run({speed}, 0.0, lambda: False, 60.0)
-"""
 RUNAWAY_M = 0.3  # design.md, "Safety rules"
 
 
@@ -255,10 +244,9 @@ def kills(count: int) -> list[float]:
         robot.start()
         assert robot.port is not None
         for number in range(count):
-            script = DRIVING_CLIENT.format(root=str(ROOT), path=robot.port.path,
-                                           wheel_base=WHEEL_BASE_M,
-                                           speed=0.4 if number % 2 == 0 else -0.4)  # fmt: skip
-            with started([sys.executable, "-c", script], dict(os.environ)) as client:
+            command = driving_client(robot.port.path, WHEEL_BASE_M,
+                                     0.4 if number % 2 == 0 else -0.4)  # fmt: skip
+            with started(command, dict(os.environ)) as client:
                 if first_line(client, "the client") != "driving":
                     raise RuntimeError("the client did not start driving")
                 time.sleep(random.uniform(1.0, 2.0))
@@ -268,23 +256,6 @@ def kills(count: int) -> list[float]:
             assert killed_at is not None
             travels.append(went_on(robot, killed_at))
     return travels
-
-
-def went_on(robot: Robot, start: Pose) -> float:
-    """How far the robot goes from `start` until it has been still for 0.5 s."""
-    deadline = time.monotonic() + 10.0
-    last, still_since, farthest = start, time.monotonic(), 0.0
-    while time.monotonic() - still_since < 0.5:
-        if time.monotonic() > deadline:
-            raise TimeoutError("the robot did not stop within 10 s")
-        time.sleep(0.02)
-        now = robot.true_pose()
-        assert now is not None
-        farthest = max(farthest, math.hypot(now.x - start.x, now.y - start.y))
-        if math.hypot(now.x - last.x, now.y - last.y) > 1e-4:
-            still_since = time.monotonic()
-        last = now
-    return farthest
 
 
 def main() -> int:

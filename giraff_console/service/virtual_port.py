@@ -8,12 +8,19 @@ when the program opens it, as a board greets when the host raises its power line
 answers each command line with the reply lines and the `OK >` prompt. Our own
 `BoardLink` connects to it as to a board.
 
-Every command goes through the control loop, the one owner of the link (design.md): a
-read is forwarded to the board as a job on the loop's thread and the board's reply is
-relayed; anything else first passes the same guard as a typed command
-(robot/command_guard.py), on that thread, where the board's settings are known for
-sure. What is refused gets an error line in the board's own style (`Error: ...`), so a
-driver sees a board error rather than silence:
+The port is a client of the robot service, built by the composition root
+(runtime/robot.py) as a console is: while a program has it open, the program is
+attached as PROGRAM, and a move of its own takes the controls if nobody holds them (and
+the settings' `virtual_port` lets it drive); the consoles show it holding them, and a
+console that takes them back stops its move. Every command goes through the control
+loop, the one owner of the link (design.md): a read is forwarded to the board as a job
+on the loop's thread and the board's reply is relayed; anything else first passes the
+same guard as a typed command (robot/command_guard.py), on that thread, where the
+board's settings are known for sure, after its values are brought within the limits
+where that can only make a move shorter, slower or gentler (`clamp_command`: the
+deployed drivers never read a set's reply and renew their targets, wire-facts). What is
+refused gets an error line in the board's own style (`Error: ...`), so a driver sees a
+board error rather than silence:
 
 - While a mission runs, or the operator drives with the keys, the program may read but
   nothing else: `Error: refused: a mission is running; the virtual port may only read`.

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import math
 import os
+import select
 import signal
 import subprocess
-import sys
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -31,6 +31,7 @@ from giraff_console.service.virtual_port import PROGRAM
 from giraff_console.settings import Settings
 from giraff_console.sim.firmware import FIRMWARES
 from tests.drivers.clients import DriverClient, Ros1LikeClient, Ros2LikeClient
+from tests.drivers.kill import driving_client, went_on
 from tests.drivers.wire import RawPort
 
 pytestmark = pytest.mark.timeout(120)
@@ -165,54 +166,26 @@ def test_a_left_curve_through_the_port_turns_left(robot, ports, kind, firmware):
     assert client.traffic.errors == []
 
 
-DRIVING_CLIENT = """
-import sys, time
-sys.path.insert(0, {root!r})
-from tests.drivers.clients import Ros2LikeClient
-from tests.drivers.wire import RawPort
-client = Ros2LikeClient(RawPort.open({path!r}), {wheel_base})
-client.start()
-print("driving", flush=True)
-client.run(0.4, 0.0, lambda: False, 60.0)
-"""
-
-
 def test_a_client_killed_while_it_drives_leaves_the_robot_stopped_within_the_limit(robot):
     """A driver at the console's top speed, SIGKILLed: the port's clamp kept every target
     within the reach, and its hang-up stops the robot (issue 27; `bench/virtual_port.py
     --kills 30` does it thirty times)."""
     giraff = robot("later")
     assert giraff.port is not None
-    script = DRIVING_CLIENT.format(root=str(ROOT), path=giraff.port.path, wheel_base=WHEEL_BASE_M)
-    for _ in range(3):
-        program = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE,
-                                   stdin=subprocess.DEVNULL, text=True)  # fmt: skip
+    command = driving_client(giraff.port.path, WHEEL_BASE_M, 0.4)
+    for _ in range(2):
+        program = subprocess.Popen(command, stdout=subprocess.PIPE, stdin=subprocess.DEVNULL,
+                                   text=True)  # fmt: skip
         try:
             assert program.stdout is not None
-            assert program.stdout.readline().strip() == "driving"
+            started = select.select([program.stdout], [], [], KILL_TIMEOUT_S)[0]
+            assert started and program.stdout.readline().strip() == "driving"
             time.sleep(1.5)  # at speed
         finally:
             os.kill(program.pid, signal.SIGKILL)
             program.wait(KILL_TIMEOUT_S)
         killed_at = giraff.true_pose()
         assert killed_at is not None
-        travel = stopped_after(giraff, killed_at)
+        travel = went_on(giraff, killed_at)
         print(f"killed at speed: {travel:.3f} m more")
         assert travel <= RUNAWAY_M
-
-
-def stopped_after(robot: Robot, start: Pose) -> float:
-    """How far the robot goes from `start` until it is still (the true pose)."""
-    deadline = time.monotonic() + KILL_TIMEOUT_S
-    last, still_since = start, time.monotonic()
-    farthest = 0.0
-    while time.monotonic() - still_since < 0.5:
-        assert time.monotonic() < deadline, "the robot did not stop"
-        time.sleep(0.02)
-        now = robot.true_pose()
-        assert now is not None
-        farthest = max(farthest, math.hypot(now.x - start.x, now.y - start.y))
-        if math.hypot(now.x - last.x, now.y - last.y) > 1e-4:
-            still_since = time.monotonic()
-        last = now
-    return farthest
