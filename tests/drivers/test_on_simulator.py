@@ -21,7 +21,6 @@ from giraff_console.clock import RealClock
 from giraff_console.sim import BoardConfig, GiraffBoard, PtyServer, TruePose
 from giraff_console.sim.firmware import FIRMWARES
 from tests.drivers.clients import DriverClient, Ros1LikeClient, Ros2LikeClient, shorter_way
-from tests.drivers.wire import RawPort
 
 # Real time on a loaded 2-core machine: generous, but every wait is bounded.
 pytestmark = pytest.mark.timeout(120)
@@ -58,20 +57,6 @@ def simulator() -> Iterator[Callable[..., Simulator]]:
         thread.join(timeout=10)
         assert not thread.is_alive(), "the pty server did not stop"
         server.close()
-
-
-@pytest.fixture
-def ports() -> Iterator[Callable[[str], RawPort]]:
-    opened: list[RawPort] = []
-
-    def open_port(path: str) -> RawPort:
-        port = RawPort.open(path)
-        opened.append(port)
-        return port
-
-    yield open_port
-    for port in opened:
-        port.close()
 
 
 def pose_error(client: DriverClient, truth: TruePose) -> tuple[float, float]:

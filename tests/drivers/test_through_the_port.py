@@ -63,20 +63,6 @@ def robot() -> Iterator[Callable[[str], Robot]]:
         robot.close()
 
 
-@pytest.fixture
-def ports() -> Iterator[Callable[[str], RawPort]]:
-    opened: list[RawPort] = []
-
-    def open_port(path: str) -> RawPort:
-        port = RawPort.open(path)
-        opened.append(port)
-        return port
-
-    yield open_port
-    for port in opened:
-        port.close()
-
-
 def client_on(robot: Robot, kind: str, ports: Callable[[str], RawPort],
               firmware: str) -> DriverClient:  # fmt: skip
     assert robot.port is not None
