@@ -235,12 +235,14 @@ def check_command(command: Command, limits: DriveLimits, board: Mapping[str, str
 
 def clamp_command(command: Command, limits: DriveLimits, board: Mapping[str, str]) -> Command:
     """`command` with its values brought within their bounds where that can only make a
-    move shorter, slower or gentler, for a program that cannot read the guard's reasons
+    move shorter, slower or surer to stop, for a program that cannot read the guard's reasons
     (the virtual port: the deployed drivers never read a `set`'s reply, wire-facts):
-    a speed, a turn rate or a gear ratio's ramp down to its limit; an acceleration into
-    the range that still stops the robot within the runaway limit; a move's target down
-    to the reach for what the board holds. Anything else, and a move that cannot go at
-    all, is returned unchanged for `check_command` to refuse with its reason."""
+    a speed, a turn rate or a gear ratio's ramp down to its limit; an acceleration down
+    to the console's, or one too gentle to stop the robot within the runaway limit up to
+    the gentlest that does (harder than asked, never harder than the console's own); a
+    move's target down to the reach for what the board holds. A negative speed or
+    acceleration, anything else, and a move that cannot go at all, is returned unchanged
+    for `check_command` to refuse with its reason."""
     if command.kind != "set":
         return command
     mode = _held_mode(board)
@@ -267,14 +269,18 @@ CLAMPED = frozenset({"v", "a", "vg", "vgr", "cdp"})
 
 
 def _clamped(name: str, value: float, limits: DriveLimits, mode: float) -> float:
-    """`value` within `name`'s bounds (inside an open bound by one step on the wire)."""
+    """`value` within `name`'s bounds (inside an open bound by one step on the wire);
+    unchanged below a bound of zero or more, which only a value of another kind is (a
+    negative speed or acceleration: refused, not made into a stop or a turn)."""
     if name == "vg" and mode != VELOCITY_MODE:
         # A gear ratio: no steeper than the console's own curves (below 0.51).
         return max(-limits.max_gear, min(limits.max_gear, value))
     bound = setting_bounds(limits, None, mode)[name]
     low = bound.low + (_WIRE_STEP if bound.open_low else 0.0)
     high = bound.high - (_WIRE_STEP if bound.open_high else 0.0)
-    return max(low, min(high, value))
+    if value < low and (bound.low < 0 or value > 0):
+        return low
+    return min(high, value)
 
 
 def _clamped_target(target: float, limits: DriveLimits, board: Mapping[str, str]) -> float:

@@ -333,6 +333,21 @@ class View(Request):
     quick: ClassVar[bool] = True
 
 
+# Who a program on the virtual port is to the service and the consoles (service/
+# virtual_port.py): it holds the controls as a console does.
+PROGRAM = "the program on the virtual port"
+
+
+@dataclass(frozen=True)
+class HandControls(Request):
+    """Hand the controls to the program on the virtual port (§4.5): the operator lets it
+    drive; the keys the console held let go."""
+
+    to: str = PROGRAM
+    moves: ClassVar[bool] = True
+    quick: ClassVar[bool] = True
+
+
 @dataclass(frozen=True)
 class Release(Request):
     """Let a program on the virtual port move the robot again after an operator's stop."""
@@ -351,7 +366,8 @@ class Shutdown(Request):
 REQUESTS: tuple[type[Request], ...] = (
     Press, Halt, Speed, Send, SendCommands, Stalk, Poll, Go, RunPatrol, Follow, Replay,
     Undock, Pause, Resume, StopMission, Door, Block, Record, Play, Seek, Rate, Step, Teach, Mark,
-    Place, Name, Done, Routes, TakeControls, Heartbeat, Status, Release, Shutdown, View,
+    Place, Name, Done, Routes, TakeControls, HandControls, Heartbeat, Status, Release,
+    Shutdown, View,
 )  # fmt: skip
 
 
@@ -502,6 +518,8 @@ TYPED: tuple[Typed, ...] = (
           _bare(TakeControls(), "take")),
     Typed("status", "status", "what runs, who holds the controls, how the last mission ended",
           _bare(Status(), "status")),
+    Typed("give", "give", "hand the controls to the program on the virtual port",
+          _bare(HandControls(), "give")),
     Typed("release", "release", "let the program on the virtual port move the robot again "
           "after a stop", _bare(Release(), "release")),
 )  # fmt: skip

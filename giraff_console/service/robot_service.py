@@ -697,6 +697,19 @@ class RobotService:
         self._tell(self.controls())
         return Reply(True, "you hold the controls")
 
+    def _do_handcontrols(self, request: c.HandControls, console: str) -> Reply:
+        """The holder (`console`, which `execute` made sure of) hands the controls on."""
+        with self._lock:
+            if request.to not in self._consoles:
+                return Reply(False, f"refused: {request.to} is not there (nobody has the "
+                                    "virtual port open)")  # fmt: skip
+            self._holder = request.to
+        # The keys the console held go with the controls.
+        self.control.halt()
+        self.control.note(f"{console} gave the controls to {request.to}")
+        self._tell(self.controls())
+        return Reply(True, f"{request.to} holds the controls (Ctrl+T takes them back)")
+
     def _do_view(self, request: c.View, console: str) -> Reply:
         if self.camera is None:
             return Reply(False, "no camera: the robot runs without one")
@@ -811,6 +824,7 @@ HANDLERS: dict[type[c.Request], Handler] = {
     c.Rate: _asked(RobotService._do_rate),
     c.Step: _asked(RobotService._do_step),
     c.TakeControls: RobotService._do_takecontrols,
+    c.HandControls: RobotService._do_handcontrols,
     c.Heartbeat: _asked(RobotService._do_heartbeat),
     c.Release: _asked(RobotService._do_release),
     c.Shutdown: _asked(RobotService._do_shutdown),

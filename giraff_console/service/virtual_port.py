@@ -17,7 +17,7 @@ loop, the one owner of the link (design.md): a read is forwarded to the board as
 on the loop's thread and the board's reply is relayed; anything else first passes the
 same guard as a typed command (robot/command_guard.py), on that thread, where the
 board's settings are known for sure, after its values are brought within the limits
-where that can only make a move shorter, slower or gentler (`clamp_command`: the
+where that can only make a move shorter, slower or surer to stop (`clamp_command`: the
 deployed drivers never read a set's reply and renew their targets, wire-facts). What is
 refused gets an error line in the board's own style (`Error: ...`), so a driver sees a
 board error rather than silence:
@@ -85,6 +85,7 @@ from giraff_console.robot.command_guard import (
 from giraff_console.robot.realtime import run_promptly
 from giraff_console.robot.safety import stop_robot
 from giraff_console.robot.wheel_odometers import Reading, firmware_reading
+from giraff_console.service.commands import PROGRAM
 from giraff_console.service.events import Controls
 from giraff_console.service.robot_service import RobotService
 from giraff_console.service.shared_readings import SharedReadings
@@ -119,12 +120,13 @@ NOT_DRIVING = (
     "(set v 0, set p 0, set r 50, ...) are answered and change nothing; its settings go "
     "to the board before its next command"
 )
-# What the console's braking stop sets (robot/safety.py), put back after it as the
-# program left it.
-RESTORED = ("mode", "a", "cdp")
-# Who the program is to the service and the consoles: it holds the controls as a
-# console does.
-PROGRAM = "the program on the virtual port"
+# Settings a driver sets once and counts on (one sets `mode 2` only at start-up,
+# wire-facts), which others change (missions, the keys and the braking stop send `mode
+# 0`): the program's own go back to the board, guarded, before its next command.
+BELIEVED = ("mode", "a", "cdp")
+# Seconds after its last move at which a program that holds the controls and has gone
+# quiet gives them back: its last target (within the reach) has long been reached.
+QUIET_S = 5.0
 OPERATOR_STOPPED = (
     "the operator stopped the robot; `release` in a console lets the program move it again"
 )
@@ -184,9 +186,14 @@ class VirtualPort:
         self._unsent = bytearray()
         # Settings the program zeroed to stop that the board still holds (`a`).
         self._zeroed: set[str] = set()
-        # Idle settings the program sent while others drove, for the board before its
-        # next command (the loop's thread).
+        # Idle settings the program sent while others drove, and the settings it counts
+        # on (BELIEVED), for the board before its next command (the loop's thread).
         self._pending: dict[str, Command] = {}
+        self._believed: dict[str, Command] = {}
+        # Whether the program held the controls at the service's last word of them, and
+        # when it last moved (time.monotonic()).
+        self._holding = False
+        self._last_move = 0.0
         # Whether a move of the program's is under way: stopped if it hangs up.
         self._moved = False
         # When the program's last line was taken (time.monotonic()).
@@ -234,8 +241,13 @@ class VirtualPort:
 
     def _heard(self, event: object) -> None:
         """The controls taken from the program: a move of its own is stopped, unless a
-        mission or the keys drive now (they brake it themselves)."""
-        if isinstance(event, Controls) and event.holder != PROGRAM and self._moved:
+        mission or the keys drive now (they brake it themselves). Decided by whether it
+        held them, not by whether it moved yet: a move may be on its way to the board as
+        the controls are taken, and the stop is queued after it."""
+        if not isinstance(event, Controls):
+            return
+        held, self._holding = self._holding, event.holder == PROGRAM
+        if held and not self._holding:
             self.control.submit(self._stop_left_move, _log_failure, stop=True)
 
     def __enter__(self) -> VirtualPort:
@@ -282,6 +294,9 @@ class VirtualPort:
                 self._receive(data)
             if self._greet_at is not None and time.monotonic() >= self._greet_at:
                 self._greet()
+            if self._holding and time.monotonic() - self._last_move > QUIET_S:
+                # Gone quiet: the controls are free for a console or a mission.
+                self.service.let_go(PROGRAM)
             if self._unsent:
                 self._send()
 
@@ -297,6 +312,7 @@ class VirtualPort:
         self.shared.forget()
         self._zeroed.clear()
         self._pending.clear()
+        self._believed.clear()
         self._idle_noted = False
 
     def _receive(self, data: bytes) -> None:
@@ -397,6 +413,10 @@ class VirtualPort:
         def drive(link: BoardLink) -> Lines:
             refused = self._only_reads()
             moves = command.kind == "set" and command.name in ("p", TWM)
+            if moves:
+                # Before the controls are taken: the quiet check must not see them held
+                # by a program that has not moved yet.
+                self._last_move = time.monotonic()
             if refused is None and moves:
                 # A move needs the controls, taken if nobody holds them; a setting only
                 # that nobody else drives.
@@ -404,7 +424,7 @@ class VirtualPort:
                            or self._held or _zeroed_message(self._zeroed))  # fmt: skip
             if refused is not None:
                 return [_error(refused)]
-            refused = self._send_pending(link)
+            refused = self._send_pending(link) or self._send_believed(link)
             if refused is not None:
                 return [_error(refused)]
             # The drivers never read a set's reply (wire-facts): what can be made safe
@@ -416,6 +436,8 @@ class VirtualPort:
                 return [_error(exchange)]
             self._zeroed -= set(clamped.settings)
             self._moved = self._moved or moves
+            if clamped.kind == "set" and clamped.name in BELIEVED:
+                self._believed[clamped.name] = clamped
             return list(exchange.lines)
 
         return drive
@@ -438,6 +460,18 @@ class VirtualPort:
             if isinstance(sent, str):
                 return f"{sent} (the {command} this program sent before)"
             del self._pending[name]
+        return None
+
+    def _send_believed(self, link: BoardLink) -> str | None:
+        """The settings the program counts on (BELIEVED) that the board no longer holds,
+        back to it before the program's next command (the loop's thread); why that
+        command may not go, if one is refused."""
+        held = self.control.teleop.board_settings
+        for name, command in list(self._believed.items()):
+            if held.get(name) != command.settings[name]:
+                sent = self._send_guarded(link, command)
+                if isinstance(sent, str):
+                    return f"{sent} (the {command} this program sent before)"
         return None
 
     def _only_reads(self) -> str | None:
@@ -496,21 +530,10 @@ class VirtualPort:
             self._brake(link)
 
     def _brake(self, link: BoardLink) -> bool:
-        """The console's braking stop (robot/safety.py), then the settings it changed for
-        the stop (mode, a, cdp) back as the program left them, for its next move: a
-        driver in mode 2 does not set it again (wire-facts). True if it worked."""
-        teleop = self.control.teleop
-        before = dict(teleop.board_settings)
-        if not stop_robot(link, teleop.board_settings):
-            return False
-        for name in RESTORED:
-            if name in before and teleop.board_settings.get(name) != before[name]:
-                value = float(before[name])
-                number = int(value) if value.is_integer() else value
-                sent = self._send_guarded(link, Command("set", name, number))
-                if isinstance(sent, str):
-                    log.warning("virtual port: after a stop, %s", sent)
-        return True
+        """The console's braking stop (robot/safety.py); the settings it changes for the
+        stop (mode, a, cdp) go back as the program left them before its next command
+        (`_send_believed`). True if it worked."""
+        return stop_robot(link, self.control.teleop.board_settings)
 
     def _run_job(self, job: Callable[[BoardLink], Lines], stop: bool = False) -> Lines:
         """Run `job` on the loop's thread and wait for its lines, within reply_timeout."""

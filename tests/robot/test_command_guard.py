@@ -486,8 +486,16 @@ def test_a_clamped_command_is_never_refused_for_what_clamping_brings_within_boun
         except CommandError:
             continue
         own = {command.name} & CLAMPED if command.kind == "set" else set()
+        values = {command.name: command.values[0]} if len(command.values) == 1 else {}
         if command.name == "twm":
             own = {"vg", "cdp", "vgr", "v"}
+            values = dict(zip(("vg", "cdp", "vgr", "v"), command.values, strict=False))
+        # A negative speed, or an acceleration of 0 or less, is refused, not clamped into
+        # another kind of move.
+        if float(values.get("v", 0)) < 0:
+            own.discard("v")
+        if float(values.get("a", 1)) <= 0:
+            own.discard("a")
         try:
             command = clamp_command(command, LIMITS, board)
             check_command(command, LIMITS, board)

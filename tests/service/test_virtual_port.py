@@ -21,6 +21,9 @@ from giraff_console.robot.control_loop import ControlLoop
 from giraff_console.robot.deadman import Deadman, Intent
 from giraff_console.robot.mission import DRIVING, MissionEnd, Progress
 from giraff_console.robot.teleop import Teleop
+from giraff_console.service import commands as c
+from giraff_console.service import virtual_port
+from giraff_console.service.commands import PROGRAM
 from giraff_console.service.robot_service import RobotService
 from giraff_console.service.shared_readings import SharedReadings, add_to_list
 from giraff_console.service.virtual_port import (
@@ -539,3 +542,56 @@ def test_settings_that_let_the_program_only_read_refuse_its_moves():
         program.close()
         assert bench.port.close()
         bench.link.close()
+
+
+def test_the_operator_hands_the_controls_to_the_program_and_takes_them_back(later, program):
+    """§4.5 and issue 27: the program drives when the operator hands it the controls."""
+    later.service.attach("console", take=True)
+    assert program.ask("set v 0.3") == [encode_float(0.3)]  # a setting: nobody else drives
+    refused = program.ask("set p 0.2")
+    assert refused == ["Error: refused: console holds the controls (a console's Ctrl+T or "
+                       "`take` asks for them)"]  # fmt: skip
+    assert later.service.execute(c.HandControls(), "console").ok
+    assert later.service.controls().holder == PROGRAM
+    assert program.ask("set p 0.2") == [encode_float(0.2)]
+    later.run(0.3)
+    assert later.service.execute(c.TakeControls(), "console").ok
+    later.run(1.5)
+    assert later.board.true_pose.x < 0.12  # its move stopped when the controls were taken
+    assert program.ask("set p 0.2")[0].startswith("Error: refused: console holds the controls")
+
+
+def test_the_controls_are_handed_only_to_a_program_that_is_there(later):
+    later.service.attach("console", take=True)
+    reply = later.service.execute(c.HandControls(), "console")
+    assert not reply.ok and "nobody has the virtual port open" in reply.text
+    assert later.service.controls().holder == "console"
+
+
+def test_the_mode_a_driver_set_once_goes_back_to_the_board_before_its_next_command(later, program):
+    """One driver sets mode 2 at start-up only (wire-facts); a mission or the keys set
+    mode 0 meanwhile: its vg must not be read as a gear ratio (review of issue 27)."""
+    assert program.ask("set mode 2") == ["I*02000000"]
+    program.ask("set a 0.4")
+    later.control.teleop.board_set("mode", "0")  # as a mission's commands leave it
+    assert program.ask("set vg 10") == [encode_float(10.0)]  # degrees per second, kept
+    assert later.control.teleop.board_settings["mode"] == "2"
+    assert later.sent("set mode 2")
+
+
+def test_a_negative_speed_is_refused_not_clamped_into_another_kind_of_move(later, program):
+    program.ask("set mode 2")
+    assert program.ask("set v -0.3")[0].startswith("Error: refused: v must be")
+    assert not later.sent("set v 0") or later.control.teleop.board_settings.get("v") != "0"
+
+
+def test_a_program_that_goes_quiet_gives_the_controls_back(later, program, monkeypatch):
+    monkeypatch.setattr(virtual_port, "QUIET_S", 0.2)
+    program.ask("set v 0.3")
+    assert program.ask("set p 0.1") == [encode_float(0.1)]
+    assert later.service.controls().holder == PROGRAM
+    give_up = time.monotonic() + REPLY_WAIT_S
+    while later.service.controls().holder is not None:
+        assert time.monotonic() < give_up, "the quiet program kept the controls"
+        later.step()
+        time.sleep(0.01)
