@@ -61,7 +61,7 @@ from giraff_console.service import commands as c  # noqa: E402
 from giraff_console.service.remote import RemoteRobot  # noqa: E402
 from giraff_console.service.runtime_folder import socket_path  # noqa: E402
 from giraff_console.settings import Settings  # noqa: E402
-from tests.drivers.clients import DriverClient, Ros1LikeClient, Ros2LikeClient  # noqa: E402
+from tests.drivers.clients import Ros1LikeClient, Ros2LikeClient  # noqa: E402
 from tests.drivers.kill import driving_client, went_on  # noqa: E402
 from tests.drivers.wire import RawPort  # noqa: E402
 
@@ -108,20 +108,6 @@ def client_for(kind: str, port: RawPort) -> Ros1LikeClient | Ros2LikeClient:
     return Ros1LikeClient(port, WHEEL_BASE_M)
 
 
-def poll_once(client: DriverClient) -> None:
-    """One of the client's idle loops, paced at its own rate."""
-    if isinstance(client, Ros2LikeClient):
-        client.idle(1)
-    else:
-        assert isinstance(client, Ros1LikeClient)
-        started = time.monotonic()
-        client.poll()
-        delay = 1 / client.RATE_HZ - (time.monotonic() - started)
-        if delay > 0:
-            time.sleep(delay)
-        client.traffic.loops.append(time.monotonic() - started)
-
-
 @contextmanager
 def started(command: list[str], env: dict[str, str]) -> Iterator[subprocess.Popen[str]]:
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
@@ -158,7 +144,7 @@ def direct(kind: str, seconds: float, env: dict[str, str]) -> Run:
             client.traffic.latencies.clear()
             end = time.monotonic() + seconds
             while time.monotonic() < end:
-                poll_once(client)
+                client.idle(1)
         finally:
             port.close()
     return Run(f"{kind}, direct (a 115200-baud line)", seconds, client.traffic.latencies,
@@ -197,7 +183,7 @@ def through_the_port(kind: str, missions: int, env: dict[str, str]) -> Run:
         def poll() -> None:
             try:
                 while not done.is_set():
-                    poll_once(client)
+                    client.idle(1)
             except BaseException as error:  # told below, not lost on a thread
                 failed.append(error)
 

@@ -342,6 +342,16 @@ class Ros1LikeClient(DriverClient):
             self.odometry.add(left, right)
         self._encoders = counts
 
+    def idle(self, loops: int) -> None:
+        """`loops` loops of polling, at the client's rate, as it does while idle."""
+        period = 1.0 / self.RATE_HZ
+        started = time.monotonic()
+        for _ in range(loops):
+            self.poll()
+            next_start = _pace(period, started)
+            self.traffic.loops.append(next_start - started)
+            started = next_start
+
     def wait_until_still(self, timeout: float = 30.0) -> None:
         """Poll at the loop's rate until the board reports no move."""
         period = 1.0 / self.RATE_HZ

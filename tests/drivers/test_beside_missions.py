@@ -23,7 +23,7 @@ from giraff_console.runtime.robot import Robot
 from giraff_console.service import commands as c
 from giraff_console.service.virtual_port import PROGRAM
 from giraff_console.settings import Settings
-from tests.drivers.clients import DriverClient, Ros1LikeClient, Ros2LikeClient
+from tests.drivers.clients import Ros1LikeClient, Ros2LikeClient
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -32,16 +32,6 @@ WHEEL_BASE_M = 0.499
 MISSION_TIMEOUT_S = 60.0
 # What the daemon says when no wheel reading agrees with cdis (robot/odometer_check.py).
 ALARM = "no wheel reading agrees"
-
-
-def poll(client: DriverClient) -> None:
-    """One of the client's idle loops, at its own rate."""
-    if isinstance(client, Ros2LikeClient):
-        client.idle(1)
-    else:
-        assert isinstance(client, Ros1LikeClient)
-        client.poll()
-        time.sleep(1 / client.RATE_HZ)
 
 
 @pytest.mark.parametrize("kind", ["ros2", "ros1"])
@@ -71,7 +61,7 @@ def test_a_driver_polling_the_port_leaves_the_daemon_s_missions_alone(ports, kin
         def polling() -> None:
             try:
                 while not done.is_set():
-                    poll(client)
+                    client.idle(1)
             except BaseException as error:  # told below, not lost on the thread
                 failed.append(error)
 
