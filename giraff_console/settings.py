@@ -62,6 +62,20 @@ The [board] and [battery] tables, for real boards (docs/simulator.md lists the f
     low = 25                   # percent: below it a patrol goes to the dock to charge
     charged = 90               # percent: at or above it, it carries on
 
+The [fleet] table: `giraff-console serve` as a VDA 5050 vehicle (docs/fleet.md):
+
+    [fleet]
+    broker = "mqtts://fleet.example:8883"  # mqtt:// or mqtts:// (TLS); none: no fleet
+                               # link unless `serve --fleet URL` asks for one
+    ca_file = "/etc/giraff/fleet-ca.pem"   # the CA of the broker's certificate (TLS);
+                               # without it, the system's
+    credentials = "/etc/giraff/fleet.cred" # one line user:password, owner-only (chmod 600)
+    manufacturer = "giraff"
+    serial_number = "giraff-07"  # without it, the machine's host name
+    interface = "uagv"         # the first level of every topic
+    on_broker_lost = "carry_on"  # an order under way when the broker goes: "carry_on"
+                               # (the standard's default) or "stop"
+
 Scheduled patrols, which `giraff-console serve` runs (docs/daemon.md); one [[schedule]]
 table each, as many as wanted:
 
@@ -106,9 +120,14 @@ FOLDER_KEYS = ("recordings", "routes")
 # What a program on the virtual port may do (serve --virtual-port, docs/daemon.md):
 # drive when nobody else holds the controls, or only read.
 VIRTUAL_PORT_CHOICES = ("drives", "reads")
-TEXT_KEYS = ("port", "power_line", "odometers", "twm", "virtual_port", *FOLDER_KEYS)
+# What an order under way does when the broker goes (docs/fleet.md).
+BROKER_LOST_CHOICES = ("carry_on", "stop")
+FLEET_TEXT_KEYS = ("broker", "ca_file", "credentials", "manufacturer", "serial_number",
+                   "interface", "on_broker_lost")  # fmt: skip
+TEXT_KEYS = ("port", "power_line", "odometers", "twm", "virtual_port", *FOLDER_KEYS,
+             *FLEET_TEXT_KEYS)  # fmt: skip
 # Tables within the file, each its own dataclass below.
-TABLES = ("teleop", "motion", "board", "battery")
+TABLES = ("teleop", "motion", "board", "battery", "fleet")
 # The array of tables of scheduled patrols, and the keys of each.
 SCHEDULE = "schedule"
 SCHEDULE_KEYS = ("patrol", "every", "from", "to")
@@ -208,6 +227,28 @@ class BatterySettings:
 
 
 @dataclass(frozen=True)
+class FleetSettings:
+    """The broker a daemon joins as a VDA 5050 vehicle, and who it is there."""
+
+    broker: str = ""
+    ca_file: str = ""
+    credentials: str = ""
+    manufacturer: str = "giraff"
+    serial_number: str = ""
+    interface: str = "uagv"
+    on_broker_lost: str = BROKER_LOST_CHOICES[0]
+
+    def check(self) -> None:
+        if self.on_broker_lost not in BROKER_LOST_CHOICES:
+            raise ValueError(f"fleet.on_broker_lost must be "
+                             f"{' or '.join(BROKER_LOST_CHOICES)}")  # fmt: skip
+
+    @property
+    def stops_when_broker_lost(self) -> bool:
+        return self.on_broker_lost == "stop"
+
+
+@dataclass(frozen=True)
 class Settings:
     port: str | None = None
     power_line: str = "dtr"
@@ -221,6 +262,7 @@ class Settings:
     motion: MotionSettings = field(default_factory=MotionSettings)
     board: BoardSettings = field(default_factory=BoardSettings)
     battery: BatterySettings = field(default_factory=BatterySettings)
+    fleet: FleetSettings = field(default_factory=FleetSettings)
     schedule: tuple[ScheduledPatrol, ...] = ()
     source: str = "built-in defaults"
 
@@ -251,8 +293,10 @@ def load_settings(path: Path | None = None) -> Settings:
         motion = MotionSettings(**_checked(path, "motion.", MotionSettings, tables["motion"]))
         board = BoardSettings(**_checked(path, "board.", BoardSettings, tables["board"]))
         battery = BatterySettings(**_checked(path, "battery.", BatterySettings, tables["battery"]))
+        fleet = FleetSettings(**_fleet_files(path, _checked(path, "fleet.", FleetSettings,
+                                                            tables["fleet"])))  # fmt: skip
         settings = Settings(**_checked(path, "", Settings, data), teleop=teleop, motion=motion,
-                            board=board, battery=battery, schedule=schedule,
+                            board=board, battery=battery, fleet=fleet, schedule=schedule,
                             source=str(path))  # fmt: skip
         if settings.power_line not in ("dtr", "rts", "both", "none"):
             raise ValueError("power_line must be dtr, rts, both or none")
@@ -278,6 +322,7 @@ def load_settings(path: Path | None = None) -> Settings:
         motion.patience()
         board.check()
         battery.levels()
+        fleet.check()
     except ValueError as error:
         raise SettingsError(f"{path}: {error}") from None
     except ArithmeticError:
@@ -304,6 +349,14 @@ def _checked(path: Path, prefix: str, kind: type, data: dict) -> dict:
                 raise SettingsError(f"{path}: {prefix}{key} must name a folder")
             # Relative to the settings file, not to wherever the console is started.
             data[key] = str(path.parent / Path(value).expanduser())
+    return data
+
+
+def _fleet_files(path: Path, data: dict) -> dict:
+    """The fleet's files, relative to the settings file as the folders are."""
+    for key in ("ca_file", "credentials"):
+        if data.get(key):
+            data[key] = str(path.parent / Path(data[key]).expanduser())
     return data
 
 

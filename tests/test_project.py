@@ -122,6 +122,9 @@ ALLOWED_IMPORTS = {
 }
 ALLOWED_IMPORTS["runtime"] = ALLOWED_IMPORTS["service"] | {"runtime", "settings", "sim",
                                                            "data_folders"}  # fmt: skip
+# The fleet link is a client of the service, as the screen is; the composition root
+# (cli/serve.py with runtime/) starts it, and it builds nothing of the robot itself.
+ALLOWED_IMPORTS["fleet"] = ALLOWED_IMPORTS["service"] | {"fleet", "settings"}
 # Issue 15: the screen asks the robot service and builds nothing itself. What it may
 # still take from below: the data it draws (telemetry, poses, the plan for the map, the
 # camera's pictures), never the parts that act on the robot.
