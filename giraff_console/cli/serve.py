@@ -34,8 +34,10 @@ from giraff_console.service.runtime_folder import runtime_folder, socket_path
 from giraff_console.service.transport import TransportError
 
 if TYPE_CHECKING:
+    from giraff_console.fleet.vehicle import FleetVehicle
     from giraff_console.robot.loop_events import LoopEvent
     from giraff_console.runtime.robot import Robot
+    from giraff_console.service.robot_service import RobotService
     from giraff_console.settings import Settings
 
 
@@ -87,6 +89,17 @@ def add_serve_parser(commands: argparse._SubParsersAction, example: Path) -> Non
         "(its path is printed): it may read while a mission runs, but not move the robot "
         "(§4.5)",
     )  # fmt: skip
+    serve.add_argument(
+        "--fleet", metavar="URL",
+        help="also join a fleet as a VDA 5050 2.1 vehicle on the MQTT broker at URL "
+        "(mqtt://HOST[:PORT], or mqtts:// for TLS), as the [fleet] settings say otherwise "
+        "(docs/fleet.md): orders become missions, and the operator's console always wins",
+    )  # fmt: skip
+    serve.add_argument(
+        "--serial-number", metavar="NAME",
+        help="the vehicle's serial number on the broker (default: fleet.serial_number, "
+        "else the host name)",
+    )  # fmt: skip
     add_folder_options(serve, after_command=True)
 
 
@@ -124,6 +137,10 @@ def _serve(robot: Robot, args: argparse.Namespace, settings: Settings, example: 
     except TransportError as error:
         return fail(str(error), EXIT_USAGE)
     schedule = PatrolSchedule(service, settings.schedule, robot.routes.runs)
+    try:
+        fleet = _fleet(service, args, settings)
+    except ValueError as error:  # BrokerError, a serial number that cannot be a topic
+        return fail(f"--fleet: {error}", EXIT_USAGE)
     port_for_others = robot.port
     # Before any thread starts: a signal stops the robot from the loop's own thread,
     # then the daemon stops taking consoles and ends.
@@ -140,12 +157,39 @@ def _serve(robot: Robot, args: argparse.Namespace, settings: Settings, example: 
         sys.stderr.write(f"giraff-console: virtual motor port at {port_for_others.path}\n")
         sys.stderr.flush()
     schedule.start()
+    if fleet is not None:
+        fleet.start()
     try:
         daemon.serve_forever()
         daemon.join(2.0)  # the consoles hear that it ends
     finally:
         daemon.stop()
         schedule.stop()
+        if fleet is not None:
+            fleet.close()
         if port_for_others is not None:
             port_for_others.close()
     return 128 + last_stop.signalled if last_stop.signalled is not None else 0
+
+
+def _fleet(
+    service: RobotService, args: argparse.Namespace, settings: Settings
+) -> FleetVehicle | None:
+    """The fleet link the options or the settings ask for, or None."""
+    url = args.fleet or settings.fleet.broker
+    if not url:
+        return None
+    from giraff_console.fleet.broker_link import Broker
+    from giraff_console.fleet.topics import VehicleId
+    from giraff_console.fleet.vehicle import FleetVehicle, serial_number
+
+    fleet = settings.fleet
+    broker = Broker.parse(
+        url,
+        ca_file=Path(fleet.ca_file) if fleet.ca_file else None,
+        credentials=Path(fleet.credentials) if fleet.credentials else None,
+    )
+    vehicle = VehicleId(
+        fleet.manufacturer, args.serial_number or serial_number(settings), fleet.interface
+    )
+    return FleetVehicle(service, broker, vehicle, settings)

@@ -100,6 +100,18 @@ class Navigator:
         with self._lock:
             return self._set_goal(goal, arrival, pose, afresh)
 
+    def room_at(self, point: Point) -> str:
+        """The room `point` is in (planning/route_planner.py says how it is judged)."""
+        with self._lock:
+            return self.planner.room_at(point)
+
+    def check_rooms(self, rooms: Sequence[str]) -> None:
+        """PlanningError, with a message for whoever asked, if the robot could not go
+        through `rooms` in turn, room to room through the doors open now."""
+        with self._lock:
+            for here, there in zip(rooms, rooms[1:], strict=False):
+                self.planner.graph.route(here, there)
+
     def close(self, door_id: str, pose: Pose) -> NavigationState:
         """Shut a door; the route, if any, is planned again from `pose`."""
         with self._lock:

@@ -174,8 +174,11 @@ class Resume(Request):
 
 @dataclass(frozen=True)
 class StopMission(Request):
-    """End the mission; the robot stops where it is."""
+    """End the mission; the robot stops where it is. An operator's stop (`operator`)
+    also holds what else may move the robot (the program on the virtual port) until
+    `release`; the fleet's cancel of its own order holds nothing."""
 
+    operator: bool = True
     quick: ClassVar[bool] = True
 
 

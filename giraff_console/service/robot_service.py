@@ -18,7 +18,7 @@ import contextlib
 import math
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from typing import Any, Protocol, TypeAlias
 
@@ -596,8 +596,11 @@ class RobotService:
 
     def _do_stopmission(self, request: c.StopMission) -> Reply:
         """End the mission, or the one about to start (the loop may not have it yet)."""
-        self._stopped()
-        self.control.stop_mission()
+        if request.operator:
+            self._stopped()
+            self.control.stop_mission()
+        else:
+            self.control.stop_mission(Outcome.CANCELLED, "cancelled by the fleet")
         return Reply(True)
 
     # -- the building -------------------------------------------------------------------
@@ -760,6 +763,25 @@ class RobotService:
     def _do_status(self, request: c.Status) -> Reply:
         situation = self.situation()
         return Reply(True, lines=status_lines(situation, situation.consoles))
+
+    def room_here(self) -> str | None:
+        """The room the robot stands in by its estimate (a fleet's `lastNodeId`), or None
+        without a plan or before the first snapshot."""
+        navigator, telemetry = self.navigator, self.telemetry
+        if navigator is None or telemetry is None:
+            return None
+        return navigator.room_at((telemetry.pose.x, telemetry.pose.y))
+
+    def why_not_through(self, rooms: Sequence[str]) -> str | None:
+        """Why the robot could not go through `rooms` in turn, with the doors as they are
+        now, or None: an order is checked whole before any of it runs (issue 28)."""
+        if self.navigator is None:
+            return "no floor plan"
+        try:
+            self.navigator.check_rooms(rooms)
+        except PlanningError as error:
+            return str(error)
+        return None
 
     def route(self) -> RouteShown | None:
         """The route on the map now, for a console that attaches mid-mission."""

@@ -1,0 +1,301 @@
+"""The robot as a VDA 5050 vehicle on an MQTT broker (issue 28): a client of the robot
+service, as a console is, started by the daemon (`serve --fleet`, or the [fleet]
+settings table).
+
+One thread of its own does everything that touches the order (fleet/order_run.py) and
+sends every message; paho's thread only hands over what arrives, into an inbox of
+INBOX_SIZE messages: a flood fills it, and what does not fit is dropped and reported,
+never queued without bound. The service's events are queued apart, so that a flood of
+messages from the broker never crowds out a mission's end.
+
+A message is checked before anything acts on it: its size (the link's), that it is
+JSON, the standard's schema (fleet/schemas.py), the major version, and that it is for
+this vehicle. Anything wrong is an error in `state` and a line in the journal; nothing
+wrong in a message ever moves the robot.
+"""
+
+from __future__ import annotations
+
+import collections
+import json
+import socket
+import threading
+import time
+from typing import Any
+
+from giraff_console.fleet.broker_link import Broker, BrokerLink
+from giraff_console.fleet.factsheet import factsheet
+from giraff_console.fleet.messages import Headers, encode
+from giraff_console.fleet.order_run import FLEET, OrderRun
+from giraff_console.fleet.orders import ErrorType
+from giraff_console.fleet.schemas import problem
+from giraff_console.fleet.state_report import (
+    Error,
+    ErrorLevel,
+    VehicleFacts,
+    state_body,
+    visualization_body,
+)
+from giraff_console.fleet.topics import MAJOR, Topic, VehicleId
+from giraff_console.robot.telemetry import Telemetry
+from giraff_console.service.events import ServiceEvent
+from giraff_console.service.robot_service import RobotService
+from giraff_console.settings import Settings
+
+# `state` at least this often (§6.10: "at least every 30 s"; fleet views want 1 Hz).
+STATE_PERIOD_S = 1.0
+# ... and on every change, at most this often: a robot flickering between two states
+# must not flood the broker.
+MIN_STATE_GAP_S = 0.1
+# How often the thread looks for a change it was not told of (driving, the e-stop).
+LOOK_S = 0.1
+# Messages from the broker waiting to be read; more are dropped (a flood).
+INBOX_SIZE = 64
+EVENTS_SIZE = 1024
+# A line in the journal for dropped or bad messages at most this often.
+NOTE_GAP_S = 5.0
+
+
+def serial_number(settings: Settings) -> str:
+    """The vehicle's serial number: the setting's, else the machine's host name."""
+    return settings.fleet.serial_number or socket.gethostname().split(".")[0]
+
+
+class FleetVehicle:
+    """The fleet link of one robot; `start` it, `close` it (OFFLINE is said)."""
+
+    def __init__(
+        self, service: RobotService, broker: Broker, vehicle: VehicleId, settings: Settings
+    ) -> None:
+        self.service = service
+        self.vehicle = vehicle
+        self.settings = settings
+        self.headers = Headers(vehicle)
+        self.run = OrderRun(service, self._note)
+        will = encode(self.headers.stamp(Topic.CONNECTION, {"connectionState": "CONNECTIONBROKEN"}))
+        self.link = BrokerLink(
+            broker,
+            f"{vehicle.manufacturer}.{vehicle.serial_number}",
+            heard=self._heard_broker,
+            connected=self._connected,
+            subscriptions=(vehicle.topic(Topic.ORDER), vehicle.topic(Topic.INSTANT_ACTIONS)),
+            will=(vehicle.topic(Topic.CONNECTION), will),
+        )
+        self._inbox: collections.deque[tuple[str, bytes]] = collections.deque()
+        self._events: collections.deque[ServiceEvent] = collections.deque(maxlen=EVENTS_SIZE)
+        self._wake = threading.Event()
+        self._closing = threading.Event()
+        self._connection: bool | None = None  # as the thread last acted on it
+        self._up = False  # as paho last said
+        self._ever_up = False
+        self.dropped = 0  # messages dropped by a full inbox
+        self.bad = 0  # messages that were not for us, not JSON, or not by the schema
+        self._noted_at = -NOTE_GAP_S
+        self._unnoted = 0
+        self._last: tuple[object, ...] | None = None
+        self._sent_at = -STATE_PERIOD_S
+        self._thread = threading.Thread(target=self._loop, name="fleet", daemon=True)
+
+    def start(self) -> None:
+        self.service.attach(FLEET, take=False)
+        self.service.subscribe(self._heard_service)
+        self.link.start()
+        self._thread.start()
+        self._note(
+            f"fleet: {self.vehicle.name} joining the broker at "
+            f"{self.link.broker.host}:{self.link.broker.port}"
+        )
+
+    def close(self, timeout: float = 3.0) -> None:
+        """Say OFFLINE (§6.14: a vehicle that leaves on purpose), and leave."""
+        self._closing.set()
+        self._wake.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout)
+        self.service.unsubscribe(self._heard_service)
+        self.service.detach(FLEET)
+        self.link.stop(
+            last=(self.vehicle.topic(Topic.CONNECTION), self._connection_message("OFFLINE"))
+        )
+
+    # -- on other threads: only queue ---------------------------------------------------
+
+    def _heard_broker(self, topic: str, payload: bytes) -> None:
+        if len(self._inbox) >= INBOX_SIZE:
+            self.dropped += 1
+        else:
+            self._inbox.append((topic, payload))
+        self._wake.set()
+
+    def _connected(self, up: bool) -> None:
+        self._up = up
+        self._wake.set()
+
+    def _heard_service(self, event: ServiceEvent) -> None:
+        if not isinstance(event, Telemetry):  # the latest is the service's to keep
+            self._events.append(event)
+            self._wake.set()
+
+    # -- the vehicle's thread -----------------------------------------------------------
+
+    def _loop(self) -> None:
+        while not self._closing.is_set():
+            self._wake.wait(LOOK_S)
+            self._wake.clear()
+            try:
+                self._turn()
+            except Exception as error:  # a bug here must not end the fleet link silently
+                self._note(f"fleet: internal error, carrying on: {error!r}")
+
+    def _turn(self) -> None:
+        up = self._up
+        if up != self._connection:
+            self._broker_changed(up)
+        while self._events:
+            self.run.heard(self._events.popleft())
+        while self._inbox:
+            topic, payload = self._inbox.popleft()
+            self._read(topic, payload)
+        if self.dropped or self._unnoted:
+            self._note_trouble()
+        self._send_state()
+
+    def _broker_changed(self, up: bool) -> None:
+        was_up, self._connection = self._connection, up
+        if up:
+            self._publish(Topic.CONNECTION, {"connectionState": "ONLINE"}, retain=True, qos=1)
+            self._publish_factsheet()
+            self._last = None  # a state at once
+            if self._ever_up:
+                self._note("fleet: the broker is back; state sent again")
+            else:
+                self._note("fleet: on the broker")
+            self._ever_up = True
+        elif was_up:
+            stop = self.settings.fleet.stops_when_broker_lost
+            self._note(
+                "fleet: the broker went; "
+                + ("the order is stopped" if stop else "the order carries on")
+                + "; trying again"
+            )
+            self.run.broker_lost(stop)
+
+    def _read(self, topic: str, payload: bytes) -> None:
+        order_topic = self.vehicle.topic(Topic.ORDER)
+        kind = Topic.ORDER if topic == order_topic else Topic.INSTANT_ACTIONS
+        try:
+            message = json.loads(payload)
+        except (ValueError, RecursionError):  # UnicodeDecodeError is a ValueError
+            self._bad(kind, "not JSON")
+            return
+        if not isinstance(message, dict):
+            self._bad(kind, "not a JSON object")
+            return
+        try:
+            wrong = problem(kind, message)
+        except RecursionError:
+            wrong = "nested too deep"
+        if wrong is not None:
+            self._bad(kind, wrong, message.get("headerId"))
+            return
+        if str(message["version"]).split(".")[0] != MAJOR.removeprefix("v"):
+            self._bad(
+                kind,
+                f"version {message['version']}; this vehicle speaks {MAJOR.removeprefix('v')}.x",
+                message.get("headerId"),
+            )
+            return
+        if (message["manufacturer"], message["serialNumber"]) != (
+            self.vehicle.manufacturer,
+            self.vehicle.serial_number,
+        ):
+            # The broker should not have given it to us (docs/fleet-deployment.md's ACL).
+            self.bad += 1
+            self._unnoted += 1
+            return
+        if kind is Topic.ORDER:
+            self.run.take_order(message)
+        else:
+            for action in message["actions"]:
+                self.run.instant(action, self._publish_factsheet)
+
+    def _bad(self, kind: Topic, why: str, header: Any = None) -> None:
+        self.bad += 1
+        self._unnoted += 1
+        references = (("topic", kind.value),) + (
+            (("headerId", str(header)),) if header is not None else ()
+        )
+        self.run.errors.append(
+            Error(
+                ErrorType.VALIDATION, ErrorLevel.WARNING, f"{kind.value} refused: {why}", references
+            )
+        )
+
+    def _note_trouble(self) -> None:
+        now = time.monotonic()
+        if now - self._noted_at < NOTE_GAP_S:
+            return
+        self._noted_at = now
+        self._note(
+            f"fleet: {self.bad} messages refused and {self.dropped} dropped (a "
+            f"flood) so far; {self._unnoted} since the last line"
+        )
+        self._unnoted = 0
+
+    # -- what the vehicle says ----------------------------------------------------------
+
+    def facts(self) -> VehicleFacts:
+        extra: tuple[Error, ...] = ()
+        if self.dropped:
+            extra = (
+                Error(
+                    ErrorType.FLOOD,
+                    ErrorLevel.WARNING,
+                    f"{self.dropped} messages dropped: more came than the vehicle "
+                    f"reads ({INBOX_SIZE} waiting at most)",
+                ),
+            )
+        navigator = self.service.navigator
+        return self.run.facts(navigator.plan.name if navigator is not None else "", extra)
+
+    def _send_state(self) -> None:
+        if not self._connection:
+            return
+        facts = self.facts()
+        # Everything but where the robot is: a change of it is said at once.
+        signature = (
+            facts.progress,
+            facts.mode,
+            facts.paused,
+            facts.driving,
+            facts.errors,
+            facts.actions,
+            facts.room,
+            facts.information,
+            facts.telemetry.battery if facts.telemetry is not None else None,
+            facts.telemetry.state.estop
+            if facts.telemetry is not None and facts.telemetry.state is not None
+            else None,
+        )
+        now = time.monotonic()
+        changed = signature != self._last and now - self._sent_at >= MIN_STATE_GAP_S
+        if not changed and now - self._sent_at < STATE_PERIOD_S:
+            return
+        self._last, self._sent_at = signature, now
+        self._publish(Topic.STATE, state_body(facts))
+        self._publish(Topic.VISUALIZATION, visualization_body(facts))
+
+    def _publish_factsheet(self) -> None:
+        self._publish(Topic.FACTSHEET, factsheet(self.settings), retain=True, qos=1)
+
+    def _publish(
+        self, kind: Topic, body: dict[str, Any], *, retain: bool = False, qos: int = 0
+    ) -> None:
+        payload = encode(self.headers.stamp(kind, body))
+        self.link.publish(self.vehicle.topic(kind), payload, retain=retain, qos=qos)
+
+    def _connection_message(self, state: str) -> bytes:
+        return encode(self.headers.stamp(Topic.CONNECTION, {"connectionState": state}))
+
+    def _note(self, text: str) -> None:
+        self.service.note(text)
