@@ -155,8 +155,9 @@ def _position(facts: VehicleFacts) -> dict[str, Any] | None:
     position: dict[str, Any] = {
         "x": round(pose.x, 4), "y": round(pose.y, 4), "theta": round(pose.heading, 5),
         "mapId": facts.map_id,
-        # Known: found by a marker, or (a plan without markers) placed by the operator.
-        "positionInitialized": estimate is not None and (estimate.found or not estimate.landmarks),
+        # Known: found by a marker, or placed (by the operator, or the dock the simulator
+        # starts on); not a pose only assumed (a daemon restarted: robot/localisation.py).
+        "positionInitialized": estimate is not None and (estimate.found or estimate.basis.verified),
     }  # fmt: skip
     if estimate is not None:
         score = 1.0 - min(1.0, estimate.sigma_m / SCORE_ZERO_SIGMA_M)

@@ -259,7 +259,8 @@ class FleetVehicle:
         return self.run.facts(navigator.plan.name if navigator is not None else "", extra)
 
     def _send_state(self) -> None:
-        if not self._connection:
+        # Not before the loop's first snapshot: a state says where the robot is.
+        if not self._connection or self.service.telemetry is None:
             return
         facts = self.facts()
         # Everything but where the robot is: a change of it is said at once.

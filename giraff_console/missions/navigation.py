@@ -12,6 +12,7 @@ replaced whole, so the screen can read it at any time.
 
 from __future__ import annotations
 
+import itertools
 import math
 import threading
 from collections.abc import Sequence
@@ -109,7 +110,7 @@ class Navigator:
         """PlanningError, with a message for whoever asked, if the robot could not go
         through `rooms` in turn, room to room through the doors open now."""
         with self._lock:
-            for here, there in zip(rooms, rooms[1:], strict=False):
+            for here, there in itertools.pairwise(rooms):
                 self.planner.graph.route(here, there)
 
     def close(self, door_id: str, pose: Pose) -> NavigationState:

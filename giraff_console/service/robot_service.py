@@ -766,11 +766,11 @@ class RobotService:
 
     def room_here(self) -> str | None:
         """The room the robot stands in by its estimate (a fleet's `lastNodeId`), or None
-        without a plan or before the first snapshot."""
-        navigator, telemetry = self.navigator, self.telemetry
-        if navigator is None or telemetry is None:
+        without a plan."""
+        if self.navigator is None:
             return None
-        return navigator.room_at((telemetry.pose.x, telemetry.pose.y))
+        pose = self.control.estimate().pose
+        return self.navigator.room_at((pose.x, pose.y))
 
     def why_not_through(self, rooms: Sequence[str]) -> str | None:
         """Why the robot could not go through `rooms` in turn, with the doors as they are

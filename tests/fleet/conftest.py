@@ -17,3 +17,16 @@ def broker(tmp_path: Path) -> Iterator[Broker]:
         yield running
     finally:
         running.stop()
+
+
+@pytest.fixture(scope="session")
+def wing(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The walled wing (tests/buildings), unlike the example care home, with markers put
+    up by `floorplan landmarks` as a user would: the fleet's robots drive in it."""
+    from tests.buildings.console import put_up_markers
+    from tests.buildings.walled_wing import walled_wing
+
+    plan = walled_wing(tmp_path_factory.mktemp("wing"))
+    markers = put_up_markers(plan)
+    assert markers.placed, markers.said
+    return plan
