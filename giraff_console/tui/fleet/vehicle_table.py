@@ -10,11 +10,12 @@ from giraff_console.fleet.master import Fleet, Vehicle
 from giraff_console.fleet.topics import VehicleId
 from giraff_console.fleet.vehicle_report import ConnectionState, ErrorLevel, OperatingMode
 
-# Column keys and headings, in order; the widths keep the columns still as the values
-# change (the last one takes what is left).
+# Column keys, headings and widths: fixed, so that the columns hold still as the values
+# change, and all of them within a 120-column terminal (each cell has a space either
+# side); the log has an error's whole text.
 COLUMNS = (
-    ("robot", "Robot", 20), ("connection", "Connection", 16), ("mode", "Mode", 9),
-    ("battery", "Battery", 7), ("mission", "Mission", 30), ("error", "Last error", None),
+    ("robot", "Robot", 18), ("connection", "Connection", 16), ("mode", "Mode", 9),
+    ("battery", "Battery", 7), ("mission", "Mission", 28), ("error", "Last error", 26),
 )  # fmt: skip
 # Below it the battery is drawn in red: as the console's own low mark (settings, battery.low).
 BATTERY_LOW = 25.0
