@@ -27,6 +27,7 @@ from giraff_console.cli.daemon import (
 )
 from giraff_console.cli.exit_codes import EXIT_USAGE
 from giraff_console.cli.export import add_export_parser, run_export
+from giraff_console.cli.fleet import add_fleet_parser, run_fleet
 from giraff_console.cli.floorplan import add_floorplan_parser, run_floorplan
 from giraff_console.cli.go import add_go_parser, run_go
 from giraff_console.cli.options import add_board_options, add_folder_options
@@ -93,6 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_serve_parser(commands, EXAMPLE_FLOORPLAN)
     add_survey_parser(commands, EXAMPLE_FLOORPLAN)
     add_daemon_parsers(commands)
+    add_fleet_parser(commands, EXAMPLE_FLOORPLAN)
 
     add_send_parser(commands)
     return parser
@@ -137,6 +139,8 @@ def run(args: argparse.Namespace) -> int:
         return run_watch(args)
     if args.command == "floorplan":
         return run_floorplan(args)
+    if args.command == "fleet":
+        return run_fleet(args)
     # The commands that drive the robot, on the settings file's rates and limits: the
     # console with no command (or replay), the only one that loads Textual.
     command = DRIVING[args.command] if args.command in DRIVING else load_console()
