@@ -25,13 +25,14 @@ from giraff_console.fleet.broker_link import MAX_MESSAGE_BYTES, Broker, BrokerLi
 from giraff_console.fleet.topics import Topic, VehicleId, every_vehicle
 from tests.fleet.broker import Broker as BrokerProcess
 
-pytestmark = pytest.mark.skipif(
-    not all(shutil.which(tool) for tool in ("mosquitto", "mosquitto_passwd", "openssl")),
-    reason="needs Mosquitto (mosquitto, mosquitto_passwd) and openssl: the deployment's "
-    "TLS, passwords and ACLs are Mosquitto's own, which the test extra's amqtt cannot check",
-)
+TOOLS = ("mosquitto", "mosquitto_passwd", "openssl")
+WHY_SKIPPED = ("needs Mosquitto (mosquitto, mosquitto_passwd) and openssl: the deployment's "
+               "TLS, passwords and ACLs are Mosquitto's own, which the test extra's amqtt "
+               "cannot check")  # fmt: skip
 
 DEPLOYMENT = Path(__file__).parent / "deployment"
+PAGE = Path(__file__).parents[2] / "docs" / "fleet-deployment.md"
+FILES = ("mosquitto.conf", "acl", "make-certs.sh", "add-user.sh")
 ROBOT_A = VehicleId("giraff", "giraff-07")
 ROBOT_B = VehicleId("giraff", "giraff-08")
 MASTER = "fleet-master"
@@ -97,6 +98,8 @@ def run(*command: str | Path) -> None:
 
 @pytest.fixture(scope="module")
 def deployment(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Deployment]:
+    if not all(shutil.which(tool) for tool in TOOLS):
+        pytest.skip(WHY_SKIPPED)
     folder = tmp_path_factory.mktemp("fleet-deployment")
     run("sh", DEPLOYMENT / "make-certs.sh", folder / "certs", HOST)
     for user in (ROBOT_A.serial_number, ROBOT_B.serial_number, MASTER):
@@ -190,6 +193,13 @@ def refused(deployment: Deployment, broker: Broker) -> bool:
     with link(broker, "refused") as (refused_link, _), \
             up(deployment.broker(ROBOT_B.serial_number), ROBOT_B.serial_number):  # fmt: skip
         return not refused_link.wait_up(REFUSED_S)
+
+
+@pytest.mark.parametrize("name", FILES)
+def test_the_page_shows_the_file_as_it_is(name: str) -> None:
+    # Whole, in one piece: the page is what an administrator copies from.
+    text = (DEPLOYMENT / name).read_text(encoding="utf-8")
+    assert text in PAGE.read_text(encoding="utf-8"), f"{PAGE.name} no longer shows {name}"
 
 
 def test_the_master_control_hears_a_robots_state(deployment: Deployment) -> None:
