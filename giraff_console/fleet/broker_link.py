@@ -4,7 +4,7 @@ connection, and reconnection by paho's own thread when the broker comes back.
 
 What arrives is handed on as (topic, bytes); a message over `max_bytes` is dropped and
 counted, never parsed. paho reads a message whole before we see it, so the broker's own
-limit (`message_size_limit` in docs/fleet.md's Mosquitto configuration) is what keeps
+limit (`message_size_limit` in docs/fleet-deployment.md's mosquitto.conf) is what keeps
 one from being allocated at all; this one keeps it from going further.
 """
 
@@ -92,6 +92,7 @@ class BrokerLink:
         self.broker = broker
         self.max_bytes = max_bytes
         self.dropped = 0  # messages over max_bytes
+        self.refusal: str | None = None  # why the broker last said no, in paho's words
         self._heard = heard
         self._connected = connected
         self._subscriptions = subscriptions
@@ -150,7 +151,11 @@ class BrokerLink:
     def _on_connect(self, client: mqtt.Client, userdata: object, flags: object,
                     reason: mqtt.ReasonCode, properties: object) -> None:  # fmt: skip
         if reason.is_failure:
+            # A refused login looks like a broker away unless it is said (paho tries
+            # again, and the vehicle notes why).
+            self.refusal = str(reason)
             return
+        self.refusal = None
         for topic in self._subscriptions:
             client.subscribe(topic, qos=0)
         self._up.set()

@@ -17,8 +17,9 @@ VERSION = "2.1.0"
 MAJOR = "v2"
 INTERFACE = "uagv"
 # A topic level we write: no wildcards, no separators, nothing a broker would read as
-# more than one level, and short enough to bound a topic.
-_LEVEL = re.compile(r"[A-Za-z0-9._:-]{1,64}\Z")
+# more than one level, and short enough to bound a topic. No colon either: a serial
+# number is the robot's user name on the broker, which a password file ends at `:`.
+_LEVEL = re.compile(r"[A-Za-z0-9._-]{1,64}\Z")
 
 
 class Topic(enum.Enum):
@@ -45,7 +46,7 @@ class VehicleId:
         for level in (self.interface, self.manufacturer, self.serial_number):
             if not _LEVEL.match(level):
                 raise ValueError(f"{level!r} cannot be a topic level: letters, digits and "
-                                 "._:- only, 1 to 64 of them")  # fmt: skip
+                                 "._- only, 1 to 64 of them")  # fmt: skip
 
     def topic(self, kind: Topic) -> str:
         return f"{self.interface}/{MAJOR}/{self.manufacturer}/{self.serial_number}/{kind.value}"

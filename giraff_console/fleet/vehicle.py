@@ -88,6 +88,7 @@ class FleetVehicle:
         self._connection: bool | None = None  # as the thread last acted on it
         self._up = False  # as paho last said
         self._ever_up = False
+        self._refusal_noted: str | None = None
         self.dropped = 0  # messages dropped by a full inbox
         self.bad = 0  # messages that were not for us, not JSON, or not by the schema
         self._noted_at = -NOTE_GAP_S
@@ -149,6 +150,13 @@ class FleetVehicle:
 
     def _turn(self) -> None:
         up = self._up
+        refusal = self.link.refusal
+        if refusal is not None and refusal != self._refusal_noted:
+            self._note(
+                f"fleet: the broker refuses this vehicle: {refusal} (the credentials "
+                "file, or the broker's password file and ACL: docs/fleet-deployment.md)"
+            )
+        self._refusal_noted = refusal
         if up != self._connection:
             self._broker_changed(up)
         while self._events:
