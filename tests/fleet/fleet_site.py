@@ -48,9 +48,10 @@ def fleet_robots(
     sim_speed: float = 4.0,
     landmarks: bool = True,
     fleet: FleetSettings | None = None,
+    prefix: str = "g",
 ) -> Iterator[list[FleetRobot]]:
     """`count` simulated robots in `plan`'s building, each a vehicle on `broker`, serial
-    numbers g01, g02, ...; started, and closed afterwards (OFFLINE said)."""
+    numbers `prefix`01, `prefix`02, ...; started, and closed afterwards (OFFLINE said)."""
     settings = Settings(fleet=fleet or FleetSettings())
     address = BrokerAddress.parse(broker.url)
     with ExitStack() as stack:
@@ -65,7 +66,7 @@ def fleet_robots(
             )
             robot = stack.enter_context(Robot(options, settings, plan))
             vehicle = FleetVehicle(
-                robot.service, address, VehicleId("giraff", f"g{number:02d}"), settings
+                robot.service, address, VehicleId("giraff", f"{prefix}{number:02d}"), settings
             )
             stack.callback(vehicle.close)
             robots.append(FleetRobot(robot, vehicle))
