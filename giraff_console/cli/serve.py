@@ -130,6 +130,11 @@ def _serve(robot: Robot, args: argparse.Namespace, settings: Settings, example: 
     from giraff_console.service.patrol_schedule import PatrolSchedule
 
     service, control = robot.service, robot.control
+    # Before the socket is made: nothing is left to take down for a broker it cannot use.
+    try:
+        fleet = _fleet(service, args, settings)
+    except ValueError as error:  # BrokerError, a serial number that cannot be a topic
+        return fail(f"--fleet: {error}", EXIT_USAGE)
     try:
         path = socket_path(runtime_folder())
         daemon = Daemon(service, path, (args.floorplan or example).resolve(),
@@ -137,10 +142,6 @@ def _serve(robot: Robot, args: argparse.Namespace, settings: Settings, example: 
     except TransportError as error:
         return fail(str(error), EXIT_USAGE)
     schedule = PatrolSchedule(service, settings.schedule, robot.routes.runs)
-    try:
-        fleet = _fleet(service, args, settings)
-    except ValueError as error:  # BrokerError, a serial number that cannot be a topic
-        return fail(f"--fleet: {error}", EXIT_USAGE)
     port_for_others = robot.port
     # Before any thread starts: a signal stops the robot from the loop's own thread,
     # then the daemon stops taking consoles and ends.
