@@ -49,6 +49,7 @@ def fleet_robots(
     landmarks: bool = True,
     fleet: FleetSettings | None = None,
     prefix: str = "g",
+    firmware: str | None = None,
 ) -> Iterator[list[FleetRobot]]:
     """`count` simulated robots in `plan`'s building, each a vehicle on `broker`, serial
     numbers `prefix`01, `prefix`02, ...; started, and closed afterwards (OFFLINE said)."""
@@ -61,6 +62,7 @@ def fleet_robots(
                 floorplan=plan,
                 sim_speed=sim_speed,
                 landmarks=landmarks,
+                firmware=firmware,
                 recordings=folder / f"rec{number}",
                 routes=folder / f"routes{number}",
             )

@@ -1,0 +1,114 @@
+"""The instant actions a Giraff takes from the fleet (issue 28): to the dock and charging
+and off it again, where it stands said by the fleet, a state and a factsheet on request;
+any other action is FAILED with an error, and nothing moves for it. On a later board,
+whose charger says when it charges (wire-facts: `charger_data`)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from giraff_console.fleet.topics import Topic
+from giraff_console.planning.floorplan import load_floorplan
+from tests.fleet.broker import Broker
+from tests.fleet.fleet_site import FleetRobot, Watcher, fleet_robots
+from tests.fleet.test_vehicle import assert_every_message_valid
+
+pytestmark = pytest.mark.timeout(150)
+
+NEAR = "w-15"
+
+
+@pytest.fixture
+def later(broker: Broker, wing: Path, tmp_path: Path) -> Iterator[tuple[FleetRobot, Watcher]]:
+    watcher = Watcher(broker)
+    try:
+        with fleet_robots(broker, wing, tmp_path, 1, firmware="later") as robots:
+            watcher.wait(lambda: watcher.latest(robots[0].id, Topic.STATE) is not None)
+            yield robots[0], watcher
+            assert_every_message_valid(watcher)
+    finally:
+        watcher.close()
+
+
+def status(watcher: Watcher, robot: FleetRobot, action_id: str) -> str | None:
+    for action in watcher.latest(robot.id, Topic.STATE)["actionStates"]:
+        if action["actionId"] == action_id:
+            return action["actionStatus"]
+    return None
+
+
+def ended(watcher: Watcher, robot: FleetRobot, action_id: str, timeout: float = 60.0) -> str:
+    watcher.wait(
+        lambda: status(watcher, robot, action_id) in ("FINISHED", "FAILED"),
+        timeout,
+        f"the end of {action_id}",
+    )
+    result = status(watcher, robot, action_id)
+    assert result is not None
+    return result
+
+
+def test_to_the_dock_to_charge_and_off_it_again(later, wing):
+    robot, watcher = later
+    plan = load_floorplan(wing)
+    watcher.order(robot.id, "o1", ["dock", NEAR])
+    watcher.wait(lambda: watcher.latest(robot.id, Topic.STATE)["lastNodeId"] == NEAR, 60)
+    watcher.instant(robot.id, "startCharging", "charge")
+    assert ended(watcher, robot, "charge") == "FINISHED"
+    true = robot.robot.true_pose()
+    assert math.dist((true.x, true.y), plan.rooms["dock"].at) < 0.1
+    watcher.wait(
+        lambda: watcher.latest(robot.id, Topic.STATE)["batteryState"]["charging"], 10, "charging"
+    )
+    watcher.instant(robot.id, "stopCharging", "uncharge")
+    assert ended(watcher, robot, "uncharge") == "FINISHED"
+    watcher.wait(
+        lambda: not watcher.latest(robot.id, Topic.STATE)["batteryState"]["charging"],
+        10,
+        "not charging",
+    )
+    true = robot.robot.true_pose()
+    assert 0.2 < math.dist((true.x, true.y), plan.rooms["dock"].at) < 0.5
+
+
+def test_init_position_says_where_the_robot_stands(later, wing):
+    robot, watcher = later
+    before = robot.robot.true_pose()
+    watcher.instant(robot.id, "initPosition", "here",
+                    {"x": 0.0, "y": 0.0, "theta": 0.0, "mapId": "Two wings round a hub",
+                     "lastNodeId": NEAR})  # fmt: skip
+    assert ended(watcher, robot, "here", 10) == "FINISHED"
+    watcher.wait(lambda: watcher.latest(robot.id, Topic.STATE)["lastNodeId"] == NEAR, 10)
+    watcher.instant(
+        robot.id,
+        "initPosition",
+        "nowhere",
+        {"x": 999.0, "y": 999.0, "theta": 0.0, "mapId": "Two wings round a hub"},
+    )
+    assert ended(watcher, robot, "nowhere", 10) == "FAILED"
+    after = robot.robot.true_pose()
+    assert (after.x, after.y) == (before.x, before.y)  # said, not driven
+
+
+def test_state_and_factsheet_on_request_and_unknown_actions_fail(later):
+    robot, watcher = later
+    factsheets = sum(1 for h in watcher.heard if h.kind is Topic.FACTSHEET)
+    watcher.instant(robot.id, "factsheetRequest", "sheet")
+    assert ended(watcher, robot, "sheet", 10) == "FINISHED"
+    watcher.wait(
+        lambda: sum(1 for h in watcher.heard if h.kind is Topic.FACTSHEET) > factsheets,
+        10,
+        "a factsheet again",
+    )
+    watcher.instant(robot.id, "stateRequest", "state")
+    assert ended(watcher, robot, "state", 10) == "FINISHED"
+    watcher.instant(robot.id, "liftFork", "fork")
+    assert ended(watcher, robot, "fork", 10) == "FAILED"
+    errors = watcher.latest(robot.id, Topic.STATE)["errors"]
+    assert any(
+        e["errorType"] == "actionError" and "liftFork" in e["errorDescription"] for e in errors
+    )
