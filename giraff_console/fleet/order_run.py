@@ -46,13 +46,15 @@ from giraff_console.planning.floorplan import FloorPlan
 from giraff_console.robot.loop_events import MissionChanged
 from giraff_console.robot.mission import Outcome
 from giraff_console.service import commands as c
-from giraff_console.service.events import Controls, GoReported, ServiceEvent
+from giraff_console.service.events import Controls, GoReported, RoomRenamed, ServiceEvent
 from giraff_console.service.robot_service import RobotService
 
 FLEET = "the fleet"
 # What `state` keeps: the latest instant actions' states and the latest errors.
 MAX_ACTIONS = 32
 MAX_ERRORS = 8
+# How far the robot moves before the room it stands in is judged again.
+ROOM_AGAIN_M = 0.05
 
 
 class OrderRun:
@@ -74,6 +76,7 @@ class OrderRun:
         self._mission_action: tuple[str, str] | None = None
         self.actions: collections.OrderedDict[str, ActionState] = collections.OrderedDict()
         self.errors: collections.deque[Error] = collections.deque(maxlen=MAX_ERRORS)
+        self._room: tuple[tuple[float, float], str | None] | None = None
 
     # -- what the robot service says -----------------------------------------------------
 
@@ -84,6 +87,8 @@ class OrderRun:
             self._mission_ended(event)
         elif isinstance(event, Controls):
             self._controls(event)
+        elif isinstance(event, RoomRenamed):
+            self._room = None  # the room it stands in may have a new name
 
     def _go_ended(self, event: GoReported) -> None:
         report = event.report
@@ -524,7 +529,7 @@ class OrderRun:
         return VehicleFacts(
             telemetry=telemetry,
             map_id=map_id,
-            room=None if self.order is not None else service.room_here(),
+            room=None if self.order is not None else self._room_here(),
             progress=self.progress,
             mode=OperatingMode.MANUAL if holder not in (None, FLEET) else OperatingMode.AUTOMATIC,
             paused=self.paused and self.active,
@@ -533,6 +538,14 @@ class OrderRun:
             actions=tuple(self.actions.values()),
             information=information,
         )
+
+    def _room_here(self) -> str | None:
+        """The room the robot stands in, judged again only once it has moved: on a plan
+        without outlines the judging looks along the grid to every room's point."""
+        pose = self.service.control.estimate().pose
+        if self._room is None or math.dist(self._room[0], (pose.x, pose.y)) > ROOM_AGAIN_M:
+            self._room = ((pose.x, pose.y), self.service.room_here())
+        return self._room[1]
 
     def _plan(self) -> FloorPlan:
         navigator = self.service.navigator
