@@ -572,7 +572,8 @@ def main(args: argparse.Namespace) -> int:
             if args.drive:
                 orders = listened["orders"]
                 print(f"orders: {orders['sent']} sent, {orders['done']} done; errors seen: "
-                      f"{listened['errors'] or 'none'}; last states {listened['last']}")  # fmt: skip
+                      f"{listened['errors'] or 'none'}")  # fmt: skip
+                print(f"the driving robots' last states: {listened['last']}")
             return 0
         finally:
             for child in children:
