@@ -141,7 +141,10 @@ class FleetVehicle:
 
     def _loop(self) -> None:
         while not self._closing.is_set():
-            self._wake.wait(LOOK_S)
+            # Woken when the next state is due, not up to LOOK_S after it (a state at
+            # 0.93 Hz, measured, before).
+            due = self._sent_at + STATE_PERIOD_S - time.monotonic()
+            self._wake.wait(due if 0 < due < LOOK_S else LOOK_S)
             self._wake.clear()
             try:
                 self._turn()

@@ -50,14 +50,18 @@ def fleet_robots(
     fleet: FleetSettings | None = None,
     prefix: str = "g",
     firmware: str | None = None,
+    first: int = 1,
+    before_start: Callable[[FleetRobot], None] = lambda robot: None,
 ) -> Iterator[list[FleetRobot]]:
     """`count` simulated robots in `plan`'s building, each a vehicle on `broker`, serial
-    numbers `prefix`01, `prefix`02, ...; started, and closed afterwards (OFFLINE said)."""
+    numbers `prefix`01, `prefix`02, ... (from `first`: several processes on one broker,
+    as bench/fleet.py runs them); `before_start` sees each before it starts; started, and
+    closed afterwards (OFFLINE said)."""
     settings = Settings(fleet=fleet or FleetSettings())
     address = BrokerAddress.parse(broker.url)
     with ExitStack() as stack:
         robots = []
-        for number in range(1, count + 1):
+        for number in range(first, first + count):
             options = RobotOptions(
                 floorplan=plan,
                 sim_speed=sim_speed,
@@ -72,6 +76,8 @@ def fleet_robots(
             )
             stack.callback(vehicle.close)
             robots.append(FleetRobot(robot, vehicle))
+        for each in robots:
+            before_start(each)
         for each in robots:
             each.robot.start()
             each.vehicle.start()
