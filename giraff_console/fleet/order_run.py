@@ -438,10 +438,10 @@ class OrderRun:
         try:
             x, y = float(params.get("x", math.nan)), float(params.get("y", math.nan))
             theta = float(params["theta"]) if "theta" in params else None
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             x = y = math.nan
             theta = None
-        if room not in plan.rooms:
+        if not isinstance(room, str) or room not in plan.rooms:
             room = next(
                 (
                     name

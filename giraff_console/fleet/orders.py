@@ -31,6 +31,25 @@ NODE_TOLERANCE_M = 0.5
 # An order longer than this is refused before any of it is read further (§6.6 leaves
 # the length to the vehicle, which says it in its factsheet's protocolLimits).
 MAX_NODES = 100
+# The longest id (orderId, nodeId, edgeId, actionId, actionType) taken: the factsheet's
+# idLen. Ids go back in every state, so a longer one would make every state longer.
+MAX_ID = 64
+
+
+def long_id(message: dict[str, Any]) -> str | None:
+    """The first id in an order or instant actions message (already by the schema)
+    longer than MAX_ID, shortened, or None."""
+    ids = [message.get("orderId", "")]
+    for part in ("nodes", "edges", "actions"):
+        for item in message.get(part) or ():
+            ids += [
+                item.get("nodeId", ""),
+                item.get("edgeId", ""),
+                item.get("actionId", ""),
+                item.get("actionType", ""),
+            ]
+            ids += [a.get("actionId", "") for a in item.get("actions") or ()]
+    return next((f"{str(i)[:MAX_ID]}..." for i in ids if len(str(i)) > MAX_ID), None)
 
 
 class ErrorType(enum.Enum):
@@ -194,7 +213,10 @@ def _node(raw: dict[str, Any], plan: FloorPlan) -> Node:
                 f"node {node_id} is on map {position.get('mapId')}; the robot's is {plan.name}",
                 node_id,
             )
-        off = math.dist((float(position["x"]), float(position["y"])), point)
+        try:
+            off = math.dist((float(position["x"]), float(position["y"])), point)
+        except OverflowError:  # an integer beyond any float: nowhere on the map
+            off = math.inf
         if not off <= NODE_TOLERANCE_M:
             raise Refusal(
                 ErrorType.ORDER,
