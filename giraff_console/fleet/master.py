@@ -30,13 +30,13 @@ from giraff_console.fleet.broker_link import Broker, BrokerLink
 from giraff_console.fleet.schemas import problem
 from giraff_console.fleet.topics import VERSION, Topic, VehicleId, every_vehicle, parse_topic
 from giraff_console.fleet.vehicle_report import (
-    ConnectionState,
     Factsheet,
     VehicleState,
     connection_of,
     factsheet_of,
     state_of,
 )
+from giraff_console.fleet.vocabulary import ConnectionState
 
 # The most vehicles kept: a care home runs a handful, a site a few hundred. Beyond it a
 # new one is counted and not kept, so that a flood of made-up serial numbers cannot grow

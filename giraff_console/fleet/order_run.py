@@ -32,15 +32,8 @@ from giraff_console.fleet.orders import (
     Refusal,
     read_order,
 )
-from giraff_console.fleet.state_report import (
-    ActionState,
-    ActionStatus,
-    Error,
-    ErrorLevel,
-    OperatingMode,
-    OrderProgress,
-    VehicleFacts,
-)
+from giraff_console.fleet.state_report import ActionState, Error, OrderProgress, VehicleFacts
+from giraff_console.fleet.vocabulary import ActionStatus, ErrorLevel, OperatingMode
 from giraff_console.missions.docking import DOCK
 from giraff_console.planning.floorplan import FloorPlan
 from giraff_console.robot.loop_events import MissionChanged

@@ -4,30 +4,16 @@ the tests read them without a broker."""
 
 from __future__ import annotations
 
-import enum
 from dataclasses import dataclass, field
 from typing import Any
 
 from giraff_console.fleet.orders import ErrorType, Node
+from giraff_console.fleet.vocabulary import ActionStatus, ErrorLevel, OperatingMode
 from giraff_console.robot.telemetry import LinkState, Telemetry
 
 # The position's standard deviation (metres) at which the localization score reaches
 # 0: a robot that may be half a metre off cannot be trusted to find a doorway.
 SCORE_ZERO_SIGMA_M = 0.5
-
-
-class OperatingMode(enum.Enum):
-    """VDA 5050's operatingMode: MANUAL while a person (a console) or the program on the
-    virtual port holds the controls, when the fleet's orders are refused; AUTOMATIC
-    otherwise (docs/fleet.md)."""
-
-    AUTOMATIC = "AUTOMATIC"
-    MANUAL = "MANUAL"
-
-
-class ErrorLevel(enum.Enum):
-    WARNING = "WARNING"
-    FATAL = "FATAL"
 
 
 @dataclass(frozen=True)
@@ -47,13 +33,6 @@ class Error:
                 for key, value in self.references
             ],
         }
-
-
-class ActionStatus(enum.Enum):
-    WAITING = "WAITING"
-    RUNNING = "RUNNING"
-    FINISHED = "FINISHED"
-    FAILED = "FAILED"
 
 
 @dataclass(frozen=True)

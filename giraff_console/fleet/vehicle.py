@@ -31,12 +31,12 @@ from giraff_console.fleet.orders import MAX_ID, MAX_NODES, ErrorType, long_id
 from giraff_console.fleet.schemas import problem
 from giraff_console.fleet.state_report import (
     Error,
-    ErrorLevel,
     VehicleFacts,
     state_body,
     visualization_body,
 )
 from giraff_console.fleet.topics import MAJOR, Topic, VehicleId
+from giraff_console.fleet.vocabulary import ConnectionState, ErrorLevel
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service.events import ServiceEvent
 from giraff_console.service.robot_service import RobotService
@@ -72,7 +72,11 @@ class FleetVehicle:
         self.settings = settings
         self.headers = Headers(vehicle)
         self.run = OrderRun(service, self._note)
-        will = encode(self.headers.stamp(Topic.CONNECTION, {"connectionState": "CONNECTIONBROKEN"}))
+        will = encode(
+            self.headers.stamp(
+                Topic.CONNECTION, {"connectionState": ConnectionState.CONNECTIONBROKEN.value}
+            )
+        )
         self.link = BrokerLink(
             broker,
             f"{vehicle.manufacturer}.{vehicle.serial_number}",
@@ -116,7 +120,10 @@ class FleetVehicle:
         self.service.unsubscribe(self._heard_service)
         self.service.detach(FLEET)
         self.link.stop(
-            last=(self.vehicle.topic(Topic.CONNECTION), self._connection_message("OFFLINE"))
+            last=(
+                self.vehicle.topic(Topic.CONNECTION),
+                self._connection_message(ConnectionState.OFFLINE),
+            )
         )
 
     # -- on other threads: only queue ---------------------------------------------------
@@ -178,7 +185,12 @@ class FleetVehicle:
     def _broker_changed(self, up: bool) -> None:
         was_up, self._connection = self._connection, up
         if up:
-            self._publish(Topic.CONNECTION, {"connectionState": "ONLINE"}, retain=True, qos=1)
+            self._publish(
+                Topic.CONNECTION,
+                {"connectionState": ConnectionState.ONLINE.value},
+                retain=True,
+                qos=1,
+            )
             self._publish_factsheet()
             self._last = None  # a state at once
             if self._ever_up:
@@ -321,8 +333,8 @@ class FleetVehicle:
         payload = encode(self.headers.stamp(kind, body))
         self.link.publish(self.vehicle.topic(kind), payload, retain=retain, qos=qos)
 
-    def _connection_message(self, state: str) -> bytes:
-        return encode(self.headers.stamp(Topic.CONNECTION, {"connectionState": state}))
+    def _connection_message(self, state: ConnectionState) -> bytes:
+        return encode(self.headers.stamp(Topic.CONNECTION, {"connectionState": state.value}))
 
     def _note(self, text: str) -> None:
         self.service.note(text)

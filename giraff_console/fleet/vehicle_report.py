@@ -9,35 +9,10 @@ the schema leaves optional is read with a default.
 
 from __future__ import annotations
 
-import enum
 from dataclasses import dataclass
 from typing import Any
 
-
-class ConnectionState(enum.Enum):
-    """`connection.connectionState` (§6.14): ONLINE and OFFLINE are the vehicle's own
-    words; CONNECTIONBROKEN is its last will, said by the broker when the vehicle went
-    without a goodbye (killed, powered off, out of the network)."""
-
-    ONLINE = "ONLINE"
-    OFFLINE = "OFFLINE"
-    CONNECTIONBROKEN = "CONNECTIONBROKEN"
-
-
-class OperatingMode(enum.Enum):
-    """`state.operatingMode`: the robot says MANUAL while a person drives it by hand and
-    AUTOMATIC otherwise; the others are the standard's, for other vehicles."""
-
-    AUTOMATIC = "AUTOMATIC"
-    SEMIAUTOMATIC = "SEMIAUTOMATIC"
-    MANUAL = "MANUAL"
-    SERVICE = "SERVICE"
-    TEACHIN = "TEACHIN"
-
-
-class ErrorLevel(enum.Enum):
-    WARNING = "WARNING"
-    FATAL = "FATAL"
+from giraff_console.fleet.vocabulary import ConnectionState, ErrorLevel, OperatingMode
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ import pytest
 
 from giraff_console.fleet.broker_link import Broker as BrokerAddress
 from giraff_console.fleet.master import FleetMaster, Sent
-from giraff_console.fleet.vehicle_report import ConnectionState
+from giraff_console.fleet.vocabulary import ConnectionState
 from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.robot.loop_events import Note
 from giraff_console.settings import FleetSettings

@@ -20,7 +20,7 @@ import pytest
 from giraff_console.fleet.broker_link import Broker as BrokerAddress
 from giraff_console.fleet.master import FleetMaster, Sent
 from giraff_console.fleet.topics import VehicleId
-from giraff_console.fleet.vehicle_report import ConnectionState
+from giraff_console.fleet.vocabulary import ConnectionState
 from tests.conftest import start_sim_process, stop_sim_process
 from tests.fleet.broker import Broker
 from tests.service.daemon_rig import kill_daemon, start_daemon, stop_daemon

@@ -24,7 +24,7 @@ from giraff_console.fleet.master import (
 )
 from giraff_console.fleet.schemas import problem
 from giraff_console.fleet.topics import Topic, VehicleId
-from giraff_console.fleet.vehicle_report import ConnectionState, OperatingMode
+from giraff_console.fleet.vocabulary import ConnectionState, OperatingMode
 from tests.fleet.broker import Broker
 from tests.fleet.fake_vehicle import FakeVehicle
 

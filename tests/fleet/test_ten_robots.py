@@ -14,7 +14,7 @@ import pytest
 
 from giraff_console.fleet.broker_link import Broker as BrokerAddress
 from giraff_console.fleet.master import FleetMaster
-from giraff_console.fleet.vehicle_report import ConnectionState
+from giraff_console.fleet.vocabulary import ConnectionState
 from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.tui.fleet.app import FleetView

@@ -19,7 +19,7 @@ from textual.containers import Horizontal
 from textual.widgets import DataTable, RichLog, Static
 
 from giraff_console.fleet.master import Fleet, FleetMaster, Refused, Sent
-from giraff_console.fleet.vehicle_report import ConnectionState
+from giraff_console.fleet.vocabulary import ConnectionState
 from giraff_console.planning.floorplan import FloorPlan
 from giraff_console.tui.fleet.go_screen import GoScreen
 from giraff_console.tui.fleet.messages import FleetChanged

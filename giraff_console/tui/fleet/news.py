@@ -5,7 +5,7 @@ it that could not be used. Pure, so that tests call it directly."""
 from __future__ import annotations
 
 from giraff_console.fleet.master import Fleet, Vehicle
-from giraff_console.fleet.vehicle_report import ConnectionState
+from giraff_console.fleet.vocabulary import ConnectionState
 
 
 def news(before: Fleet, after: Fleet) -> list[str]:

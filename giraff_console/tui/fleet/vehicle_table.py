@@ -8,7 +8,7 @@ from textual.widgets import DataTable
 
 from giraff_console.fleet.master import Fleet, Vehicle
 from giraff_console.fleet.topics import VehicleId
-from giraff_console.fleet.vehicle_report import ConnectionState, ErrorLevel, OperatingMode
+from giraff_console.fleet.vocabulary import ConnectionState, ErrorLevel, OperatingMode
 
 # Column keys, headings and widths: fixed, so that the columns hold still as the values
 # change, and all of them within a 120-column terminal (each cell has a space either
