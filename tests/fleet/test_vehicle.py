@@ -202,3 +202,18 @@ def test_the_horizon_waits_for_an_update_that_starts_at_the_last_released_node(o
         f"{NEXT} reached",
     )
     assert at(robot, NEXT, wing) <= ARRIVAL_M
+
+
+def test_an_order_back_to_the_dock_docks_and_finishes(one, wing):
+    robot, watcher = one
+    watcher.order(robot.id, "o-home", ["dock", NEAR, "dock"])
+    watcher.wait(
+        lambda: (
+            state(watcher, robot)["lastNodeSequenceId"] == 4
+            and not state(watcher, robot)["nodeStates"]
+        ),
+        90,
+        "back on the dock",
+    )
+    assert state(watcher, robot)["lastNodeId"] == "dock" and errors(watcher, robot) == []
+    assert at(robot, "dock", wing) <= ARRIVAL_M
