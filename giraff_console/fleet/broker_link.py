@@ -47,15 +47,19 @@ class Broker:
     credentials: Path | None = None
 
     @classmethod
-    def parse(cls, url: str, *, ca_file: Path | None = None,
-              credentials: Path | None = None) -> Broker:  # fmt: skip
+    def parse(
+        cls, url: str, *, ca_file: Path | None = None, credentials: Path | None = None
+    ) -> Broker:
         parts = urlsplit(url)
         if parts.scheme not in DEFAULT_PORTS or not parts.hostname:
-            raise BrokerError(f"the broker is mqtt://HOST[:PORT] or mqtts://HOST[:PORT], "
-                              f"not {url!r}")  # fmt: skip
+            raise BrokerError(
+                f"the broker is mqtt://HOST[:PORT] or mqtts://HOST[:PORT], not {url!r}"
+            )
         if parts.username or parts.password or parts.path not in ("", "/") or parts.query:
-            raise BrokerError(f"{url!r}: only a host and a port; credentials go in a file "
-                              "(the credentials setting), never on a command line")  # fmt: skip
+            raise BrokerError(
+                f"{url!r}: only a host and a port; credentials go in a file "
+                "(the credentials setting), never on a command line"
+            )
         try:
             port = parts.port or DEFAULT_PORTS[parts.scheme]
         except ValueError:
@@ -83,12 +87,17 @@ class BrokerLink:
     """A client of the broker. `heard(topic, payload)` and `connected(up)` are called on
     paho's thread: they must be quick and must not raise."""
 
-    def __init__(self, broker: Broker, client_id: str, *,
-                 heard: Callable[[str, bytes], None] = lambda topic, payload: None,
-                 connected: Callable[[bool], None] = lambda up: None,
-                 subscriptions: tuple[str, ...] = (),
-                 will: tuple[str, bytes] | None = None,
-                 max_bytes: int = MAX_MESSAGE_BYTES) -> None:  # fmt: skip
+    def __init__(
+        self,
+        broker: Broker,
+        client_id: str,
+        *,
+        heard: Callable[[str, bytes], None] = lambda topic, payload: None,
+        connected: Callable[[bool], None] = lambda up: None,
+        subscriptions: tuple[str, ...] = (),
+        will: tuple[str, Callable[[], bytes]] | None = None,
+        max_bytes: int = MAX_MESSAGE_BYTES,
+    ) -> None:
         self.broker = broker
         self.max_bytes = max_bytes
         self.dropped = 0  # messages over max_bytes
@@ -97,8 +106,9 @@ class BrokerLink:
         self._connected = connected
         self._subscriptions = subscriptions
         self._up = threading.Event()
-        client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id=client_id,
-                             protocol=mqtt.MQTTv311)  # fmt: skip
+        client = mqtt.Client(
+            mqtt.CallbackAPIVersion.VERSION2, client_id=client_id, protocol=mqtt.MQTTv311
+        )
         client.reconnect_delay_set(RECONNECT_MIN_S, RECONNECT_MAX_S)
         login = broker.login()
         if login is not None:
@@ -111,9 +121,7 @@ class BrokerLink:
             except (OSError, ssl.SSLError) as error:
                 raise BrokerError(f"{broker.ca_file}: {error}") from None
             client.tls_set_context(context)
-        if will is not None:
-            # QoS 1 and retained, as VDA 5050 asks of `connection` (§6.14).
-            client.will_set(will[0], will[1], qos=1, retain=True)
+        self._will = will
         client.on_connect = self._on_connect
         client.on_disconnect = self._on_disconnect
         client.on_message = self._on_message
@@ -125,6 +133,7 @@ class BrokerLink:
 
     def start(self) -> None:
         """Connect in the background; paho tries again until the broker answers."""
+        self._set_will()
         self._client.connect_async(self.broker.host, self.broker.port, keepalive=KEEPALIVE_S)
         self._client.loop_start()
 
@@ -148,12 +157,19 @@ class BrokerLink:
         self._client.disconnect()
         self._client.loop_stop()
 
-    def _on_connect(self, client: mqtt.Client, userdata: object, flags: object,
-                    reason: mqtt.ReasonCode, properties: object) -> None:  # fmt: skip
+    def _on_connect(
+        self,
+        client: mqtt.Client,
+        userdata: object,
+        flags: object,
+        reason: mqtt.ReasonCode,
+        properties: object,
+    ) -> None:
         if reason.is_failure:
             # A refused login looks like a broker away unless it is said (paho tries
             # again, and the vehicle notes why).
             self.refusal = str(reason)
+            self._set_will()
             return
         self.refusal = None
         for topic in self._subscriptions:
@@ -161,14 +177,27 @@ class BrokerLink:
         self._up.set()
         self._connected(True)
 
-    def _on_disconnect(self, client: mqtt.Client, userdata: object, flags: object,
-                       reason: mqtt.ReasonCode, properties: object) -> None:  # fmt: skip
+    def _on_disconnect(
+        self,
+        client: mqtt.Client,
+        userdata: object,
+        flags: object,
+        reason: mqtt.ReasonCode,
+        properties: object,
+    ) -> None:
+        self._set_will()  # for paho's next try
         if self._up.is_set():
             self._up.clear()
             self._connected(False)
 
-    def _on_message(self, client: mqtt.Client, userdata: object,
-                    message: mqtt.MQTTMessage) -> None:  # fmt: skip
+    def _set_will(self) -> None:
+        """The last will for the next connection, made now (a vehicle's is stamped with
+        the time and its own headerId): QoS 1 and retained, as VDA 5050 asks of
+        `connection` (§6.14)."""
+        if self._will is not None:
+            self._client.will_set(self._will[0], self._will[1](), qos=1, retain=True)
+
+    def _on_message(self, client: mqtt.Client, userdata: object, message: mqtt.MQTTMessage) -> None:
         if len(message.payload) > self.max_bytes:
             self.dropped += 1
             return

@@ -28,7 +28,9 @@ def factsheet(settings: Settings) -> dict[str, Any]:
             "agvKinematic": "DIFF",
             "agvClass": "CARRIER",
             "maxLoadMass": 0.0,
-            "localizationTypes": ["NATURAL", "REFLECTOR"],  # markers on the walls, odometry
+            # Fiducial markers on the walls (ArUco, thesis §2.4.2) and odometry between
+            # them: the standard's nearest word for such markers is DMC.
+            "localizationTypes": ["DMC"],
             "navigationTypes": ["AUTONOMOUS"],
         },
         "physicalParameters": {
@@ -45,7 +47,9 @@ def factsheet(settings: Settings) -> dict[str, Any]:
             "maxStringLens": {"msgLen": 256 * 1024, "idLen": 64},
             "maxArrayLens": {"order.nodes": MAX_NODES, "order.edges": MAX_NODES - 1},
             "timing": {
-                "minOrderInterval": 1.0,
+                # An order is checked whole when it comes (a few milliseconds, a long one
+                # up to tens): one every 0.1 s is read as it comes.
+                "minOrderInterval": 0.1,
                 "minStateInterval": 0.1,
                 "defaultStateInterval": 1.0,
             },

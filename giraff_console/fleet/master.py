@@ -136,7 +136,6 @@ class InstantAction(enum.Enum):
     PAUSE = "startPause"
     RESUME = "stopPause"
     CANCEL = "cancelOrder"
-    DOCK = "startCharging"  # this robot: go to the dock and charge
 
 
 def timestamp(now: datetime) -> str:
@@ -337,8 +336,11 @@ class FleetMaster:
     def cancel(self, vehicle: VehicleId) -> Sent | Refused:
         return self.instant(vehicle, InstantAction.CANCEL)
 
-    def dock(self, vehicle: VehicleId) -> Sent | Refused:
-        return self.instant(vehicle, InstantAction.DOCK)
+    def dock(self, vehicle: VehicleId, dock: str) -> Sent | Refused:
+        """To the dock: an order that ends in the plan's start room (`dock`), which the
+        robot drives onto and charges on. An order, not startCharging, so that a fleet
+        manager's traffic control sees the way (fleet/instant_actions.py)."""
+        return self.go(vehicle, dock)
 
     def instant(self, vehicle: VehicleId, action: InstantAction) -> Sent | Refused:
         """One instant action. HARD: the vehicle does nothing else meanwhile, as pausing,

@@ -1,51 +1,50 @@
-"""What the vehicle does with orders and instant actions (VDA 5050 2.1 §6.6-§6.9): as a
-client of the robot service named FLEET, through the same `go` as every front end, and
-what it keeps to say in `state` (fleet/state_report.py).
+"""What the vehicle does with orders (VDA 5050 2.1 §6.6-§6.7): as a client of the robot
+service named FLEET, through the same `go` as every front end, and what it keeps to say
+in `state` (fleet/state_report.py). The instant actions are fleet/instant_actions.py's.
 
 An order is checked whole before any of it runs: its shape and nodes against the plan
 (fleet/orders.py), then that it starts where the robot stands, that nobody else holds
-the controls, and that the way through all its released rooms is open. Then it runs as
-one `go` to each released room in turn; a door node is passed with the room after it.
-Unreleased nodes (the horizon) wait for an order update, which must start at the last
-released node (§6.6.3 "order update").
+the controls and no operator's stop holds the fleet, and that the way through all its
+released rooms is open. Then it runs as one `go` to each released room in turn; a door
+node is passed with the room after it; an order that ends in the plan's start room
+ends on the dock, where the robot charges. Unreleased nodes (the horizon) wait for an
+order update, which must start at the last released node (§6.6.3).
 
 The operator always wins (issue 28): an order is refused while a person or the program
-on the virtual port holds the controls; a console that takes them, or an operator's
-stop, ends the order, and the fleet reads why in `errors`.
+on the virtual port holds the controls, and after an operator's stop until an operator
+releases it (`release`, as for the virtual port); a console that takes the controls
+ends the fleet's mission at once (the service does it: RobotService.attach `yields`),
+and the fleet reads why in `errors`.
 
-Not thread-safe: the vehicle's own thread calls everything here (fleet/vehicle.py).
+Not thread-safe: the vehicle's own thread calls everything here (fleet/vehicle.py), but
+for `hold`, which the service calls at an operator's stop.
 """
 
 from __future__ import annotations
 
 import collections
 import math
+import time
 from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
-from giraff_console.fleet.orders import (
-    NODE_TOLERANCE_M,
-    ErrorType,
-    NodeKind,
-    Order,
-    Refusal,
-    read_order,
-)
+from giraff_console.fleet.orders import ErrorType, NodeKind, Order, Refusal, read_order
 from giraff_console.fleet.state_report import ActionState, Error, OrderProgress, VehicleFacts
-from giraff_console.fleet.vocabulary import ActionStatus, ErrorLevel, OperatingMode
+from giraff_console.fleet.vocabulary import ActionStatus, ActionType, ErrorLevel, OperatingMode
 from giraff_console.missions.docking import DOCK
 from giraff_console.planning.floorplan import FloorPlan
-from giraff_console.robot.loop_events import MissionChanged
 from giraff_console.robot.mission import Outcome
 from giraff_console.service import commands as c
 from giraff_console.service.events import Controls, GoReported, RoomRenamed, ServiceEvent
 from giraff_console.service.robot_service import RobotService
 
 FLEET = "the fleet"
-# What `state` keeps: the latest instant actions' states and the latest errors.
+# What `state` keeps: the latest instant actions' states, and errors: an order's end
+# until the next order, a refused message's or order's for WARNING_S.
 MAX_ACTIONS = 32
 MAX_ERRORS = 8
+WARNING_S = 60.0
 # How far the robot moves before the room it stands in is judged again.
 ROOM_AGAIN_M = 0.05
 
@@ -53,31 +52,52 @@ ROOM_AGAIN_M = 0.05
 class OrderRun:
     """The order under way (or the last), the instant actions, and the errors."""
 
-    def __init__(self, service: RobotService, note: Callable[[str], None]) -> None:
+    def __init__(
+        self,
+        service: RobotService,
+        note: Callable[[str], None],
+        max_speed: float,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
         self.service = service
         self.note = note
+        self.max_speed = max_speed
+        self.clock = clock
         self.order: Order | None = None
         self.progress = OrderProgress()
         self.paused = False
         self._legs: collections.deque[str] = collections.deque()  # rooms still to go to
-        self._leg: str | None = None  # the room being gone to
+        # The room being gone to, and what `go` was asked for it (the dock, for the
+        # start room at an order's end).
+        self._leg: tuple[str, str] | None = None
         # Why the leg under way ends other than by arriving, when the vehicle knows first
         # (a cancel, a console that took the controls, the broker gone).
         self._ending: Error | None = None
         self._cancel: str | None = None  # the cancelOrder action waiting for the stop
-        # An instant action that runs as a mission (the dock, the undock): its id, type.
-        self._mission_action: tuple[str, str] | None = None
+        self.undocking: str | None = None  # the stopCharging action whose undock runs
+        # Why an operator's stop holds the fleet, until an operator's `release`.
+        self.held: str | None = None
         self.actions: collections.OrderedDict[str, ActionState] = collections.OrderedDict()
         self.errors: collections.deque[Error] = collections.deque(maxlen=MAX_ERRORS)
+        self._warnings: collections.deque[tuple[float, Error]] = collections.deque(
+            maxlen=MAX_ERRORS
+        )
         self._room: tuple[tuple[float, float], str | None] | None = None
+
+    def hold(self, why: str | None) -> None:
+        """An operator's stop holds the fleet (`why`), or a `release` lets it go (None);
+        called on the operator's thread, so only this is set."""
+        self.held = why
+
+    def warn(self, error: Error) -> None:
+        """A refused message or order: said in `state` for WARNING_S."""
+        self._warnings.append((self.clock() + WARNING_S, error))
 
     # -- what the robot service says -----------------------------------------------------
 
     def heard(self, event: ServiceEvent) -> None:
         if isinstance(event, GoReported):
             self._go_ended(event)
-        elif isinstance(event, MissionChanged) and not event.running:
-            self._mission_ended(event)
         elif isinstance(event, Controls):
             self._controls(event)
         elif isinstance(event, RoomRenamed):
@@ -85,39 +105,29 @@ class OrderRun:
 
     def _go_ended(self, event: GoReported) -> None:
         report = event.report
-        if self._mission_action is not None and self._mission_action[1] == "startCharging":
-            if report.room == DOCK:
-                action_id, action_type = self._mission_action
-                self._mission_action = None
-                done = report.arrived
-                self._act(
-                    action_id,
-                    action_type,
-                    ActionStatus.FINISHED if done else ActionStatus.FAILED,
-                    "on the dock" if done else f"{report.end.outcome.value}: {report.end.detail}",
-                )
-                self.service.let_go(FLEET)
+        # The fleet's leg: nobody else can start a mission while the fleet holds the
+        # controls, and taking them ends the fleet's at once (the service).
+        if self._leg is None or report.room != self._leg[1]:
             return
-        if self._leg is None or report.room != self._leg:
-            return
+        room = self._leg[0]
         self._leg = None
         outcome = report.end.outcome
         if outcome in (Outcome.ARRIVED, Outcome.ARRIVED_UNVERIFIED) and self._ending is None:
             if outcome is Outcome.ARRIVED_UNVERIFIED:
                 # There by the estimate alone (a plan without markers, none in sight): the
                 # node is reached, and the fleet is told how little that is known.
-                self.errors.append(
+                self.warn(
                     Error(
                         ErrorType.MISSION,
                         ErrorLevel.WARNING,
-                        f"at {report.room}, unconfirmed: {report.end.detail}",
+                        f"at {room}, unconfirmed: {report.end.detail}",
                         self._references(),
                     )
                 )
-            self._reached(report.room)
+            self._reached(room)
             self._next_leg()
             return
-        ending = self._ending or self._why_ended(report.room, report.end.outcome, report.end.detail)
+        ending = self._ending or self._why_ended(room, outcome, report.end.detail)
         self._ending = None
         self._end_order(ending)
 
@@ -126,7 +136,7 @@ class OrderRun:
             return Error(
                 ErrorType.OPERATOR,
                 ErrorLevel.WARNING,
-                f"an operator stopped the robot on its way to {room}",
+                f"an operator stopped the robot on its way to {room}: {detail}",
                 self._references(),
             )
         return Error(
@@ -136,26 +146,10 @@ class OrderRun:
             self._references(),
         )
 
-    def _mission_ended(self, event: MissionChanged) -> None:
-        if self._mission_action is None or self._mission_action[1] != "stopCharging":
-            return
-        action_id, action_type = self._mission_action
-        self._mission_action = None
-        outcome = event.end.outcome if event.end is not None else Outcome.FAILED
-        done = outcome is Outcome.DONE
-        self._act(
-            action_id,
-            action_type,
-            ActionStatus.FINISHED if done else ActionStatus.FAILED,
-            "off the dock" if done else outcome.value,
-        )
-        self.service.let_go(FLEET)
-
     def _controls(self, controls: Controls) -> None:
         holder = controls.holder
         if self._leg is not None and holder not in (None, FLEET) and self._ending is None:
-            # Taking the controls does not end a mission by itself (a console may take
-            # them to watch); from the fleet it does: the operator wins.
+            # The service has ended the fleet's mission already; this says why.
             self._ending = Error(
                 ErrorType.OPERATOR,
                 ErrorLevel.WARNING,
@@ -168,7 +162,7 @@ class OrderRun:
 
     def take_order(self, message: dict[str, Any]) -> None:
         try:
-            order = read_order(message, self._plan())
+            order = read_order(message, self.plan(), self.max_speed)
             current = self.order
             if current is not None and order.order_id == current.order_id:
                 self._update(current, order)
@@ -176,6 +170,10 @@ class OrderRun:
                 self._start(order)
         except Refusal as refusal:
             self._refused(refusal, message)
+        finally:
+            if self._leg is None:
+                # Standing still: whatever the fleet asked, anyone may take the controls.
+                self.service.let_go(FLEET)
 
     def _start(self, order: Order) -> None:
         if self.active:
@@ -185,7 +183,7 @@ class OrderRun:
                 f"order {self.order.order_id} is under way: cancelOrder first, or update it",
             )
         self._may_drive()
-        here = self.service.room_here()
+        here = self.room_here()
         if order.first.node_id != here:
             raise Refusal(
                 ErrorType.ORDER,
@@ -208,7 +206,7 @@ class OrderRun:
         )
         self._legs = collections.deque(rooms[1:])
         self.note(
-            f"fleet: order {order.order_id} accepted: {' → '.join(rooms)}"
+            f"fleet: order {order.order_id}: {' → '.join(rooms)}"
             + (" (more to come)" if order.horizon else "")
         )
         self._next_leg(first=True)
@@ -223,8 +221,6 @@ class OrderRun:
             )
         if update.update_id == current.update_id:
             return  # sent again: the state says it is known (§6.6.3)
-        if not self.active:
-            raise Refusal(ErrorType.ORDER_UPDATE, f"order {current.order_id} has ended")
         end = current.base[-1]
         if (update.first.node_id, update.first.sequence_id) != (end.node_id, end.sequence_id):
             raise Refusal(
@@ -235,6 +231,13 @@ class OrderRun:
                 "the last released node",
             )
         self._may_drive()
+        if not self.active and self.room_here() != end.node_id:
+            # The order had ended, and the robot was driven elsewhere since (§6.6.4: an
+            # update continues from where the last one left the vehicle).
+            raise Refusal(
+                ErrorType.ORDER_UPDATE,
+                f"the robot is no longer at {end.node_id}, but in {self.room_here()}",
+            )
         rooms = [end.node_id, *update.rooms(update.base[1:])]
         why = self.service.why_not_through(rooms)
         if why is not None:
@@ -256,28 +259,47 @@ class OrderRun:
         if self._leg is None:
             self._next_leg()
 
-    def _may_drive(self) -> None:
+    def may_drive(self) -> Refusal | None:
+        """Why the fleet may not move the robot now, or None."""
         holder = self.service.controls().holder
         if holder not in (None, FLEET):
-            raise Refusal(
+            return Refusal(
                 ErrorType.OPERATOR, f"{holder} holds the controls: the operator wins over the fleet"
             )
+        if self.held is not None:
+            return Refusal(
+                ErrorType.OPERATOR, f"{self.held}: the fleet waits until an operator's `release`"
+            )
+        others = self.service.started_by()
+        if others not in (None, FLEET):
+            # A mission of someone else's would be replaced by the fleet's: never.
+            return Refusal(ErrorType.OPERATOR, f"a mission {others} started is under way")
+        return None
+
+    def _may_drive(self) -> None:
+        refusal = self.may_drive()
+        if refusal is not None:
+            raise refusal
 
     def _next_leg(self, first: bool = False) -> None:
+        order = self.order
+        assert order is not None
+        plan = self.plan()
         while self._legs:
             room = self._legs.popleft()
             if room == self.progress.last_node:
                 self._reached(room)  # a room named twice in a row: there already
                 continue
-            reply = self.service.execute(c.Go(room), FLEET)
+            # The start room at the very end of an order: onto the dock, to charge.
+            last = not self._legs and not order.horizon
+            goal = DOCK if last and room == plan.start else room
+            reply = self.service.execute(c.Go(goal), FLEET)
             if reply.ok:
-                self._leg = room
+                self._leg = (room, goal)
                 return
             if first:
                 # Nothing has run: the order is refused, not failed.
-                order = self.order
                 self.order, self.progress, self._legs = None, OrderProgress(), collections.deque()
-                assert order is not None
                 raise Refusal(ErrorType.ORDER, f"go {room}: {reply.text}", room)
             self._end_order(
                 Error(
@@ -288,8 +310,7 @@ class OrderRun:
                 )
             )
             return
-        order = self.order
-        if order is not None and not order.horizon:
+        if not order.horizon:
             self.note(f"fleet: order {order.order_id} done at {self.progress.last_node}")
         # Standing still, at the end or waiting for the horizon's release: anyone may
         # take the controls meanwhile.
@@ -327,7 +348,7 @@ class OrderRun:
         self.paused = False
         self.progress = replace(self.progress, nodes=(), edges=())
         if self._cancel is not None:
-            self._act(self._cancel, "cancelOrder", ActionStatus.FINISHED)
+            self.act(self._cancel, ActionType.CANCEL_ORDER.value, ActionStatus.FINISHED)
             self._cancel = None
         self.service.let_go(FLEET)
 
@@ -336,149 +357,39 @@ class OrderRun:
         """An order with something left to do: driving, or waiting for its horizon."""
         return bool(self.progress.nodes) or self._leg is not None
 
-    def _refused(self, refusal: Refusal, message: dict[str, Any]) -> None:
-        references = [("orderId", str(message.get("orderId", "")))]
-        if refusal.node_id is not None:
-            references.append(("nodeId", refusal.node_id))
-        self.errors.append(
-            Error(refusal.kind, ErrorLevel.WARNING, refusal.description, tuple(references))
-        )
-        self.note(f"fleet: order {message.get('orderId')} refused: {refusal}")
+    @property
+    def driving(self) -> bool:
+        """Whether a mission of the fleet's runs: an order's leg, or an undock."""
+        return self._leg is not None or self.undocking is not None
 
-    def _references(self) -> tuple[tuple[str, str], ...]:
-        return (("orderId", self.progress.order_id),)
-
-    # -- instant actions ---------------------------------------------------------------
-
-    def instant(self, action: dict[str, Any], publish_factsheet: Callable[[], None]) -> None:
-        action_id, action_type = str(action["actionId"]), str(action["actionType"])
-        handler = self._INSTANT.get(action_type)
-        if handler is None:
-            self._act(
-                action_id,
-                action_type,
-                ActionStatus.FAILED,
-                "not an action of this vehicle (its factsheet)",
-            )
-            self.errors.append(
-                Error(
-                    ErrorType.ACTION,
-                    ErrorLevel.WARNING,
-                    f"{action_type}: not an action of this vehicle",
-                    (("actionId", action_id),),
-                )
-            )
-            return
-        if action_type == "factsheetRequest":
-            publish_factsheet()
-        handler(self, action_id, action_type, _parameters(action))
-
-    def _cancel_order(self, action_id: str, action_type: str, _: dict[str, Any]) -> None:
+    def cancel(self, action_id: str) -> bool:
+        """cancelOrder (§6.8): the order's leg is stopped, and the order ended once it
+        has; False if there is no order."""
         if not self.active:
-            self._act(action_id, action_type, ActionStatus.FAILED, "no order to cancel")
-            self.errors.append(
-                Error(
-                    ErrorType.NO_ORDER_TO_CANCEL,
-                    ErrorLevel.WARNING,
-                    "cancelOrder: no order under way",
-                    (("actionId", action_id),),
-                )
-            )
-            return
-        self._act(action_id, action_type, ActionStatus.RUNNING)
+            return False
         self._cancel = action_id
         ending = Error(
             ErrorType.ORDER, ErrorLevel.WARNING, "cancelled by the fleet", self._references()
         )
         if self._leg is None:
             self._end_order(ending)  # standing at the horizon: nothing to stop
-            return
-        self._ending = ending
-        self.service.execute(c.StopMission(operator=False), FLEET)
+        else:
+            self._ending = ending
+            self.service.execute(c.StopMission(operator=False), FLEET)
+        return True
 
-    def _pause(self, action_id: str, action_type: str, _: dict[str, Any]) -> None:
-        pausing = action_type == "startPause"
-        reply = self.service.execute(c.Pause() if pausing else c.Resume(), FLEET)
-        if reply.ok:
-            self.paused = pausing
-        self._act(
-            action_id,
-            action_type,
-            ActionStatus.FINISHED if reply.ok else ActionStatus.FAILED,
-            reply.text,
-        )
+    def _refused(self, refusal: Refusal, message: dict[str, Any]) -> None:
+        references = [("orderId", str(message.get("orderId", "")))]
+        if refusal.node_id is not None:
+            references.append(("nodeId", refusal.node_id))
+        self.warn(Error(refusal.kind, ErrorLevel.WARNING, refusal.description, tuple(references)))
+        self.note(f"fleet: order {message.get('orderId')} refused: {refusal}")
 
-    def _charge(self, action_id: str, action_type: str, _: dict[str, Any]) -> None:
-        if self.active or self._mission_action is not None:
-            self._act(
-                action_id,
-                action_type,
-                ActionStatus.FAILED,
-                "an order or another action is under way",
-            )
-            return
-        request = c.Go(DOCK) if action_type == "startCharging" else c.Undock()
-        reply = self.service.execute(request, FLEET)
-        if not reply.ok:
-            self._act(action_id, action_type, ActionStatus.FAILED, reply.text)
-            return
-        self._mission_action = (action_id, action_type)
-        self._act(action_id, action_type, ActionStatus.RUNNING, reply.text)
+    def _references(self) -> tuple[tuple[str, str], ...]:
+        return (("orderId", self.progress.order_id),)
 
-    def _init_position(self, action_id: str, action_type: str, params: dict[str, Any]) -> None:
-        plan = self._plan()
-        room = params.get("lastNodeId")
-        try:
-            x, y = float(params.get("x", math.nan)), float(params.get("y", math.nan))
-            theta = float(params["theta"]) if "theta" in params else None
-        except (TypeError, ValueError, OverflowError):
-            x = y = math.nan
-            theta = None
-        if not isinstance(room, str) or room not in plan.rooms:
-            room = next(
-                (
-                    name
-                    for name, r in plan.rooms.items()
-                    if math.dist(r.at, (x, y)) <= NODE_TOLERANCE_M
-                ),
-                None,
-            )
-        map_id = params.get("mapId", plan.name)
-        if room is None or map_id != plan.name:
-            self._act(
-                action_id,
-                action_type,
-                ActionStatus.FAILED,
-                f"not at a room of the plan {plan.name} (lastNodeId, or x and y within "
-                f"{NODE_TOLERANCE_M} m of a room's point)",
-            )
-            return
-        heading = math.degrees(theta) if theta is not None and math.isfinite(theta) else None
-        reply = self.service.execute(c.Place(room, heading), FLEET)
-        self._act(
-            action_id,
-            action_type,
-            ActionStatus.FINISHED if reply.ok else ActionStatus.FAILED,
-            reply.text,
-        )
-
-    def _state_request(self, action_id: str, action_type: str, _: dict[str, Any]) -> None:
-        self._act(action_id, action_type, ActionStatus.FINISHED)
-
-    _INSTANT: dict[str, Callable[[OrderRun, str, str, dict[str, Any]], None]] = {
-        "cancelOrder": _cancel_order,
-        "startPause": _pause,
-        "stopPause": _pause,
-        "startCharging": _charge,
-        "stopCharging": _charge,
-        "initPosition": _init_position,
-        "stateRequest": _state_request,
-        "factsheetRequest": _state_request,
-    }
-
-    def _act(
-        self, action_id: str, action_type: str, status: ActionStatus, result: str = ""
-    ) -> None:
+    def act(self, action_id: str, action_type: str, status: ActionStatus, result: str = "") -> None:
+        """An instant action's state, kept for `state` (the latest MAX_ACTIONS)."""
         self.actions[action_id] = ActionState(action_id, action_type, status, result)
         self.actions.move_to_end(action_id)
         while len(self.actions) > MAX_ACTIONS:
@@ -488,7 +399,9 @@ class OrderRun:
 
     def broker_lost(self, stop: bool) -> None:
         """The broker went; with `stop` (fleet.on_broker_lost), the order is ended."""
-        if stop and self._leg is not None and self._ending is None:
+        if not stop:
+            return
+        if self._leg is not None and self._ending is None:
             self._ending = Error(
                 ErrorType.BROKER,
                 ErrorLevel.WARNING,
@@ -496,7 +409,7 @@ class OrderRun:
                 self._references(),
             )
             self.service.execute(c.StopMission(operator=False), FLEET)
-        elif stop and self.active:
+        elif self.active:
             self._end_order(
                 Error(
                     ErrorType.BROKER,
@@ -514,25 +427,31 @@ class OrderRun:
         holder = service.controls().holder
         state = telemetry.state if telemetry is not None else None
         driving = state is not None and (state.moving or abs(state.speed or 0.0) > 0.01)
+        now = self.clock()
+        while self._warnings and self._warnings[0][0] < now:
+            self._warnings.popleft()
         information: tuple[str, ...] = ()
         if self._leg is not None:
-            information = (f"going to {self._leg}",)
+            information = (f"going to {self._leg[0]}",)
         elif self.active:
             information = (f"waiting at {self.progress.last_node} for the order's next release",)
+        elif self.held is not None:
+            information = (f"held: {self.held}",)
         return VehicleFacts(
             telemetry=telemetry,
             map_id=map_id,
-            room=None if self.order is not None else self._room_here(),
+            # Not driving an order: where it stands, wherever it was driven since.
+            room=None if self.active else self.room_here(),
             progress=self.progress,
             mode=OperatingMode.MANUAL if holder not in (None, FLEET) else OperatingMode.AUTOMATIC,
-            paused=self.paused and self.active,
+            paused=self.paused and self.driving,
             driving=driving,
-            errors=(*self.errors, *extra_errors),
+            errors=(*self.errors, *(error for _, error in self._warnings), *extra_errors),
             actions=tuple(self.actions.values()),
             information=information,
         )
 
-    def _room_here(self) -> str | None:
+    def room_here(self) -> str | None:
         """The room the robot stands in, judged again only once it has moved: on a plan
         without outlines the judging looks along the grid to every room's point."""
         pose = self.service.control.estimate().pose
@@ -540,16 +459,8 @@ class OrderRun:
             self._room = ((pose.x, pose.y), self.service.room_here())
         return self._room[1]
 
-    def _plan(self) -> FloorPlan:
+    def plan(self) -> FloorPlan:
         navigator = self.service.navigator
         if navigator is None:
             raise Refusal(ErrorType.ORDER, "the robot has no floor plan")
         return navigator.plan
-
-
-def _parameters(action: dict[str, Any]) -> dict[str, Any]:
-    return {
-        str(item.get("key")): item.get("value")
-        for item in action.get("actionParameters") or ()
-        if isinstance(item, dict)
-    }

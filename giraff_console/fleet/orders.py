@@ -65,6 +65,7 @@ class ErrorType(enum.Enum):
     OPERATOR = "operatorHasControls"
     MISSION = "missionFailed"
     BROKER = "brokerLost"
+    BOARD = "boardLinkLost"
     FLOOD = "messageFlood"
 
 
@@ -128,9 +129,11 @@ class Order:
         return [node.node_id for node in nodes if node.kind is NodeKind.ROOM]
 
 
-def read_order(message: dict[str, Any], plan: FloorPlan) -> Order:
+def read_order(message: dict[str, Any], plan: FloorPlan, max_speed: float) -> Order:
     """The order in `message` (already checked against the standard's schema) read
-    against `plan`; Refusal if its shape or a node is wrong."""
+    against `plan`; Refusal if its shape or a node is wrong, or an edge asks for less
+    than `max_speed` (the robot's `go` cannot be held lower along one edge: refused,
+    not ignored, since a fleet that slows an edge means it for safety)."""
     order_id, update_id = str(message["orderId"]), int(message["orderUpdateId"])
     raw_nodes, raw_edges = message["nodes"], message["edges"]
     if not raw_nodes:
@@ -145,7 +148,7 @@ def read_order(message: dict[str, Any], plan: FloorPlan) -> Order:
     nodes = sorted(raw_nodes, key=lambda node: node["sequenceId"])
     edges = sorted(raw_edges, key=lambda edge: edge["sequenceId"])
     read_nodes = tuple(_node(raw, plan) for raw in nodes)
-    read_edges = tuple(_edge(raw) for raw in edges)
+    read_edges = tuple(_edge(raw, max_speed) for raw in edges)
     for index, edge in enumerate(read_edges):
         before, after = read_nodes[index], read_nodes[index + 1]
         if not before.sequence_id < edge.sequence_id < after.sequence_id:
@@ -162,10 +165,11 @@ def read_order(message: dict[str, Any], plan: FloorPlan) -> Order:
                 f"{edge.end}, not {before.node_id} to "
                 f"{after.node_id}",
             )
-        if edge.released and not after.released:
+        if edge.released != after.released:
             raise Refusal(
                 ErrorType.VALIDATION,
-                f"edge {edge.edge_id} is released but node {after.node_id} after it is not",
+                f"edge {edge.edge_id} is {'' if edge.released else 'not '}released but node "
+                f"{after.node_id} after it is {'not ' if edge.released else ''}released",
             )
     released = [node.released for node in read_nodes]
     if not released[0]:
@@ -227,8 +231,16 @@ def _node(raw: dict[str, Any], plan: FloorPlan) -> Node:
     return Node(node_id, int(raw["sequenceId"]), bool(raw["released"]), kind)
 
 
-def _edge(raw: dict[str, Any]) -> Edge:
+def _edge(raw: dict[str, Any], max_speed: float) -> Edge:
     edge_id = str(raw["edgeId"])
+    slower = raw.get("maxSpeed")
+    if slower is not None and not float(slower) >= max_speed:
+        raise Refusal(
+            ErrorType.ORDER,
+            f"edge {edge_id} asks for at most {float(slower):g} m/s; "
+            f"this vehicle's way is driven at up to {max_speed:g} "
+            "m/s and cannot be held lower along one edge",
+        )
     if raw.get("actions"):
         raise Refusal(
             ErrorType.ORDER,

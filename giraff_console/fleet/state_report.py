@@ -80,10 +80,12 @@ class VehicleFacts:
 
 def state_body(facts: VehicleFacts) -> dict[str, Any]:
     progress, telemetry = facts.progress, facts.telemetry
-    last_node = progress.last_node or facts.room or ""
+    # Where it stands when no order drives it (wherever it was driven since the last);
+    # during an order, the last node reached.
+    last_node = facts.room if facts.room is not None else progress.last_node
     errors = list(facts.errors)
     if telemetry is None or telemetry.link is LinkState.LOST:
-        errors.append(Error(ErrorType.MISSION, ErrorLevel.FATAL, "no link to the motor board"))
+        errors.append(Error(ErrorType.BOARD, ErrorLevel.FATAL, "no link to the motor board"))
     body: dict[str, Any] = {
         "orderId": progress.order_id,
         "orderUpdateId": progress.update_id,

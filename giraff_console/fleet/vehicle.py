@@ -25,6 +25,7 @@ from typing import Any
 
 from giraff_console.fleet.broker_link import Broker, BrokerLink
 from giraff_console.fleet.factsheet import factsheet
+from giraff_console.fleet.instant_actions import InstantActions
 from giraff_console.fleet.messages import Headers, encode
 from giraff_console.fleet.order_run import FLEET, OrderRun
 from giraff_console.fleet.orders import MAX_ID, MAX_NODES, ErrorType, long_id
@@ -37,8 +38,8 @@ from giraff_console.fleet.state_report import (
 )
 from giraff_console.fleet.topics import MAJOR, Topic, VehicleId
 from giraff_console.fleet.vocabulary import ConnectionState, ErrorLevel
-from giraff_console.robot.telemetry import Telemetry
-from giraff_console.service.events import ServiceEvent
+from giraff_console.robot.loop_events import MissionChanged
+from giraff_console.service.events import Controls, GoReported, RoomRenamed, ServiceEvent
 from giraff_console.service.robot_service import RobotService
 from giraff_console.settings import Settings
 
@@ -51,7 +52,11 @@ MIN_STATE_GAP_S = 0.1
 LOOK_S = 0.1
 # Messages from the broker waiting to be read; more are dropped (a flood).
 INBOX_SIZE = 64
-EVENTS_SIZE = 1024
+# How long a flood is said in `state` after its last dropped message.
+FLOOD_SAID_S = 10.0
+# The service's events the fleet acts on; the rest (the board's exchanges, notes, 80 a
+# second) are not queued at all.
+HEEDED = (GoReported, MissionChanged, Controls, RoomRenamed)
 # A line in the journal for dropped or bad messages at most this often.
 NOTE_GAP_S = 5.0
 
@@ -71,22 +76,25 @@ class FleetVehicle:
         self.vehicle = vehicle
         self.settings = settings
         self.headers = Headers(vehicle)
-        self.run = OrderRun(service, self._note)
-        will = encode(
-            self.headers.stamp(
-                Topic.CONNECTION, {"connectionState": ConnectionState.CONNECTIONBROKEN.value}
-            )
-        )
+        self.run = OrderRun(service, self._note, settings.motion.v_max)
+        self.actions = InstantActions(self.run, self._publish_factsheet)
         self.link = BrokerLink(
             broker,
             f"{vehicle.manufacturer}.{vehicle.serial_number}",
             heard=self._heard_broker,
             connected=self._connected,
             subscriptions=(vehicle.topic(Topic.ORDER), vehicle.topic(Topic.INSTANT_ACTIONS)),
-            will=(vehicle.topic(Topic.CONNECTION), will),
+            # Stamped afresh at each connection: a master that orders a vehicle's messages
+            # by headerId or time must not take the will for older than its ONLINE.
+            will=(
+                vehicle.topic(Topic.CONNECTION),
+                lambda: self._connection_message(ConnectionState.CONNECTIONBROKEN),
+            ),
         )
         self._inbox: collections.deque[tuple[str, bytes]] = collections.deque()
-        self._events: collections.deque[ServiceEvent] = collections.deque(maxlen=EVENTS_SIZE)
+        # Only the few events the fleet acts on (missions' ends, the controls, a room's new
+        # name): never dropped, and never crowded out by the inbox (see _turn).
+        self._events: collections.deque[ServiceEvent] = collections.deque()
         self._wake = threading.Event()
         self._closing = threading.Event()
         self._connection: bool | None = None  # as the thread last acted on it
@@ -94,6 +102,7 @@ class FleetVehicle:
         self._ever_up = False
         self._refusal_noted: str | None = None
         self.dropped = 0  # messages dropped by a full inbox
+        self._dropped_seen = (0, -FLOOD_SAID_S)  # the count, and when it last grew
         self.bad = 0  # messages that were not for us, not JSON, or not by the schema
         self._noted_at = -NOTE_GAP_S
         self._unnoted = 0
@@ -102,8 +111,14 @@ class FleetVehicle:
         self._thread = threading.Thread(target=self._loop, name="fleet", daemon=True)
 
     def start(self) -> None:
-        self.service.attach(FLEET, take=False)
+        # `yields`: a console that takes the controls ends the fleet's mission at once.
+        self.service.attach(FLEET, take=False, yields=True)
         self.service.subscribe(self._heard_service)
+        # An operator's stop holds the fleet until an operator's `release`, as it holds
+        # the program on the virtual port: an automatic master would send the robot off
+        # again seconds after someone stopped it.
+        self.service.on_stop.append(self._operator_stopped)
+        self.service.on_release.append(self._released)
         self.link.start()
         self._thread.start()
         self._note(
@@ -118,6 +133,8 @@ class FleetVehicle:
         if self._thread.is_alive():
             self._thread.join(timeout)
         self.service.unsubscribe(self._heard_service)
+        self.service.on_stop.remove(self._operator_stopped)
+        self.service.on_release.remove(self._released)
         self.service.detach(FLEET)
         self.link.stop(
             last=(
@@ -140,9 +157,17 @@ class FleetVehicle:
         self._wake.set()
 
     def _heard_service(self, event: ServiceEvent) -> None:
-        if not isinstance(event, Telemetry):  # the latest is the service's to keep
+        if isinstance(event, HEEDED):
             self._events.append(event)
             self._wake.set()
+
+    def _operator_stopped(self) -> None:
+        self.run.hold("an operator stopped the robot")
+        self._wake.set()
+
+    def _released(self) -> None:
+        self.run.hold(None)
+        self._wake.set()
 
     # -- the vehicle's thread -----------------------------------------------------------
 
@@ -169,18 +194,26 @@ class FleetVehicle:
         self._refusal_noted = refusal
         if up != self._connection:
             self._broker_changed(up)
-        while self._events:
-            self.run.heard(self._events.popleft())
-        while self._inbox:
+        self._heed()
+        # What waits now, and no more: a flood must not keep this turn from ending.
+        for _ in range(len(self._inbox)):
             topic, payload = self._inbox.popleft()
             self._read(topic, payload)
-            # A state when one is due, however many messages wait: reading a burst of
-            # long orders takes seconds (measured: 3.7 s), which the fleet must not
-            # take for the robot gone.
+            # What the service said meanwhile comes first (a console that took the
+            # controls, a mission's end); and a state when one is due, however many
+            # messages wait: reading a burst of long orders takes seconds (measured:
+            # 3.7 s), which the fleet must not take for the robot gone.
+            self._heed()
             self._send_state()
         if self.dropped or self._unnoted:
             self._note_trouble()
         self._send_state()
+
+    def _heed(self) -> None:
+        while self._events:
+            event = self._events.popleft()
+            self.run.heard(event)
+            self.actions.heard(event)
 
     def _broker_changed(self, up: bool) -> None:
         was_up, self._connection = self._connection, up
@@ -255,7 +288,7 @@ class FleetVehicle:
             self.run.take_order(message)
         else:
             for action in message["actions"]:
-                self.run.instant(action, self._publish_factsheet)
+                self.actions.take(action)
 
     def _bad(self, kind: Topic, why: str, header: Any = None) -> None:
         self.bad += 1
@@ -263,7 +296,7 @@ class FleetVehicle:
         references = (("topic", kind.value),) + (
             (("headerId", str(header)),) if header is not None else ()
         )
-        self.run.errors.append(
+        self.run.warn(
             Error(
                 ErrorType.VALIDATION, ErrorLevel.WARNING, f"{kind.value} refused: {why}", references
             )
@@ -284,7 +317,11 @@ class FleetVehicle:
 
     def facts(self) -> VehicleFacts:
         extra: tuple[Error, ...] = ()
-        if self.dropped:
+        now = time.monotonic()
+        if self.dropped != self._dropped_seen[0]:
+            self._dropped_seen = (self.dropped, now)
+        # Said while messages are being dropped, and a while after.
+        if self.dropped and now - self._dropped_seen[1] < FLOOD_SAID_S:
             extra = (
                 Error(
                     ErrorType.FLOOD,

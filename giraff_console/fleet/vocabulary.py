@@ -40,3 +40,16 @@ class ActionStatus(enum.Enum):
     RUNNING = "RUNNING"
     FINISHED = "FINISHED"
     FAILED = "FAILED"
+
+
+class ActionType(enum.Enum):
+    """The instant actions this vehicle takes (§6.8; its factsheet lists them)."""
+
+    CANCEL_ORDER = "cancelOrder"
+    START_PAUSE = "startPause"
+    STOP_PAUSE = "stopPause"
+    START_CHARGING = "startCharging"
+    STOP_CHARGING = "stopCharging"
+    INIT_POSITION = "initPosition"
+    STATE_REQUEST = "stateRequest"
+    FACTSHEET_REQUEST = "factsheetRequest"

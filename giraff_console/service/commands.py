@@ -353,7 +353,9 @@ class HandControls(Request):
 
 @dataclass(frozen=True)
 class Release(Request):
-    """Let a program on the virtual port move the robot again after an operator's stop."""
+    """Let what an operator's stop held (a program on the virtual port, the fleet) move
+    the robot again; the console that says it lets go of the controls, handing the robot
+    back."""
 
     moves: ClassVar[bool] = True
     quick: ClassVar[bool] = True
@@ -523,8 +525,8 @@ TYPED: tuple[Typed, ...] = (
           _bare(Status(), "status")),
     Typed("give", "give", "hand the controls to the program on the virtual port",
           _bare(HandControls(), "give")),
-    Typed("release", "release", "let the program on the virtual port move the robot again "
-          "after a stop", _bare(Release(), "release")),
+    Typed("release", "release", "let the program on the virtual port and the fleet move the "
+          "robot again after a stop; the controls are freed", _bare(Release(), "release")),
 )  # fmt: skip
 BY_WORD = {typed.word: typed for typed in TYPED}
 # What the help screen lists: one line for a pair typed alike (close/open, pause/resume).

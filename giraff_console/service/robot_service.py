@@ -137,6 +137,11 @@ class RobotService:
         self._plan_lock = threading.Lock()
         self._consoles: list[str] = []
         self._holder: str | None = None
+        # Clients whose mission ends when another takes the controls (the fleet: an
+        # operator who takes them means to drive, issue 28), and who started the latest
+        # mission.
+        self._yielding: set[str] = set()
+        self._mission_by: str | None = None
         self._listeners: tuple[ServiceListener, ...] = ()
         # Each listener as the loop knows it: with the recording filled in.
         self._on_loop: dict[ServiceListener, Callable[[LoopEvent], None]] = {}
@@ -214,10 +219,13 @@ class RobotService:
 
     # -- consoles and the controls ------------------------------------------------------
 
-    def attach(self, console: str, *, take: bool = True) -> None:
-        """A console comes; it holds the controls if nobody does and `take`."""
+    def attach(self, console: str, *, take: bool = True, yields: bool = False) -> None:
+        """A console comes; it holds the controls if nobody does and `take`. `yields`: a
+        mission it started ends as soon as another console takes the controls."""
         with self._lock:
             self._consoles.append(console)
+            if yields:
+                self._yielding.add(console)
             if take and self._holder is None:
                 self._holder = console
         self._tell(self.controls())
@@ -302,7 +310,14 @@ class RobotService:
             # tick; a later stop queues after it anyway.
             self.control.stop_mission(Outcome.CANCELLED, "stopped before it started")
             return Reply(False, "stopped before it started")
+        if isinstance(request, STARTS_MISSION) and reply.ok:
+            self._mission_by = console
         return reply
+
+    def started_by(self) -> str | None:
+        """Who started the mission under way (or about to start), or None without one."""
+        running = self.control.mission is not None or self.control.missions_starting
+        return self._mission_by if running else None
 
     def _do_press(self, request: c.Press) -> Reply:
         if self.control.playback is not None:
@@ -480,8 +495,11 @@ class RobotService:
         if self.routes is None:
             return Reply(False, "routes are not available")
         with self._plan_lock:
-            return Reply(self.routes.patrol(patrol, by="schedule", scheduled=True,
-                                            reports=self._patrol_reports()))  # fmt: skip
+            started = self.routes.patrol(patrol, by="schedule", scheduled=True,
+                                         reports=self._patrol_reports())  # fmt: skip
+        if started:
+            self._mission_by = "schedule"
+        return Reply(started)
 
     def _do_follow(self, request: c.Follow) -> Reply:
         return self._book(lambda book: book.follow(request.name))
@@ -594,13 +612,16 @@ class RobotService:
         self.control.pause_mission(paused)  # the loop says it did
         return Reply(True)
 
-    def _do_stopmission(self, request: c.StopMission) -> Reply:
-        """End the mission, or the one about to start (the loop may not have it yet)."""
+    def _do_stopmission(self, request: c.StopMission, console: str) -> Reply:
+        """End the mission, or the one about to start (the loop may not have it yet); a
+        client's own cancel (not `operator`) ends only a mission it started."""
         if request.operator:
             self._stopped()
             self.control.stop_mission()
+        elif self.started_by() == console:
+            self.control.stop_mission(Outcome.CANCELLED, f"cancelled by {console}")
         else:
-            self.control.stop_mission(Outcome.CANCELLED, "cancelled by the fleet")
+            return Reply(False, "no mission of yours to stop")
         return Reply(True)
 
     # -- the building -------------------------------------------------------------------
@@ -693,10 +714,16 @@ class RobotService:
     def _do_takecontrols(self, request: c.TakeControls, console: str) -> Reply:
         with self._lock:
             before, self._holder = self._holder, console
+            yields = before in self._yielding
         if before not in (None, console):
             # The keys the other held go with them.
             self.control.halt()
             self.control.note(f"{console} took the controls from {before}")
+            if yields and self.started_by() == before:
+                # At once, here: not when the client next hears of it (a flood of its
+                # own messages must not keep an operator from the robot).
+                self.control.stop_mission(Outcome.STOPPED_BY_OPERATOR,
+                                          f"{console} took the controls from {before}")
         self._tell(self.controls())
         return Reply(True, "you hold the controls")
 
@@ -748,12 +775,16 @@ class RobotService:
     def _do_heartbeat(self, request: c.Heartbeat) -> Reply:
         return Reply(True)
 
-    def _do_release(self, request: c.Release) -> Reply:
+    def _do_release(self, request: c.Release, console: str) -> Reply:
         if not self.on_release:
-            return Reply(False, "nothing to release: no virtual port")
+            return Reply(False, "nothing to release: neither a virtual port nor a fleet")
         for release in self.on_release:
             release()
-        return Reply(True, "the program on the virtual port may move the robot again")
+        # Handing the robot back: a console that kept the controls would keep them from
+        # what it released.
+        self.let_go(console)
+        return Reply(True, "what a stop held (the program on the virtual port, the fleet) may "
+                           "move the robot again; the controls are free")  # fmt: skip
 
     def _do_shutdown(self, request: c.Shutdown) -> Reply:
         """Stop the robot; ending the process is the daemon's (service/daemon.py)."""
@@ -837,7 +868,7 @@ HANDLERS: dict[type[c.Request], Handler] = {
     c.Routes: _asked(RobotService._do_routes),
     c.Pause: _asked(RobotService._do_pause),
     c.Resume: _asked(RobotService._do_resume),
-    c.StopMission: _asked(RobotService._do_stopmission),
+    c.StopMission: RobotService._do_stopmission,
     c.Door: _asked(RobotService._do_door),
     c.Block: _asked(RobotService._do_block),
     c.Record: _asked(RobotService._do_record),
@@ -848,7 +879,7 @@ HANDLERS: dict[type[c.Request], Handler] = {
     c.TakeControls: RobotService._do_takecontrols,
     c.HandControls: RobotService._do_handcontrols,
     c.Heartbeat: _asked(RobotService._do_heartbeat),
-    c.Release: _asked(RobotService._do_release),
+    c.Release: RobotService._do_release,
     c.Shutdown: _asked(RobotService._do_shutdown),
     c.Status: _asked(RobotService._do_status),
     c.View: RobotService._do_view,

@@ -141,6 +141,7 @@ class FakeVehicle:
             self.order_id = message["orderId"]
             self.room = message["nodes"][-1]["nodeId"]
             self.nodes_left = []
+            self.charging = self.room == "dock"  # onto the dock, as a Giraff does
         else:
             for action in message["actions"]:
                 kind = action["actionType"]
@@ -148,8 +149,6 @@ class FakeVehicle:
                     self.paused = kind == "startPause"
                 elif kind == "cancelOrder":
                     self.nodes_left = []
-                elif kind == "startCharging":
-                    self.room, self.charging = "dock", True
         self.publish_state()
 
 

@@ -24,6 +24,7 @@ from giraff_console.fleet.orders import Refusal, read_order
 from giraff_console.fleet.schemas import problem
 from giraff_console.fleet.topics import MAJOR, VERSION, Topic, VehicleId
 from giraff_console.planning.floorplan import FloorPlan
+from giraff_console.settings import MotionSettings
 
 SEED = 28
 # The kinds a vehicle is sent to (it subscribes to these) ...
@@ -119,7 +120,7 @@ def would_act(site: Site, kind: Topic, payload: bytes) -> bool:
         ):
             return False
         if kind is Topic.ORDER:
-            if read_order(message, site.plan).first.node_id != site.here:
+            if read_order(message, site.plan, MotionSettings().v_max).first.node_id != site.here:
                 return False
         elif not any(_action_acts(site, action) for action in message["actions"]):
             return False

@@ -89,7 +89,7 @@ async def test_ten_robots_are_listed_with_live_state(broker, master):
 
 @pytest.mark.parametrize(
     ("key", "action_type"),
-    [("p", "startPause"), ("r", "stopPause"), ("c", "cancelOrder"), ("d", "startCharging")],
+    [("p", "startPause"), ("r", "stopPause"), ("c", "cancelOrder")],
 )
 async def test_each_key_sends_its_instant_action_to_the_selected_robot(master, vehicle, key,
                                                                         action_type):  # fmt: skip
@@ -118,6 +118,20 @@ async def test_go_asks_for_a_room_and_the_robot_reports_its_arrival(master, vehi
         assert [node["nodeId"] for node in order["nodes"]] == ["lobby", "kitchen"]
         await until(pilot, lambda: cell(app, "giraff/giraff-01", "mission")
                     == f"{order['orderId']} at kitchen ✓")  # fmt: skip
+
+
+async def test_dock_sends_an_order_to_the_plan_s_start_room_where_the_robot_charges(
+    master, vehicle
+):
+    app = fleet_view(master)
+    async with app.run_test(size=SIZE) as pilot:
+        await until(pilot, lambda: app.table.row_count == 1)
+        await pilot.press("d")
+        await until(pilot, lambda: len(vehicle.received) == 1)
+        order = vehicle.received[0].message
+        assert vehicle.received[0].topic == "uagv/v2/giraff/giraff-01/order"
+        assert problem(Topic.ORDER, order) is None
+        assert [node["nodeId"] for node in order["nodes"]] == ["lobby", PLAN.start]
 
 
 async def test_go_refuses_a_room_the_plan_does_not_have(master, vehicle):

@@ -41,6 +41,13 @@ def status(watcher: Watcher, robot: FleetRobot, action_id: str) -> str | None:
     return None
 
 
+def result(watcher: Watcher, robot: FleetRobot, action_id: str) -> str:
+    for action in watcher.latest(robot.id, Topic.STATE)["actionStates"]:
+        if action["actionId"] == action_id:
+            return action.get("resultDescription", "")
+    return ""
+
+
 def ended(watcher: Watcher, robot: FleetRobot, action_id: str, timeout: float = 60.0) -> str:
     watcher.wait(
         lambda: status(watcher, robot, action_id) in ("FINISHED", "FAILED"),
@@ -52,18 +59,29 @@ def ended(watcher: Watcher, robot: FleetRobot, action_id: str, timeout: float = 
     return result
 
 
-def test_to_the_dock_to_charge_and_off_it_again(later, wing):
+def test_an_order_to_the_dock_charges_and_stop_charging_backs_off_it(later, wing):
     robot, watcher = later
     plan = load_floorplan(wing)
     watcher.order(robot.id, "o1", ["dock", NEAR])
     watcher.wait(lambda: watcher.latest(robot.id, Topic.STATE)["lastNodeId"] == NEAR, 60)
-    watcher.instant(robot.id, "startCharging", "charge")
-    assert ended(watcher, robot, "charge") == "FINISHED"
+    # Away from the dock, startCharging drives nowhere: it says what to send instead.
+    watcher.instant(robot.id, "startCharging", "too-soon")
+    assert ended(watcher, robot, "too-soon", 10) == "FAILED"
+    assert "an order that ends at dock" in result(watcher, robot, "too-soon")
+    watcher.order(robot.id, "o2", [NEAR, "dock"])
+    watcher.wait(
+        lambda: (
+            (said := watcher.latest(robot.id, Topic.STATE))["orderId"] == "o2"
+            and not said["nodeStates"]
+            and said["batteryState"]["charging"]
+        ),
+        60,
+        "the order done, charging on the dock",
+    )
     true = robot.robot.true_pose()
     assert math.dist((true.x, true.y), plan.rooms["dock"].at) < 0.1
-    watcher.wait(
-        lambda: watcher.latest(robot.id, Topic.STATE)["batteryState"]["charging"], 10, "charging"
-    )
+    watcher.instant(robot.id, "startCharging", "charge")
+    assert ended(watcher, robot, "charge", 10) == "FINISHED"
     watcher.instant(robot.id, "stopCharging", "uncharge")
     assert ended(watcher, robot, "uncharge") == "FINISHED"
     watcher.wait(
@@ -73,6 +91,7 @@ def test_to_the_dock_to_charge_and_off_it_again(later, wing):
     )
     true = robot.robot.true_pose()
     assert 0.2 < math.dist((true.x, true.y), plan.rooms["dock"].at) < 0.5
+    assert robot.robot.service.controls().holder is None  # let go, standing still
 
 
 def test_init_position_says_where_the_robot_stands(later, wing):
@@ -92,6 +111,7 @@ def test_init_position_says_where_the_robot_stands(later, wing):
     assert ended(watcher, robot, "nowhere", 10) == "FAILED"
     after = robot.robot.true_pose()
     assert (after.x, after.y) == (before.x, before.y)  # said, not driven
+    assert robot.robot.service.controls().holder is None  # the fleet kept nothing
 
 
 def test_state_and_factsheet_on_request_and_unknown_actions_fail(later):

@@ -47,7 +47,7 @@ class FleetView(App[int]):
         Binding("p", "pause", "Pause", id="pause", tooltip="startPause"),
         Binding("r", "resume", "Resume", id="resume", tooltip="stopPause"),
         Binding("c", "cancel", "Cancel", id="cancel", tooltip="cancelOrder"),
-        Binding("d", "dock", "Dock", id="dock", tooltip="startCharging: to the dock, charge"),
+        Binding("d", "dock", "Dock", id="dock", tooltip="an order to the dock, to charge there"),
         Binding("q,ctrl+c", "quit", "Quit", id="quit", tooltip="leave; the robots go on"),
     ]
 
@@ -166,5 +166,12 @@ class FleetView(App[int]):
             self._said(self.master.cancel(vehicle))
 
     def action_dock(self) -> None:
-        if (vehicle := self.table.selected) is not None:
-            self._said(self.master.dock(vehicle))
+        if (vehicle := self.table.selected) is None:
+            return
+        if self.plan is None or self.plan.start is None:
+            self.note(
+                f"{vehicle.name}: dock not sent: the floor plan says no start room, "
+                "which is where the dock is (--floorplan)"
+            )
+            return
+        self._said(self.master.dock(vehicle, self.plan.start))

@@ -1,0 +1,218 @@
+"""The operator always wins over the fleet (issue 28), even while the fleet's broker
+floods the robot with messages: a console that takes the controls ends the fleet's
+order at once and the fleet never touches the operator's own mission; an operator's
+stop holds the fleet until an operator's `release`; the fleet keeps no controls while
+the robot stands; and the room the robot stands in is said wherever it was driven."""
+
+from __future__ import annotations
+
+import json
+import math
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from giraff_console.fleet.topics import Topic
+from giraff_console.planning.floorplan import load_floorplan
+from giraff_console.robot.loop_events import MissionChanged
+from giraff_console.robot.mission import Outcome
+from giraff_console.service import commands as c
+from tests.fleet.broker import Broker
+from tests.fleet.fleet_site import FleetRobot, Watcher, fleet_robots
+
+pytestmark = pytest.mark.timeout(150)
+
+NURSE = "console of nurse Ada"
+NEAR, NEXT = "w-15", "w-14"
+
+
+@pytest.fixture
+def one(broker: Broker, wing: Path, tmp_path: Path) -> Iterator[tuple[FleetRobot, Watcher]]:
+    watcher = Watcher(broker)
+    try:
+        with fleet_robots(broker, wing, tmp_path, 1) as robots:
+            watcher.wait(lambda: watcher.latest(robots[0].id, Topic.STATE) is not None)
+            yield robots[0], watcher
+    finally:
+        watcher.close()
+
+
+def state(watcher: Watcher, robot: FleetRobot) -> dict:
+    return watcher.latest(robot.id, Topic.STATE)
+
+
+def flood(watcher: Watcher, robot: FleetRobot, stop: threading.Event) -> None:
+    """Long orders as fast as the broker takes them: each is read and refused (another
+    order runs), and takes the vehicle a while to check."""
+    nodes = [
+        {"nodeId": "w-15", "sequenceId": 2 * i, "released": True, "actions": []} for i in range(100)
+    ]
+    edges = [
+        {
+            "edgeId": f"e{i}",
+            "sequenceId": 2 * i + 1,
+            "released": True,
+            "startNodeId": "w-15",
+            "endNodeId": "w-15",
+            "actions": [],
+        }
+        for i in range(99)
+    ]
+    header = {
+        "headerId": 1,
+        "timestamp": "2026-11-28T00:00:00.00Z",
+        "version": "2.1.0",
+        "manufacturer": robot.id.manufacturer,
+        "serialNumber": robot.id.serial_number,
+    }
+    payload = json.dumps(
+        {**header, "orderId": "flood", "orderUpdateId": 0, "nodes": nodes, "edges": edges}
+    ).encode()
+    while not stop.is_set():
+        watcher.send_raw(robot.id.topic(Topic.ORDER), payload)
+
+
+def test_a_take_ends_the_fleet_s_order_at_once_even_in_a_flood(one, wing):
+    robot, watcher = one
+    service = robot.robot.service
+    service.attach(NURSE, take=False)
+    ends: list[MissionChanged] = []
+    service.subscribe(
+        lambda e: ends.append(e) if isinstance(e, MissionChanged) and not e.running else None
+    )
+    watcher.order(robot.id, "o1", ["dock", NEXT])
+    watcher.wait(lambda: state(watcher, robot)["driving"], what="driving")
+    stop = threading.Event()
+    flooding = threading.Thread(target=flood, args=(watcher, robot, stop), daemon=True)
+    flooding.start()
+    try:
+        time.sleep(2.0)  # the vehicle's inbox full
+        taken = time.monotonic()
+        assert service.execute(c.TakeControls(), NURSE).ok
+        deadline = time.monotonic() + 2.0
+        while not ends:
+            assert time.monotonic() < deadline, "the fleet's mission went on after the take"
+            time.sleep(0.01)
+        assert ends[0].end is not None and ends[0].end.outcome is Outcome.STOPPED_BY_OPERATOR
+        assert time.monotonic() - taken < 0.5
+        # The nurse's own mission: the fleet's cancel never touches it.
+        assert service.execute(c.Go(NEAR), NURSE).ok
+        watcher.instant(robot.id, "cancelOrder", "cx")
+        time.sleep(1.0)
+        assert service.started_by() == NURSE and robot.robot.control.mission is not None
+    finally:
+        stop.set()
+        flooding.join(5.0)
+    watcher.wait(
+        lambda: (
+            state(watcher, robot)["lastNodeId"] == NEAR and not state(watcher, robot)["driving"]
+        ),
+        60,
+        "the nurse's go done",
+    )
+    assert math.dist(_xy(robot), load_floorplan(wing).rooms[NEAR].at) <= 0.1
+
+
+def test_an_operator_s_stop_holds_the_fleet_until_release(one):
+    robot, watcher = one
+    service = robot.robot.service
+    service.attach(NURSE, take=False)
+    watcher.order(robot.id, "o1", ["dock", NEXT])
+    watcher.wait(lambda: state(watcher, robot)["driving"], what="driving")
+    assert service.execute(c.Halt(), NURSE).ok
+    watcher.wait(lambda: not state(watcher, robot)["driving"], what="stopped")
+    assert service.controls().holder is None  # a watching console's stop takes nothing
+    stood = _xy(robot)
+    here = state(watcher, robot)["lastNodeId"]
+    watcher.order(robot.id, "o2", [here, NEXT])
+    watcher.wait(
+        lambda: any(
+            "an operator stopped the robot" in e["errorDescription"]
+            for e in state(watcher, robot)["errors"]
+        ),
+        what="the refusal",
+    )
+    time.sleep(1.0)
+    assert math.dist(_xy(robot), stood) < 0.005
+    assert service.execute(c.Release(), NURSE).ok
+    watcher.order(robot.id, "o3", [here, NEXT])
+    watcher.wait(
+        lambda: (
+            state(watcher, robot)["lastNodeId"] == NEXT and not state(watcher, robot)["nodeStates"]
+        ),
+        60,
+        f"{NEXT} reached",
+    )
+
+
+def test_the_fleet_keeps_no_controls_while_the_robot_stands(one):
+    robot, watcher = one
+    service = robot.robot.service
+    watcher.instant(robot.id, "stopPause", "nothing-to-resume")
+    watcher.instant(robot.id, "initPosition", "placed", {"lastNodeId": "dock", "theta": 0.0})
+    watcher.order(robot.id, "o-moon", ["dock", "the-moon"])
+    watcher.wait(
+        lambda: (
+            {a["actionId"] for a in state(watcher, robot)["actionStates"]}
+            >= {"nothing-to-resume", "placed"}
+        ),
+        what="the actions' ends",
+    )
+    watcher.wait(
+        lambda: any(e["errorType"] == "orderError" for e in state(watcher, robot)["errors"]),
+        what="the refusal",
+    )
+    assert service.controls().holder is None
+    service.attach(NURSE)
+    assert service.controls().holder == NURSE  # a console that comes takes them
+
+
+def test_the_room_it_stands_in_is_said_wherever_it_was_driven_since(one):
+    robot, watcher = one
+    service = robot.robot.service
+    watcher.order(robot.id, "o1", ["dock", NEAR])
+    watcher.wait(
+        lambda: (
+            state(watcher, robot)["lastNodeId"] == NEAR and not state(watcher, robot)["nodeStates"]
+        ),
+        60,
+        f"{NEAR} reached",
+    )
+    service.attach(NURSE)
+    assert service.execute(c.Go(NEXT), NURSE).ok
+    watcher.wait(lambda: state(watcher, robot)["driving"], 10, "the nurse's go")
+    service.detach(NURSE)  # her mission carries on, and nobody holds the controls
+    # The fleet does not take the robot from her mission.
+    watcher.order(robot.id, "o-early", [state(watcher, robot)["lastNodeId"], NEAR])
+    watcher.wait(
+        lambda: any(
+            "nurse Ada started is under way" in e["errorDescription"]
+            for e in state(watcher, robot)["errors"]
+        ),
+        10,
+        "the refusal",
+    )
+    deadline = time.monotonic() + 60
+    while service.started_by() is not None:
+        assert time.monotonic() < deadline, "the nurse's go did not end"
+        time.sleep(0.1)
+    watcher.wait(lambda: state(watcher, robot)["lastNodeId"] == NEXT, 10, f"{NEXT} said")
+    watcher.order(robot.id, "o2", [NEXT, NEAR])  # as a master starts it: where it stands
+    watcher.wait(
+        lambda: (
+            state(watcher, robot)["orderId"] == "o2"
+            and state(watcher, robot)["lastNodeId"] == NEAR
+            and not state(watcher, robot)["nodeStates"]
+        ),
+        60,
+        f"back at {NEAR}",
+    )
+
+
+def _xy(robot: FleetRobot) -> tuple[float, float]:
+    pose = robot.robot.true_pose()
+    assert pose is not None
+    return pose.x, pose.y
