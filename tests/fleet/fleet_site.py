@@ -51,12 +51,14 @@ def fleet_robots(
     prefix: str = "g",
     firmware: str | None = None,
     first: int = 1,
+    eye: tuple[float, str] | None = None,
     before_start: Callable[[FleetRobot], None] = lambda robot: None,
 ) -> Iterator[list[FleetRobot]]:
     """`count` simulated robots in `plan`'s building, each a vehicle on `broker`, serial
     numbers `prefix`01, `prefix`02, ... (from `first`: several processes on one broker,
-    as bench/fleet.py runs them); `before_start` sees each before it starts; started, and
-    closed afterwards (OFFLINE said)."""
+    as bench/fleet.py runs them); `eye`: the simulated cameras' frames a second and size
+    (as `--eye-fps` and `--eye-size` say; the defaults without it); `before_start` sees each
+    before it starts; started, and closed afterwards (OFFLINE said)."""
     settings = Settings(fleet=fleet or FleetSettings())
     address = BrokerAddress.parse(broker.url)
     with ExitStack() as stack:
@@ -67,6 +69,8 @@ def fleet_robots(
                 sim_speed=sim_speed,
                 landmarks=landmarks,
                 firmware=firmware,
+                eye_fps=eye[0] if eye is not None else None,
+                eye_size=eye[1] if eye is not None else None,
                 recordings=folder / f"rec{number}",
                 routes=folder / f"routes{number}",
             )

@@ -16,6 +16,7 @@ from textual import on
 from textual.app import App, ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal
+from textual.timer import Timer
 from textual.widgets import DataTable, RichLog, Static
 
 from giraff_console.fleet.master import Fleet, FleetMaster, Refused, Sent
@@ -31,6 +32,9 @@ from giraff_console.tui.map_scene import MapScene
 
 # Words that make a log line an alarm, drawn in red.
 ALARMS = ("BROKEN", "LOST", "not sent", "FATAL", "bad ")
+# The view is drawn again at most this often, whatever comes: a robot says its state at
+# every change, and a broker with many driving robots brings several a second each.
+REDRAW_S = 0.25
 
 
 def clock_time() -> str:
@@ -65,6 +69,10 @@ class FleetView(App[int]):
         self._fleet = Fleet()
         # One FleetChanged on its way at most: a flood of states posts no more.
         self._posted = threading.Event()
+        # When the view was last drawn, and the timer that draws it again once REDRAW_S
+        # has passed.
+        self._drawn_at = -REDRAW_S
+        self._later: Timer | None = None
 
     def compose(self) -> ComposeResult:
         yield Static("", id="fleet-bar")
@@ -94,11 +102,16 @@ class FleetView(App[int]):
             self.post_message(FleetChanged())
 
     def on_fleet_changed(self, message: FleetChanged) -> None:
-        self._refresh_fleet()
+        wait = self._drawn_at + REDRAW_S - time.monotonic()
+        if wait <= 0:
+            self._refresh_fleet()
+        elif self._later is None:
+            self._later = self.set_timer(wait, self._refresh_fleet)
 
     def _refresh_fleet(self) -> None:
         # Cleared first: a change after this read posts again.
         self._posted.clear()
+        self._later, self._drawn_at = None, time.monotonic()
         fleet, before = self.master.fleet(), self._fleet
         if fleet.version == before.version and before.version:
             return
