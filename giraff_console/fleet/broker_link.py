@@ -125,6 +125,8 @@ class BrokerLink:
         client.on_connect = self._on_connect
         client.on_disconnect = self._on_disconnect
         client.on_message = self._on_message
+        client.on_subscribe = self._on_subscribe
+        self._subscribing: int | None = None
         self._client = client
 
     @property
@@ -172,8 +174,20 @@ class BrokerLink:
             self._set_will()
             return
         self.refusal = None
-        for topic in self._subscriptions:
-            client.subscribe(topic, qos=0)
+        if not self._subscriptions:
+            self._now_up()
+            return
+        # Up once the broker has taken the subscriptions (its SUBACK): a vehicle that says
+        # ONLINE before may miss an order sent at once (seen with amqtt).
+        self._subscribing = client.subscribe([(topic, 0) for topic in self._subscriptions])[1]
+
+    def _on_subscribe(
+        self, client: mqtt.Client, userdata: object, mid: int, reasons: object, properties: object
+    ) -> None:
+        if mid == self._subscribing:
+            self._now_up()
+
+    def _now_up(self) -> None:
         self._up.set()
         self._connected(True)
 

@@ -241,8 +241,14 @@ class FleetVehicle:
             self.run.broker_lost(stop)
 
     def _read(self, topic: str, payload: bytes) -> None:
-        order_topic = self.vehicle.topic(Topic.ORDER)
-        kind = Topic.ORDER if topic == order_topic else Topic.INSTANT_ACTIONS
+        kinds = {self.vehicle.topic(kind): kind for kind in (Topic.ORDER, Topic.INSTANT_ACTIONS)}
+        kind = kinds.get(topic)
+        if kind is None:
+            # Not what it subscribed to: a broker that got it wrong (amqtt 0.12 hands a
+            # new subscriber others' retained messages) is never obeyed.
+            self.bad += 1
+            self._unnoted += 1
+            return
         try:
             message = json.loads(payload)
         except (ValueError, RecursionError):  # UnicodeDecodeError is a ValueError

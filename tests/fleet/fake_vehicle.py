@@ -71,8 +71,15 @@ class FakeVehicle:
         self.client.connect(self._host, self._port, keepalive=5)
         self.client.loop_start()
         assert self._up.wait(timeout), "the fake vehicle did not connect"
-        self.client.subscribe(self.id.topic(Topic.ORDER), qos=0)
-        self.client.subscribe(self.id.topic(Topic.INSTANT_ACTIONS), qos=0)
+        # Said only once the broker has the subscriptions (SUBACK): a master that orders
+        # a vehicle as soon as it is seen must not find nobody listening (amqtt takes a
+        # while, Mosquitto hardly any).
+        subscribed = threading.Event()
+        self.client.on_subscribe = lambda *args: subscribed.set()
+        self.client.subscribe(
+            [(self.id.topic(Topic.ORDER), 0), (self.id.topic(Topic.INSTANT_ACTIONS), 0)]
+        )
+        assert subscribed.wait(timeout), "the fake vehicle's subscriptions were not taken"
         self.say(Topic.CONNECTION, {"connectionState": "ONLINE"}, retain=True)
         self.publish_state()
         return self
@@ -132,6 +139,8 @@ class FakeVehicle:
             return list(self.received)
 
     def _on_message(self, client: mqtt.Client, userdata: object, msg: mqtt.MQTTMessage) -> None:
+        if msg.topic not in (self.id.topic(Topic.ORDER), self.id.topic(Topic.INSTANT_ACTIONS)):
+            return  # a broker's mistake (amqtt hands over others' retained messages)
         message = json.loads(msg.payload)
         with self._heard:
             self.received.append(Received(msg.topic, message))
