@@ -16,7 +16,6 @@ immutable snapshot (`fleet()`), are told of changes (`watch`), or wait for one
 from __future__ import annotations
 
 import enum
-import itertools
 import json
 import threading
 import time
@@ -27,8 +26,9 @@ from datetime import UTC, datetime
 from typing import Any
 
 from giraff_console.fleet.broker_link import Broker, BrokerLink
+from giraff_console.fleet.messages import Headers, encode
 from giraff_console.fleet.schemas import problem
-from giraff_console.fleet.topics import VERSION, Topic, VehicleId, every_vehicle, parse_topic
+from giraff_console.fleet.topics import Topic, VehicleId, every_vehicle, parse_topic
 from giraff_console.fleet.vehicle_report import (
     Factsheet,
     VehicleState,
@@ -138,11 +138,6 @@ class InstantAction(enum.Enum):
     CANCEL = "cancelOrder"
 
 
-def timestamp(now: datetime) -> str:
-    """ISO 8601 in UTC with a Z, to the millisecond, as the standard's examples."""
-    return now.astimezone(UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z")
-
-
 def new_id(what: str) -> str:
     """An id no other order or action of any master has: the standard asks orderIds to
     be unique (§6.6.1), and a restarted master must not reuse its last ones. 32 random
@@ -173,7 +168,7 @@ class FleetMaster:
         self._fleet = Fleet()
         self._watchers: list[Callable[[], None]] = []
         # headerId counts per topic, i.e. per vehicle and kind (§6.2).
-        self._header_ids: dict[tuple[VehicleId, Topic], itertools.count[int]] = {}
+        self._headers: dict[VehicleId, Headers] = {}
         self._send_lock = threading.Lock()
         self.link = BrokerLink(
             broker,
@@ -370,21 +365,14 @@ class FleetMaster:
 
     def _header(self, vehicle: VehicleId, kind: Topic) -> dict[str, Any]:
         with self._send_lock:
-            counter = self._header_ids.setdefault((vehicle, kind), itertools.count())
-            header_id = next(counter)
-        return {
-            "headerId": header_id,
-            "timestamp": timestamp(self._wall_clock()),
-            "version": VERSION,
-            "manufacturer": vehicle.manufacturer,
-            "serialNumber": vehicle.serial_number,
-        }
+            headers = self._headers.setdefault(vehicle, Headers(vehicle, self._wall_clock))
+            return headers.stamp(kind, {})
 
     def _send(self, vehicle: VehicleId, kind: Topic, message: dict[str, Any],
               sent: Sent) -> Sent | Refused:  # fmt: skip
         # QoS 0, as the standard has it for order and instantActions (§6.1): a vehicle
         # that missed one says so in its state, and the operator sends it again.
-        if not self.link.publish(vehicle.topic(kind), json.dumps(message).encode()):
+        if not self.link.publish(vehicle.topic(kind), encode(message)):
             return Refused(vehicle, sent.what, Refusal.NOT_SENT)
         return sent
 

@@ -20,8 +20,8 @@ from giraff_console.fleet.master import (
     Refusal,
     Refused,
     Sent,
-    timestamp,
 )
+from giraff_console.fleet.messages import timestamp
 from giraff_console.fleet.schemas import problem
 from giraff_console.fleet.topics import Topic, VehicleId
 from giraff_console.fleet.vocabulary import ConnectionState, OperatingMode
