@@ -722,8 +722,9 @@ class RobotService:
             if yields and self.started_by() == before:
                 # At once, here: not when the client next hears of it (a flood of its
                 # own messages must not keep an operator from the robot).
-                self.control.stop_mission(Outcome.STOPPED_BY_OPERATOR,
-                                          f"{console} took the controls from {before}")
+                self.control.stop_mission(
+                    Outcome.STOPPED_BY_OPERATOR, f"{console} took the controls from {before}"
+                )
         self._tell(self.controls())
         return Reply(True, "you hold the controls")
 
