@@ -20,10 +20,11 @@ from giraff_console.fleet.order_run import FLEET, OrderRun
 from giraff_console.fleet.orders import NODE_TOLERANCE_M, ErrorType
 from giraff_console.fleet.state_report import Error
 from giraff_console.fleet.vocabulary import ActionStatus, ActionType, ErrorLevel
+from giraff_console.robot.battery import Battery
 from giraff_console.robot.loop_events import MissionChanged
 from giraff_console.robot.mission import Outcome
 from giraff_console.service import commands as c
-from giraff_console.service.events import ServiceEvent
+from giraff_console.service.events import Reply, ServiceEvent
 
 
 class InstantActions:
@@ -74,6 +75,15 @@ class InstantActions:
             )
         )
 
+    def _replied(self, action_id: str, kind: ActionType, reply: Reply) -> None:
+        """Done or not, as the service's reply to what the action asked says."""
+        status = ActionStatus.FINISHED if reply.ok else ActionStatus.FAILED
+        self.run.act(action_id, kind.value, status, reply.text)
+
+    def _battery(self) -> Battery | None:
+        telemetry = self.service.telemetry
+        return telemetry.battery if telemetry is not None else None
+
     def _cancel_order(self, action_id: str, kind: ActionType, _: dict[str, Any]) -> None:
         if self.run.cancel(action_id):
             self.run.act(action_id, kind.value, ActionStatus.RUNNING)
@@ -101,16 +111,10 @@ class InstantActions:
         reply = self.service.execute(c.Pause() if pausing else c.Resume(), FLEET)
         if reply.ok:
             self.run.paused = pausing
-        self.run.act(
-            action_id,
-            kind.value,
-            ActionStatus.FINISHED if reply.ok else ActionStatus.FAILED,
-            reply.text,
-        )
+        self._replied(action_id, kind, reply)
 
     def _start_charging(self, action_id: str, kind: ActionType, _: dict[str, Any]) -> None:
-        telemetry = self.service.telemetry
-        battery = telemetry.battery if telemetry is not None else None
+        battery = self._battery()
         if battery is None:
             self._failed(action_id, kind.value, "this board does not report its charger")
         elif battery.charging:
@@ -125,8 +129,7 @@ class InstantActions:
             )
 
     def _stop_charging(self, action_id: str, kind: ActionType, _: dict[str, Any]) -> None:
-        telemetry = self.service.telemetry
-        battery = telemetry.battery if telemetry is not None else None
+        battery = self._battery()
         refusal = self.run.may_drive()
         if self.run.driving or self.run.active:
             self._failed(action_id, kind.value, "an order is under way")
@@ -175,12 +178,7 @@ class InstantActions:
             return
         heading = math.degrees(theta) if theta is not None and math.isfinite(theta) else None
         reply = self.service.execute(c.Place(room, heading), FLEET)
-        self.run.act(
-            action_id,
-            kind.value,
-            ActionStatus.FINISHED if reply.ok else ActionStatus.FAILED,
-            reply.text,
-        )
+        self._replied(action_id, kind, reply)
 
     def _state_request(self, action_id: str, kind: ActionType, _: dict[str, Any]) -> None:
         if kind is ActionType.FACTSHEET_REQUEST:

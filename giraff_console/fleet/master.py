@@ -36,7 +36,7 @@ from giraff_console.fleet.vehicle_report import (
     factsheet_of,
     state_of,
 )
-from giraff_console.fleet.vocabulary import ConnectionState
+from giraff_console.fleet.vocabulary import ActionType, ConnectionState
 
 # The most vehicles kept: a care home runs a handful, a site a few hundred. Beyond it a
 # new one is counted and not kept, so that a flood of made-up serial numbers cannot grow
@@ -128,14 +128,6 @@ class Refused:
 
     def __str__(self) -> str:
         return f"{self.vehicle.name}: {self.what} not sent: {self.why.value}"
-
-
-class InstantAction(enum.Enum):
-    """The instant actions the fleet view sends (§6.8), by what the operator asked."""
-
-    PAUSE = "startPause"
-    RESUME = "stopPause"
-    CANCEL = "cancelOrder"
 
 
 def new_id(what: str) -> str:
@@ -323,13 +315,13 @@ class FleetMaster:
         return self._send(vehicle, Topic.ORDER, order, Sent(vehicle, Topic.ORDER, order_id, what))
 
     def pause(self, vehicle: VehicleId) -> Sent | Refused:
-        return self.instant(vehicle, InstantAction.PAUSE)
+        return self.instant(vehicle, ActionType.START_PAUSE, "pause")
 
     def resume(self, vehicle: VehicleId) -> Sent | Refused:
-        return self.instant(vehicle, InstantAction.RESUME)
+        return self.instant(vehicle, ActionType.STOP_PAUSE, "resume")
 
     def cancel(self, vehicle: VehicleId) -> Sent | Refused:
-        return self.instant(vehicle, InstantAction.CANCEL)
+        return self.instant(vehicle, ActionType.CANCEL_ORDER, "cancel")
 
     def dock(self, vehicle: VehicleId, dock: str) -> Sent | Refused:
         """To the dock: an order that ends in the plan's start room (`dock`), which the
@@ -337,10 +329,9 @@ class FleetMaster:
         manager's traffic control sees the way (fleet/instant_actions.py)."""
         return self.go(vehicle, dock)
 
-    def instant(self, vehicle: VehicleId, action: InstantAction) -> Sent | Refused:
-        """One instant action. HARD: the vehicle does nothing else meanwhile, as pausing,
-        cancelling and docking are about its driving."""
-        what = action.name.lower()
+    def instant(self, vehicle: VehicleId, action: ActionType, what: str) -> Sent | Refused:
+        """One instant action (`what` the operator asked, for the log). HARD: the vehicle
+        does nothing else meanwhile, as pausing and cancelling are about its driving."""
         refusal = self._refusal(self.fleet().get(vehicle))
         if refusal is not None:
             return Refused(vehicle, what, refusal)

@@ -4,7 +4,7 @@ the tests read them without a broker."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 from giraff_console.fleet.orders import ErrorType, Node
@@ -75,7 +75,7 @@ class VehicleFacts:
     driving: bool
     errors: tuple[Error, ...] = ()
     actions: tuple[ActionState, ...] = ()
-    information: tuple[str, ...] = field(default=())
+    information: tuple[str, ...] = ()
 
 
 def state_body(facts: VehicleFacts) -> dict[str, Any]:

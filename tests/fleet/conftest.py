@@ -7,7 +7,12 @@ from pathlib import Path
 
 import pytest
 
+from giraff_console.fleet.broker_link import Broker as BrokerAddress
+from giraff_console.fleet.master import FleetMaster
 from tests.fleet.broker import Broker
+from tests.fleet.fake_vehicle import FakeVehicle
+
+UP_S = 5.0
 
 
 @pytest.fixture
@@ -17,6 +22,22 @@ def broker(tmp_path: Path) -> Iterator[Broker]:
         yield running
     finally:
         running.stop()
+
+
+@pytest.fixture
+def master(broker: Broker) -> Iterator[FleetMaster]:
+    """A master control on the broker, connected."""
+    with FleetMaster(BrokerAddress.parse(broker.url)) as running:
+        assert running.wait_up(UP_S)
+        yield running
+
+
+@pytest.fixture
+def vehicle(broker: Broker) -> Iterator[FakeVehicle]:
+    """A stand-in vehicle in the lobby (tests/fleet/fake_vehicle.py)."""
+    fake = FakeVehicle(broker.url, "giraff-01", room="lobby").start()
+    yield fake
+    fake.stop()
 
 
 @pytest.fixture(scope="session")

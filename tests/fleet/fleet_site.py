@@ -210,11 +210,19 @@ class Watcher:
         action_id: str,
         parameters: dict[str, Any] | None = None,
     ) -> dict[str, Any]:
-        action: dict[str, Any] = {
-            "actionId": action_id,
-            "actionType": action_type,
-            "blockingType": "HARD",
-        }
-        if parameters:
-            action["actionParameters"] = [{"key": k, "value": v} for k, v in parameters.items()]
+        action = instant_action(action_type, action_id, parameters)
         return self.publish(vehicle, Topic.INSTANT_ACTIONS, {"actions": [action]})
+
+
+def instant_action(
+    action_type: str, action_id: str, parameters: dict[str, Any] | None = None
+) -> dict[str, Any]:
+    """One action of an instantActions message, as a master control writes it."""
+    action: dict[str, Any] = {
+        "actionId": action_id,
+        "actionType": action_type,
+        "blockingType": "HARD",
+    }
+    if parameters:
+        action["actionParameters"] = [{"key": k, "value": v} for k, v in parameters.items()]
+    return action

@@ -25,6 +25,7 @@ from giraff_console.fleet.schemas import problem
 from giraff_console.fleet.topics import MAJOR, VERSION, Topic, VehicleId
 from giraff_console.planning.floorplan import FloorPlan
 from giraff_console.settings import MotionSettings
+from tests.fleet.fleet_site import instant_action
 
 SEED = 28
 # The kinds a vehicle is sent to (it subscribes to these) ...
@@ -200,14 +201,7 @@ def _near_order(rng: random.Random, site: Site) -> dict[str, Any]:
 
 
 def _action(action_type: str, action_id: str, **parameters: Any) -> dict[str, Any]:
-    action: dict[str, Any] = {
-        "actionId": action_id,
-        "actionType": action_type,
-        "blockingType": "HARD",
-    }
-    if parameters:
-        action["actionParameters"] = [{"key": k, "value": v} for k, v in parameters.items()]
-    return action
+    return instant_action(action_type, action_id, parameters)
 
 
 def _instant(rng: random.Random, site: Site, actions: list[dict[str, Any]]) -> dict[str, Any]:

@@ -9,7 +9,7 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 
 import pytest
 
@@ -22,7 +22,6 @@ from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.tui.fleet.app import FleetView
 from giraff_console.tui.map_scene import plan_scene
-from tests.fleet.broker import Broker
 from tests.fleet.fake_vehicle import CARE_HOME, FakeVehicle
 
 pytestmark = pytest.mark.timeout(90)
@@ -36,20 +35,6 @@ assert WALLS is not None and PLAN.name == CARE_HOME
 def fleet_view(master: FleetMaster) -> FleetView:
     return FleetView(master, plan=PLAN, scene=plan_scene(PLAN, WALLS),
                      timestamp=lambda: "12:00:00", cursor_blink=False)  # fmt: skip
-
-
-@pytest.fixture
-def master(broker: Broker) -> Iterator[FleetMaster]:
-    with FleetMaster(BrokerAddress.parse(broker.url)) as running:
-        assert running.wait_up(WAIT_S)
-        yield running
-
-
-@pytest.fixture
-def vehicle(broker: Broker) -> Iterator[FakeVehicle]:
-    fake = FakeVehicle(broker.url, "giraff-01", room="lobby").start()
-    yield fake
-    fake.stop()
 
 
 def cell(app: FleetView, robot: str, column: str) -> str:

@@ -12,7 +12,6 @@ import shutil
 import tempfile
 import time
 from collections.abc import Iterator
-from itertools import pairwise
 from pathlib import Path
 
 import pytest
@@ -23,7 +22,14 @@ from giraff_console.fleet.topics import VehicleId
 from giraff_console.fleet.vocabulary import ConnectionState
 from tests.conftest import start_sim_process, stop_sim_process
 from tests.fleet.broker import Broker
-from tests.service.daemon_rig import kill_daemon, start_daemon, stop_daemon
+from tests.service.daemon_rig import (
+    kill_daemon,
+    start_daemon,
+    stop_daemon,
+    travelled,
+    true_poses,
+    wait_until,
+)
 
 pytestmark = [pytest.mark.pty, pytest.mark.timeout(180)]
 
@@ -31,22 +37,6 @@ ROBOT = VehicleId("giraff", "k1")
 GOAL = "hub"  # 8 m from the dock, through the west corridor
 BROKEN_S = 2.0
 RUNAWAY_M = 0.3
-
-
-def true_poses(log: Path) -> list[tuple[float, float, float, bool]]:
-    rows = []
-    for line in log.read_text().splitlines():
-        parts = line.split()
-        if len(parts) == 5:
-            rows.append((float(parts[0]), float(parts[1]), float(parts[2]), parts[4] == "1"))
-    return rows
-
-
-def wait_until(test, timeout: float, what: str) -> None:
-    deadline = time.monotonic() + timeout
-    while not test():
-        assert time.monotonic() < deadline, f"no {what} in {timeout:g} s"
-        time.sleep(0.02)
 
 
 @pytest.fixture
@@ -116,8 +106,7 @@ def test_a_killed_robot_is_seen_broken_within_2_s_and_stops_within_0_3_m(
             assert broken is not None, "the fleet never heard the last will"
             assert seen_after <= BROKEN_S
             wait_until(lambda: not true_poses(site["log"])[-1][3], 10.0, "rest after the kill")
-            rows = [row for row in true_poses(site["log"]) if row[0] >= killed]
-            run_on = sum(math.dist(a[1:3], b[1:3]) for a, b in pairwise(rows))
+            run_on = travelled(true_poses(site["log"]), since=killed)
             print(f"CONNECTIONBROKEN {seen_after:.2f} s after the kill; ran on {run_on:.3f} m")
             assert run_on <= RUNAWAY_M
         finally:

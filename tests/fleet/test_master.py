@@ -8,7 +8,6 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
 from datetime import UTC, datetime
 
 import pytest
@@ -25,25 +24,10 @@ from giraff_console.fleet.messages import timestamp
 from giraff_console.fleet.schemas import problem
 from giraff_console.fleet.topics import Topic, VehicleId
 from giraff_console.fleet.vocabulary import ConnectionState, OperatingMode
-from tests.fleet.broker import Broker
 from tests.fleet.fake_vehicle import FakeVehicle
 
 pytestmark = pytest.mark.timeout(60)
 WAIT_S = 5.0
-
-
-@pytest.fixture
-def master(broker: Broker) -> Iterator[FleetMaster]:
-    with FleetMaster(BrokerAddress.parse(broker.url)) as running:
-        assert running.wait_up(WAIT_S)
-        yield running
-
-
-@pytest.fixture
-def vehicle(broker: Broker) -> Iterator[FakeVehicle]:
-    fake = FakeVehicle(broker.url, "giraff-01", room="lobby").start()
-    yield fake
-    fake.stop()
 
 
 def online(name: str):

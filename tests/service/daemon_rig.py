@@ -7,6 +7,7 @@ from the test's process, and the CLI runs in children of its own.
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 import signal
@@ -166,6 +167,30 @@ class Heard:
                         f"no {what or kind.__name__} in {timeout:g} s; the last heard: {kinds}"
                     )
                 self._changed.wait(remaining)
+
+
+def true_poses(log: Path) -> list[tuple[float, float, float, bool]]:
+    """The simulator's true poses from its `--pose-log` (time, x, y, moving), which
+    nothing but the tests reads."""
+    rows = []
+    for line in log.read_text().splitlines():
+        parts = line.split()
+        if len(parts) == 5:
+            rows.append((float(parts[0]), float(parts[1]), float(parts[2]), parts[4] == "1"))
+    return rows
+
+
+def travelled(rows: list[tuple[float, float, float, bool]], since: float = -math.inf) -> float:
+    """Metres the true pose went along, from `since` (the pose log's clock)."""
+    points = [(x, y) for t, x, y, _ in rows if t >= since]
+    return sum(math.dist(a, b) for a, b in itertools.pairwise(points))
+
+
+def wait_until(test: Callable[[], object], timeout: float, what: str) -> None:
+    deadline = time.monotonic() + timeout
+    while not test():
+        assert time.monotonic() < deadline, f"no {what} in {timeout:g} s"
+        time.sleep(0.02)
 
 
 def distance(a: Pose, b: Pose) -> float:

@@ -14,8 +14,7 @@ import shutil
 import subprocess
 import tempfile
 import time
-from collections.abc import Callable, Iterator
-from itertools import pairwise
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -28,6 +27,9 @@ from tests.service.daemon_rig import (
     run_cli,
     start_daemon,
     stop_daemon,
+    travelled,
+    true_poses,
+    wait_until,
 )
 
 PLAN = Path(__file__).resolve().parents[2] / "giraff_console/floorplans/care-home.yaml"
@@ -38,27 +40,6 @@ GOAL = "nurse-station"
 MISSION_TIMEOUT_S = 180.0
 
 pytestmark = pytest.mark.pty
-
-
-def true_poses(log: Path) -> list[tuple[float, float, float, bool]]:
-    rows = []
-    for line in log.read_text().splitlines():
-        parts = line.split()
-        if len(parts) == 5:
-            rows.append((float(parts[0]), float(parts[1]), float(parts[2]), parts[4] == "1"))
-    return rows
-
-
-def travelled(rows: list[tuple[float, float, float, bool]], since: float = -math.inf) -> float:
-    points = [(x, y) for t, x, y, _ in rows if t >= since]
-    return sum(math.dist(a, b) for a, b in pairwise(points))
-
-
-def wait_until(test: Callable[[], object], timeout: float, what: str) -> None:
-    deadline = time.monotonic() + timeout
-    while not test():
-        assert time.monotonic() < deadline, f"no {what} in {timeout:.0f} s"
-        time.sleep(0.05)
 
 
 @pytest.fixture
