@@ -73,6 +73,8 @@ def test_robots_carry_on_or_stop_as_set_and_come_back_when_the_broker_does(
             60.0,
             "both robots on their way",
         )
+        # The states heard before the broker goes; the master keeps them while it is away.
+        heard_before = {r.id.name: master.fleet().get(r.id).state.header_id for r in (on, halt)}
         broker.kill()
         killed_at = {r.id.name: r.robot.true_pose() for r in (on, halt)}
         # The one set to stop stops short; the other goes on and arrives, both unheard.
@@ -92,6 +94,7 @@ def test_robots_carry_on_or_stop_as_set_and_come_back_when_the_broker_does(
                 (v := f.get(r.id)) is not None
                 and v.connection is ConnectionState.ONLINE
                 and v.state is not None
+                and v.state.header_id > heard_before[r.id.name]
                 and v.state.last_node_id == (GOAL if r is on else v.state.last_node_id)
                 for r in (on, halt)
             ),
