@@ -49,7 +49,13 @@ def add_floorplan_parser(commands: argparse._SubParsersAction, example: Path) ->
         "spaces its walls and doors bound (or, without walls, its lanes) say which rooms "
         "its doors join, and passages join rooms that share a space. With walls, the grid "
         "is drawn from them and written next to OUT as a PGM (floorplans/README.md, "
-        "\"Importing\"). What the import decides for the map is told in notes, at their "
+        "\"Importing\"). Positions are read in metres from traffic-editor's "
+        "coordinate systems: reference_image (pixels, scaled by the level's measurements), "
+        "cartesian_meters, or wgs84 (longitude, latitude), which is projected onto the "
+        "plane tangent to the WGS 84 ellipsoid at the building's middle (the median of its "
+        "vertices), x east and y north: true to the ground within a millimetre over 5 km, "
+        "with no map grid's scale or north to undo. What the import decides for the map is "
+        "told in notes, at their "
         "lines. The result must pass `floorplan check`, or nothing is written. Exits 0 "
         "when written, 2 for a bad SOURCE or MAP.",
     )  # fmt: skip

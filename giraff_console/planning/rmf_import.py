@@ -5,9 +5,11 @@ map saves drawing the rooms and doors again by hand (thesis §2.6.2). floorplans
 ("Importing") is the contract. This module reads one level of the map as traffic-editor
 writes it (rmf_source.py checks each item): its vertices (named ones are rooms), its
 lanes (every fleet's, or one graph's), doors, walls, floors and holes, in metres as
-RMF's own map generator works them out. Names that would clash are renamed
-(`waiting_area`, `waiting_area-2`). rmf_spaces.py then finds the rooms and doors; with
-walls, rmf_walls.py draws the grid, which is written next to the floor plan.
+RMF's own map generator works them out (a geo-referenced map's longitudes and latitudes
+on the plane tangent at the building's middle instead: rmf_wgs84.py). Names that would
+clash are renamed (`waiting_area`, `waiting_area-2`). rmf_spaces.py then finds the rooms
+and doors; with walls, rmf_walls.py draws the grid, which is written next to the floor
+plan.
 
 A real map is imported as it is: whatever the importer had to decide for it is told in
 a note at its line, and only what cannot be mapped at all (a vertex that is not one, a
@@ -41,10 +43,11 @@ from giraff_console.planning.rmf_source import (
 )
 from giraff_console.planning.rmf_spaces import find_rooms
 from giraff_console.planning.rmf_walls import draw_floor, draw_grid
+from giraff_console.planning.rmf_wgs84 import in_metres
 from giraff_console.planning.ros_map import read_yaml
 
 _NOT_ID = re.compile(r"[^A-Za-z0-9_-]+")
-_SYSTEMS = ("reference_image", "cartesian_meters")
+_SYSTEMS = ("reference_image", "cartesian_meters", "wgs84")
 
 
 def sanitise_id(text: str) -> str:
@@ -64,7 +67,7 @@ def read_building(
     source = BuildingSource(path, lines)
     system = document.get("coordinate_system", "reference_image")
     if system not in _SYSTEMS:
-        message = f"coordinate_system {system!r} is not supported (only {' and '.join(_SYSTEMS)})"
+        message = f"coordinate_system {system!r} is not supported (only {', '.join(_SYSTEMS)})"
         source.fail(("coordinate_system",), message)
     levels = document.get("levels")
     if not isinstance(levels, dict) or not levels:
@@ -80,7 +83,8 @@ def read_building(
     if not isinstance(raw, dict):
         source.fail(where, f"{dotted(where)} should be a mapping of keys, not {raw!r:.60}")
 
-    points, names, params = read_vertices(source, raw.get("vertices"), where)
+    shape = "[longitude, latitude, z, name, {parameters}]" if system == "wgs84" else None
+    points, names, params = read_vertices(source, raw.get("vertices"), where, shape)
     if system == "reference_image":
         scale = read_scale(source, source.items(raw, where, "measurements"), where, points)
         # Pixel rows grow downwards; RMF's map generator flips y to make the map frame.
@@ -88,6 +92,8 @@ def read_building(
         metres = 1.0 if scale is None else scale
         points = [None if p is None else (p[0] * metres, -p[1] * metres) for p in points]
         frame = f"reference_image: {metres:.6g} m a pixel, y flipped"
+    elif system == "wgs84":
+        points, frame = in_metres(source, points, by_name, where)
     else:
         frame = "cartesian_meters"
     count = len(points)
@@ -139,8 +145,9 @@ def read_building(
     rooms_from = "walls and doors" if floor is not None else "lanes and doors"
     header = (
         '# Made by `giraff-console floorplan import` (floorplans/README.md, "Importing")\n'
-        f"# from {path.name}, level {level} ({frame}): rooms found from its\n"
-        f"# {rooms_from}, with the lanes of {fleets}.\n"
+        f"# from {path.name}, level {level}, in\n"
+        f"# {frame};\n"
+        f"# rooms found from its {rooms_from}, with the lanes of {fleets}.\n"
     )
     drawn = None
     if floor is not None:

@@ -103,10 +103,12 @@ def is_number(value: Any) -> bool:
 
 
 def read_vertices(
-    source: BuildingSource, raw: Any, where: Where
+    source: BuildingSource, raw: Any, where: Where, shape: str | None = None
 ) -> tuple[list[Point | None], list[str], list[dict]]:
     """Each vertex's position as written, its name ("" if unnamed) and its parameters;
-    None for a bad one's position."""
+    None for a bad one's position. `shape` is a vertex's as the coordinate system writes
+    it, for the problem a bad one is (default `[x, y, z, name, {parameters}]`)."""
+    shape = shape or "[x, y, z, name, {parameters}]"
     if not isinstance(raw, list) or not raw:
         source.fail((*where, "vertices"), f"{dotted(where)} has no vertices")
     points: list[Point | None] = []
@@ -120,7 +122,7 @@ def read_vertices(
         extra = item[4] if isinstance(item, list) and len(item) > 4 else {}
         good = isinstance(item, list) and len(item) >= 2 and all(map(is_number, item[:2]))
         if not good or not isinstance(name, str):
-            source.add(at, f"{dotted(at)} should be [x, y, z, name, {{parameters}}], not {item!r}")
+            source.add(at, f"{dotted(at)} should be {shape}, not {item!r}")
             points.append(None)
             names.append("")
             params.append({})

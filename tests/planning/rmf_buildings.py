@@ -37,6 +37,7 @@ Level L2 is smaller: a corridor with rooms either side, named like some of L1's.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from itertools import pairwise
 from pathlib import Path
@@ -44,6 +45,7 @@ from pathlib import Path
 SCALE_M = 0.02  # metres a pixel of the drawing
 HEIGHT_M = 26.0  # the drawing's height: map y is design y less this
 Point = tuple[float, float]
+Placing = Callable[[float, float], Point]  # a design point as the file writes it
 
 
 @dataclass
@@ -84,8 +86,10 @@ class Level:
     def door(self, name: str, a: Point, b: Point, kind: str = "hinged") -> None:
         self.doors.append((name, a, b, kind))
 
-    def yaml(self, system: str, walls: bool) -> str:
-        """The level as traffic-editor writes it, under `levels:`."""
+    def yaml(self, system: str, walls: bool, place: Placing | None = None) -> str:
+        """The level as traffic-editor writes it, under `levels:`; `place` writes a design
+        point as the system does, when rmf_buildings does not know it (wgs84)."""
+        position = place or (lambda x, y: _position(system, x, y))
         segments = _cut_at_doors(self.walls, [(a, b) for _, a, b, _ in self.doors]) if walls else []
         for a, b in segments:
             self.vertex(a), self.vertex(b)
@@ -120,12 +124,12 @@ class Level:
                 lines.append(f"      - [{measured[0]}, {far}, {{distance: [3, {metres}]}}]")
         lines.append("    models:")
         for model, (x, y) in self.models:
-            px, py = _position(system, x, y)
+            px, py = position(x, y)
             lines.append(f"      - {{dispensable: false, model_name: {model}, name: {model}, "
                          f"static: true, x: {px}, y: {py}, yaw: 0, z: 0}}")  # fmt: skip
         lines.append("    vertices:")
         for x, y, name, params in self.vertices:
-            px, py = _position(system, x, y)
+            px, py = position(x, y)
             extra = ", ".join(f"{key}: {value}" for key, value in params.items())
             shown = name if name else '""'
             lines.append(f"      - [{px}, {py}, 0, {shown}" + (f", {{{extra}}}]" if extra else "]"))
