@@ -20,7 +20,7 @@ from pathlib import Path
 from giraff_console.planning.rmf_wgs84 import TangentPlane
 from tests.buildings.console import console_ok
 from tests.buildings.rmf_clinic import clinic_level
-from tests.planning.rmf_buildings import Level, Point
+from tests.planning.rmf_buildings import Level, Placing, Point
 
 STOCKHOLM = (18.06, 59.33)  # longitude, latitude: where the clinic's middle is put
 # SWEREF 99 TM, Sweden's grid, as a Swedish user's traffic-editor map names it for RMF's
@@ -29,12 +29,20 @@ PARAMETERS = ("parameters: {generate_crs: [1, \"EPSG:3006\"], suggested_offset_x
               "suggested_offset_y: [3, 6580000]}")  # fmt: skip
 
 
-def middle(level: Level) -> Point:
-    """The median design x and y of the level's vertices as written (after the walls,
+def middle(*levels: Level) -> Point:
+    """The median design x and y of the levels' vertices as written (after the walls,
     doors and measurement corners have made theirs)."""
-    level.yaml("cartesian_meters", walls=True)  # makes every vertex; writes nothing
-    return (statistics.median(v[0] for v in level.vertices),
-            statistics.median(v[1] for v in level.vertices))  # fmt: skip
+    for level in levels:
+        level.yaml("cartesian_meters", walls=True)  # makes every vertex
+    vertices = [vertex for level in levels for vertex in level.vertices]
+    return (statistics.median(v[0] for v in vertices),
+            statistics.median(v[1] for v in vertices))  # fmt: skip
+
+
+def placing(centre: Point) -> Placing:
+    """Design metres to longitude and latitude, `centre` at STOCKHOLM."""
+    plane = TangentPlane(*STOCKHOLM)
+    return lambda x, y: degrees(plane, x - centre[0], y - centre[1])
 
 
 def degrees(plane: TangentPlane, east: float, north: float) -> tuple[float, float]:
@@ -55,13 +63,11 @@ def degrees(plane: TangentPlane, east: float, north: float) -> tuple[float, floa
 def clinic_wgs84_text() -> tuple[str, Point]:
     """The clinic as a wgs84 `.building.yaml`'s text, and its middle in design metres."""
     level = clinic_level()
-    mx, my = middle(level)
-    plane = TangentPlane(*STOCKHOLM)
-    body = level.yaml("wgs84", walls=True,
-                      place=lambda x, y: degrees(plane, x - mx, y - my))  # fmt: skip
+    centre = middle(level)
+    body = level.yaml("wgs84", walls=True, place=placing(centre))
     text = ["coordinate_system: wgs84", "levels:", "  L1:", body, "name: clinic",
             PARAMETERS, ""]  # fmt: skip
-    return "\n".join(text), (mx, my)
+    return "\n".join(text), centre
 
 
 def clinic_pixels_text() -> str:

@@ -21,9 +21,11 @@ from tests.buildings.rmf_clinic_wgs84 import (
     STOCKHOLM,
     clinic_pixels_text,
     clinic_wgs84_text,
+    middle,
+    placing,
     rmf_clinic_wgs84,
 )
-from tests.planning.rmf_buildings import HEIGHT_M
+from tests.planning.rmf_buildings import HEIGHT_M, level_one, level_two
 from tests.planning.test_rmf_buildings import GO_TIMEOUT_S, go_json
 
 MM = 0.001
@@ -160,3 +162,28 @@ def test_bad_numbers_in_a_wgs84_building_are_each_told_at_their_line(tmp_path):
     assert f"{at[3]}[59.33, 18.06] is " in said.err
     assert f"more than {EXTENT_M / 1000:g} km: longitude and latitude swapped" in said.err
     assert "Traceback" not in said.err and not out.exists()
+
+
+def test_the_levels_of_a_wgs84_building_share_one_frame(tmp_path):
+    # The office of rmf_buildings on two levels: each imported alone is in the frame of
+    # the whole building's middle, so a room above another is above it in the plans.
+    levels = {"L1": level_one(), "L2": level_two()}
+    centre = middle(*levels.values())
+    text = ["coordinate_system: wgs84", "levels:"]
+    for name, level in levels.items():
+        text += [f"  {name}:", level.yaml("wgs84", walls=True, place=placing(centre))]
+    source = tmp_path / "office.building.yaml"
+    source.write_text("\n".join([*text, "name: office", ""]))
+    for name, level in levels.items():
+        out = tmp_path / f"{name}.yaml"
+        said = console("floorplan", "import", str(source), str(out), "--level", name)
+        assert said.code == 0, said.err
+        rooms = yaml.safe_load(out.read_text())["rooms"]
+        drawn: dict[str, tuple[float, float]] = {}
+        for x, y, room, _ in level.vertices:  # the first of a name keeps it
+            drawn.setdefault(room, (x - centre[0], y - centre[1]))
+        drawn.pop("tinyRobot1_charger", None)  # moved clear of its wall
+        kept = [room for room in drawn if room in rooms]
+        assert len(kept) >= 8, (name, kept)
+        for room in kept:
+            assert math.dist(rooms[room]["at"], drawn[room]) < MM, (name, room)
