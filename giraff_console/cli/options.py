@@ -133,6 +133,14 @@ def add_robot_options(parser: argparse.ArgumentParser, example: Path, *,
         "instead of the plan's: a plan without them, or surveyed, against the true ones",
     )  # fmt: skip
     parser.add_argument(
+        "--sim-building", type=Path, metavar="FILE",
+        help="put the simulated robot in FILE's building (its walls, furniture, doors, "
+        "markers, and its dock to start on) instead of the console's floor plan's: a "
+        "building the console is to map, or the one a plan was mapped from. The console "
+        "still plans on its own floor plan, whose start room is where it takes the robot "
+        "to stand",
+    )  # fmt: skip
+    parser.add_argument(
         "--eye-fps", type=float, metavar="F",
         help=f"frames a second the simulated camera looks for markers (default: {EYE_FPS:g})",
     )  # fmt: skip
@@ -175,6 +183,7 @@ def robot_options(args: argparse.Namespace, settings: Settings, *, screen: bool 
         sim_start=given("sim_start"),
         move_markers=tuple(given("move_marker", ())),
         sim_markers=given("sim_markers"),
+        sim_building=given("sim_building"),
         eye_fps=given("eye_fps"),
         eye_size=given("eye_size"),
     )

@@ -146,6 +146,16 @@ class Navigator:
             closed = frozenset(planner.graph.closed)
             self.state = NavigationState(closed=closed, obstacles=self.state.obstacles)
 
+    def use_building(self, plan: FloorPlan, walls: OccupancyGrid | None) -> None:
+        """Plan on `plan`, a building drawn anew (a map just made, issue 29), from now
+        on: its walls, its doors as its file says; nothing sensed or shut on the old
+        one carries over, and no route is shown (the caller has no mission running)."""
+        with self._lock:
+            planner = RoutePlanner(plan, walls, self.planner.robot_radius)
+            self.plan, self.planner = plan, planner
+            self._arrival = None
+            self.state = NavigationState(closed=frozenset(planner.graph.closed))
+
     def forget(self) -> None:
         """No goal any more (arrived, or the operator stopped it)."""
         with self._lock:

@@ -59,6 +59,9 @@ class RobotOptions:
     sim_start: str | None = None
     move_markers: tuple[str, ...] = ()
     sim_markers: Path | None = None
+    # The building the simulated robot is in, when it is not the console's plan: one the
+    # console is to map (issue 29), or the real building behind a plan made from a map.
+    sim_building: Path | None = None
     eye_fps: float | None = None
     eye_size: str | None = None
 
@@ -72,7 +75,8 @@ class RobotOptions:
             "--imperfect": self.imperfect_seed is not None, "--block": bool(self.blocks),
             "--sim-start": self.sim_start is not None,
             "--move-marker": bool(self.move_markers),
-            "--sim-markers": self.sim_markers is not None, "--eye-fps": self.eye_fps is not None,
+            "--sim-markers": self.sim_markers is not None,
+            "--sim-building": self.sim_building is not None, "--eye-fps": self.eye_fps is not None,
             "--eye-size": self.eye_size is not None,
             "--firmware": self.firmware is not None,
         }  # fmt: skip

@@ -97,8 +97,10 @@ class Robot:
         self.options = options
         try:
             plan = self.plan = self._plan(options, example)
-            hung = hung_markers(plan, options.sim_markers)
-            moved = moved_plan(plan, options.move_markers)
+            # The simulated building: the plan's own, or another the console is not shown.
+            building = load_floorplan(options.sim_building) if options.sim_building else plan
+            hung = hung_markers(building, options.sim_markers)
+            moved = moved_plan(building, options.move_markers)
             blocks = [point(text) for text in options.blocks]
             eye_fps = EYE_FPS if options.eye_fps is None else options.eye_fps
             eye_size = EYE_SIZE if options.eye_size is None else frame_size(options.eye_size)
@@ -107,9 +109,12 @@ class Robot:
             raise UsageError(str(error)) from None
         if not (eye_fps > 0 and math.isfinite(eye_fps)):
             raise UsageError("--eye-fps must be a positive number")
-        if options.sim_start is not None and options.sim_start not in plan.rooms:
-            raise UsageError(f"--sim-start: {plan.no_room(options.sim_start)}")
+        if options.sim_start is not None and options.sim_start not in building.rooms:
+            raise UsageError(f"--sim-start: {building.no_room(options.sim_start)}")
         self.start_pose = start = self.navigator.start_pose
+        # Where the simulated robot starts: the building's dock, which the console's plan
+        # (one mapped in it, issue 29) has at its own start room.
+        docked = start if building is plan else _dock(building)
         # The simulator: in real time for a screen, unless sped up; stepped on a
         # virtual clock without one, so that a run repeats whatever the speed.
         self.site: SimulatedSite | None = None
@@ -127,15 +132,15 @@ class Robot:
                                            faults=options.faults)  # fmt: skip
             clock, self.stepped = simulator.clock, options.sim_speed
         if simulator is not None:
-            site = self.site = SimulatedSite(simulator.board, plan, start,
+            site = self.site = SimulatedSite(simulator.board, building, docked,
                                              settings.motion.sensing_range)  # fmt: skip
             for x, y in blocks:
                 site.surroundings.block(x, y)
             if moved is not None or hung is not None:
                 # The building's markers, not the plan's: the console still goes by these.
-                site.world = plan_world(hung or moved or plan)
+                site.world = plan_world(hung or moved or building)
             if options.sim_start is not None:
-                room = plan.rooms[options.sim_start]
+                room = building.rooms[options.sim_start]
                 site.board.place(TruePose(*room.at, math.radians(room.heading or 0.0)))
         control = self.control = control_loop(
             board_connector(options.port, settings, simulator), settings, clock
@@ -348,3 +353,11 @@ class Robot:
     def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
                  trace: TracebackType | None) -> None:  # fmt: skip
         self.close()
+
+
+def _dock(building: FloorPlan) -> Pose | None:
+    """Where `building` says the robot starts: its start room's point and heading."""
+    if building.start is None:
+        return None
+    room = building.rooms[building.start]
+    return Pose(room.at[0], room.at[1], math.radians(room.heading or 0.0))

@@ -290,6 +290,30 @@ class Name(Request):
 
 
 @dataclass(frozen=True)
+class StartMapping(Request):
+    """Map the building as the operator drives it (issue 29): the range sensor's
+    revolutions laid into a grid, `mark ROOM` naming the room the robot stands in."""
+
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class SaveMap(Request):
+    """Finish mapping: write the map (`to`-map.yaml and .pgm, as ROS map_server reads
+    them), the floor plan made from it (`to`.yaml: rooms and doors found, the marked
+    names kept), and plan on that from now on."""
+
+    to: Path
+
+
+@dataclass(frozen=True)
+class DiscardMap(Request):
+    """Stop mapping, and throw the map away."""
+
+    quick: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
 class Done(Request):
     """Finish teaching and save the route."""
 
@@ -372,7 +396,7 @@ REQUESTS: tuple[type[Request], ...] = (
     Press, Halt, Speed, Send, SendCommands, Stalk, Poll, Go, RunPatrol, Follow, Replay,
     Undock, Pause, Resume, StopMission, Door, Block, Record, Play, Seek, Rate, Step, Teach, Mark,
     Place, Name, Done, Routes, TakeControls, HandControls, Heartbeat, Status, Release,
-    Shutdown, View,
+    Shutdown, View, StartMapping, SaveMap, DiscardMap,
 )  # fmt: skip
 
 
@@ -456,6 +480,22 @@ def _place(rest: str) -> Place:
     return Place(parts[0], heading)
 
 
+def _map(rest: str) -> Request:
+    usage = "map, map save NAME, or map discard"
+    word, _, name = rest.partition(" ")
+    if not rest:
+        return StartMapping()
+    if word == "discard" and not name:
+        return DiscardMap()
+    if word == "save" and name.strip():
+        try:
+            # Resolved here, where it was typed: a daemon has a folder of its own.
+            return SaveMap(Path(name.strip()).expanduser().resolve())
+        except RuntimeError as error:  # ~nosuchuser
+            raise Usage(f"map save: {error}") from None
+    raise Usage(f"usage: {usage}")
+
+
 def _rename(rest: str) -> Name:
     parts = rest.split()
     if len(parts) != 2:
@@ -494,7 +534,11 @@ TYPED: tuple[Typed, ...] = (
     Typed("teach", "teach NAME", "teach a route by driving it; `mark PLACE` names places",
           lambda rest: Teach(_name("teach NAME")(rest))),
     Typed("mark", "mark PLACE", "name the place where the robot stands: on the route taught, "
-          "else the room it is in", lambda rest: Mark(_name("mark PLACE")(rest))),
+          "else the room it is in (while mapping, when the map is saved)",
+          lambda rest: Mark(_name("mark PLACE")(rest))),
+    Typed("map", "map, map save NAME, map discard", "map the building as you drive it round "
+          "(a range sensor); `mark ROOM` in each room; save writes NAME.yaml and plans on it",
+          _map),
     Typed("name", "name ROOM NEW", "rename a room of the floor plan, and save the plan",
           _rename),
     Typed("place", "place ROOM [DEG]", "the robot stands at ROOM's point (dock: on the dock), "

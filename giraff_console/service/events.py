@@ -10,6 +10,7 @@ from __future__ import annotations
 import enum
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Protocol, TypeAlias
 
 from giraff_console.camera.shared_frame import SharedFrame
@@ -108,6 +109,26 @@ class RoomRenamed:
 
 
 @dataclass(frozen=True)
+class MapDrawn:
+    """The map being built as the robot is driven (issue 29), for the screens: its cells
+    as a PNG (black occupied, white free, grey unknown, as map_server writes them),
+    at most MAP_PICTURE_CELLS a side, and where it lies in the map frame."""
+
+    png: bytes
+    resolution: float  # metres a pixel of the picture
+    origin: tuple[float, float]  # the lower-left pixel's lower-left corner
+    revision: int
+
+
+@dataclass(frozen=True)
+class PlanChanged:
+    """The robot plans on another floor plan from now on (a map saved): every front end
+    draws and names rooms by it."""
+
+    path: Path
+
+
+@dataclass(frozen=True)
 class Situation:
     """The answer to `status`: what runs, who drives, how the last mission ended, and the
     latest snapshot (service/status.py says it)."""
@@ -151,7 +172,7 @@ class PatrolReported:
 
 ServiceEvent: TypeAlias = (
     LoopEvent | Controls | RouteShown | RoomRenamed | GoReported | PatrolStopReported
-    | PatrolReported | SharedFrame
+    | PatrolReported | SharedFrame | MapDrawn | PlanChanged
 )  # fmt: skip
 ServiceListener: TypeAlias = Callable[[ServiceEvent], None]
 Answered: TypeAlias = Callable[[Reply], None]

@@ -3,7 +3,8 @@
 The control loop and the service drop events in here and never wait (a console that
 stops reading must not delay a tick, issue 15). Telemetry comes twenty times a second
 and only the newest matters, so a console that falls behind gets the latest snapshot,
-not the history; so do the camera's frames, to a console that asked for them.
+not the history; so do the camera's frames, to a console that asked for them, and the
+pictures of a map being built (issue 29), each the whole map so far.
 Everything else (answers, notes, who holds the controls, a mission's end) matters each
 time: none of it is dropped, and a console so far behind that LIMIT of those wait is
 hung up on instead, which lets go of its keys like any hang-up.
@@ -16,6 +17,7 @@ import threading
 
 from giraff_console.camera.shared_frame import SharedFrame
 from giraff_console.robot.telemetry import Telemetry
+from giraff_console.service.events import MapDrawn
 
 # Messages other than telemetry a console may fall behind by before it is hung up on.
 LIMIT = 2000
@@ -34,6 +36,7 @@ class Outbox:
         # holds up nothing (issue 26).
         self.wants_frames = False
         self._frame: SharedFrame | None = None
+        self._map: MapDrawn | None = None
         self._took_snapshot = False
         self._closed = False
         self.overflowed = False
@@ -48,6 +51,8 @@ class Outbox:
             elif isinstance(message, SharedFrame):
                 if self.wants_frames:
                     self._frame = message
+            elif isinstance(message, MapDrawn):
+                self._map = message
             elif len(self._messages) >= self.limit:
                 self.overflowed = self._closed = True
             else:
@@ -65,13 +70,16 @@ class Outbox:
         closed and empty, or after `timeout` seconds with nothing."""
         with self._ready:
             self._ready.wait_for(
-                lambda: self._messages or self._latest is not None
+                lambda: self._messages or self._latest is not None or self._map is not None
                 or self._frame is not None or self._closed, timeout,
             )  # fmt: skip
             if self._messages:
                 return self._messages.popleft()
             if self.overflowed:
                 return None
+            if self._map is not None:
+                drawn, self._map = self._map, None
+                return drawn
             # A snapshot and a frame by turns: a console that reads slowly gets both,
             # each the newest, rather than snapshots alone.
             frame_first = self._frame is not None and (self._latest is None or self._took_snapshot)

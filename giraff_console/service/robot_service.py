@@ -34,6 +34,7 @@ from giraff_console.missions.navigation import NavigationState
 from giraff_console.missions.patrol_report import PatrolReports, Sight
 from giraff_console.missions.route_book import RouteBook
 from giraff_console.missions.sessions import Sessions
+from giraff_console.planning.floorplan import is_id
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.planning.room_names import RenameError, rename_in_file
 from giraff_console.protocol import CommandError, GiraffError, parse_command
@@ -48,12 +49,15 @@ from giraff_console.robot.safety import stop_robot
 from giraff_console.robot.stalk import head_height, stepped
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
+from giraff_console.service.building_map import BuildingMap, ScanSource
 from giraff_console.service.command_batch import CommandBatch
 from giraff_console.service.events import (
     Answered,
     Controls,
     GoReported,
+    MapDrawn,
     PatrolReported,
+    PlanChanged,
     PatrolStopReported,
     Reply,
     RoomRenamed,
@@ -116,7 +120,8 @@ class RobotService:
                  building: Building | None = None, routes: RouteBook | None = None,
                  sessions: Sessions | None = None, camera: CameraFeed | None = None,
                  undock_distance: float = 0.3,
-                 sight: Callable[[], Sight] | None = None) -> None:  # fmt: skip
+                 sight: Callable[[], Sight] | None = None,
+                 sensor: ScanSource | None = None) -> None:  # fmt: skip
         self.control = control
         self.drives = drives
         self.navigator = drives.navigator
@@ -164,6 +169,8 @@ class RobotService:
         self.camera = camera
         self._viewers: set[str] = set()
         self._shared: tuple[np.ndarray, SharedFrame] | None = None
+        # The building mapped as it is driven (issue 29), with the range sensor's turns.
+        self.building_map = BuildingMap(control, self.navigator, sensor, self._tell)
         control.subscribe(self._heard)
 
     def post(self, request: c.Request, answered: Answered = lambda reply: None) -> None:
@@ -175,6 +182,7 @@ class RobotService:
         """The front end is closing: a recording it left running is closed whole."""
         if self.sessions is not None:
             self.sessions.stop_recording()
+        self.building_map.close()
 
     # -- listening ----------------------------------------------------------------------
 
@@ -201,7 +209,7 @@ class RobotService:
             self.control.unsubscribe(on_loop)
 
     def _tell(self, event: Controls | RouteShown | RoomRenamed | GoReported | PatrolStopReported
-              | PatrolReported | SharedFrame) -> None:  # fmt: skip
+              | PatrolReported | SharedFrame | MapDrawn | PlanChanged) -> None:  # fmt: skip
         for listener in self._listeners:
             listener(event)
 
@@ -301,7 +309,7 @@ class RobotService:
                 return Reply(False, refused)
         handler = HANDLERS[type(request)]
         stops = self._stops
-        plans = isinstance(request, (*STARTS_MISSION, c.Name, c.Mark))
+        plans = isinstance(request, (*STARTS_MISSION, c.Name, c.Mark, c.SaveMap))
         with self._plan_lock if plans else contextlib.nullcontext():
             reply = handler(self, request, console)
         if isinstance(request, STARTS_MISSION) and reply.ok and self._stops != stops:
@@ -523,6 +531,11 @@ class RobotService:
         the name (§2.6.3: "the robot would be told the name of the room the robot is in")."""
         if self.routes is not None and self.routes.teacher is not None:
             return self._book(lambda book: book.mark(request.place))
+        if self.building_map.mapping:
+            if not is_id(request.place):
+                return Reply(False, f"mark: {request.place!r} cannot name a room: letters, "
+                                    "digits, - and _ only")  # fmt: skip
+            return self.building_map.mark(request.place)
         if self.navigator is None:
             return Reply(False, "mark: not teaching a route (`teach NAME` first), and no "
                                 "floor plan to name a room of")  # fmt: skip
@@ -585,6 +598,15 @@ class RobotService:
             text += (f"; patrols {', '.join(going)} still stop at {room}: change them to {to} "
                      f"in their files")  # fmt: skip
         return Reply(True, text)
+
+    def _do_startmapping(self, request: c.StartMapping) -> Reply:
+        return self.building_map.start()
+
+    def _do_savemap(self, request: c.SaveMap) -> Reply:
+        return self.building_map.save(request.to)
+
+    def _do_discardmap(self, request: c.DiscardMap) -> Reply:
+        return self.building_map.discard()
 
     def _do_done(self, request: c.Done) -> Reply:
         return self._book(lambda book: book.done() is not None)
@@ -866,6 +888,9 @@ HANDLERS: dict[type[c.Request], Handler] = {
     c.Place: _asked(RobotService._do_place),
     c.Name: _asked(RobotService._do_name),
     c.Done: _asked(RobotService._do_done),
+    c.StartMapping: _asked(RobotService._do_startmapping),
+    c.SaveMap: _asked(RobotService._do_savemap),
+    c.DiscardMap: _asked(RobotService._do_discardmap),
     c.Routes: _asked(RobotService._do_routes),
     c.Pause: _asked(RobotService._do_pause),
     c.Resume: _asked(RobotService._do_resume),

@@ -24,12 +24,16 @@ from giraff_console.camera.shared_frame import SharedFrame, SharedFrameError, pi
 from giraff_console.camera.source import RESOLUTIONS as CAMERA_RESOLUTIONS
 from giraff_console.clock import Clock
 from giraff_console.planning import room_names
-from giraff_console.planning.floorplan import FloorPlan
+from giraff_console.planning.floorplan import FloorPlan, FloorPlanError, load_floorplan
 from giraff_console.planning.grid import OccupancyGrid
+from giraff_console.planning.route_planner import walls_of
 from giraff_console.service import commands as c
+from giraff_console.service.building_map import picture_grid
 from giraff_console.service.daemon import Welcome
 from giraff_console.service.events import (
     Controls,
+    MapDrawn,
+    PlanChanged,
     Robot,
     RoomRenamed,
     RouteShown,
@@ -52,7 +56,9 @@ from giraff_console.tui.messages import (
     DaemonBack,
     DaemonLeft,
     ExchangeSeen,
+    MapGrown,
     NavigationChanged,
+    PlanSwitched,
     RoomNamed,
     StatusNote,
     TelemetryUpdated,
@@ -354,6 +360,23 @@ class GiraffConsole(RobotKeys, KeyGuard):
             self._scene = plan_scene(plan, self.walls)
             self._show_map()
 
+    def on_map_grown(self, message: MapGrown) -> None:
+        """The map being built, drawn as it grows, in place of the plan's walls."""
+        scene = self._scene
+        grid = message.grid
+        self._scene = replace(scene, walls=grid) if scene is not None else MapScene(grid)
+        self.map_view.display = True
+        self.map_view.regrid(located(self._scene, self.pose, None))
+
+    def on_plan_switched(self, message: PlanSwitched) -> None:
+        """The plan a saved map made: its rooms and doors from now on."""
+        self.plan, self.walls = message.plan, message.walls
+        if message.walls is None:
+            return
+        self._scene = plan_scene(message.plan, message.walls)
+        self.map_view.display = True
+        self.map_view.regrid(located(self._scene, self.pose, None))
+
     def on_controls_changed(self, message: ControlsChanged) -> None:
         before, controls = self.controls, message.controls
         self.controls = controls
@@ -457,6 +480,23 @@ class GiraffConsole(RobotKeys, KeyGuard):
             self.post_message(DaemonBack(event.welcome))
         elif isinstance(event, SharedFrame):
             self._draw_shared(event)
+        elif isinstance(event, MapDrawn):
+            grid = picture_grid(event)
+            if grid is not None:
+                self.post_message(MapGrown(grid))
+        elif isinstance(event, PlanChanged):
+            self._switch_plan(event.path)
+
+    def _switch_plan(self, path: Path) -> None:
+        """The plan the robot now plans on, read here (on the robot's thread: reading a
+        grid takes a moment) for the map and the room names."""
+        try:
+            plan = load_floorplan(path)
+            walls = walls_of(plan)
+        except (FloorPlanError, OSError) as error:
+            self.post_message(StatusNote(f"the map still shows the old plan: {error}"))
+            return
+        self.post_message(PlanSwitched(plan, walls))
 
     def _pane_size(self, columns: int, rows: int) -> None:
         self._cells = (max(1, columns), max(1, rows))

@@ -111,6 +111,13 @@ class MapView(Widget):
             self._keep_robot_in_view()
             self._changed()
 
+    def regrid(self, scene: MapScene) -> None:
+        """Draw `scene`, whose grid is another (a map growing, or a new plan): the
+        whole of it, if the whole of the last was in view."""
+        self.show(scene)
+        if self._fitted:
+            self.fit()
+
     def fit(self) -> None:
         """Show the whole plan; done for the first scene, and again once the size is known."""
         width, height = self.size

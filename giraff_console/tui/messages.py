@@ -7,6 +7,8 @@ from textual.message import Message
 from giraff_console.camera.feed import CameraPicture
 from giraff_console.service import commands as c
 from giraff_console.service.daemon import Welcome
+from giraff_console.planning.floorplan import FloorPlan
+from giraff_console.planning.grid import OccupancyGrid
 from giraff_console.service.events import Controls, Reply, RoomRenamed, RouteShown
 from giraff_console.service.vocabulary import Exchange, Telemetry
 
@@ -63,6 +65,27 @@ class RoomNamed(Message):
     def __init__(self, renamed: RoomRenamed) -> None:
         super().__init__()
         self.renamed = renamed
+
+
+class MapGrown(Message):
+    """The map being built, as far as it goes now; a queue of them collapses into the
+    newest."""
+
+    def __init__(self, grid: OccupancyGrid) -> None:
+        super().__init__()
+        self.grid = grid
+
+    def can_replace(self, message: Message) -> bool:
+        return isinstance(message, MapGrown)
+
+
+class PlanSwitched(Message):
+    """The robot plans on another floor plan now (a map saved): drawn and named by it."""
+
+    def __init__(self, plan: FloorPlan, walls: OccupancyGrid | None) -> None:
+        super().__init__()
+        self.plan = plan
+        self.walls = walls
 
 
 class ControlsChanged(Message):

@@ -1,0 +1,224 @@
+"""Benchmark: a building taught by driving it once (issue 29, the first "Done when").
+
+A building of our own making (tests/teaching/), with its markers put up by `floorplan
+landmarks` on the truth, the console shown nothing of it:
+
+1. **Mapping.** The console starts on a plan of the dock alone, the simulator put in the
+   building (`--sim-building`), `--imperfect --seed MAP_SEED --faults off`, the simulated
+   lidar read through the real reading code. `map`, then a scripted operator drives
+   through every room with the arrow keys (tests/teaching/operator.py) and types `mark
+   ROOM` in each, then `map save`: the map (ROS map_server) and the plan made of it.
+   Said: the rooms the plan has against the real rooms (one each, ± 1), the marked names
+   found, the map's occupied cells within 0.10 m of the truth's, how the lidar and the
+   mapping kept up (revolutions, dropped, CPU of each thread).
+2. **Markers.** `giraff-console survey` on the plan made, in the same building (`--sim
+   --sim-building TRUTH`), writes the markers it finds into it.
+3. **Going.** For seeds 1-8, a patrol of 10 rooms of the plan made (one from each of 10
+   parts, bench/any_building.py's choice) with `--sim-building TRUTH`, judged against
+   the true pose as bench/any_building.py judges: within 0.10 m and 3° (the heading
+   where the room has one).
+
+Usage: python bench/teach_building.py [--building flat|hall] [--seeds 1-8] [--rooms 10]
+       [--map-seed 1] [--jobs 2] [--folder DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+from scipy import ndimage
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from bench.any_building import (
+    MARKERS,
+    Run,
+    counts,
+    machine,
+    patrol_command,
+    patrol_rooms,
+    run_patrol,
+    seeds_of,
+    source,
+    write_patrol,
+)
+from giraff_console.lidar import SIMULATED_LIDAR
+from giraff_console.planning.floorplan import FloorPlan, load_floorplan
+from giraff_console.planning.grid import OCCUPIED
+from giraff_console.planning.route_planner import RoutePlanner, walls_of
+from giraff_console.planning.scan_grid import read_scan
+from giraff_console.runtime.options import RobotOptions
+from giraff_console.runtime.robot import Robot
+from giraff_console.service import commands as c
+from giraff_console.settings import Settings
+from tests.buildings.console import put_up_markers
+from tests.teaching import BUILDINGS, Teaching
+from tests.teaching.flat import unmapped_plan
+from tests.teaching.operator import Operator, tour
+
+SURVEY_TIMEOUT_S = 1800.0
+PATROL_TIMEOUT_S = 3600.0
+DRIVE_TIMEOUT_S = 1800.0
+
+
+def thread_cpu(names: tuple[str, ...]) -> dict[str, float]:
+    """CPU seconds so far of this process's threads called `names` (Linux's /proc)."""
+    seconds: dict[str, float] = dict.fromkeys(names, 0.0)
+    tick = 100.0  # USER_HZ
+    for thread in threading.enumerate():
+        if thread.name in names and thread.native_id is not None:
+            try:
+                stat = Path(f"/proc/self/task/{thread.native_id}/stat").read_text()
+            except OSError:
+                continue
+            fields = stat.rsplit(")", 1)[1].split()
+            seconds[thread.name] += (int(fields[11]) + int(fields[12])) / tick
+    return seconds
+
+
+def map_it(teaching: Teaching, folder: Path, seed: int) -> dict:
+    """The mapping drive; what it made, and how it went."""
+    truth = load_floorplan(teaching.truth)
+    blank = unmapped_plan(folder, teaching.dock)
+    options = RobotOptions(floorplan=blank, sim_building=teaching.truth, sim_speed=2.0,
+                           imperfect_seed=seed, faults=False, lidar=SIMULATED_LIDAR)  # fmt: skip
+    out = folder / f"{teaching.name}-mapped"
+    with Robot(options, Settings(), teaching.truth) as robot:
+        robot.start()
+        began = time.perf_counter()
+        started = robot.service.execute(c.StartMapping())
+        assert started.ok, started.text
+        cpu_before = thread_cpu(("lidar", "mapping"))
+        drive = Operator(robot, DRIVE_TIMEOUT_S).drive(tour(truth, teaching.tour))
+        cpu_after = thread_cpu(("lidar", "mapping"))
+        run = robot.service.building_map.run
+        status = run.status() if run is not None else None
+        lidar = robot.lidar
+        revolutions = lidar.revolutions if lidar is not None else 0
+        saved = robot.service.execute(c.SaveMap(out))
+        wall = time.perf_counter() - began
+    report: dict = {"marked": drive.marked, "metres": drive.metres, "drive_s": drive.seconds,
+                    "wall_s": wall, "saved": saved.ok, "said": saved.text,
+                    "lines": list(saved.lines), "revolutions": revolutions}  # fmt: skip
+    if status is not None:
+        report |= {"laid_in": status.scans, "dropped": status.dropped,
+                   "unplaced": status.unplaced}  # fmt: skip
+    # The virtual clock runs twice as fast as the wall's: a second of it is half a real one.
+    for name in ("lidar", "mapping"):
+        report[f"cpu_{name}_percent"] = 100 * (cpu_after[name] - cpu_before[name]) / drive.seconds
+    if saved.ok:
+        plan = load_floorplan(out.with_suffix(".yaml"))
+        report |= judge_plan(plan, truth, teaching) | judge_map(out, truth)
+        report["plan"] = str(plan.path)
+    return report
+
+
+def judge_plan(plan: FloorPlan, truth: FloorPlan, teaching: Teaching) -> dict:
+    real = RoutePlanner(truth, walls_of(truth))
+    named_right = [name for name in teaching.tour if name in plan.rooms
+                   and real.room_at(plan.rooms[name].at) == name]  # fmt: skip
+    return {"rooms": len(plan.rooms), "real_rooms": teaching.real_rooms,
+            "named_right": len(named_right), "marked_rooms": len(set(teaching.tour))}
+
+
+def judge_map(out: Path, truth: FloorPlan) -> dict:
+    mapped = read_scan(out.with_name(f"{out.name}-map.yaml")).grid
+    grid = walls_of(truth)
+    assert grid is not None
+    near = ndimage.distance_transform_edt(grid.cells != OCCUPIED) * grid.resolution
+    rows, cols = np.nonzero(mapped.cells == OCCUPIED)
+    xs = mapped.origin[0] + (cols + 0.5) * mapped.resolution
+    ys = mapped.origin[1] + (mapped.shape[0] - rows - 0.5) * mapped.resolution
+    t_rows = grid.shape[0] - 1 - np.floor((ys - grid.origin[1]) / grid.resolution).astype(int)
+    t_cols = np.floor((xs - grid.origin[0]) / grid.resolution).astype(int)
+    inside = (t_rows >= 0) & (t_rows < grid.shape[0]) & (t_cols >= 0) & (t_cols < grid.shape[1])
+    off = near[t_rows[inside], t_cols[inside]]
+    return {"occupied_cells": int(len(rows)),
+            "within_5cm": float((off <= 0.05).mean()) if len(off) else 0.0,
+            "within_10cm": float((off <= 0.10).mean()) if len(off) else 0.0}  # fmt: skip
+
+
+def survey(plan: Path, truth: FloorPlan, seed: int) -> dict:
+    assert truth.landmarks is not None and truth.path is not None
+    command = [sys.executable, "-m", "giraff_console", "survey", "--sim", "--sim-speed", "inf",
+               "--imperfect", "--seed", str(seed), "--faults", "off", "--floorplan", str(plan),
+               "--sim-building", str(truth.path), "--family", truth.landmarks.family,
+               "--size", str(truth.landmarks.size), "--json"]  # fmt: skip
+    began = time.perf_counter()
+    try:
+        done = subprocess.run(command, capture_output=True, text=True, timeout=SURVEY_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        return {"problem": f"timed out after {SURVEY_TIMEOUT_S:.0f} s"}
+    lines = [line for line in done.stdout.splitlines() if line.startswith("{")]
+    if not lines:
+        return {"problem": f"exit {done.returncode}: {done.stderr.strip()[-400:]}"}
+    report = json.loads(lines[-1])
+    report["wall_s"] = time.perf_counter() - began
+    report["code"] = done.returncode
+    return report
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--building", choices=sorted(BUILDINGS), default="flat")
+    parser.add_argument("--seeds", default="1-8")
+    parser.add_argument("--rooms", type=int, default=10)
+    parser.add_argument("--map-seed", type=int, default=1)
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--folder", type=Path)
+    args = parser.parse_args()
+    folder = args.folder or Path(tempfile.mkdtemp(prefix="teach-building-"))
+    folder.mkdir(parents=True, exist_ok=True)
+    print(f"machine: {machine()}; source: {source()}; folder {folder}", flush=True)
+    teaching = BUILDINGS[args.building](folder)
+    markers = put_up_markers(teaching.truth)
+    truth = load_floorplan(teaching.truth)
+    print(f"{args.building}: {teaching.real_rooms} real rooms, {len(truth.doors)} doors, "
+          f"{markers.placed} markers put up; the tour marks {len(teaching.tour)} stops",
+          flush=True)  # fmt: skip
+
+    mapped = map_it(teaching, folder, args.map_seed)
+    print("mapping:", json.dumps(mapped, indent=1), flush=True)
+    if not mapped.get("saved"):
+        print("NOT MET: the map was not saved")
+        return
+    plan_path = Path(mapped["plan"])
+    surveyed = survey(plan_path, truth, args.map_seed)
+    print("survey:", json.dumps({k: v for k, v in surveyed.items() if k != "markers"}),
+          f"{len(surveyed.get('markers', []))} markers", flush=True)  # fmt: skip
+    plan = load_floorplan(plan_path)
+    runs = []
+    for seed in seeds_of(args.seeds):
+        rooms = patrol_rooms(plan, seed, args.rooms)
+        patrol = write_patrol(folder / f"patrol-{seed}.patrol.yaml", rooms, 1)
+        run = Run(args.building, MARKERS, seed, rooms, 1)
+        run.command = patrol_command(patrol, plan_path, seed, "--sim-building", str(truth.path))
+        runs.append(run)
+    with ThreadPoolExecutor(args.jobs) as pool:
+        done = list(pool.map(lambda run: run_patrol(run, PATROL_TIMEOUT_S), runs))
+    tally = counts(done, plan)
+    planned = sum(run.planned for run in done)
+    print(f"going, seeds {args.seeds}: {tally['within']} of {planned} within 0.10 m and 3° "
+          f"({100 * tally['within'] / planned:.1f} %), {tally['false arrival']} false, "
+          f"{tally['heading off']} heading off, {tally['failed']} failed, "
+          f"{tally['not run']} not run")  # fmt: skip
+    for run in done:
+        if run.problem:
+            print(f"  seed {run.seed}: {run.problem}")
+        for stop in run.stops:
+            if not stop.get("arrived") or stop.get("outcome") not in (None, "arrived"):
+                print(f"  seed {run.seed} {stop.get('room')}: {stop.get('outcome')} "
+                      f"{stop.get('why', '')}")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()

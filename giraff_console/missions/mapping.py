@@ -1,0 +1,188 @@
+"""Teaching the building by driving it (issue 29; thesis §2.1, §2.6.3): the range
+sensor's revolutions laid into an occupancy grid at the poses the filter gives, while
+the operator drives, and the rooms named as the robot stands in them.
+
+The thesis's ideal is a robot "driven once round by a person who names the rooms"
+(§2.6.3) that builds the map it plans on itself (§2.1). Here the operator drives by
+hand as ever; a mapping run only listens: every revolution the sensor completes is
+placed at the pose the filter had when it was taken (missions/pose_trail.py) and laid
+into the grid by the map builder (planning/map_building.py), which matches it against
+the map so far where that helps and keeps the correction it found. `mark NAME` notes
+where the robot stands, in the corrected frame, for the room there to take NAME when
+the plan is written (planning/mapped_plan.py).
+
+The work is done on the run's own thread, never the control loop's: a revolution
+takes milliseconds to lay in, and the loop must tick on time whatever the sensor sends
+(design.md). Revolutions that come faster than they are laid in are dropped, the
+oldest first, and counted.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Protocol
+
+from giraff_console.clock import Clock
+from giraff_console.missions.lookout import Scan
+from giraff_console.missions.pose_trail import PoseTrail
+from giraff_console.planning.floorplan import Point
+from giraff_console.planning.grid import OccupancyGrid
+from giraff_console.planning.map_building import MapBuilder, MapTooLarge
+from giraff_console.robot.odometry import Pose
+
+log = logging.getLogger(__name__)
+
+# Revolutions waiting to be laid in: the newest few; older ones are dropped.
+MAX_WAITING = 4
+# Seconds the run's thread waits for a revolution before it looks whether to stop.
+WAIT_S = 0.2
+
+
+class StampedScan(Scan, Protocol):
+    """A whole revolution, with the time its last sample came (the loop's clock)."""
+
+    @property
+    def taken_at(self) -> float: ...
+
+
+@dataclass(frozen=True)
+class MapMark:
+    """`mark NAME` while mapping: the room where the robot stood is NAME."""
+
+    name: str
+    at: Point
+    heading: float  # radians, the map frame's
+
+
+@dataclass(frozen=True)
+class MappingStatus:
+    """How a mapping run is going, for `status` and the screen."""
+
+    scans: int  # revolutions laid into the grid
+    dropped: int  # revolutions that came faster than they could be laid in
+    unplaced: int  # revolutions too old or too new for the trail's poses
+    marks: tuple[MapMark, ...]
+    revision: int  # the grid's: it has changed when this has
+
+
+class MappingRun:
+    """One drive through the building, mapped; safe to call from any thread."""
+
+    def __init__(self, builder: MapBuilder, clock: Clock, note: Callable[[str], None], *,
+                 after: Callable[[MappingRun], None] = lambda run: None) -> None:  # fmt: skip
+        """`after` is called on the run's thread after each revolution laid in."""
+        self.builder = builder
+        self.clock = clock
+        self.note = note
+        self.after = after
+        self.trail = PoseTrail()
+        self._waiting: collections.deque[tuple[Scan, float]] = collections.deque(
+            maxlen=MAX_WAITING
+        )
+        self._ready = threading.Condition()
+        self._lock = threading.Lock()
+        # The builder's grid grows on this run's thread; it is read on others.
+        self._building = threading.Lock()
+        self._marks: dict[str, MapMark] = {}
+        self._scans = self._dropped = self._unplaced = 0
+        self._running = True
+        self._thread = threading.Thread(target=self._run, name="mapping", daemon=True)
+        self._thread.start()
+
+    # -- fed by the loop and the sensor ----------------------------------------------
+
+    def pose(self, time: float, pose: Pose) -> None:
+        """The filter's pose at `time` (the loop's clock): called every tick."""
+        self.trail.add(time, pose)
+
+    def scan(self, scan: StampedScan) -> None:
+        """A whole revolution, on the sensor's thread: queued, never waited on."""
+        with self._ready:
+            if len(self._waiting) == self._waiting.maxlen:
+                self._dropped += 1
+            self._waiting.append((scan, scan.taken_at))
+            self._ready.notify()
+
+    # -- asked by the service ------------------------------------------------------
+
+    def mark(self, name: str, pose: Pose) -> MapMark:
+        """The room where the robot stands (the filter's `pose`) is `name`; a second
+        mark of the same name moves it."""
+        corrected = self.corrected(pose)
+        mark = MapMark(name, (corrected.x, corrected.y), corrected.heading)
+        with self._lock:
+            self._marks[name] = mark
+        return mark
+
+    def corrected(self, pose: Pose) -> Pose:
+        """The filter's `pose` in the map's frame, as scan matching has corrected it."""
+        with self._building:
+            return self.builder.correction.apply(pose)
+
+    def status(self) -> MappingStatus:
+        with self._lock:
+            return MappingStatus(self._scans, self._dropped, self._unplaced,
+                                 tuple(self._marks.values()), self.builder.revision)  # fmt: skip
+
+    def grid(self) -> OccupancyGrid:
+        """The map so far."""
+        with self._building:
+            return self.builder.grid()
+
+    def close(self) -> None:
+        """Stop laying revolutions in; what is laid in stays."""
+        with self._ready:
+            self._running = False
+            self._ready.notify()
+        self._thread.join(timeout=5.0)
+
+    # -- the run's thread ------------------------------------------------------------
+
+    def _run(self) -> None:
+        while True:
+            with self._ready:
+                if not self._waiting and self._running:
+                    self._ready.wait(WAIT_S)
+                if not self._running:
+                    return
+                if not self._waiting:
+                    continue
+                scan, stamp = self._waiting.popleft()
+            try:
+                self._lay_in(scan, stamp)
+                self.after(self)
+            except Exception:
+                # A bug: the map stops growing, and the operator is told; the robot
+                # drives on as before, since mapping only listens.
+                log.exception("mapping failed")
+                self.note("mapping stopped: an internal error (logged); `map save NAME` "
+                          "keeps what was mapped")  # fmt: skip
+                with self._ready:
+                    self._running = False
+                return
+
+    def _lay_in(self, scan: Scan, stamp: float) -> None:
+        pose = self.trail.at(stamp)
+        if pose is None:
+            with self._lock:
+                self._unplaced += 1
+            return
+        try:
+            with self._building:
+                self.builder.add(pose, scan, stamp)
+        except MapTooLarge as error:
+            self.note(f"mapping stopped: {error}; `map save NAME` keeps what was mapped")
+            with self._ready:
+                self._running = False
+            return
+        except ValueError:
+            # A revolution the builder cannot use (one stamped before the last): dropped.
+            with self._lock:
+                self._unplaced += 1
+            return
+        with self._lock:
+            self._scans += 1

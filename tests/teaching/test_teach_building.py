@@ -1,0 +1,115 @@
+"""Teaching a building by driving it once (issue 29): the simulated lidar's bytes read as
+a real one's, the map built as a scripted operator drives through every room with
+`mark ROOM` in each, saved, planned on at once; on the imperfect simulator, every claim
+compared with the truth (tests/teaching/flat.py)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from giraff_console.lidar import SIMULATED_LIDAR
+from giraff_console.planning.floorplan import load_floorplan
+from giraff_console.planning.grid import OCCUPIED
+from giraff_console.planning.route_planner import RoutePlanner, walls_of
+from giraff_console.planning.scan_grid import read_scan
+from giraff_console.robot.mission import Outcome
+from giraff_console.runtime.options import RobotOptions
+from giraff_console.runtime.robot import Robot
+from giraff_console.service import commands as c
+from giraff_console.service.events import GoReported, MapDrawn, PlanChanged
+from giraff_console.settings import Settings
+from tests.service.daemon_rig import wait_until
+from tests.teaching.flat import ROOMS, write_flat
+from tests.teaching.flat import unmapped_plan as dock_only
+from tests.teaching.operator import Operator, tour
+
+pytestmark = pytest.mark.timeout(420)
+
+TOUR = ["lounge", "bedroom", "kitchen", "hall"]
+DRIVE_S = 300.0  # real seconds the drive may take at --sim-speed 2 on a busy machine
+
+
+@pytest.fixture(scope="module")
+def taught(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """The flat driven round once with the lidar mapping, saved, and a `go` on it."""
+    folder = tmp_path_factory.mktemp("flat")
+    truth_path = write_flat(folder)
+    truth = load_floorplan(truth_path)
+    options = RobotOptions(floorplan=dock_only(folder), sim_building=truth_path, sim_speed=2.0,
+                           imperfect_seed=3, faults=False, lidar=SIMULATED_LIDAR)  # fmt: skip
+    heard: list = []
+    with Robot(options, Settings(), truth_path) as robot:
+        robot.service.subscribe(heard.append)
+        robot.start()
+        started = robot.service.execute(c.StartMapping())
+        drive = Operator(robot, DRIVE_S).drive(tour(truth, TOUR))
+        saved = robot.service.execute(c.SaveMap(folder / "flat-mapped"))
+        go = robot.service.execute(c.Go("kitchen")) if saved.ok else None
+        if go is not None and go.ok:
+            wait_until(lambda: any(isinstance(e, GoReported) for e in heard), 120, "go's end")
+        at_end = robot.true_pose()
+    return {"folder": folder, "truth": truth, "started": started, "drive": drive,
+            "saved": saved, "go": go, "heard": heard, "at_end": at_end}  # fmt: skip
+
+
+def test_mapping_starts_and_every_room_is_marked(taught):
+    assert taught["started"].ok, taught["started"].text
+    assert taught["drive"].marked == TOUR, [r.text for r in taught["drive"].replies]
+
+
+def test_the_screens_are_shown_the_map_as_it_grows(taught):
+    drawn = [e for e in taught["heard"] if isinstance(e, MapDrawn)]
+    # A picture a second at most: the drive takes tens of seconds.
+    assert len(drawn) >= 5
+    assert len({e.revision for e in drawn}) == len(drawn)
+
+
+def test_the_map_is_saved_as_ros_reads_it_and_matches_the_building(taught):
+    saved, folder = taught["saved"], taught["folder"]
+    assert saved.ok, saved.text
+    scan = read_scan(folder / "flat-mapped-map.yaml")
+    mapped = scan.grid
+    truth = walls_of(taught["truth"])
+    assert truth is not None
+    # Where the map says occupied, the building has a wall or furniture within 0.10 m.
+    near_truth = ndimage.distance_transform_edt(truth.cells != OCCUPIED) * truth.resolution
+    rows, cols = np.nonzero(mapped.cells == OCCUPIED)
+    xs = mapped.origin[0] + (cols + 0.5) * mapped.resolution
+    ys = mapped.origin[1] + (mapped.shape[0] - rows - 0.5) * mapped.resolution
+    t_rows = truth.shape[0] - 1 - np.floor((ys - truth.origin[1]) / truth.resolution).astype(int)
+    t_cols = np.floor((xs - truth.origin[0]) / truth.resolution).astype(int)
+    inside = (t_rows >= 0) & (t_rows < truth.shape[0]) & (t_cols >= 0) & (t_cols < truth.shape[1])
+    assert inside.mean() > 0.99
+    within = near_truth[t_rows[inside], t_cols[inside]] <= 0.10
+    assert len(rows) > 1000 and within.mean() >= 0.95, f"{within.mean():.3f} of {len(rows)}"
+
+
+def test_the_plan_has_a_room_for_each_room_by_the_names_marked(taught):
+    folder, truth = taught["folder"], taught["truth"]
+    plan = load_floorplan(folder / "flat-mapped.yaml")
+    assert set(TOUR) <= set(plan.rooms)
+    assert abs(len(plan.rooms) - len(ROOMS)) <= 1, sorted(plan.rooms)
+    # Each named room's point is in the real room of that name.
+    real = RoutePlanner(truth, walls_of(truth))
+    for name in TOUR:
+        assert real.room_at(plan.rooms[name].at) == name, (name, plan.rooms[name].at)
+    # The start is where the robot started: the dock.
+    start = plan.rooms[plan.start]
+    assert math.dist(start.at, truth.rooms["hall"].at) < 0.01
+    assert any(isinstance(e, PlanChanged) for e in taught["heard"])
+
+
+def test_go_uses_the_new_plan_at_once(taught):
+    go = taught["go"]
+    assert go is not None and go.ok, go
+    ended = [e for e in taught["heard"] if isinstance(e, GoReported)][-1].report
+    plan = load_floorplan(taught["folder"] / "flat-mapped.yaml")
+    # No markers yet (a survey finds them): there by the estimate, and so it says.
+    assert ended.end.outcome in (Outcome.ARRIVED, Outcome.ARRIVED_UNVERIFIED), ended
+    at = taught["at_end"]
+    assert math.dist((at.x, at.y), plan.rooms["kitchen"].at) < 0.3
