@@ -57,7 +57,7 @@ MARGIN_TOLERANCE_M = 0.01
 # A hit this near a cell the plan's grid blocks is the plan's wall seen again: the pose
 # may be a few centimetres and a degree or two off (odometry, §2.3), which at the range
 # finder's 1.5 m puts a wall about 5 cm from where the plan has it.
-KNOWN_WALL_M = 0.15
+KNOWN_WALL_M = 0.25
 
 
 class Lookout:

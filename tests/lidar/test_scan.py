@@ -1,0 +1,42 @@
+"""A revolution's samples as beams in the robot's frame (lidar/scan.py)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from giraff_console.lidar.scan import LidarScan, Mount, robot_beams, within
+
+
+def beams(angles, distances, quality=None, mount=Mount()):
+    q = np.full(len(angles), 47) if quality is None else np.asarray(quality)
+    return robot_beams(np.asarray(angles, float), np.asarray(distances, float), q, mount,
+                       0.15, 12.0)  # fmt: skip
+
+
+def test_the_sensors_clockwise_angles_become_counter_clockwise_bearings():
+    # 90 degrees clockwise on the sensor is the robot's right: bearing -pi/2.
+    (right, ahead) = beams([90.0, 0.0], [1000.0, 2000.0])
+    assert right == pytest.approx((1.0, -math.pi / 2))
+    assert ahead == pytest.approx((2.0, 0.0))
+
+
+def test_no_return_and_out_of_range_are_misses():
+    found = beams([0.0, 10.0, 20.0, 30.0], [0.0, 1000.0, 100.0, 13000.0], [47, 0, 47, 47])
+    assert all(math.isinf(distance) for distance, _ in found)
+
+
+def test_the_mount_moves_beams_to_the_robots_centre():
+    # The sensor 0.2 m ahead and turned 90 degrees left: its front sees 1 m to the left
+    # of itself, which from the centre is atan2(1, 0.2) away.
+    (beam,) = beams([0.0], [1000.0], mount=Mount(0.2, math.pi / 2))
+    assert beam == pytest.approx((math.hypot(0.2, 1.0), math.atan2(1.0, 0.2)))
+
+
+def test_within_a_range_farther_hits_are_misses():
+    scan = LidarScan(12.0, ((1.0, 0.0), (3.0, 0.5)), 0.0, 2)
+    near = within(scan, 1.5)
+    assert near.range_max == 1.5 and near.beams[0] == (1.0, 0.0)
+    assert math.isinf(near.beams[1][0])
