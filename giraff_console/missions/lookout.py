@@ -54,9 +54,10 @@ LOOKOUT_M = 3.0
 # Leaving the margin round a sensed obstacle, the path may come this much closer to it:
 # the samples of a path along the obstacle's side wobble by a few millimetres.
 MARGIN_TOLERANCE_M = 0.01
-# A hit this near a cell the plan's grid blocks is the plan's wall seen again: the pose
-# may be a few centimetres and a degree or two off (odometry, §2.3), which at the range
-# finder's 1.5 m puts a wall about 5 cm from where the plan has it.
+# A hit this near a cell the plan's grid blocks is the plan's wall seen again: between
+# marker fixes the pose drifts (odometry, §2.3; on the imperfect simulator 0.1 to 0.2 m
+# over a few metres, and a degree or two, which at 1.5 m moves a wall 5 cm more). An
+# obstacle this close to a wall is missed; one in a 0.8 m doorway's middle is not.
 KNOWN_WALL_M = 0.25
 
 

@@ -10,8 +10,9 @@ import pytest
 from giraff_console.lidar.scan import LidarScan, Mount, robot_beams, within
 
 
-def beams(angles, distances, quality=None, mount=Mount()):
+def beams(angles, distances, quality=None, mount=None):
     q = np.full(len(angles), 47) if quality is None else np.asarray(quality)
+    mount = mount or Mount()
     return robot_beams(np.asarray(angles, float), np.asarray(distances, float), q, mount,
                        0.15, 12.0)  # fmt: skip
 
