@@ -41,3 +41,25 @@ def test_within_a_range_farther_hits_are_misses():
     near = within(scan, 1.5)
     assert near.range_max == 1.5 and near.beams[0] == (1.0, 0.0)
     assert math.isinf(near.beams[1][0])
+
+
+def test_lidar_settings_errors_name_the_line(tmp_path):
+    from giraff_console.settings import SettingsError, load_settings
+
+    path = tmp_path / "config.toml"
+    path.write_text('port = "/dev/ttyS0"\n\n[lidar]\nport = "/dev/ttyUSB0"\nyaw = 500\n')
+    with pytest.raises(SettingsError, match=r"config.toml:5: lidar.yaw must be"):
+        load_settings(path)
+    path.write_text('[lidar]\nport = "/dev/ttyUSB0"\nbaudrate = 9600\n')
+    with pytest.raises(SettingsError, match=r"config.toml:3: lidar.baudrate must be one of"):
+        load_settings(path)
+    path.write_text('[lidar]\nport = "/dev/ttyUSB0"\nforward = 0.1\n')
+    lidar = load_settings(path).lidar
+    assert lidar.port == "/dev/ttyUSB0" and lidar.forward == 0.1 and lidar.baudrate == 115200
+
+
+def test_lidar_without_a_port_on_a_real_robot_is_a_usage_error(capsys):
+    from giraff_console.cli import main
+
+    code = main(["go", "kitchen", "--port", "/dev/null", "--lidar"])
+    assert code == 2 and "--lidar: give its port" in capsys.readouterr().err
