@@ -29,7 +29,6 @@ import numpy as np
 
 SYNC = 0xA5
 SYNC_REPLY = 0x5A
-DESCRIPTOR_LEN = 7
 SAMPLE_LEN = 5
 # The largest payload a request may carry: its size is one byte.
 MAX_PAYLOAD = 255
