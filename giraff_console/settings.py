@@ -76,6 +76,18 @@ The [fleet] table: `giraff-console serve` as a VDA 5050 vehicle (docs/fleet.md):
     on_broker_lost = "carry_on"  # an order under way when the broker goes: "carry_on"
                                # (the standard's default) or "stop"
 
+The [lidar] table: a Slamtec RPLIDAR (A1/A2) on its own serial port (docs/simulator.md);
+without a port the robot senses as before, through the simulator's range finder alone:
+
+    [lidar]
+    port = "/dev/ttyUSB0"      # device or pyserial URL; none: no lidar (--lidar PORT)
+    baudrate = 115200          # A1 and A2M8; 256000 for later A2s
+    forward = 0.0              # metres the sensor sits ahead of the robot's centre
+    yaw = 0.0                  # degrees its front is turned left of the robot's
+    range_min = 0.15           # metres: nearer returns are not measurements
+    range_max = 12.0           # metres: farther ones neither
+    timeout = 1.0              # seconds each read waits before the sensor is lost
+
 Scheduled patrols, which `giraff-console serve` runs (docs/daemon.md); one [[schedule]]
 table each, as many as wanted:
 
@@ -122,12 +134,15 @@ FOLDER_KEYS = ("recordings", "routes")
 VIRTUAL_PORT_CHOICES = ("drives", "reads")
 # What an order under way does when the broker goes (docs/fleet.md).
 BROKER_LOST_CHOICES = ("carry_on", "stop")
+LIDAR_TEXT_KEYS = ("port",)
 FLEET_TEXT_KEYS = ("broker", "ca_file", "credentials", "manufacturer", "serial_number",
                    "interface", "on_broker_lost")  # fmt: skip
 TEXT_KEYS = ("port", "power_line", "odometers", "twm", "virtual_port", *FOLDER_KEYS,
              *FLEET_TEXT_KEYS)  # fmt: skip
 # Tables within the file, each its own dataclass below.
-TABLES = ("teleop", "motion", "board", "battery", "fleet")
+TABLES = ("teleop", "motion", "board", "battery", "fleet", "lidar")
+# The baud rates an RPLIDAR's USB adapter runs at (A1, A2M8: 115200; later A2: 256000).
+LIDAR_BAUDRATES = (115200, 256000)
 # The array of tables of scheduled patrols, and the keys of each.
 SCHEDULE = "schedule"
 SCHEDULE_KEYS = ("patrol", "every", "from", "to")
@@ -249,6 +264,33 @@ class FleetSettings:
 
 
 @dataclass(frozen=True)
+class LidarSettings:
+    """The RPLIDAR, if the robot has one: where it is plugged in and where it sits."""
+
+    port: str = ""
+    baudrate: int = 115200
+    forward: float = 0.0
+    yaw: float = 0.0
+    range_min: float = 0.15
+    range_max: float = 12.0
+    timeout: float = 1.0
+
+    def check(self) -> tuple[str, str] | None:
+        """The key that cannot be right and why; None if all can."""
+        if self.baudrate not in LIDAR_BAUDRATES:
+            return "baudrate", f"must be one of {', '.join(map(str, LIDAR_BAUDRATES))}"
+        if not abs(self.forward) <= 1.0:
+            return "forward", "must be within 1 m of the robot's centre"
+        if not abs(self.yaw) <= 180.0:
+            return "yaw", "must be from -180 to 180 degrees"
+        if not 0 <= self.range_min < self.range_max <= 40.0:
+            return "range_max", "range_min and range_max must be 0 <= min < max <= 40 m"
+        if not 0.05 <= self.timeout <= 10.0:
+            return "timeout", "must be from 0.05 to 10 s"
+        return None
+
+
+@dataclass(frozen=True)
 class Settings:
     port: str | None = None
     power_line: str = "dtr"
@@ -263,6 +305,7 @@ class Settings:
     board: BoardSettings = field(default_factory=BoardSettings)
     battery: BatterySettings = field(default_factory=BatterySettings)
     fleet: FleetSettings = field(default_factory=FleetSettings)
+    lidar: LidarSettings = field(default_factory=LidarSettings)
     schedule: tuple[ScheduledPatrol, ...] = ()
     source: str = "built-in defaults"
 
@@ -295,8 +338,10 @@ def load_settings(path: Path | None = None) -> Settings:
         battery = BatterySettings(**_checked(path, "battery.", BatterySettings, tables["battery"]))
         fleet = FleetSettings(**_fleet_files(path, _checked(path, "fleet.", FleetSettings,
                                                             tables["fleet"])))  # fmt: skip
+        lidar = _lidar(path, text, tables["lidar"])
         settings = Settings(**_checked(path, "", Settings, data), teleop=teleop, motion=motion,
-                            board=board, battery=battery, fleet=fleet, schedule=schedule,
+                            board=board, battery=battery, fleet=fleet, lidar=lidar,
+                            schedule=schedule,
                             source=str(path))  # fmt: skip
         if settings.power_line not in ("dtr", "rts", "both", "none"):
             raise ValueError("power_line must be dtr, rts, both or none")
@@ -350,6 +395,44 @@ def _checked(path: Path, prefix: str, kind: type, data: dict) -> dict:
             # Relative to the settings file, not to wherever the console is started.
             data[key] = str(path.parent / Path(value).expanduser())
     return data
+
+
+def _lidar(path: Path, text: str, table: dict) -> LidarSettings:
+    """The [lidar] table; SettingsError as `file:line: message` for a bad key."""
+    lines = _plain_table_lines(text, "lidar")
+    for key, value in table.items():
+        line = lines.get(key)
+        if key not in {f.name for f in fields(LidarSettings)}:
+            raise SettingsError(_at(path, line, f"unknown key lidar.{key}"))
+        expected = str if key in LIDAR_TEXT_KEYS else int if key == "baudrate" else (int, float)
+        if not isinstance(value, expected) or isinstance(value, bool):
+            raise SettingsError(_at(path, line, f"lidar.{key} has the wrong type"))
+        if isinstance(value, int | float) and not abs(value) <= MAX_NUMBER:
+            raise SettingsError(_at(path, line, f"lidar.{key} is {value}, out of range"))
+    lidar = LidarSettings(**table)
+    wrong = lidar.check()
+    if wrong is not None:
+        key, why = wrong
+        raise SettingsError(_at(path, lines.get(key, lines.get("")), f"lidar.{key} {why}"))
+    return lidar
+
+
+def _plain_table_lines(text: str, name: str) -> dict[str, int]:
+    """The lines of a `[name]` table's keys, and of its header (key ""): tomllib keeps
+    no lines, so they are found in the text, as _table_lines finds a [[schedule]]'s."""
+    header = re.compile(rf"\s*\[\s*{re.escape(name)}\s*\]\s*(#.*)?\Z")
+    key = re.compile(r"""\s*([A-Za-z0-9_-]+)\s*=""")
+    found: dict[str, int] = {}
+    inside = False
+    for number, line in enumerate(text.split("\n"), start=1):
+        if header.match(line):
+            inside = True
+            found[""] = number
+        elif line.lstrip().startswith("["):
+            inside = False
+        elif inside and (match := key.match(line)):
+            found.setdefault(match.group(1), number)
+    return found
 
 
 def _fleet_files(path: Path, data: dict) -> dict:

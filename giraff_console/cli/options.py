@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 from giraff_console.camera.defaults import DEFAULT_FPS, EYE_FPS, EYE_SIZE, FAST_THRESHOLD
 from giraff_console.cli.simulator_options import add_firmware_option
 from giraff_console.data_folders import default_recordings, default_routes
+from giraff_console.lidar import SIMULATED_LIDAR
 
 if TYPE_CHECKING:
     from giraff_console.planning.floorplan import Landmarks
@@ -48,6 +49,12 @@ def add_board_options(parser: argparse.ArgumentParser, example: Path, *,
         "--sim-speed", type=float, default=default(1.0), metavar="K",
         help="run the simulator's clock K times faster than real time; inf for as fast as "
         "it can (default: 1)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--lidar", metavar="PORT", nargs="?", const=SIMULATED_LIDAR, default=default(None),
+        help="a Slamtec RPLIDAR's serial device or pyserial URL, for the obstacles in the "
+        "way (default: the settings file's [lidar] port); with --sim and no PORT, the "
+        "simulated lidar, which sees the building's walls and what is put in the way",
     )  # fmt: skip
     parser.add_argument(
         "--camera", metavar="DEVICE", default=default(None),
@@ -186,4 +193,5 @@ def robot_options(args: argparse.Namespace, settings: Settings, *, screen: bool 
         sim_building=given("sim_building"),
         eye_fps=given("eye_fps"),
         eye_size=given("eye_size"),
+        lidar=given("lidar"),
     )

@@ -20,8 +20,10 @@ from giraff_console.cli.simulator_options import add_firmware_option
 from giraff_console.protocol.kinematics import WHEEL_BASE_M, WHEEL_BASE_RANGE_M
 
 if TYPE_CHECKING:
+    from giraff_console.planning.floorplan import FloorPlan
     from giraff_console.sim import GiraffBoard
     from giraff_console.sim.camera_server import CameraServer
+    from giraff_console.sim.lidar import SimLidar
 
 
 def add_sim_parser(commands: argparse._SubParsersAction) -> None:
@@ -30,8 +32,10 @@ def add_sim_parser(commands: argparse._SubParsersAction) -> None:
         help="serve a simulated motor board on a pseudo-terminal",
         description="Serve a simulated Giraff motor board on a new pseudo-terminal. The "
         "device path is printed alone on the first line of standard output; any serial "
-        "program can then open it like a real board. Runs until SIGINT or SIGTERM. The "
-        "board keeps moving when a program closes the port, as a real board does.",
+        "program can then open it like a real board. With --lidar, a simulated Slamtec "
+        "RPLIDAR is served on a second pseudo-terminal, whose path is the second line. "
+        "Runs until SIGINT or SIGTERM. The board keeps moving when a program closes the "
+        "port, as a real board does.",
     )
     sim.add_argument(
         "--pty",
@@ -76,6 +80,27 @@ def add_sim_parser(commands: argparse._SubParsersAction) -> None:
         "--modem-shim", action="store_true",
         help="print the path of a library that gives the pty modem lines (DTR, RTS) for C "
         "and C++ drivers, to LD_PRELOAD (built with the C compiler on first use), and exit",
+    )  # fmt: skip
+    sim.add_argument(
+        "--lidar", action="store_true",
+        help="also serve a simulated Slamtec RPLIDAR A1 (its serial protocol, normal scans) "
+        "on a second pseudo-terminal, printed on the second line of standard output; it "
+        "sees the floor plan's walls and shut doors from the robot's true pose; with "
+        "--imperfect, the datasheet's range noise, seeded by --seed",
+    )  # fmt: skip
+    sim.add_argument(
+        "--lidar-rate", type=float, default=5.5, metavar="HZ",
+        help="the lidar's revolutions a second, 1 to 20 (default: %(default)s, an A1's; "
+        "an A2 turns up to 10)",
+    )  # fmt: skip
+    sim.add_argument(
+        "--lidar-samples", type=int, default=360, metavar="N",
+        help="the lidar's samples a revolution, 16 to 4000 (default: %(default)s)",
+    )  # fmt: skip
+    sim.add_argument(
+        "--lidar-health", choices=("good", "warning", "error"), default="good",
+        help="what the lidar says of its health; error: a protection stop, in which it "
+        "does not scan (default: %(default)s)",
     )  # fmt: skip
     sim.add_argument(
         "--pose-log",
@@ -149,19 +174,50 @@ def run_sim(args: argparse.Namespace) -> int:
         except (CameraServerError, OSError) as error:
             print(f"giraff-console: {error}", file=sys.stderr)
             return EXIT_USAGE
+    lidar = None
+    if args.lidar:
+        try:
+            lidar = simulated_lidar(board, plan, args)
+        except ValueError as error:
+            print(f"giraff-console: --lidar: {error}", file=sys.stderr)
+            return EXIT_USAGE
     try:
-        return serve_board(board, args, camera)
+        return serve_board(board, args, camera, lidar)
     finally:
         if camera is not None:
             camera.close()
 
 
-def serve_board(board: GiraffBoard, args: argparse.Namespace, camera: CameraServer | None) -> int:
-    """The board on a new pty, and `camera` beside it, until SIGINT or SIGTERM."""
+def simulated_lidar(board: GiraffBoard, plan: FloorPlan | None,
+                    args: argparse.Namespace) -> SimLidar:  # fmt: skip
+    """The simulated RPLIDAR on the board's robot, seeing the plan's walls and shut doors
+    (none without a plan); ValueError for a rate or sample count it cannot have."""
+    from giraff_console.planning.route_planner import walls_of
+    from giraff_console.protocol.rplidar import Health
+    from giraff_console.runtime.sim_site import building_walls, shut_doors
+    from giraff_console.sim.lidar import LidarConfig, LidarWorld, SimLidar
+
+    health = {"good": Health.GOOD, "warning": Health.WARNING, "error": Health.ERROR}
+    config = LidarConfig(args.lidar_rate, args.lidar_samples, noise=args.imperfect,
+                         seed=args.seed, health=health[args.lidar_health])  # fmt: skip
+    walls, surroundings = [], None
+    if plan is not None:
+        grid = walls_of(plan) if plan.grid is not None else None
+        walls = [(wall.a, wall.b) for wall in building_walls(plan, grid)]
+        surroundings = shut_doors(plan, grid)
+    return SimLidar(LidarWorld(lambda: board.true_pose, walls, surroundings), config)
+
+
+def serve_board(board: GiraffBoard, args: argparse.Namespace, camera: CameraServer | None,
+                lidar: SimLidar | None = None) -> int:  # fmt: skip
+    """The board on a new pty, and `camera` and `lidar` beside it, until SIGINT or
+    SIGTERM."""
     from giraff_console.sim import PtyServer
+    from giraff_console.sim.lidar_pty import LidarPtyServer
     from giraff_console.sim.pose_log import PoseLog
 
     server = PtyServer(board, paced=args.pace)
+    lidar_server = LidarPtyServer(lidar) if lidar is not None else None
     signal.signal(signal.SIGTERM, lambda *_: server.stop())
     signal.signal(signal.SIGINT, lambda *_: server.stop())
     try:
@@ -169,10 +225,17 @@ def serve_board(board: GiraffBoard, args: argparse.Namespace, camera: CameraServ
     except OSError as error:
         print(f"giraff-console: cannot write the pose log: {error}", file=sys.stderr)
         server.close()
+        if lidar_server is not None:
+            lidar_server.close()
         return EXIT_USAGE
     if camera is not None:
         camera.start()  # before the pty's path is printed: then both are ready
+    if lidar_server is not None:
+        lidar_server.start()
     print(server.path, flush=True)
+    if lidar_server is not None:
+        print(lidar_server.path, flush=True)
+        print(f"giraff-console sim: lidar on {lidar_server.path}", file=sys.stderr)
     print(f"giraff-console sim: board on {server.path}; Ctrl-C to stop", file=sys.stderr)
     if camera is not None:
         print(f"giraff-console sim: camera on {camera.path}, calibration "
@@ -183,6 +246,8 @@ def serve_board(board: GiraffBoard, args: argparse.Namespace, camera: CameraServ
         server.serve_forever()
     finally:
         server.close()
+        if lidar_server is not None:
+            lidar_server.close()
         if pose_log is not None:
             pose_log.close()
     return 0

@@ -64,6 +64,10 @@ class RobotOptions:
     sim_building: Path | None = None
     eye_fps: float | None = None
     eye_size: str | None = None
+    # The lidar (lidar/): a port or URL; SIMULATED_LIDAR (lidar/__init__.py) for the
+    # simulator's own with --sim, the settings' port on a real robot; None: the
+    # settings' port on a real robot, none with the simulator.
+    lidar: str | None = None
 
     @property
     def simulated(self) -> bool:

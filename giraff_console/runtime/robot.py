@@ -32,7 +32,10 @@ import serial
 from giraff_console.camera.feed import CameraFeed
 from giraff_console.clock import Clock, RealClock
 from giraff_console.data_folders import data_folder, default_recordings, default_routes
+from giraff_console.lidar.reader import LidarReader
+from giraff_console.lidar.scan import LidarScan, within
 from giraff_console.missions.drive_setup import DriveSetup
+from giraff_console.missions.lookout import Sense
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.patrol_report import Sight
 from giraff_console.missions.sessions import Sessions
@@ -56,6 +59,7 @@ from giraff_console.runtime.board import (
     simulator_url,
 )
 from giraff_console.runtime.camera import camera_feed, find_the_robot
+from giraff_console.runtime.lidar import lidar_reader
 from giraff_console.runtime.options import (
     RobotOptions,
     UsageError,
@@ -180,11 +184,24 @@ class Robot:
         setup = RecordingSetup(port=options.port or simulator_url(options.firmware),
                                camera=self._camera_setup())  # fmt: skip
         self.sessions = Sessions(control, self.camera, recordings, setup, control.note)
+        # The lidar, if one is asked for (runtime/lidar.py): read on its own thread,
+        # its notes the loop's.
+        self.lidar: LidarReader | None = lidar_reader(options, settings.lidar, self.site,
+                                                      control.note)  # fmt: skip
         # What every mission is built with: the loop's pose and estimate, its tick, the
-        # settings' limits and patience, and the simulator's range finder.
+        # settings' limits and patience, and what senses obstacles: the lidar, as far as
+        # the range finder sees (motion.sensing_range), else the simulator's range finder.
+        sense: Sense | None = self.site.range_finder.readings if self.site else None
+        lidar = self.lidar
+        if lidar is not None:
+            sensing_range = settings.motion.sensing_range
+
+            def sense_by_lidar() -> LidarScan:
+                return within(lidar.readings(), sensing_range)
+
+            sense = sense_by_lidar
         self.drives = DriveSetup.on_loop(
-            control, self.navigator, limits=settings.motion.limits(),
-            sense=self.site.range_finder.readings if self.site else None,
+            control, self.navigator, limits=settings.motion.limits(), sense=sense,
             patience=settings.motion.patience(),
         )  # fmt: skip
         routes = data_folder(options.routes, settings.routes, default_routes())
@@ -312,8 +329,11 @@ class Robot:
         return self._last_stop
 
     def start(self) -> None:
-        """Run the control loop, and the camera and the virtual port beside it."""
+        """Run the control loop, and the lidar, the camera and the virtual port beside
+        it."""
         self.control.start(stepped=self.stepped)
+        if self.lidar is not None:
+            self.lidar.start()
         if self.camera is not None:
             self.camera.start()
         if self.port is not None:
@@ -341,6 +361,8 @@ class Robot:
                 self.service.close()
                 if self.camera is not None:
                     self.camera.stop()
+                if self.lidar is not None:
+                    self.lidar.close()
             finally:
                 if self.keeper is not None:
                     self.keeper.close()

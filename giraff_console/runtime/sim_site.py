@@ -36,6 +36,7 @@ from giraff_console.sim.board import GiraffBoard
 from giraff_console.sim.camera import CAMERA_HEIGHT_M, WorldCamera
 from giraff_console.sim.collision import Solids, grid_edges
 from giraff_console.sim.drive import TruePose
+from giraff_console.sim.lidar import LidarWorld
 from giraff_console.sim.marker_windows import MarkerWindows
 from giraff_console.sim.range_finder import SimRangeFinder
 from giraff_console.sim.surroundings import Surroundings
@@ -141,6 +142,14 @@ class SimulatedSite:
         )  # fmt: skip
         return MarkerEye(source, detector, localisation, clock, fps=fps, size=size,
                          building=building, whole_frames=whole_frames)  # fmt: skip
+
+    def lidar_world(self) -> LidarWorld:
+        """What a lidar on the simulated robot sees: the building's walls (those the
+        robot stops against, grid-drawn furniture included on a plan without outlines)
+        and the surroundings, from the robot's true pose."""
+        board = self.board
+        walls = [(wall.a, wall.b) for wall in building_walls(self.plan, self._grid)]
+        return LidarWorld(lambda: board.true_pose, walls, self.surroundings)
 
     def close_door(self, door_id: str) -> None:
         """Shut a door of the plan in the simulated building (KeyError if none)."""

@@ -1,0 +1,70 @@
+"""One revolution of the lidar as the robot sees it: beams from its centre, bearings
+counter-clockwise.
+
+The RPLIDAR's angles grow clockwise seen from above, 0 at the sensor's front
+(protocol/rplidar.py); the robot's bearings grow counter-clockwise, 0 ahead, as ROS's
+REP 103 has them and as missions/lookout.py reads them. The sensor may sit ahead of the
+robot's centre (`forward_m`) and be turned (`yaw_rad`, counter-clockwise); a beam is
+given from the robot's centre, so that the console places it with the robot's pose
+alone. A sample that measured nothing (distance 0 or quality 0), or one outside the
+sensor's range, is a beam that met nothing: +inf, as REP 117 has it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Mount:
+    """Where the sensor sits on the robot: metres ahead of its centre, and turned
+    counter-clockwise from its heading."""
+
+    forward_m: float = 0.0
+    yaw_rad: float = 0.0
+
+
+@dataclass(frozen=True)
+class LidarScan:
+    """One revolution: each beam's (distance m, bearing rad, positive left) from the
+    robot's centre, from right to left; inf where nothing was met within `range_max`.
+    `taken_at`: when its last sample came (the reader's clock), for mapping."""
+
+    range_max: float
+    beams: tuple[tuple[float, float], ...]
+    taken_at: float
+    samples: int
+
+    @property
+    def hits(self) -> list[tuple[float, float]]:
+        return [beam for beam in self.beams if math.isfinite(beam[0])]
+
+
+def robot_beams(angle_deg: np.ndarray, distance_mm: np.ndarray, quality: np.ndarray,
+                mount: Mount, range_min: float,
+                range_max: float) -> tuple[tuple[float, float], ...]:  # fmt: skip
+    """A revolution's samples as beams in the robot's frame, sorted by bearing."""
+    distance = np.asarray(distance_mm, dtype=float) / 1000.0
+    seen = (distance >= range_min) & (distance <= range_max) & (np.asarray(quality) > 0)
+    sensor_bearing = mount.yaw_rad - np.radians(np.asarray(angle_deg, dtype=float))
+    # Where each hit is, from the robot's centre; a miss keeps its sensor bearing.
+    x = mount.forward_m + distance * np.cos(sensor_bearing)
+    y = distance * np.sin(sensor_bearing)
+    bearing = np.where(seen, np.arctan2(y, x), np.arctan2(np.sin(sensor_bearing),
+                                                          np.cos(sensor_bearing)))  # fmt: skip
+    reach = np.where(seen, np.hypot(x, y), np.inf)
+    order = np.argsort(bearing, kind="stable")
+    return tuple(zip(reach[order].tolist(), bearing[order].tolist(), strict=True))
+
+
+def within(scan: LidarScan, range_m: float) -> LidarScan:
+    """The scan as a sensor of `range_m` would give it: farther hits are beams that met
+    nothing within range. The missions look for obstacles this far (motion.sensing_range),
+    not across the whole building."""
+    if range_m >= scan.range_max:
+        return scan
+    beams = tuple((d if d <= range_m else math.inf, b) for d, b in scan.beams)
+    return LidarScan(range_m, beams, scan.taken_at, scan.samples)

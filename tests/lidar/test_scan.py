@@ -1,0 +1,65 @@
+"""A revolution's samples as beams in the robot's frame (lidar/scan.py)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from giraff_console.lidar.scan import LidarScan, Mount, robot_beams, within
+
+
+def beams(angles, distances, quality=None, mount=None):
+    q = np.full(len(angles), 47) if quality is None else np.asarray(quality)
+    mount = mount or Mount()
+    return robot_beams(np.asarray(angles, float), np.asarray(distances, float), q, mount,
+                       0.15, 12.0)  # fmt: skip
+
+
+def test_the_sensors_clockwise_angles_become_counter_clockwise_bearings():
+    # 90 degrees clockwise on the sensor is the robot's right: bearing -pi/2.
+    (right, ahead) = beams([90.0, 0.0], [1000.0, 2000.0])
+    assert right == pytest.approx((1.0, -math.pi / 2))
+    assert ahead == pytest.approx((2.0, 0.0))
+
+
+def test_no_return_and_out_of_range_are_misses():
+    found = beams([0.0, 10.0, 20.0, 30.0], [0.0, 1000.0, 100.0, 13000.0], [47, 0, 47, 47])
+    assert all(math.isinf(distance) for distance, _ in found)
+
+
+def test_the_mount_moves_beams_to_the_robots_centre():
+    # The sensor 0.2 m ahead and turned 90 degrees left: its front sees 1 m to the left
+    # of itself, which from the centre is atan2(1, 0.2) away.
+    (beam,) = beams([0.0], [1000.0], mount=Mount(0.2, math.pi / 2))
+    assert beam == pytest.approx((math.hypot(0.2, 1.0), math.atan2(1.0, 0.2)))
+
+
+def test_within_a_range_farther_hits_are_misses():
+    scan = LidarScan(12.0, ((1.0, 0.0), (3.0, 0.5)), 0.0, 2)
+    near = within(scan, 1.5)
+    assert near.range_max == 1.5 and near.beams[0] == (1.0, 0.0)
+    assert math.isinf(near.beams[1][0])
+
+
+def test_lidar_settings_errors_name_the_line(tmp_path):
+    from giraff_console.settings import SettingsError, load_settings
+
+    path = tmp_path / "config.toml"
+    path.write_text('port = "/dev/ttyS0"\n\n[lidar]\nport = "/dev/ttyUSB0"\nyaw = 500\n')
+    with pytest.raises(SettingsError, match=r"config.toml:5: lidar.yaw must be"):
+        load_settings(path)
+    path.write_text('[lidar]\nport = "/dev/ttyUSB0"\nbaudrate = 9600\n')
+    with pytest.raises(SettingsError, match=r"config.toml:3: lidar.baudrate must be one of"):
+        load_settings(path)
+    path.write_text('[lidar]\nport = "/dev/ttyUSB0"\nforward = 0.1\n')
+    lidar = load_settings(path).lidar
+    assert lidar.port == "/dev/ttyUSB0" and lidar.forward == 0.1 and lidar.baudrate == 115200
+
+
+def test_lidar_without_a_port_on_a_real_robot_is_a_usage_error(capsys):
+    from giraff_console.cli import main
+
+    code = main(["go", "kitchen", "--port", "/dev/null", "--lidar"])
+    assert code == 2 and "--lidar: give its port" in capsys.readouterr().err
