@@ -9,10 +9,12 @@ glances off glass), so each cell keeps the log-odds of being occupied, in hundre
 bounded so that a wall taken away is forgotten after a few scans; its state is read by
 map_server's own thresholds (occupied above p = 0.65, free below 0.196).
 
-The free space of a scan is the fan of triangles between the robot and neighbouring
-beams' ends, filled at once (cv2.fillPoly), rather than a line per beam: the same
-cells, in one call. A beam's end is drawn a cell short of its hit, so that the fan's
-edge between two hits on a wall does not clear the wall's cells the beams fell between.
+The free space of a scan is the polygon of its beams' ends round the robot, filled at
+once (cv2.fillPoly); where the beams have a gap (a blind sector, dropped readings) it is
+split into fans from the robot, so that the floor in the gap is left alone: the same
+cells as a line per beam, in one call. A beam's end is drawn a cell short of its hit,
+so that the polygon's edge between two hits on a wall does not clear the wall's cells
+the beams fell between.
 
 The grid grows as the robot explores, in whole chunks, up to MAX_CELLS: a building
 larger than that is refused with a MapTooLarge before anything is allocated.
@@ -297,7 +299,7 @@ class MapBuilder:
     def _draw(self, pose: Pose, points: np.ndarray, hit: np.ndarray, bearing: np.ndarray) -> None:
         """Put one scan, at `pose`, into the log-odds and the states of the cells it saw."""
         c, s = math.cos(pose.heading), math.sin(pose.heading)
-        # The fan's corners a cell short of each hit (see the module's note).
+        # The polygon's corners a cell short of each hit (see the module's note).
         length = np.hypot(points[:, 0], points[:, 1])
         short = np.where(hit, np.maximum(length - self.resolution, 0.0), length)
         scale = np.divide(short, length, out=np.zeros_like(length), where=length > 0)
@@ -312,13 +314,9 @@ class MapBuilder:
         u = np.round((xs - left) / self.resolution * one - one / 2).astype(np.int32)
         v = np.round((top - ys) / self.resolution * one - one / 2).astype(np.int32)
         centre = (int(u[-1]), int(v[-1]))
-        joined = np.flatnonzero(np.diff(bearing) <= MAX_BEAM_GAP)
-        if len(bearing) > 1 and math.tau - (bearing[-1] - bearing[0]) <= MAX_BEAM_GAP:
-            joined = np.append(joined, -1)  # the last beam and the first close the circle
-        fan = np.stack([np.broadcast_to(centre, (len(joined), 2)),
-                        np.column_stack([u[joined], v[joined]]),
-                        np.column_stack([u[joined + 1], v[joined + 1]])], axis=1)  # fmt: skip
-        cv2.fillPoly(delta, list(fan), MISS, lineType=cv2.LINE_8, shift=_SHIFT)
+        corners = np.column_stack([u[:-1], v[:-1]])
+        cv2.fillPoly(delta, _fans(corners, centre, bearing), MISS, lineType=cv2.LINE_8,
+                     shift=_SHIFT)  # fmt: skip
         # The robot stands on its own footprint: that floor is free.
         radius = round(BODY_RADIUS_M / self.resolution * one)
         cv2.circle(delta, centre, radius, MISS, thickness=-1, lineType=cv2.LINE_8, shift=_SHIFT)
@@ -349,6 +347,22 @@ def _beams(beams: Sequence[tuple[float, float]], range_max: float) -> tuple[np.n
     bearing = np.mod(bearing[keep] + math.pi, math.tau) - math.pi
     order = np.argsort(bearing, kind="stable")
     return distance[order], bearing[order], hit[keep][order]
+
+
+def _fans(corners: np.ndarray, centre: tuple[int, int], bearing: np.ndarray) -> list[np.ndarray]:
+    """The polygons of free floor a scan's beam ends (`corners`, in bearing order) make:
+    all of them, if no two neighbours are more than MAX_BEAM_GAP apart round the
+    circle; otherwise a fan from the robot's `centre` for each run between gaps."""
+    count = len(bearing)
+    if count < 2:
+        return []
+    gap = np.diff(bearing, append=bearing[0] + math.tau) > MAX_BEAM_GAP  # after each beam
+    if not gap.any():
+        return [corners]
+    after = (int(np.argmax(gap)) + 1) % count  # start the circle just after a gap
+    order = np.roll(np.arange(count), -after)
+    runs = np.split(order, np.flatnonzero(gap[order][:-1]) + 1)
+    return [np.vstack([centre, corners[run]]).astype(np.int32) for run in runs if len(run) > 1]
 
 
 def _spacing(bearing: np.ndarray) -> float:

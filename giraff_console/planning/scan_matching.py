@@ -104,6 +104,9 @@ def likelihood_field(
     squared = np.square(distance * np.float32(resolution))
     fine = np.exp(squared * np.float32(-0.5 / FINE_SIGMA_M**2))
     coarse = np.exp(squared * np.float32(-0.5 / COARSE_SIGMA_M**2))
+    for values in (fine, coarse):  # the border scores nothing (_scores clips onto it)
+        values[[0, -1], :] = 0
+        values[:, [0, -1]] = 0
     return LikelihoodField(fine, coarse, left, top, resolution)
 
 
@@ -161,15 +164,17 @@ def match(field: LikelihoodField, prior: Pose, points: np.ndarray, spacing: floa
     pins = pinning(points, spacing)
     if pins.most < MIN_PINNING_M:
         return Match(MatchOutcome.FEATURELESS, prior, 0.0)
-    before = _scores(field.fine, field, prior, points, np.zeros(1), np.zeros((1, 2)))[0, 0]
-    coarse = _lattice(COARSE_REACH_M, COARSE_STEP_M)
+    before = _scores(field.fine, field, prior, points, np.zeros(1), np.zeros(1))[0, 0]
+    steps = _steps(COARSE_REACH_M, COARSE_STEP_M)
+    coarse = _lattice(steps)
     turns = _steps(COARSE_TURN, COARSE_TURN_STEP)
-    scores = _scores(field.coarse, field, prior, points, turns, coarse)
+    scores = _scores(field.coarse, field, prior, points, turns, steps)
     turn, shift = np.unravel_index(int(np.argmax(scores)), scores.shape)
     centre = _moved(prior, coarse[shift], float(turns[turn]))
-    fine = _lattice(FINE_REACH_M, FINE_STEP_M)
+    steps = _steps(FINE_REACH_M, FINE_STEP_M)
+    fine = _lattice(steps)
     turns = _steps(FINE_TURN, FINE_TURN_STEP)
-    scores = _scores(field.fine, field, centre, points, turns, fine)
+    scores = _scores(field.fine, field, centre, points, turns, steps)
     turn, shift = np.unravel_index(int(np.argmax(scores)), scores.shape)
     best = _moved(centre, fine[shift], float(turns[turn]))
     quality = float(scores[turn, shift]) / len(points)
@@ -190,9 +195,9 @@ def _steps(reach: float, step: float) -> np.ndarray:
     return np.arange(-count, count + 1) * step
 
 
-def _lattice(reach: float, step: float) -> np.ndarray:
-    """The (dx, dy) shifts of a square lattice, (K, 2)."""
-    steps = _steps(reach, step)
+def _lattice(steps: np.ndarray) -> np.ndarray:
+    """The (dx, dy) shifts of the square lattice of `steps` each way, (S * S, 2), dx
+    changing fastest."""
     dx, dy = np.meshgrid(steps, steps)
     return np.column_stack([dx.ravel(), dy.ravel()])
 
@@ -207,22 +212,24 @@ def _scores(
     centre: Pose,
     points: np.ndarray,
     turns: np.ndarray,
-    shifts: np.ndarray,
+    steps: np.ndarray,
 ) -> np.ndarray:
-    """The summed field under the hits for each turn and shift of `centre`, (T, K):
-    every candidate pose at once, as one gather of T x N x K cells."""
+    """The summed field under the hits for each turn of `centre` and each shift of the
+    square lattice of `steps` (as `_lattice` orders them), (T, S * S): every candidate
+    pose at once. A shift moves a hit's column and row independently, so they are found
+    for each step along x and along y, (T, N, S) each, and only their sum is taken for
+    the whole lattice, as one gather of T x N x S^2 cells."""
     headings = centre.heading + turns
     c, s = np.cos(headings)[:, None], np.sin(headings)[:, None]
     x = centre.x + c * points[:, 0] - s * points[:, 1]  # (T, N)
     y = centre.y + s * points[:, 0] + c * points[:, 1]
     inverse = 1.0 / field.resolution
-    cols = np.floor((x[:, :, None] + shifts[:, 0] - field.left) * inverse).astype(np.intp)
-    rows = np.floor((field.top - y[:, :, None] - shifts[:, 1]) * inverse).astype(np.intp)
     height, width = values.shape
-    # Hits off the window score nothing: clip them onto a border cell, then zero them.
-    inside = (cols >= 0) & (cols < width) & (rows >= 0) & (rows < height)
+    # A hit off the window is clipped onto its border, whose cells score nothing.
+    cols = np.floor((x[:, :, None] + steps - field.left) * inverse).astype(np.intp)
+    rows = np.floor((field.top - y[:, :, None] - steps) * inverse).astype(np.intp)
     np.clip(cols, 0, width - 1, out=cols)
     np.clip(rows, 0, height - 1, out=rows)
-    gathered = values[rows, cols]
-    gathered[~inside] = 0
-    return gathered.sum(axis=1)
+    cells = (rows * width)[:, :, :, None] + cols[:, :, None, :]  # (T, N, S, S)
+    gathered = np.take(values, cells)
+    return gathered.sum(axis=1).reshape(len(turns), -1)

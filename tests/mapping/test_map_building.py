@@ -10,7 +10,7 @@ from collections.abc import Sequence
 import numpy as np
 import pytest
 
-from giraff_console.planning.grid import FREE, OCCUPIED, UNKNOWN
+from giraff_console.planning.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from giraff_console.planning.map_building import (
     CLEAR_NO_HIT_M,
     MAX_BEAMS,
@@ -196,3 +196,21 @@ def test_the_view_changes_only_with_a_scan_and_cannot_be_written() -> None:
     window = later.cells[row : row + grid.shape[0], col : col + grid.shape[1]]
     assert np.array_equal(window, grid.cells)
     assert (grid.cells == FREE).sum() > 1000 and (grid.cells == OCCUPIED).sum() > 100
+
+
+def test_a_sensor_that_sees_ahead_only_clears_only_ahead() -> None:
+    # 36 beams over 70 degrees, as the simulator's front range finder has them.
+    ahead = Sweep(3.0, tuple((2.0, float(b)) for b in np.radians(np.linspace(-35, 35, 36))))
+    builder = MapBuilder()
+    for stamp in range(4):
+        builder.add(Pose(), ahead, stamp)
+    grid = builder.grid()
+    assert grid.cells[grid.cell_of(1.0, 0.0)] == FREE
+    for distance, bearing in ahead.beams:
+        hit = (distance * math.cos(bearing), distance * math.sin(bearing))
+        assert grid.cells[grid.cell_of(*hit)] == OCCUPIED
+    assert grid.cells[grid.cell_of(0.0, 0.0)] == FREE  # the robot's own footprint
+    view = builder.view()
+    whole = OccupancyGrid(view.cells, view.resolution, view.origin)
+    assert whole.cells[whole.cell_of(-1.0, 0.0)] == UNKNOWN
+    assert whole.cells[whole.cell_of(0.0, 1.0)] == UNKNOWN
