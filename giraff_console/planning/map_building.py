@@ -33,7 +33,9 @@ import numpy as np
 from giraff_console.planning.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from giraff_console.planning.scan_matching import (
     COARSE_REACH_M,
+    COARSE_TURN,
     FINE_REACH_M,
+    FINE_TURN,
     MIN_HITS,
     MIN_MAP_CELLS,
     Match,
@@ -75,8 +77,10 @@ OCCUPIED_ABOVE = round(100 * math.log(0.65 / 0.35))
 FREE_BELOW = round(100 * math.log(0.196 / 0.804))
 # The grid is cropped to what was seen and this much round it.
 CROP_MARGIN_M = 0.5
-# The search reaches this far beyond a scan's hits; the grid covers it.
-_SEARCH_M = COARSE_REACH_M + FINE_REACH_M + 0.1
+# The matcher moves the robot at most this far (its lattices' corners, and a cell); a
+# turn moves a hit along its circle round the robot, at most its distance times _TURN.
+_SEARCH_M = math.sqrt(2) * (COARSE_REACH_M + FINE_REACH_M) + 0.05
+_TURN = COARSE_TURN + FINE_TURN
 # Each log-odds' state, looked up at once: index by log-odds + BOUND.
 _STATES = np.full(2 * BOUND + 1, UNKNOWN, dtype=np.uint8)
 _STATES[BOUND + OCCUPIED_ABOVE + 1 :] = OCCUPIED
@@ -189,9 +193,10 @@ class MapBuilder:
         distance, bearing, hit = _beams(scan.beams, range_max)
         prior = self.correction.apply(pose)
         reach = float(np.max(distance, initial=0.0))
+        # Wherever the matcher puts the robot, its hits and footprint are on the grid.
         self._cover(prior, reach + _SEARCH_M + BODY_RADIUS_M)
         points = np.column_stack([distance * np.cos(bearing), distance * np.sin(bearing)])
-        found = self._match(prior, points[hit], _spacing(bearing))
+        found = self._match(prior, points[hit], _spacing(bearing), reach)
         self.correction = Correction.between(pose, found.pose)
         self._draw(found.pose, points, hit, bearing)
         self._stamp = stamp
@@ -270,7 +275,9 @@ class MapBuilder:
         self._odds, self._states = odds, states
         self._left, self._bottom = left, bottom
 
-    def _match(self, prior: Pose, points: np.ndarray, spacing: float) -> Match:
+    def _match(self, prior: Pose, points: np.ndarray, spacing: float, reach: float) -> Match:
+        """The matcher's pose for the hits `points` (robot frame), on the map's cells
+        round every pose it may try."""
         if not self.match_scans:
             return Match(MatchOutcome.MATCHING_OFF, prior, 0.0)
         if len(points) < MIN_HITS:
@@ -278,7 +285,7 @@ class MapBuilder:
         c, s = math.cos(prior.heading), math.sin(prior.heading)
         xs = prior.x + c * points[:, 0] - s * points[:, 1]
         ys = prior.y + s * points[:, 0] + c * points[:, 1]
-        rows, cols = self._window(xs, ys, _SEARCH_M)
+        rows, cols = self._window(xs, ys, _SEARCH_M + reach * _TURN)
         occupied = self._odds[rows, cols] > OCCUPIED_ABOVE
         if np.count_nonzero(occupied) < MIN_MAP_CELLS:
             return Match(MatchOutcome.MAP_TOO_SPARSE, prior, 0.0)

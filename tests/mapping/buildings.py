@@ -207,8 +207,9 @@ def sweeps(walls: Walls, truth: Sequence[Pose], beams: int, seed: int,
 # south, to the far end and back.
 WING_DRIVE = [(1, 1), (5.95, 1), (5.95, 3.6), (5.95, 1), (9.95, 1), (9.95, -1.5), (9.95, 1),
               (15, 1), (13.95, 1), (13.95, 3.4), (13.95, 1), (2, 1)]  # fmt: skip
-# Round the furnished room, in at its door and among the furniture.
-ROOM_DRIVE = [(4, -1.5), (4, 0.5), (4, 2.2), (6.5, 2.5), (6, 3.8), (1.5, 3.8), (1.5, 2.6),
-              (3, 0.7), (4, -1)]  # fmt: skip
+# Round the furnished room, in at its door and among the furniture (half a metre from
+# it: the sensor is at the robot's centre).
+ROOM_DRIVE = [(4, -1.5), (4, 0.5), (4, 2.2), (6.5, 2.5), (6, 4.3), (1.5, 4.3), (1.5, 2.6),
+              (2.2, 2.6), (3.8, 0.7), (4, -1)]  # fmt: skip
 # Along the bare corridor and back.
 CORRIDOR_DRIVE = [(1, 1), (29, 1), (2, 1)]
