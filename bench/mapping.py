@@ -64,7 +64,8 @@ SENSORS = [(5.5, 360), (10.0, 400)]
 
 class PerBeamGrid:
     """The peer: the same log-odds, a cv2.line of misses per beam, then the hits, on a
-    fixed grid over the building (no growth, no matching)."""
+    fixed grid over the building and 13 m round it (no growth, no matching; hits the
+    drift carries off it are dropped, the lines clipped)."""
 
     def __init__(self, walls: np.ndarray, resolution: float = 0.05) -> None:
         self.resolution = resolution
@@ -85,7 +86,9 @@ class PerBeamGrid:
         delta = np.zeros_like(self.odds)
         for end in zip(u.astype(int).tolist(), v.astype(int).tolist(), strict=True):
             cv2.line(delta, start, end, MISS)
-        delta[v[hit].astype(int), u[hit].astype(int)] = HIT
+        rows_at, cols_at = v[hit].astype(int), u[hit].astype(int)
+        on = (rows_at >= 0) & (rows_at < rows) & (cols_at >= 0) & (cols_at < self.odds.shape[1])
+        delta[rows_at[on], cols_at[on]] = HIT
         np.add(self.odds, delta, out=self.odds)
         np.clip(self.odds, -BOUND, BOUND, out=self.odds)
         return pose

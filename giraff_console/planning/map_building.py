@@ -38,6 +38,7 @@ from giraff_console.planning.scan_matching import (
     FINE_TURN,
     MIN_HITS,
     MIN_MAP_CELLS,
+    USED,
     Match,
     MatchOutcome,
     likelihood_field,
@@ -137,6 +138,11 @@ class MatchedPose:
     pose: Pose  # the pose the scan was drawn at
     outcome: MatchOutcome
     quality: float  # the hits' mean likelihood at `pose`, 0 to 1 (0: not matched)
+
+    @property
+    def matched(self) -> bool:
+        """Whether the scan matcher's pose was used, in full or across a corridor."""
+        return self.outcome in USED
 
     @property
     def shift_m(self) -> float:

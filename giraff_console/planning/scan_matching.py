@@ -31,9 +31,10 @@ import numpy as np
 from giraff_console.robot.odometry import Pose
 
 # The coarse lattice: +-COARSE_REACH_M in steps of COARSE_STEP_M each way, and
-# +-COARSE_TURN in steps of COARSE_TURN_STEP: 7 x 7 x 9 = 441 poses. The reach is what
-# the pose can drift between two scans and more: at 5.5 scans/s and 0.4 m/s the robot
-# moves 7 cm between scans, and 2 % of that is 1.5 mm.
+# +-COARSE_TURN in steps of COARSE_TURN_STEP: 7 x 7 x 9 = 441 poses. The reach is far
+# more than the pose drifts between two scans (at 5.5 scans/s and 0.4 m/s the robot
+# moves 7 cm: 1.5 mm of it at 2 %, 0.1 degree at 1.5 degrees a metre), so that a jump of
+# the filter's pose (a marker's correction) or a drift kept along a corridor is found.
 COARSE_REACH_M, COARSE_STEP_M = 0.30, 0.10
 COARSE_TURN, COARSE_TURN_STEP = math.radians(4.0), math.radians(1.0)
 # The fine lattice round the coarse best: 5 x 5 x 7 = 175 poses.
@@ -55,9 +56,9 @@ PIECE_M = 0.1
 SURFACE_GAP_M, SURFACE_GAP_BEAMS = 0.25, 3.0
 # The match replaces the filter's pose only when its hits' mean likelihood is at least
 # MIN_QUALITY (most hits on a drawn wall: a fit, not a coincidence) and above the filter
-# pose's. Asking for a margin above it as well was measured worse: on the care-home
-# wing's drive, a margin of 0.005 left the drift to grow until it cleared it, and the
-# worst pose error went from 7 to 9 cm (tests/mapping).
+# pose's. Asking for a margin above it as well was measured worse while this was tuned:
+# on the care-home wing's drive (tests/mapping), a margin of 0.005 let the drift grow
+# until it cleared it, and the worst pose error went from 7 to 9 cm.
 MIN_QUALITY = 0.35
 
 

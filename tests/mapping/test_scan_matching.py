@@ -28,7 +28,7 @@ def test_a_scan_off_by_a_drift_is_matched_back_onto_the_room() -> None:
     true = truth[-1]
     off = Pose(true.x + 0.2, true.y - 0.15, true.heading + math.radians(3))
     found = builder.add(off, scans[-1], 100)
-    assert found.outcome is MatchOutcome.MATCHED
+    assert found.outcome is MatchOutcome.MATCHED and found.matched
     assert math.dist((found.pose.x, found.pose.y), (true.x, true.y)) <= 0.03
     assert abs(math.degrees(found.pose.heading - true.heading)) <= 0.5
     assert found.shift_m >= 0.2 and found.quality >= 0.5
