@@ -132,6 +132,11 @@ class LidarReader:
         with self._lock:
             self._listeners.append(listener)
 
+    def unsubscribe(self, listener: Callable[[LidarScan], None]) -> None:
+        """`listener` hears no more revolutions (one being handed out may still reach it)."""
+        with self._lock:
+            self._listeners = [other for other in self._listeners if other != listener]
+
     # -- the thread ---------------------------------------------------------------------
 
     def _run(self) -> None:

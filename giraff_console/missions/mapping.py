@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import collections
 import logging
+import math
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -32,12 +33,24 @@ from giraff_console.missions.pose_trail import PoseTrail
 from giraff_console.planning.floorplan import Point
 from giraff_console.planning.grid import OccupancyGrid
 from giraff_console.planning.map_building import MapBuilder, MapTooLarge
+from giraff_console.planning.scan_matching import COARSE_TURN
 from giraff_console.robot.odometry import Pose
 
 log = logging.getLogger(__name__)
 
 # Revolutions waiting to be laid in: the newest few; older ones are dropped.
 MAX_WAITING = 4
+# The matcher searches round the filter's heading three of the filter's standard
+# deviations of what the heading may have turned, unseen, since the last revolution
+# (the casters after a turn on the spot, §3.2.1.5), and COARSE_TURN at least.
+TURN_SIGMAS = 3.0
+# A revolution taken while the robot turns faster than this is not laid in: the sensor
+# sweeps for a fifth of a second, and a turn on the spot at teleop's 45 degrees a second
+# smears it by 8 degrees (a wall 5 m off by 0.7 m); the turn itself is the wheels' to
+# measure, which they do well on the spot (§3.2.1.5: it is the casters afterwards).
+MAX_TURN_RATE = math.radians(15.0)
+# Over this much time before a revolution's end the turn rate is taken.
+TURN_RATE_S = 0.2
 # Seconds the run's thread waits for a revolution before it looks whether to stop.
 WAIT_S = 0.2
 
@@ -65,6 +78,7 @@ class MappingStatus:
     scans: int  # revolutions laid into the grid
     dropped: int  # revolutions that came faster than they could be laid in
     unplaced: int  # revolutions too old or too new for the trail's poses
+    turning: int  # revolutions taken while the robot turned, left out
     marks: tuple[MapMark, ...]
     revision: int  # the grid's: it has changed when this has
 
@@ -88,16 +102,18 @@ class MappingRun:
         # The builder's grid grows on this run's thread; it is read on others.
         self._building = threading.Lock()
         self._marks: dict[str, MapMark] = {}
-        self._scans = self._dropped = self._unplaced = 0
+        self._scans = self._dropped = self._unplaced = self._turning = 0
+        self._sigma: float | None = None  # the heading's, at the last revolution laid in
         self._running = True
         self._thread = threading.Thread(target=self._run, name="mapping", daemon=True)
         self._thread.start()
 
     # -- fed by the loop and the sensor ----------------------------------------------
 
-    def pose(self, time: float, pose: Pose) -> None:
-        """The filter's pose at `time` (the loop's clock): called every tick."""
-        self.trail.add(time, pose)
+    def pose(self, time: float, pose: Pose, heading_sigma: float) -> None:
+        """The filter's pose at `time` (the loop's clock), and its heading's standard
+        deviation: called every tick."""
+        self.trail.add(time, pose, heading_sigma)
 
     def scan(self, scan: StampedScan) -> None:
         """A whole revolution, on the sensor's thread: queued, never waited on."""
@@ -125,7 +141,7 @@ class MappingRun:
 
     def status(self) -> MappingStatus:
         with self._lock:
-            return MappingStatus(self._scans, self._dropped, self._unplaced,
+            return MappingStatus(self._scans, self._dropped, self._unplaced, self._turning,
                                  tuple(self._marks.values()), self.builder.revision)  # fmt: skip
 
     def grid(self) -> OccupancyGrid:
@@ -171,9 +187,20 @@ class MappingRun:
             with self._lock:
                 self._unplaced += 1
             return
+        before = self.trail.at(stamp - TURN_RATE_S)
+        if before is not None:
+            turned = abs(math.remainder(pose.heading - before.heading, math.tau))
+            if turned > MAX_TURN_RATE * TURN_RATE_S:
+                with self._lock:
+                    self._turning += 1
+                return
+        sigma = self.trail.heading_sigma(stamp)
+        # The heading's variance grows by what it may have turned since the last one.
+        grown = math.sqrt(max(0.0, sigma**2 - self._sigma**2)) if self._sigma is not None else 0.0
+        self._sigma = sigma
         try:
             with self._building:
-                self.builder.add(pose, scan, stamp)
+                self.builder.add(pose, scan, stamp, max(COARSE_TURN, TURN_SIGMAS * grown))
         except MapTooLarge as error:
             self.note(f"mapping stopped: {error}; `map save NAME` keeps what was mapped")
             with self._ready:

@@ -32,18 +32,30 @@ class PoseTrail:
         self.seconds = seconds
         self._times: collections.deque[float] = collections.deque(maxlen=MAX_POSES)
         self._poses: collections.deque[Pose] = collections.deque(maxlen=MAX_POSES)
+        self._sigmas: collections.deque[float] = collections.deque(maxlen=MAX_POSES)
         self._lock = threading.Lock()
 
-    def add(self, time: float, pose: Pose) -> None:
-        """The pose at `time`, no earlier than the last one added."""
+    def add(self, time: float, pose: Pose, heading_sigma: float = 0.0) -> None:
+        """The pose at `time`, no earlier than the last one added, and how well the
+        filter knew its heading (a standard deviation, radians)."""
         with self._lock:
             if self._times and time < self._times[-1]:
                 return  # a clock that went back: the trail keeps its order
             self._times.append(time)
             self._poses.append(pose)
+            self._sigmas.append(heading_sigma)
             while self._times and self._times[0] < time - self.seconds:
                 self._times.popleft()
                 self._poses.popleft()
+                self._sigmas.popleft()
+
+    def heading_sigma(self, time: float) -> float:
+        """How well the filter knew the heading at the last tick before `time` (0 with
+        no tick before it)."""
+        with self._lock:
+            times, sigmas = list(self._times), list(self._sigmas)
+        index = bisect.bisect_right(times, time)
+        return sigmas[index - 1] if index else 0.0
 
     def at(self, time: float) -> Pose | None:
         """The pose at `time`, between the two ticks either side of it; the latest if

@@ -36,6 +36,7 @@ from giraff_console.planning.scan_matching import (
     COARSE_TURN,
     FINE_REACH_M,
     FINE_TURN,
+    MAX_COARSE_TURN,
     MIN_HITS,
     MIN_MAP_CELLS,
     USED,
@@ -79,9 +80,8 @@ FREE_BELOW = round(100 * math.log(0.196 / 0.804))
 # The grid is cropped to what was seen and this much round it.
 CROP_MARGIN_M = 0.5
 # The matcher moves the robot at most this far (its lattices' corners, and a cell); a
-# turn moves a hit along its circle round the robot, at most its distance times _TURN.
+# turn moves a hit along its circle round the robot, at most its distance times the turn.
 _SEARCH_M = math.sqrt(2) * (COARSE_REACH_M + FINE_REACH_M) + 0.05
-_TURN = COARSE_TURN + FINE_TURN
 # Each log-odds' state, looked up at once: index by log-odds + BOUND.
 _STATES = np.full(2 * BOUND + 1, UNKNOWN, dtype=np.uint8)
 _STATES[BOUND + OCCUPIED_ABOVE + 1 :] = OCCUPIED
@@ -182,7 +182,8 @@ class MapBuilder:
         self._stamp = -math.inf
         self._view: MapView | None = None
 
-    def add(self, pose: Pose, scan: RangeScan, stamp: float) -> MatchedPose:
+    def add(self, pose: Pose, scan: RangeScan, stamp: float,
+            turn_reach: float = COARSE_TURN) -> MatchedPose:  # fmt: skip
         """Draw `scan`, taken at the filter's `pose` at `stamp` (seconds, not earlier
         than the last), at the pose the scan matcher finds for it; ValueError for a pose,
         scan or stamp that cannot be used, MapTooLarge if the map would outgrow
@@ -202,7 +203,7 @@ class MapBuilder:
         # Wherever the matcher puts the robot, its hits and footprint are on the grid.
         self._cover(prior, reach + _SEARCH_M + BODY_RADIUS_M)
         points = np.column_stack([distance * np.cos(bearing), distance * np.sin(bearing)])
-        found = self._match(prior, points[hit], _spacing(bearing), reach)
+        found = self._match(prior, points[hit], _spacing(bearing), reach, turn_reach)
         self.correction = Correction.between(pose, found.pose)
         self._draw(found.pose, points, hit, bearing)
         self._stamp = stamp
@@ -281,7 +282,8 @@ class MapBuilder:
         self._odds, self._states = odds, states
         self._left, self._bottom = left, bottom
 
-    def _match(self, prior: Pose, points: np.ndarray, spacing: float, reach: float) -> Match:
+    def _match(self, prior: Pose, points: np.ndarray, spacing: float, reach: float,
+               turn_reach: float) -> Match:  # fmt: skip
         """The matcher's pose for the hits `points` (robot frame), on the map's cells
         round every pose it may try."""
         if not self.match_scans:
@@ -291,14 +293,15 @@ class MapBuilder:
         c, s = math.cos(prior.heading), math.sin(prior.heading)
         xs = prior.x + c * points[:, 0] - s * points[:, 1]
         ys = prior.y + s * points[:, 0] + c * points[:, 1]
-        rows, cols = self._window(xs, ys, _SEARCH_M + reach * _TURN)
+        turn = min(max(turn_reach, COARSE_TURN), MAX_COARSE_TURN) + FINE_TURN
+        rows, cols = self._window(xs, ys, _SEARCH_M + reach * turn)
         occupied = self._odds[rows, cols] > OCCUPIED_ABOVE
         if np.count_nonzero(occupied) < MIN_MAP_CELLS:
             return Match(MatchOutcome.MAP_TOO_SPARSE, prior, 0.0)
         left = (self._left + cols.start) * self.resolution
         top = self._top() - rows.start * self.resolution
         return match(likelihood_field(occupied, left, top, self.resolution), prior, points,
-                     spacing)  # fmt: skip
+                     spacing, turn_reach)  # fmt: skip
 
     def _window(self, xs: np.ndarray, ys: np.ndarray, margin: float) -> tuple[slice, slice]:
         """The rows and columns of the grid holding the points and `margin` round them."""

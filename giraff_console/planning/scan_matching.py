@@ -37,6 +37,11 @@ from giraff_console.robot.odometry import Pose
 # the filter's pose (a marker's correction) or a drift kept along a corridor is found.
 COARSE_REACH_M, COARSE_STEP_M = 0.30, 0.10
 COARSE_TURN, COARSE_TURN_STEP = math.radians(4.0), math.radians(1.0)
+# The most the coarse lattice is widened in heading, when the filter says the heading
+# may have moved more than COARSE_TURN since the last scan: the casters turn the robot
+# by up to 45 degrees as it sets off after a turn on the spot (§3.2.1.5), unseen by the
+# wheels, over the first few scans of its way.
+MAX_COARSE_TURN = math.radians(30.0)
 # The fine lattice round the coarse best: 5 x 5 x 7 = 175 poses.
 FINE_REACH_M, FINE_STEP_M = 0.05, 0.025
 FINE_TURN, FINE_TURN_STEP = math.radians(0.75), math.radians(0.25)
@@ -156,10 +161,12 @@ def pinning(points: np.ndarray, spacing: float) -> Pinning:
                    float(values[1]))  # fmt: skip
 
 
-def match(field: LikelihoodField, prior: Pose, points: np.ndarray, spacing: float) -> Match:
-    """The pose near `prior` at which the hits `points` (N, 2, robot frame, metres, in
-    bearing order) fit `field` best, if the scan pins it and the fit is clearly better
-    than `prior`'s; otherwise `prior`, and why."""
+def match(field: LikelihoodField, prior: Pose, points: np.ndarray, spacing: float,
+          turn_reach: float = COARSE_TURN) -> Match:  # fmt: skip
+    """The pose near `prior` (within the coarse lattice, and `turn_reach` radians
+    either way) at which the hits `points` (N, 2, robot frame, metres, in bearing order)
+    fit `field` best, if the scan pins it and the fit is clearly better than `prior`'s;
+    otherwise `prior`, and why."""
     if len(points) < MIN_HITS:
         return Match(MatchOutcome.TOO_FEW_HITS, prior, 0.0)
     pins = pinning(points, spacing)
@@ -168,7 +175,7 @@ def match(field: LikelihoodField, prior: Pose, points: np.ndarray, spacing: floa
     before = _scores(field.fine, field, prior, points, np.zeros(1), np.zeros(1))[0, 0]
     steps = _steps(COARSE_REACH_M, COARSE_STEP_M)
     coarse = _lattice(steps)
-    turns = _steps(COARSE_TURN, COARSE_TURN_STEP)
+    turns = _steps(min(max(turn_reach, COARSE_TURN), MAX_COARSE_TURN), COARSE_TURN_STEP)
     scores = _scores(field.coarse, field, prior, points, turns, steps)
     turn, shift = np.unravel_index(int(np.argmax(scores)), scores.shape)
     centre = _moved(prior, coarse[shift], float(turns[turn]))

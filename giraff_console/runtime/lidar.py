@@ -27,8 +27,11 @@ SIMULATED_NAME = "simulated lidar"
 
 
 def lidar_reader(options: RobotOptions, settings: LidarSettings, site: SimulatedSite | None,
-                 notes: Callable[[str], None]) -> LidarReader | None:  # fmt: skip
-    """The reader of the lidar asked for, not started; None without one."""
+                 notes: Callable[[str], None],
+                 clock: Callable[[], float]) -> LidarReader | None:  # fmt: skip
+    """The reader of the lidar asked for, not started; None without one. Its
+    revolutions are stamped by `clock`, the control loop's, so that each is placed at
+    the pose the loop had then (missions/mapping.py)."""
     asked = options.lidar
     reading = ReaderSettings(Mount(settings.forward, math.radians(settings.yaw)),
                              settings.range_min, settings.range_max, settings.timeout)  # fmt: skip
@@ -37,7 +40,7 @@ def lidar_reader(options: RobotOptions, settings: LidarSettings, site: Simulated
         reading = ReaderSettings(Mount(), settings.range_min, settings.range_max,
                                  settings.timeout)  # fmt: skip
         opener = simulated_lidar(site, options.imperfect_seed, settings.timeout)
-        return LidarReader(opener, SIMULATED_NAME, settings.baudrate, reading, notes)
+        return LidarReader(opener, SIMULATED_NAME, settings.baudrate, reading, notes, clock)
     if asked == SIMULATED_LIDAR or (asked is None and not options.simulated):
         if not settings.port:
             if asked is None:
@@ -50,7 +53,7 @@ def lidar_reader(options: RobotOptions, settings: LidarSettings, site: Simulated
     if asked is None:
         return None
     return LidarReader(open_named(asked, settings.baudrate, settings.timeout), asked,
-                       settings.baudrate, reading, notes)  # fmt: skip
+                       settings.baudrate, reading, notes, clock)  # fmt: skip
 
 
 def simulated_lidar(site: SimulatedSite, seed: int | None, timeout: float) -> Opener:

@@ -185,9 +185,9 @@ class Robot:
                                camera=self._camera_setup())  # fmt: skip
         self.sessions = Sessions(control, self.camera, recordings, setup, control.note)
         # The lidar, if one is asked for (runtime/lidar.py): read on its own thread,
-        # its notes the loop's.
+        # its notes the loop's, its revolutions stamped by the loop's clock.
         self.lidar: LidarReader | None = lidar_reader(options, settings.lidar, self.site,
-                                                      control.note)  # fmt: skip
+                                                      control.note, clock.now)  # fmt: skip
         # What every mission is built with: the loop's pose and estimate, its tick, the
         # settings' limits and patience, and what senses obstacles: the lidar, as far as
         # the range finder sees (motion.sensing_range), else the simulator's range finder.
@@ -210,6 +210,7 @@ class Robot:
             control, self.drives, building=self.site, routes=self.routes,
             sessions=self.sessions, camera=self.camera,
             undock_distance=settings.teleop.undock_distance, sight=self.sight,
+            sensor=self.lidar,
         )  # fmt: skip
         # Another program's way to the board, through the service (§4.5).
         self.port: VirtualPort | None = None

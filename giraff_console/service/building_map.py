@@ -146,7 +146,8 @@ class BuildingMap:
     def _heard(self, event: LoopEvent) -> None:
         run = self.run
         if run is not None and isinstance(event, Telemetry):
-            run.pose(self.control.clock.now(), event.pose)
+            sigma = event.estimate.sigma_heading if event.estimate is not None else 0.0
+            run.pose(self.control.clock.now(), event.pose, sigma)
 
     def _laid_in(self, run: MappingRun) -> None:
         """On the run's thread, after a revolution: the screens' picture, now and then."""

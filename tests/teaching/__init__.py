@@ -22,7 +22,7 @@ class Teaching:
 
 def _flat(folder: Path) -> Teaching:
     return Teaching("flat", flat.write_flat(folder), flat.DOCK,
-                    ("lounge", "bedroom", "kitchen", "hall"), len(flat.ROOMS))  # fmt: skip
+                    ("hall", "lounge", "bedroom", "kitchen"), len(flat.ROOMS))  # fmt: skip
 
 
 BUILDINGS: dict[str, Callable[[Path], Teaching]] = {"flat": _flat}

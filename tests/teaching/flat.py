@@ -28,6 +28,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from giraff_console.planning.floorplan import Landmarks
+
 RESOLUTION = 0.05
 ORIGIN = (-1.0, -1.0)
 SIZE_M = (13.0, 8.0)
@@ -126,17 +128,29 @@ def write_flat(folder: Path) -> Path:
 
 
 UNMAPPED = """\
-# A building not mapped yet: only the dock, where the robot stands now.
+# A building not mapped yet: only the dock, where the robot stands now, and the markers
+# staff put up (their family and size; where they hang is to be learnt).
 name: Not mapped yet
 rooms:
   dock: {{at: [{x}, {y}], heading: {heading}}}
 doors: []
 start: dock
 """
+MARKERS = """\
+landmarks:
+  family: {family}
+  size: {size}
+  markers: []
+"""
 
 
-def unmapped_plan(folder: Path, dock: tuple[float, float, float] = DOCK) -> Path:
-    """The plan a console maps a new building from: the dock alone, at `dock`."""
+def unmapped_plan(folder: Path, dock: tuple[float, float, float] = DOCK,
+                  markers: Landmarks | None = None) -> Path:  # fmt: skip
+    """The plan a console maps a new building from: the dock alone, at `dock`, and the
+    family and size of the building's `markers`, if it has any."""
     path = folder / "unmapped.yaml"
-    path.write_text(UNMAPPED.format(x=dock[0], y=dock[1], heading=dock[2]))
+    text = UNMAPPED.format(x=dock[0], y=dock[1], heading=dock[2])
+    if markers is not None:
+        text += MARKERS.format(family=markers.family, size=markers.size)
+    path.write_text(text)
     return path

@@ -25,11 +25,14 @@ from giraff_console.service import commands as c
 from giraff_console.service.events import Reply
 
 REPEAT_S = 0.033  # a terminal's key repeat
+SPEED = 0.25  # m/s: slow enough for a person to steer through a 0.8 m door by keys
 LOOK_AHEAD_M = 0.35  # the point on the way the person steers for
-TURN_ON_SPOT_DEG = 35.0  # off the nose by more: turn on the spot first
-CURVE_DEG = 8.0  # off by more: the diagonal keys
+TURN_ON_SPOT_DEG = 20.0  # off the nose by more: turn on the spot first
+CURVE_DEG = 6.0  # off by more: the diagonal keys
 THERE_M = 0.12  # close enough to a room's point to stop and mark it
 SETTLE_S = 1.0  # let go, and wait this long for the robot to stand
+# Pressing on without getting anywhere (a door frame clipped): back off a little.
+STUCK_S, STUCK_M, BACK_OFF_S = 1.5, 0.02, 0.6
 
 
 @dataclass
@@ -68,6 +71,7 @@ class Operator:
 
     def drive(self, legs: list[tuple[str, list[Point]]], mark: bool = True) -> Drive:
         drive = Drive()
+        self.robot.service.execute(c.Speed(to=SPEED))
         started = time.monotonic()
         for room, way in legs:
             drive.metres += self._follow(way)
@@ -85,6 +89,7 @@ class Operator:
         last = self._where()
         metres = 0.0
         goal = way[-1]
+        moved_at, moved_from = time.monotonic(), last
         while True:
             self._in_time()
             x, y, heading = self._where()
@@ -92,6 +97,14 @@ class Operator:
             last = (x, y, heading)
             if math.dist((x, y), goal) <= THERE_M:
                 break
+            now = time.monotonic()
+            turned = abs(math.remainder(heading - moved_from[2], math.tau))
+            if math.dist((x, y), moved_from[:2]) > STUCK_M or turned > math.radians(3):
+                moved_at, moved_from = now, last
+            elif now - moved_at > STUCK_S:
+                self._hold(Intent.BACKWARD, BACK_OFF_S)
+                moved_at, moved_from = time.monotonic(), self._where()
+                continue
             target = _look_ahead(way, (x, y), LOOK_AHEAD_M)
             off = math.degrees(
                 math.remainder(math.atan2(target[1] - y, target[0] - x) - heading, math.tau)
@@ -101,6 +114,12 @@ class Operator:
         # Let go, and stand.
         time.sleep(SETTLE_S)
         return metres
+
+    def _hold(self, key: Intent, seconds: float) -> None:
+        until = time.monotonic() + seconds
+        while time.monotonic() < until:
+            self.robot.service.execute(c.Press(key))
+            time.sleep(REPEAT_S)
 
     def _where(self) -> tuple[float, float, float]:
         pose = self.robot.true_pose()

@@ -30,7 +30,7 @@ from tests.teaching.operator import Operator, tour
 
 pytestmark = pytest.mark.timeout(420)
 
-TOUR = ["lounge", "bedroom", "kitchen", "hall"]
+TOUR = ["hall", "lounge", "bedroom", "kitchen"]  # marked from the dock on
 DRIVE_S = 300.0  # real seconds the drive may take at --sim-speed 2 on a busy machine
 
 
@@ -49,7 +49,7 @@ def taught(tmp_path_factory: pytest.TempPathFactory) -> dict:
         started = robot.service.execute(c.StartMapping())
         drive = Operator(robot, DRIVE_S).drive(tour(truth, TOUR))
         saved = robot.service.execute(c.SaveMap(folder / "flat-mapped"))
-        go = robot.service.execute(c.Go("kitchen")) if saved.ok else None
+        go = robot.service.execute(c.Go("lounge")) if saved.ok else None
         if go is not None and go.ok:
             wait_until(lambda: any(isinstance(e, GoReported) for e in heard), 120, "go's end")
         at_end = robot.true_pose()
@@ -112,4 +112,4 @@ def test_go_uses_the_new_plan_at_once(taught):
     # No markers yet (a survey finds them): there by the estimate, and so it says.
     assert ended.end.outcome in (Outcome.ARRIVED, Outcome.ARRIVED_UNVERIFIED), ended
     at = taught["at_end"]
-    assert math.dist((at.x, at.y), plan.rooms["kitchen"].at) < 0.3
+    assert math.dist((at.x, at.y), plan.rooms["lounge"].at) < 0.3
