@@ -24,6 +24,7 @@ planner cannot take the robot to from the rest are left out.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -31,6 +32,7 @@ import cv2
 import numpy as np
 
 from giraff_console.planning.defaults import MIN_ROOM_M2
+from giraff_console.planning.floor_as_built import floor_as_built
 from giraff_console.planning.floorplan import Door, Point
 from giraff_console.planning.grid import FREE, OccupancyGrid
 from giraff_console.planning.plan_writing import MadePlan, millimetres
@@ -42,6 +44,14 @@ from giraff_console.planning.room_doors import (
     least_clearance,
     passable,
 )
+from giraff_console.planning.room_marks import (
+    Mark,
+    MarkIssue,
+    check_names,
+    marked_rooms,
+    room_names,
+)
+from giraff_console.planning.room_openings import join_openings
 from giraff_console.planning.route_planner import CLEARANCE_M, ROBOT_RADIUS_M
 from giraff_console.planning.scan_grid import CROP_MARGIN_M, SPECK_M2, SPECK_SIDE_M, clean_grid
 
@@ -61,6 +71,14 @@ class SegmentationError(ValueError):
     """A map with nothing to segment; the message says why, in one line."""
 
 
+class MarkError(SegmentationError):
+    """Marks that cannot name the rooms found: each issue typed, with its own line."""
+
+    def __init__(self, issues: Sequence[MarkIssue]) -> None:
+        self.issues = tuple(issues)
+        super().__init__("; ".join(issue.detail for issue in self.issues))
+
+
 @dataclass(frozen=True)
 class FoundRoom:
     id: str
@@ -74,7 +92,7 @@ class Segmentation:
     grid: OccupancyGrid  # the map's grid cropped and cleaned, as the plan is to use it
     redrawn: bool  # whether `grid` differs from the map's, and so is written in its place
     labels: np.ndarray  # int32 per cell: a room's label, 0 for no room
-    rooms: tuple[FoundRoom, ...]  # in reading order: room-1 top left
+    rooms: tuple[FoundRoom, ...]  # in reading order, top left first; marked or room-N
     doors: tuple[Door, ...]
     start: str  # the room with the most doors, where the robot is best placed to start
     notes: tuple[str, ...]  # what was changed or left out, for the operator to know
@@ -85,11 +103,17 @@ def segment_rooms(
     robot_radius: float = ROBOT_RADIUS_M,
     min_area: float = MIN_ROOM_M2,
     cropped: bool = False,
+    marks: Sequence[Mark] = (),
 ) -> Segmentation:
     """The rooms of `grid` and the doors between them, found on `grid` cleaned of specks
     (scan_grid.py), which the Segmentation holds; SegmentationError if there is no room,
     or if the robot cannot be planned between any two rooms of several. `cropped` says
-    that `grid` is already a crop of the map's (read_scan), and so differs from it."""
+    that `grid` is already a crop of the map's (read_scan), and so differs from it.
+    `marks` name rooms (room_marks.py): the room holding each mark's point is named by
+    it; MarkError, listing every mark that cannot, if any cannot."""
+    bad_names = check_names(marks)
+    if bad_names:
+        raise MarkError(bad_names)
     if not (grid.cells == FREE).any():
         raise SegmentationError("no free cell in the map: nothing to segment")
     cleaned = clean_grid(grid)
@@ -102,12 +126,20 @@ def segment_rooms(
             f"no free space wide enough for the robot ({robot_radius:g} m radius): the "
             f"route planner needs {_way(robot_radius):g} m: nothing to segment"
         )
-    seeds = _seeds(clearance, least, grid.resolution)
+    # Rooms are found on the floor as built, furniture taken away (floor_as_built.py),
+    # and each keeps the scan's free floor among its furniture.
+    built = floor_as_built(grid)
+    built_clearance = _clearance(built, grid.resolution)
+    seeds = _seeds(built_clearance, least, grid.resolution)
     min_cells = min_area / grid.resolution**2
     while True:
-        labels = _flood(clearance, floor, seeds, grid.resolution)
-        areas = np.bincount(labels.ravel(), minlength=seeds.max() + 1)
-        small = [label for label in range(1, len(areas)) if 0 < areas[label] < min_cells]
+        flooded = _flood(built_clearance, built, seeds, grid.resolution)
+        room_of = join_openings(flooded, built_clearance, grid.resolution)
+        labels = np.where(floor, room_of[flooded], 0)
+        # Small in the floor the scan shows: a room all furniture is no room either.
+        areas = np.bincount(labels.ravel(), minlength=len(room_of))
+        present = np.unique(seeds)
+        small = [int(seed) for seed in present[present > 0] if areas[room_of[seed]] < min_cells]
         if not small:
             break
         seeds[np.isin(seeds, small)] = 0
@@ -130,7 +162,7 @@ def segment_rooms(
         changes += ["cleared of those specks"] * (cleaned.specks > 0)
         notes.append(f"the grid written with the plan is the map {' and '.join(changes)}; "
                      "the map itself is unchanged")  # fmt: skip
-    return _plan(grid, redrawn, labels, clearance, robot_radius, notes)
+    return _plan(grid, redrawn, labels, clearance, robot_radius, notes, marks)
 
 
 def _way(robot_radius: float) -> float:
@@ -236,7 +268,8 @@ def _flood(clearance: np.ndarray, floor: np.ndarray, seeds: np.ndarray,
 
 
 def _plan(grid: OccupancyGrid, redrawn: bool, labels: np.ndarray, clearance: np.ndarray,
-          robot_radius: float, notes: list[str]) -> Segmentation:  # fmt: skip
+          robot_radius: float, notes: list[str],
+          marks: Sequence[Mark]) -> Segmentation:  # fmt: skip
     """Put a door in every doorway between two rooms that the robot can be planned
     through, leave out the rooms it could not be planned to from the rest, and name the
     rooms left."""
@@ -263,7 +296,10 @@ def _plan(grid: OccupancyGrid, redrawn: bool, labels: np.ndarray, clearance: np.
                      f"{_way(robot_radius):g} m wide): {where}{more}")  # fmt: skip
         labels = np.where(np.isin(labels, left_out), 0, labels)
     order = _reading_order(grid, {label: cells[label] for label in joined})
-    names = {label: f"room-{number}" for number, label in enumerate(order, start=1)}
+    named, issues = marked_rooms(grid, labels, marks)
+    if issues:
+        raise MarkError(issues)
+    names = room_names(order, named)
     rooms = tuple(FoundRoom(names[label], points[label], label, sizes[label] * area)
                   for label in order)  # fmt: skip
     rank = {label: number for number, label in enumerate(order)}
