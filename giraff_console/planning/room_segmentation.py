@@ -197,44 +197,65 @@ def _seeds(clearance: np.ndarray, least: float, step: float) -> np.ndarray:
     above: np.ndarray | None = None  # the pieces at the last height, and for each:
     above_peaks: list[tuple[float, tuple[int, int]]] = []  # its highest clearance and cell
     above_split: list[bool] = []  # whether it holds several rooms
+    last = math.inf
     for height in heights[::-1]:
         count, pieces = cv2.connectedComponents((clearance > height).astype(np.uint8),
                                                 connectivity=8, ltype=cv2.CV_32S)  # fmt: skip
-        peaks = _peaks(clearance, pieces, count)
         holds: dict[int, list[int]] = {}
         for piece, (_, cell) in enumerate(above_peaks, start=1):
             holds.setdefault(int(pieces[cell]), []).append(piece)
+        peaks = _peaks(clearance, pieces, count, holds, above_peaks, height, last)
         split = [False] * count
+        new_rooms: list[int] = []
         for piece in range(1, count):
             inner = sorted(holds.get(piece, []), key=lambda p: -above_peaks[p - 1][0])
             rooms = inner[:1] + [p for p in inner[1:] if _stands_out(above_peaks[p - 1][0], height)]
             if len(rooms) > 1:
                 split[piece] = True
-                for room in rooms:
-                    if not above_split[room - 1]:
-                        assert above is not None
-                        seeds[(above == room) & (seeds == 0)] = seeds.max() + 1
+                new_rooms += [room for room in rooms if not above_split[room - 1]]
             elif inner:
                 split[piece] = above_split[inner[0] - 1]
-        above, above_peaks, above_split = pieces, peaks, split[1:]
+        if new_rooms:
+            assert above is not None
+            _seed(seeds, above, new_rooms)
+        above, above_peaks, above_split, last = pieces, peaks, split[1:], height
     if above is not None:
-        for piece, was_split in enumerate(above_split, start=1):
-            if not was_split:
-                seeds[above == piece] = seeds.max() + 1
+        _seed(seeds, above, [piece for piece, was in enumerate(above_split, start=1) if not was])
     return seeds
 
 
-def _peaks(clearance: np.ndarray, pieces: np.ndarray,
-           count: int) -> list[tuple[float, tuple[int, int]]]:  # fmt: skip
-    """Each piece's highest clearance and a cell where it is that high, pieces 1 on."""
-    rows, cols = np.nonzero(pieces)
-    piece, height = pieces[rows, cols], clearance[rows, cols]
-    tops = np.zeros(count)
-    np.maximum.at(tops, piece, height)
-    top = height == tops[piece]
-    _, first = np.unique(piece[top], return_index=True)
-    rows, cols = rows[top][first], cols[top][first]
-    return [(float(tops[i + 1]), (int(rows[i]), int(cols[i]))) for i in range(count - 1)]
+def _seed(seeds: np.ndarray, pieces: np.ndarray, rooms: list[int]) -> None:
+    """Seed each of `rooms` (pieces of `pieces`) where no seed is yet, numbered on from
+    the seeds there are: one pass over the grid for them all."""
+    if not rooms:
+        return
+    number = np.zeros(int(pieces.max()) + 1, dtype=np.int32)
+    number[rooms] = np.arange(1, len(rooms) + 1) + seeds.max()
+    new = number[pieces]
+    free = (seeds == 0) & (new > 0)
+    seeds[free] = new[free]
+
+
+def _peaks(clearance: np.ndarray, pieces: np.ndarray, count: int, holds: dict[int, list[int]],
+           above_peaks: list[tuple[float, tuple[int, int]]], height: float,
+           last: float) -> list[tuple[float, tuple[int, int]]]:  # fmt: skip
+    """Each piece's highest clearance and a cell where it is that high, pieces 1 on: the
+    highest of the pieces above it that it holds, or, for a piece new at this height,
+    found among the cells that rose above the cut since the `last` (one pass over them
+    only, not the whole grid)."""
+    peaks: list[tuple[float, tuple[int, int]] | None] = [None] * (count - 1)
+    for piece, inner in holds.items():
+        peaks[piece - 1] = max((above_peaks[p - 1] for p in inner), key=lambda peak: peak[0])
+    if any(peak is None for peak in peaks):
+        rows, cols = np.nonzero((clearance > height) & (clearance <= last))
+        piece, rise = pieces[rows, cols], clearance[rows, cols]
+        order = np.lexsort((-rise, piece))  # each piece's highest cell first
+        piece, first = np.unique(piece[order], return_index=True)
+        for p, i in zip(piece.tolist(), order[first].tolist(), strict=True):
+            if peaks[p - 1] is None:
+                peaks[p - 1] = (float(rise[i]), (int(rows[i]), int(cols[i])))
+    assert all(peak is not None for peak in peaks)
+    return peaks  # type: ignore[return-value]
 
 
 def _stands_out(peak: float, split: float) -> bool:
