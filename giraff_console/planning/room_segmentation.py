@@ -244,8 +244,8 @@ def _peaks(clearance: np.ndarray, pieces: np.ndarray, count: int, holds: dict[in
     found among the cells that rose above the cut since the `last` (one pass over them
     only, not the whole grid)."""
     peaks: list[tuple[float, tuple[int, int]] | None] = [None] * (count - 1)
-    for piece, inner in holds.items():
-        peaks[piece - 1] = max((above_peaks[p - 1] for p in inner), key=lambda peak: peak[0])
+    for holder, inner in holds.items():
+        peaks[holder - 1] = max((above_peaks[p - 1] for p in inner), key=lambda peak: peak[0])
     if any(peak is None for peak in peaks):
         rows, cols = np.nonzero((clearance > height) & (clearance <= last))
         piece, rise = pieces[rows, cols], clearance[rows, cols]
