@@ -105,8 +105,10 @@ def add_floorplan_parser(commands: argparse._SubParsersAction, example: Path) ->
         "rooms", help="find the rooms and doors in a scanned map",
         description="Write OUT, a floor plan of the rooms and doors found in MAP, a ROS "
         "map_server map such as SLAM leaves (floorplans/README.md, \"Rooms from a scan\"). "
-        "Rooms are where the free space is wide, doors where it narrows between them; "
-        "rooms are named room-1, room-2, ... from the top left, each with its point where "
+        "Rooms are where the free space is wide, doors where it narrows between them to "
+        "1.4 m or less (a wider opening is a way within a room, and furniture makes no "
+        "room); rooms are named by --mark, the rest room-1, room-2, ... from the top "
+        "left, each with its point where "
         "it is furthest from walls, and the plan has no outlines: the grid is its walls, "
         "and its grid is written next to OUT: the map's image copied, or, when the map "
         "had to be cropped to its floor or cleared of specks of noise, the grid so "

@@ -398,8 +398,9 @@ def scan_plan(segmentation: Segmentation, source: Path, name: str) -> MadePlan:
         "start": segmentation.start,
     }
     header = (
-        f"# Rooms found in {source.name} by `giraff-console floorplan rooms`: named room-1,\n"
-        "# room-2, ... as a page is read, from the top left. Rename them as you like.\n"
+        f"# Rooms found in {source.name} by `giraff-console floorplan rooms`: named by the\n"
+        "# marks given, the rest room-1, room-2, ... as a page is read, from the top left.\n"
+        "# Rename them as you like.\n"
     )
     drawn = segmentation.grid if segmentation.redrawn else None
     return MadePlan(source, plan, list(segmentation.notes), header, drawn)

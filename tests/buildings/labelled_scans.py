@@ -58,8 +58,8 @@ class LabelledScan:
         return OccupancyGrid.from_image(image, RESOLUTION, self.origin)
 
     def point_in(self, room: str) -> tuple[float, float]:
-        """A cell of the room's floor free in both versions, furthest from its middle's
-        row-wise neighbours: the floor where an operator stood to mark it."""
+        """The centre of the cell of the room's floor, free in both versions, nearest
+        the middle of that floor: where an operator stood to mark it."""
         label = self.rooms.index(room) + 1
         free = (self.truth == label) & (self.bare == FREE_SHADE) & (self.furnished == FREE_SHADE)
         rows, cols = np.nonzero(free)
