@@ -64,6 +64,12 @@ SADDLE_RATIO = 0.7
 # Rooms whose centres lie within this of each other, top to bottom, are in one row when
 # they are named in reading order.
 ROW_GAP_M = 1.0
+# The cut rises a cell at a time up to this clearance, and by a twentieth of its height
+# above: a split higher up is an opening far wider than any door (room_openings.py),
+# which joins its two rooms whatever height it is found at, and an open hall 150 m wide
+# would take 1500 cuts of a cell (156 s for a 300 x 150 m hall).
+FINE_M = 1.5
+COARSE_RATIO = 1.05
 _CONNECTED = np.ones((3, 3), dtype=bool)  # eight neighbours: a room is one piece diagonally too
 
 
@@ -193,7 +199,7 @@ def _seeds(clearance: np.ndarray, least: float, step: float) -> np.ndarray:
     with what it was just above the split. A piece that has split already has its rooms
     seeded, and the rest are bumps of the highest: they join it."""
     seeds = np.zeros(clearance.shape, dtype=np.int32)
-    heights = np.arange(least, clearance.max(), step)
+    heights = _heights(least, float(clearance.max()), step)
     above: np.ndarray | None = None  # the pieces at the last height, and for each:
     above_peaks: list[tuple[float, tuple[int, int]]] = []  # its highest clearance and cell
     above_split: list[bool] = []  # whether it holds several rooms
@@ -222,6 +228,16 @@ def _seeds(clearance: np.ndarray, least: float, step: float) -> np.ndarray:
     if above is not None:
         _seed(seeds, above, [piece for piece, was in enumerate(above_split, start=1) if not was])
     return seeds
+
+
+def _heights(low: float, high: float, step: float) -> np.ndarray:
+    """The heights from `low` up to, not including, `high`: every `step` up to FINE_M,
+    then each COARSE_RATIO times the last."""
+    fine = np.arange(low, min(high, FINE_M), step)
+    coarse = [FINE_M] if high > FINE_M else []
+    while coarse and coarse[-1] * COARSE_RATIO < high:
+        coarse.append(coarse[-1] * COARSE_RATIO)
+    return np.concatenate([fine, np.array(coarse)])
 
 
 def _seed(seeds: np.ndarray, pieces: np.ndarray, rooms: list[int]) -> None:
@@ -277,7 +293,12 @@ def _flood(clearance: np.ndarray, floor: np.ndarray, seeds: np.ndarray,
     one height to whichever flood it happened to take first, in bands round a building.)
     """
     labels = seeds.astype(np.uint16)  # cv2.dilate takes no int32; no building has 65535 rooms
-    for height in np.arange(clearance.max(), -step, -step):
+    top = float(clearance.max())
+    # Below FINE_M, a step at a time down from the top, as the cut (not on multiples of
+    # the step, where cells' clearances fall on the line, and the floods' order with them).
+    fine = np.arange(top, -step, -step)
+    coarse = _heights(FINE_M, top, step)[::-1] if top > FINE_M else np.array([])
+    for height in np.concatenate([coarse, fine[fine < FINE_M]]):
         open_ = floor & (clearance >= height)
         while True:
             reached = cv2.dilate(labels, _CONNECTED.astype(np.uint8))
