@@ -387,8 +387,9 @@ def _centre(grid: OccupancyGrid, rows: np.ndarray, cols: np.ndarray) -> Point:
 
 def _at(grid: OccupancyGrid, cells: Cells, clearance: np.ndarray) -> Point:
     """The centre of the room's cell furthest from any wall; of several as far (within
-    half a cell), the one nearest the room's middle."""
-    rows, cols = cells
+    half a cell), the one nearest the room's middle. Only its main floor counts: floor
+    shut in among its furniture is the room's too, but the robot cannot get there."""
+    rows, cols = _main_floor(cells)
     room = clearance[rows, cols]
     best = room >= room.max() - grid.resolution / 2
     rows, cols = rows[best], cols[best]
@@ -396,6 +397,20 @@ def _at(grid: OccupancyGrid, cells: Cells, clearance: np.ndarray) -> Point:
     i = int(np.argmin(middle))
     x, y = grid.centre_of(int(rows[i]), int(cols[i]))
     return millimetres(x), millimetres(y)
+
+
+def _main_floor(cells: Cells) -> Cells:
+    """The biggest piece of the room's cells, joined diagonally too."""
+    rows, cols = cells
+    top, left = int(rows.min()), int(cols.min())
+    drawn = np.zeros((int(rows.max()) - top + 1, int(cols.max()) - left + 1), np.uint8)
+    drawn[rows - top, cols - left] = 1
+    count, pieces = cv2.connectedComponents(drawn, connectivity=8)
+    if count <= 2:
+        return cells
+    piece = pieces[rows - top, cols - left]
+    biggest = int(np.argmax(np.bincount(piece)[1:])) + 1
+    return rows[piece == biggest], cols[piece == biggest]
 
 
 def scan_plan(segmentation: Segmentation, source: Path, name: str) -> MadePlan:

@@ -39,7 +39,8 @@ MARGIN_M = 1.0  # unknown round the building
 # Furnishings tried until one leaves the robot a way into every room: a room the route
 # planner cannot reach is left out of any plan, and the truth would be no truth.
 FURNISHINGS = 20
-# The route planner keeps the robot's centre further than this from anything.
+# The route planner keeps the robot's centre further than this from anything
+# (route_planner.py: its radius and CLEARANCE_M).
 REACH_M = 0.35
 
 
@@ -181,9 +182,9 @@ def labelled_scan(kind: str, seed: int) -> LabelledScan:
 def _robot_reaches_every_room(image: np.ndarray, truth: np.ndarray) -> bool:
     """Whether the robot's centre can be planned (in one piece of the free space
     shrunk by the planner's reach) into every room of the truth."""
-    reach = round(REACH_M / RESOLUTION)
-    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
-    centres = cv2.erode((image == FREE_SHADE).astype(np.uint8), disc)
+    free = (image == FREE_SHADE).astype(np.uint8)
+    away = cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    centres = (away > REACH_M / RESOLUTION + 1e-6).astype(np.uint8)
     _, pieces = cv2.connectedComponents(centres, connectivity=8)
     held = [set(np.unique(pieces[(truth == label) & (pieces > 0)]).tolist())
             for label in range(1, int(truth.max()) + 1)]  # fmt: skip
