@@ -34,7 +34,7 @@ import numpy as np
 from giraff_console.planning.defaults import MIN_ROOM_M2
 from giraff_console.planning.floor_as_built import floor_as_built
 from giraff_console.planning.floorplan import Door, Point
-from giraff_console.planning.grid import FREE, OccupancyGrid
+from giraff_console.planning.grid import FREE, OCCUPIED, OccupancyGrid
 from giraff_console.planning.plan_writing import MadePlan, millimetres
 from giraff_console.planning.room_doors import (
     Cells,
@@ -138,9 +138,10 @@ def segment_rooms(
     built_clearance = _clearance(built, grid.resolution)
     seeds = _seeds(built_clearance, least, grid.resolution)
     min_cells = min_area / grid.resolution**2
+    walls = (grid.cells == OCCUPIED) & ~built  # occupied cells, not furniture
     while True:
         flooded = _flood(built_clearance, built, seeds, grid.resolution)
-        room_of = join_openings(flooded, built_clearance, grid.resolution)
+        room_of = join_openings(flooded, built_clearance, walls, grid.resolution)
         labels = np.where(floor, room_of[flooded], 0)
         # Small in the floor the scan shows: a room all furniture is no room either.
         areas = np.bincount(labels.ravel(), minlength=len(room_of))
