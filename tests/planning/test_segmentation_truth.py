@@ -35,9 +35,9 @@ def test_the_segmentation_meets_the_issues_bar_on_a_subset_of_the_truth(furnishe
     precision = float(np.mean([s.precision for s in scores]))
     least_recall, least_precision = TARGETS[furnished]
     assert recall >= least_recall and precision >= least_precision, (recall, precision)
-    # Furniture makes no rooms: a few segments too many at most (measured: 74 for 68
-    # rooms furnished, the corridor with alcoves cut where clutter narrows it).
-    assert sum(s.segments for s in scores) <= 1.15 * sum(s.rooms for s in scores), scores
+    # Furniture makes no rooms: a segment or two too many at most (measured: 69 for 68
+    # rooms furnished, 68 bare; 74 furnished before a corridor's cuts needed jambs).
+    assert sum(s.segments for s in scores) <= 1.05 * sum(s.rooms for s in scores), scores
 
 
 def test_the_truth_has_at_least_20_maps_of_every_kind_asked_for():
