@@ -190,6 +190,3 @@ def _robot_reaches_every_room(image: np.ndarray, truth: np.ndarray) -> bool:
             for label in range(1, int(truth.max()) + 1)]  # fmt: skip
     return all(held) and bool(set.intersection(*held))
 
-
-def all_scans() -> list[LabelledScan]:
-    return [labelled_scan(kind, seed) for kind, seed in MAPS]
