@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 
 from giraff_console.planning.grid import OccupancyGrid
-from tests.buildings.labelled_layouts import FULL, MAPS, Box, Layout, Opening, layout
+from tests.buildings.labelled_layouts import FULL, Box, Layout, Opening, layout
 from tests.planning.scanned_rooms import (
     FREE_SHADE,
     RESOLUTION,
@@ -132,7 +132,7 @@ def _cut(plan: Layout, opening: Opening) -> tuple[Box, tuple[float, float]]:
 
 @cache
 def labelled_scan(kind: str, seed: int) -> LabelledScan:
-    """The map `kind`-`seed` of labelled_layouts.MAPS, drawn."""
+    """The map `kind`-`seed` of labelled_layouts.MAPS, drawn (once a process)."""
     from tests.buildings.furnishing import furnish  # the furniture, by the kind of room
 
     plan = layout(kind, seed)
@@ -189,4 +189,3 @@ def _robot_reaches_every_room(image: np.ndarray, truth: np.ndarray) -> bool:
     held = [set(np.unique(pieces[(truth == label) & (pieces > 0)]).tolist())
             for label in range(1, int(truth.max()) + 1)]  # fmt: skip
     return all(held) and bool(set.intersection(*held))
-
