@@ -111,8 +111,10 @@ def add_floorplan_parser(commands: argparse._SubParsersAction, example: Path) ->
         "rooms", help="find the rooms and doors in a scanned map",
         description="Write OUT, a floor plan of the rooms and doors found in MAP, a ROS "
         "map_server map such as SLAM leaves (floorplans/README.md, \"Rooms from a scan\"). "
-        "Rooms are where the free space is wide, doors where it narrows between them; "
-        "rooms are named room-1, room-2, ... from the top left, each with its point where "
+        "Rooms are where the free space is wide, doors where it narrows between them to "
+        "1.4 m or less (a wider opening is a way within a room, and furniture makes no "
+        "room); rooms are named by --mark, the rest room-1, room-2, ... from the top "
+        "left, each with its point where "
         "it is furthest from walls, and the plan has no outlines: the grid is its walls, "
         "and its grid is written next to OUT: the map's image copied, or, when the map "
         "had to be cropped to its floor or cleared of specks of noise, the grid so "
@@ -142,6 +144,13 @@ def add_floorplan_parser(commands: argparse._SubParsersAction, example: Path) ->
         "--min-area", type=float, default=MIN_ROOM_M2, metavar="M2",
         help="square metres of floor a room needs; smaller pieces join their "
         "neighbours (default: %(default)s)",
+    )  # fmt: skip
+    rooms.add_argument(
+        "--mark", action="append", default=[], metavar="NAME=X,Y",
+        help="name the room holding map point X,Y (metres, the map's frame) NAME, as "
+        "`mark NAME` does while mapping; repeat for each room marked. Rooms not marked "
+        "are room-N. A mark on no room, two in one room, a name twice or a name that is "
+        "not a room id is refused, and nothing is written",
     )  # fmt: skip
     rooms.add_argument("--force", action="store_true",
                        help="overwrite OUT, its image and the picture")  # fmt: skip
@@ -281,6 +290,7 @@ def run_floorplan_rooms(args: argparse.Namespace) -> int:
     from giraff_console.planning.plan_writing import write_floorplan
     from giraff_console.planning.room_picture import draw_rooms, encode_png
     from giraff_console.planning.room_segmentation import (
+        MarkError,
         SegmentationError,
         scan_plan,
         segment_rooms,
@@ -291,13 +301,20 @@ def run_floorplan_rooms(args: argparse.Namespace) -> int:
         if not (value > 0 and math.isfinite(value)):
             print(f"giraff-console: {option} must be a positive number", file=sys.stderr)
             return EXIT_USAGE
+    marks = _marks(args.mark)
+    if marks is None:
+        return EXIT_USAGE
     picture = args.picture or args.out.with_name(f"{args.out.stem}-rooms.png")
     try:
         scan = read_scan(args.map)
-        found = segment_rooms(scan.grid, args.robot_radius, args.min_area, scan.cropped)
+        found = segment_rooms(scan.grid, args.robot_radius, args.min_area, scan.cropped, marks)
     except FloorPlanError as error:
         for problem in error.problems:
             print(f"giraff-console: {problem}", file=sys.stderr)
+        return EXIT_USAGE
+    except MarkError as error:
+        for issue in error.issues:
+            print(f"giraff-console: {args.map}: {issue.detail}", file=sys.stderr)
         return EXIT_USAGE
     except SegmentationError as error:
         print(f"giraff-console: {args.map}: {error}", file=sys.stderr)
@@ -338,3 +355,23 @@ def run_floorplan_rooms(args: argparse.Namespace) -> int:
         print(f"wrote {grid_image}: the grid of {args.map}, {made_as}")
     print(f"wrote {picture}: the rooms found, to check and name")
     return 0
+
+
+def _marks(given: list[str]) -> list[tuple[str, tuple[float, float]]] | None:
+    """The --mark options as names and points; None, said in a line each, if any is not
+    NAME=X,Y with X and Y finite numbers."""
+    marks = []
+    for text in given:
+        name, _, where = text.partition("=")
+        parts = where.split(",")
+        try:
+            x, y = (float(part) for part in parts)
+        except ValueError:
+            x = y = math.nan
+        if not (name and math.isfinite(x) and math.isfinite(y)):
+            said = (f"--mark {text}: give NAME=X,Y, the room's name and a point in it in "
+                    "metres, as the map's origin counts them")  # fmt: skip
+            print(f"giraff-console: {said}", file=sys.stderr)
+            return None
+        marks.append((name, (x, y)))
+    return marks

@@ -9,21 +9,26 @@ heights the free space falls apart into pieces at the doorways, one piece to a r
 
 The rooms are found on the grid the plan will use: the map cropped to its floor and
 cleared of specks (scan_grid.py), with unknown space not free, since the robot has not
-seen it. Here the cut rises one cell at a time, from the least clearance the route
-planner leaves the robot (its radius and CLEARANCE_M; narrower space is no room for it)
-upwards. Where a piece splits into two, each is a room of its own only if it rises well
-clear of the split (`PROMINENCE_M`) and the split is narrow next to it
-(`SADDLE_RATIO`): a doorway between rooms is, a gap between an armchair and a bed is
-not. Each room's piece, taken where it split off, seeds a watershed flood of the
-transform that grows it back over the whole free space, so that neighbouring rooms meet
-at the narrowest cross-section between them: the doorway (room_doors.py). Rooms too
-small to be rooms (`MIN_ROOM_M2`) are flooded by their neighbours instead, and rooms the
-planner cannot take the robot to from the rest are left out.
+seen it, and with the furniture standing on the floor taken for floor (floor_as_built.py,
+issue 29): furniture makes no rooms, and the floor among it is its room's. The cut
+rises from the least clearance the route planner leaves the robot (its radius and
+CLEARANCE_M; narrower space is no room for it) upwards; where a piece splits into two,
+each is a room of its own only if it rises well clear of the split (room_seeds.py): a
+doorway between rooms is, a gap between an armchair and a bed is not. Each room's piece,
+taken where it split off, seeds a watershed flood of the transform that grows it back
+over the whole free space, so that neighbouring rooms meet at the narrowest
+cross-section between them: the doorway (room_doors.py). A cut no person would call a
+door (wider than a double door, or across a corridor) joins its two rooms
+(room_openings.py). Rooms too small to be rooms (`MIN_ROOM_M2`, in the floor the scan
+shows) are flooded by their neighbours instead, and rooms the planner cannot take the
+robot to from the rest are left out. Rooms are named by the operator's marks
+(room_marks.py), the rest room-N.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -31,8 +36,9 @@ import cv2
 import numpy as np
 
 from giraff_console.planning.defaults import MIN_ROOM_M2
+from giraff_console.planning.floor_as_built import floor_as_built
 from giraff_console.planning.floorplan import Door, Point
-from giraff_console.planning.grid import FREE, OccupancyGrid
+from giraff_console.planning.grid import FREE, OCCUPIED, OccupancyGrid
 from giraff_console.planning.plan_writing import MadePlan, millimetres
 from giraff_console.planning.room_doors import (
     Cells,
@@ -42,15 +48,18 @@ from giraff_console.planning.room_doors import (
     least_clearance,
     passable,
 )
+from giraff_console.planning.room_marks import (
+    Mark,
+    MarkIssue,
+    check_names,
+    marked_rooms,
+    room_names,
+)
+from giraff_console.planning.room_openings import join_openings
+from giraff_console.planning.room_seeds import FINE_M, heights, room_seeds
 from giraff_console.planning.route_planner import CLEARANCE_M, ROBOT_RADIUS_M
 from giraff_console.planning.scan_grid import CROP_MARGIN_M, SPECK_M2, SPECK_SIDE_M, clean_grid
 
-# A piece of free space that splits off is a room when its widest point is at least this
-# much wider (in clearance, metres) than the split, and the split at most this fraction
-# of it. A 0.9 m doorway (0.45 m clearance) off a 2 m corridor (1 m) is 0.55 m and 0.45;
-# furniture leaves bays with a split 0.1 to 0.2 m and 0.8 or more below their middle.
-PROMINENCE_M = 0.15
-SADDLE_RATIO = 0.7
 # Rooms whose centres lie within this of each other, top to bottom, are in one row when
 # they are named in reading order.
 ROW_GAP_M = 1.0
@@ -59,6 +68,14 @@ _CONNECTED = np.ones((3, 3), dtype=bool)  # eight neighbours: a room is one piec
 
 class SegmentationError(ValueError):
     """A map with nothing to segment; the message says why, in one line."""
+
+
+class MarkError(SegmentationError):
+    """Marks that cannot name the rooms found: each issue typed, with its own line."""
+
+    def __init__(self, issues: Sequence[MarkIssue]) -> None:
+        self.issues = tuple(issues)
+        super().__init__("; ".join(issue.detail for issue in self.issues))
 
 
 @dataclass(frozen=True)
@@ -74,7 +91,7 @@ class Segmentation:
     grid: OccupancyGrid  # the map's grid cropped and cleaned, as the plan is to use it
     redrawn: bool  # whether `grid` differs from the map's, and so is written in its place
     labels: np.ndarray  # int32 per cell: a room's label, 0 for no room
-    rooms: tuple[FoundRoom, ...]  # in reading order: room-1 top left
+    rooms: tuple[FoundRoom, ...]  # in reading order, top left first; marked or room-N
     doors: tuple[Door, ...]
     start: str  # the room with the most doors, where the robot is best placed to start
     notes: tuple[str, ...]  # what was changed or left out, for the operator to know
@@ -85,11 +102,17 @@ def segment_rooms(
     robot_radius: float = ROBOT_RADIUS_M,
     min_area: float = MIN_ROOM_M2,
     cropped: bool = False,
+    marks: Sequence[Mark] = (),
 ) -> Segmentation:
     """The rooms of `grid` and the doors between them, found on `grid` cleaned of specks
     (scan_grid.py), which the Segmentation holds; SegmentationError if there is no room,
     or if the robot cannot be planned between any two rooms of several. `cropped` says
-    that `grid` is already a crop of the map's (read_scan), and so differs from it."""
+    that `grid` is already a crop of the map's (read_scan), and so differs from it.
+    `marks` name rooms (room_marks.py): the room holding each mark's point is named by
+    it; MarkError, listing every mark that cannot, if any cannot."""
+    bad_names = check_names(marks)
+    if bad_names:
+        raise MarkError(bad_names)
     if not (grid.cells == FREE).any():
         raise SegmentationError("no free cell in the map: nothing to segment")
     cleaned = clean_grid(grid)
@@ -102,12 +125,21 @@ def segment_rooms(
             f"no free space wide enough for the robot ({robot_radius:g} m radius): the "
             f"route planner needs {_way(robot_radius):g} m: nothing to segment"
         )
-    seeds = _seeds(clearance, least, grid.resolution)
+    # Rooms are found on the floor as built, furniture taken away (floor_as_built.py),
+    # and each keeps the scan's free floor among its furniture.
+    built = floor_as_built(grid)
+    built_clearance = _clearance(built, grid.resolution)
+    seeds = room_seeds(built_clearance, least, grid.resolution)
     min_cells = min_area / grid.resolution**2
+    walls = (grid.cells == OCCUPIED) & ~built  # occupied cells, not furniture
     while True:
-        labels = _flood(clearance, floor, seeds, grid.resolution)
-        areas = np.bincount(labels.ravel(), minlength=seeds.max() + 1)
-        small = [label for label in range(1, len(areas)) if 0 < areas[label] < min_cells]
+        flooded = _flood(built_clearance, built, seeds, grid.resolution)
+        room_of = join_openings(flooded, built_clearance, walls, grid.resolution)
+        labels = np.where(floor, room_of[flooded], 0)
+        # Small in the floor the scan shows: a room all furniture is no room either.
+        areas = np.bincount(labels.ravel(), minlength=len(room_of))
+        present = np.unique(seeds)
+        small = [int(seed) for seed in present[present > 0] if areas[room_of[seed]] < min_cells]
         if not small:
             break
         seeds[np.isin(seeds, small)] = 0
@@ -130,7 +162,7 @@ def segment_rooms(
         changes += ["cleared of those specks"] * (cleaned.specks > 0)
         notes.append(f"the grid written with the plan is the map {' and '.join(changes)}; "
                      "the map itself is unchanged")  # fmt: skip
-    return _plan(grid, redrawn, labels, clearance, robot_radius, notes)
+    return _plan(grid, redrawn, labels, clearance, robot_radius, notes, marks)
 
 
 def _way(robot_radius: float) -> float:
@@ -150,67 +182,6 @@ def _clearance(free: np.ndarray, resolution: float) -> np.ndarray:
     return distance[1:-1, 1:-1].astype(np.float64) * resolution
 
 
-def _seeds(clearance: np.ndarray, least: float, step: float) -> np.ndarray:
-    """One seed per room, numbered from 1: the piece of the cut through the clearance
-    where it split off from its neighbours, or, for a piece that never splits, the whole
-    of it at the least clearance the robot needs (`least`).
-
-    The cut falls one cell at a time from the top. Each piece at one height holds the
-    pieces of the height above it; where it holds several, those rising far enough above
-    it (`_stands_out`) are rooms of their own, along with the highest, and each is seeded
-    with what it was just above the split. A piece that has split already has its rooms
-    seeded, and the rest are bumps of the highest: they join it."""
-    seeds = np.zeros(clearance.shape, dtype=np.int32)
-    heights = np.arange(least, clearance.max(), step)
-    above: np.ndarray | None = None  # the pieces at the last height, and for each:
-    above_peaks: list[tuple[float, tuple[int, int]]] = []  # its highest clearance and cell
-    above_split: list[bool] = []  # whether it holds several rooms
-    for height in heights[::-1]:
-        count, pieces = cv2.connectedComponents((clearance > height).astype(np.uint8),
-                                                connectivity=8, ltype=cv2.CV_32S)  # fmt: skip
-        peaks = _peaks(clearance, pieces, count)
-        holds: dict[int, list[int]] = {}
-        for piece, (_, cell) in enumerate(above_peaks, start=1):
-            holds.setdefault(int(pieces[cell]), []).append(piece)
-        split = [False] * count
-        for piece in range(1, count):
-            inner = sorted(holds.get(piece, []), key=lambda p: -above_peaks[p - 1][0])
-            rooms = inner[:1] + [p for p in inner[1:] if _stands_out(above_peaks[p - 1][0], height)]
-            if len(rooms) > 1:
-                split[piece] = True
-                for room in rooms:
-                    if not above_split[room - 1]:
-                        assert above is not None
-                        seeds[(above == room) & (seeds == 0)] = seeds.max() + 1
-            elif inner:
-                split[piece] = above_split[inner[0] - 1]
-        above, above_peaks, above_split = pieces, peaks, split[1:]
-    if above is not None:
-        for piece, was_split in enumerate(above_split, start=1):
-            if not was_split:
-                seeds[above == piece] = seeds.max() + 1
-    return seeds
-
-
-def _peaks(clearance: np.ndarray, pieces: np.ndarray,
-           count: int) -> list[tuple[float, tuple[int, int]]]:  # fmt: skip
-    """Each piece's highest clearance and a cell where it is that high, pieces 1 on."""
-    rows, cols = np.nonzero(pieces)
-    piece, height = pieces[rows, cols], clearance[rows, cols]
-    tops = np.zeros(count)
-    np.maximum.at(tops, piece, height)
-    top = height == tops[piece]
-    _, first = np.unique(piece[top], return_index=True)
-    rows, cols = rows[top][first], cols[top][first]
-    return [(float(tops[i + 1]), (int(rows[i]), int(cols[i]))) for i in range(count - 1)]
-
-
-def _stands_out(peak: float, split: float) -> bool:
-    """Whether a piece whose clearance rises to `peak` is a room apart from the piece it
-    meets at `split`, rather than a bay of it."""
-    return peak - split >= PROMINENCE_M and split <= SADDLE_RATIO * peak
-
-
 def _flood(clearance: np.ndarray, floor: np.ndarray, seeds: np.ndarray,
            step: float) -> np.ndarray:  # fmt: skip
     """Each floor cell labelled with the seed whose flood reaches it first; 0 for cells
@@ -224,7 +195,12 @@ def _flood(clearance: np.ndarray, floor: np.ndarray, seeds: np.ndarray,
     one height to whichever flood it happened to take first, in bands round a building.)
     """
     labels = seeds.astype(np.uint16)  # cv2.dilate takes no int32; no building has 65535 rooms
-    for height in np.arange(clearance.max(), -step, -step):
+    top = float(clearance.max())
+    # Below FINE_M, a step at a time down from the top, as the cut (not on multiples of
+    # the step, where cells' clearances fall on the line, and the floods' order with them).
+    fine = np.arange(top, -step, -step)
+    coarse = heights(FINE_M, top, step)[::-1] if top > FINE_M else np.array([])
+    for height in np.concatenate([coarse, fine[fine < FINE_M]]):
         open_ = floor & (clearance >= height)
         while True:
             reached = cv2.dilate(labels, _CONNECTED.astype(np.uint8))
@@ -236,7 +212,8 @@ def _flood(clearance: np.ndarray, floor: np.ndarray, seeds: np.ndarray,
 
 
 def _plan(grid: OccupancyGrid, redrawn: bool, labels: np.ndarray, clearance: np.ndarray,
-          robot_radius: float, notes: list[str]) -> Segmentation:  # fmt: skip
+          robot_radius: float, notes: list[str],
+          marks: Sequence[Mark]) -> Segmentation:  # fmt: skip
     """Put a door in every doorway between two rooms that the robot can be planned
     through, leave out the rooms it could not be planned to from the rest, and name the
     rooms left."""
@@ -263,7 +240,10 @@ def _plan(grid: OccupancyGrid, redrawn: bool, labels: np.ndarray, clearance: np.
                      f"{_way(robot_radius):g} m wide): {where}{more}")  # fmt: skip
         labels = np.where(np.isin(labels, left_out), 0, labels)
     order = _reading_order(grid, {label: cells[label] for label in joined})
-    names = {label: f"room-{number}" for number, label in enumerate(order, start=1)}
+    named, issues = marked_rooms(grid, labels, marks)
+    if issues:
+        raise MarkError(issues)
+    names = room_names(order, named)
     rooms = tuple(FoundRoom(names[label], points[label], label, sizes[label] * area)
                   for label in order)  # fmt: skip
     rank = {label: number for number, label in enumerate(order)}
@@ -309,8 +289,9 @@ def _centre(grid: OccupancyGrid, rows: np.ndarray, cols: np.ndarray) -> Point:
 
 def _at(grid: OccupancyGrid, cells: Cells, clearance: np.ndarray) -> Point:
     """The centre of the room's cell furthest from any wall; of several as far (within
-    half a cell), the one nearest the room's middle."""
-    rows, cols = cells
+    half a cell), the one nearest the room's middle. Only its main floor counts: floor
+    shut in among its furniture is the room's too, but the robot cannot get there."""
+    rows, cols = _main_floor(cells)
     room = clearance[rows, cols]
     best = room >= room.max() - grid.resolution / 2
     rows, cols = rows[best], cols[best]
@@ -318,6 +299,20 @@ def _at(grid: OccupancyGrid, cells: Cells, clearance: np.ndarray) -> Point:
     i = int(np.argmin(middle))
     x, y = grid.centre_of(int(rows[i]), int(cols[i]))
     return millimetres(x), millimetres(y)
+
+
+def _main_floor(cells: Cells) -> Cells:
+    """The biggest piece of the room's cells, joined diagonally too."""
+    rows, cols = cells
+    top, left = int(rows.min()), int(cols.min())
+    drawn = np.zeros((int(rows.max()) - top + 1, int(cols.max()) - left + 1), np.uint8)
+    drawn[rows - top, cols - left] = 1
+    count, pieces = cv2.connectedComponents(drawn, connectivity=8)
+    if count <= 2:
+        return cells
+    piece = pieces[rows - top, cols - left]
+    biggest = int(np.argmax(np.bincount(piece)[1:])) + 1
+    return rows[piece == biggest], cols[piece == biggest]
 
 
 def scan_plan(segmentation: Segmentation, source: Path, name: str) -> MadePlan:
@@ -341,8 +336,9 @@ def scan_plan(segmentation: Segmentation, source: Path, name: str) -> MadePlan:
         "start": segmentation.start,
     }
     header = (
-        f"# Rooms found in {source.name} by `giraff-console floorplan rooms`: named room-1,\n"
-        "# room-2, ... as a page is read, from the top left. Rename them as you like.\n"
+        f"# Rooms found in {source.name} by `giraff-console floorplan rooms`: named by the\n"
+        "# marks given, the rest room-1, room-2, ... as a page is read, from the top left.\n"
+        "# Rename them as you like.\n"
     )
     drawn = segmentation.grid if segmentation.redrawn else None
     return MadePlan(source, plan, list(segmentation.notes), header, drawn)

@@ -17,10 +17,11 @@ from tests.buildings.console import console
 from tests.planning.test_rmf_buildings import off_free_cells
 
 # Rooms and doors each comes out with: the clinic's 20 named vertices and its doors and
-# passages; the home's 12 rooms drawn, its utility room split in two by what stands in
-# it; the wings' 39 rooms written.
-ROOMS = {"rmf_clinic": 20, "scanned_home": 13, "walled_wing": 39}
-DOORS = {"rmf_clinic": 21, "scanned_home": 13, "walled_wing": 39}
+# passages; the home's 12 rooms drawn (until issue 29 its utility room came out split in
+# two by the washing machines standing in it: furniture makes no rooms now); the wings'
+# 39 rooms written.
+ROOMS = {"rmf_clinic": 20, "scanned_home": 12, "walled_wing": 39}
+DOORS = {"rmf_clinic": 21, "scanned_home": 12, "walled_wing": 39}
 
 
 @pytest.fixture(scope="module", params=list(BUILDINGS))
