@@ -126,8 +126,12 @@ def judge_plan(plan: FloorPlan, truth: FloorPlan, teaching: Teaching) -> dict:
     real = RoutePlanner(truth, walls_of(truth))
     named_right = [name for name in teaching.tour if name in plan.rooms
                    and real.room_at(plan.rooms[name].at) == name]  # fmt: skip
-    return {"rooms": len(plan.rooms), "real_rooms": teaching.real_rooms,
-            "named_right": len(named_right), "marked_rooms": len(set(teaching.tour))}
+    return {
+        "rooms": len(plan.rooms),
+        "real_rooms": teaching.real_rooms,
+        "named_right": len(named_right),
+        "marked_rooms": len(set(teaching.tour)),
+    }
 
 
 def judge_map(out: Path, truth: FloorPlan) -> dict:
@@ -142,7 +146,7 @@ def judge_map(out: Path, truth: FloorPlan) -> dict:
     t_cols = np.floor((xs - grid.origin[0]) / grid.resolution).astype(int)
     inside = (t_rows >= 0) & (t_rows < grid.shape[0]) & (t_cols >= 0) & (t_cols < grid.shape[1])
     off = near[t_rows[inside], t_cols[inside]]
-    return {"occupied_cells": int(len(rows)),
+    return {"occupied_cells": len(rows),
             "within_5cm": float((off <= 0.05).mean()) if len(off) else 0.0,
             "within_10cm": float((off <= 0.10).mean()) if len(off) else 0.0}  # fmt: skip
 

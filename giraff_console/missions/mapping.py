@@ -94,9 +94,7 @@ class MappingRun:
         self.note = note
         self.after = after
         self.trail = PoseTrail()
-        self._waiting: collections.deque[tuple[Scan, float]] = collections.deque(
-            maxlen=MAX_WAITING
-        )
+        self._waiting: collections.deque[tuple[Scan, float]] = collections.deque(maxlen=MAX_WAITING)
         self._ready = threading.Condition()
         self._lock = threading.Lock()
         # The builder's grid grows on this run's thread; it is read on others.

@@ -69,6 +69,9 @@ CLEAR_NO_HIT_M = 4.0
 # Neighbouring beams further apart than this leave the floor between them alone: a
 # sensor's blind sector, or readings it dropped.
 MAX_BEAM_GAP = math.radians(5.0)
+# Neighbouring beams whose ranges differ by more than this share of the nearer (and at
+# least MAX_DEPTH_STEP_M) end on two surfaces, one behind the other (`_stepped`).
+MAX_DEPTH_STEP, MAX_DEPTH_STEP_M = 0.2, 0.2
 # Log-odds in hundredths: a hit, a beam through, and their bound. One hit makes a cell
 # occupied; four beams through it make it free. A miss weighs less than a hit because a
 # wall's cells are grazed by beams drawn at poses a few centimetres off: at -75 a miss,
@@ -318,8 +321,8 @@ class MapBuilder:
         # The polygon's corners a cell short of each hit (see the module's note).
         length = np.hypot(points[:, 0], points[:, 1])
         short = np.where(hit, np.maximum(length - self.resolution, 0.0), length)
-        scale = np.divide(short, length, out=np.zeros_like(length), where=length > 0)
-        fx, fy = points[:, 0] * scale, points[:, 1] * scale
+        reach, bearing = _stepped(short, bearing, length)
+        fx, fy = reach * np.cos(bearing), reach * np.sin(bearing)
         xs = np.append(pose.x + c * fx - s * fy, pose.x)
         ys = np.append(pose.y + s * fx + c * fy, pose.y)
         rows, cols = self._window(xs, ys, BODY_RADIUS_M + self.resolution)
@@ -379,6 +382,35 @@ def _fans(corners: np.ndarray, centre: tuple[int, int], bearing: np.ndarray) -> 
     order = np.roll(np.arange(count), -after)
     runs = np.split(order, np.flatnonzero(gap[order][:-1]) + 1)
     return [np.vstack([centre, corners[run]]).astype(np.int32) for run in runs if len(run) > 1]
+
+
+def _stepped(reach: np.ndarray, bearing: np.ndarray,
+             ranges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """The free floor's outline, (distance, bearing) of each corner: the beams' ends
+    (`reach` along each `bearing`), and where two neighbours' `ranges` step by more than
+    MAX_DEPTH_STEP, a corner between them on the farther beam at the nearer one's reach.
+
+    A step in range is an edge in the world (a door's jamb, a wardrobe's corner), and
+    the straight line from the near end to the far one runs behind the near surface,
+    often along a wall seen edge-on: filling up to it cleared that wall's cells scan
+    after scan (a wall beside a doorway the robot drove past was lost). With the corner
+    added the outline goes across the gap at the nearer range, then out along the
+    farther beam, which is free floor."""
+    if len(ranges) < 2:
+        return reach, bearing
+    following = np.roll(ranges, -1)
+    step = np.abs(following - ranges) > np.maximum(
+        MAX_DEPTH_STEP_M, MAX_DEPTH_STEP * np.minimum(ranges, following)
+    )
+    step[-1] = False  # the outline closes from the last beam to the first as it is
+    after = np.flatnonzero(step)
+    if not len(after):
+        return reach, bearing
+    nearer_first = ranges[after] < following[after]
+    corner_bearing = np.where(nearer_first, bearing[after + 1], bearing[after])
+    corner_reach = np.minimum(reach[after], reach[after + 1])
+    at = after + 1  # inserted before the beam after the step
+    return np.insert(reach, at, corner_reach), np.insert(bearing, at, corner_bearing)
 
 
 def _spacing(bearing: np.ndarray) -> float:

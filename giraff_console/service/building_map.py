@@ -76,8 +76,9 @@ class BuildingMap:
 
     def start(self) -> Reply:
         if self.sensor is None:
-            return Reply(False, "map: no range sensor: set [lidar] port in the settings, or "
-                                "--lidar PORT (with --sim, --lidar alone simulates one)")  # fmt: skip
+            return Reply(False, "map: no range sensor: set [lidar] port in the settings, "
+                                "or --lidar PORT (with --sim, --lidar alone simulates "
+                                "one)")  # fmt: skip
         if self.navigator is None:
             return Reply(False, "map: no floor plan to start from (--floorplan FILE)")
         with self._lock:
@@ -118,9 +119,10 @@ class BuildingMap:
         self.tell(PlanChanged(made.plan.path))
         self.tell(RouteShown.of(navigator.state))
         rooms = ", ".join(made.plan.rooms)
-        return Reply(True, f"map saved: {made.plan.path}, {len(made.plan.rooms)} rooms ({rooms}); "
-                           "`go ROOM` plans on it now",
-                     lines=tuple(f"wrote {path}" for path in made.written) + made.notes)  # fmt: skip
+        wrote = tuple(f"wrote {path}" for path in made.written)
+        return Reply(True, f"map saved: {made.plan.path}, {len(made.plan.rooms)} rooms "
+                           f"({rooms}); `go ROOM` plans on it now",
+                     lines=wrote + made.notes)  # fmt: skip
 
     def discard(self) -> Reply:
         run = self.run

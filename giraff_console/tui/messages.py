@@ -5,10 +5,10 @@ from __future__ import annotations
 from textual.message import Message
 
 from giraff_console.camera.feed import CameraPicture
-from giraff_console.service import commands as c
-from giraff_console.service.daemon import Welcome
 from giraff_console.planning.floorplan import FloorPlan
 from giraff_console.planning.grid import OccupancyGrid
+from giraff_console.service import commands as c
+from giraff_console.service.daemon import Welcome
 from giraff_console.service.events import Controls, Reply, RoomRenamed, RouteShown
 from giraff_console.service.vocabulary import Exchange, Telemetry
 

@@ -61,7 +61,9 @@ FREE, OCCUPIED, UNKNOWN = 254, 0, 205
 
 
 def _cell(x: float, y: float, rows: int) -> tuple[int, int]:
-    return rows - 1 - math.floor((y - ORIGIN[1]) / RESOLUTION), math.floor((x - ORIGIN[0]) / RESOLUTION)
+    return rows - 1 - math.floor((y - ORIGIN[1]) / RESOLUTION), math.floor(
+        (x - ORIGIN[0]) / RESOLUTION
+    )
 
 
 def flat_image() -> np.ndarray:

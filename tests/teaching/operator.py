@@ -150,7 +150,11 @@ def _look_ahead(way: list[Point], at: Point, reach: float) -> Point:
         (ax, ay), (bx, by) = way[i], way[i + 1]
         dx, dy = bx - ax, by - ay
         length2 = dx * dx + dy * dy
-        s = 0.0 if length2 == 0 else max(0.0, min(1.0, ((at[0] - ax) * dx + (at[1] - ay) * dy) / length2))
+        s = (
+            0.0
+            if length2 == 0
+            else max(0.0, min(1.0, ((at[0] - ax) * dx + (at[1] - ay) * dy) / length2))
+        )
         d = math.dist(at, (ax + s * dx, ay + s * dy))
         if d < best_d:
             best, best_d, best_s = i, d, s
