@@ -9,7 +9,11 @@ one core) for three readers of the same bytes:
   samples assembled into revolutions in the robot's frame, the latest kept;
 - bare package: adafruit_rplidar's own `iter_measurements` loop, each sample decoded
   and dropped, no assembly (the peer: what the package costs by itself);
-- raw bytes: the pty read in 4 KiB chunks, nothing decoded (the floor).
+- raw bytes: the pty read in 4 KiB chunks, nothing decoded (the floor);
+- reader + mapping: the reader, and every revolution laid into a map as `map` does
+  (missions/mapping.py: the pose trail, the map builder with its scan matcher), the
+  robot standing in the simulator's building (issue 29: "mapping keeps up with the
+  sensor ... using <= 20 % of a core").
 
 Each line also gives the samples a second that reached the reader, to show it kept up.
 
@@ -29,8 +33,12 @@ from pathlib import Path
 
 from adafruit_rplidar import SCAN_TYPE_NORMAL
 
+from giraff_console.clock import RealClock
 from giraff_console.lidar.device import RplidarDevice, open_named
 from giraff_console.lidar.reader import LidarReader
+from giraff_console.missions.mapping import MappingRun
+from giraff_console.planning.map_building import MapBuilder
+from giraff_console.robot.odometry import Pose
 
 PLAN = Path(__file__).resolve().parent.parent / "tests" / "lidar" / "two_rooms.yaml"
 CONFIGS = ((5.5, 360), (10.0, 400))
@@ -75,6 +83,32 @@ def by_reader(path: str) -> Callable[[float], int]:
     return run
 
 
+def by_reader_mapping(path: str) -> Callable[[float], int]:
+    def run(seconds: float) -> int:
+        laid = [0]
+        reader = LidarReader(open_named(path, 115200, 1.0), path)
+        mapping = MappingRun(MapBuilder(), RealClock(), lambda text: None,
+                             after=lambda run: laid.__setitem__(0, run.status().scans))  # fmt: skip
+        reader.subscribe(mapping.scan)
+        reader.start()
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:  # the loop's poses at 20 Hz: standing still
+            mapping.pose(time.monotonic(), Pose(0.0, 0.0, 0.0), 0.01)
+            time.sleep(0.05)
+        reader.close()
+        mapping.close()
+        return laid[0] * samples_of(path)
+
+    return run
+
+
+def samples_of(path: str) -> int:
+    return SAMPLES_BY_PATH.get(path, 0)
+
+
+SAMPLES_BY_PATH: dict[str, int] = {}
+
+
 def by_bare_package(path: str) -> Callable[[float], int]:
     def run(seconds: float) -> int:
         device = RplidarDevice(open_named(path, 115200, 1.0), path, 115200, 1.0)
@@ -110,15 +144,17 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--seconds", type=float, default=6.0)
     args = parser.parse_args()
-    print(f"{'sensor':<16}{'reader':<14}{'% of a core':>12}{'samples/s':>11}")
+    print(f"{'sensor':<16}{'reader':<18}{'% of a core':>12}{'samples/s':>11}")
     for rate, samples in CONFIGS:
         process, path = start_sim(rate, samples)
+        SAMPLES_BY_PATH[path] = samples
         try:
             for name, make in (("reader", by_reader), ("bare package", by_bare_package),
-                               ("raw bytes", by_raw_bytes)):  # fmt: skip
+                               ("raw bytes", by_raw_bytes),
+                               ("reader + mapping", by_reader_mapping)):  # fmt: skip
                 time.sleep(0.3)  # the sensor quiet again after the last reader's STOP
                 core, rate_seen = measured(make(path), args.seconds)
-                print(f"{f'{rate:g} Hz x {samples}':<16}{name:<14}{core:>11.1f}%"
+                print(f"{f'{rate:g} Hz x {samples}':<16}{name:<18}{core:>11.1f}%"
                       f"{rate_seen:>11.0f}")  # fmt: skip
         finally:
             process.terminate()

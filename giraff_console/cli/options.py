@@ -51,6 +51,14 @@ def add_board_options(parser: argparse.ArgumentParser, example: Path, *,
         "it can (default: 1)",
     )  # fmt: skip
     parser.add_argument(
+        "--sim-building", type=Path, default=default(None), metavar="FILE",
+        help="put the simulated robot in FILE's building (its walls, furniture, doors, "
+        "markers, and its dock to start on) instead of the console's floor plan's: a "
+        "building the console is to map, or the one a plan was mapped from. The console "
+        "still plans on its own floor plan, whose start room is where it takes the robot "
+        "to stand",
+    )  # fmt: skip
+    parser.add_argument(
         "--lidar", metavar="PORT", nargs="?", const=SIMULATED_LIDAR, default=default(None),
         help="a Slamtec RPLIDAR's serial device or pyserial URL, for the obstacles in the "
         "way (default: the settings file's [lidar] port); with --sim and no PORT, the "
@@ -138,14 +146,6 @@ def add_robot_options(parser: argparse.ArgumentParser, example: Path, *,
         "--sim-markers", type=Path, metavar="FILE",
         help="hang FILE's markers (a floor plan's landmarks) in the simulated building "
         "instead of the plan's: a plan without them, or surveyed, against the true ones",
-    )  # fmt: skip
-    parser.add_argument(
-        "--sim-building", type=Path, metavar="FILE",
-        help="put the simulated robot in FILE's building (its walls, furniture, doors, "
-        "markers, and its dock to start on) instead of the console's floor plan's: a "
-        "building the console is to map, or the one a plan was mapped from. The console "
-        "still plans on its own floor plan, whose start room is where it takes the robot "
-        "to stand",
     )  # fmt: skip
     parser.add_argument(
         "--eye-fps", type=float, metavar="F",
