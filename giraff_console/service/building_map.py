@@ -84,6 +84,7 @@ class BuildingMap:
         with self._lock:
             if self.run is not None:
                 return Reply(False, "map: mapping already; `map save NAME` or `map discard`")
+            self._drawn_at, self._drawn_revision = -math.inf, -1
             run = self.run = MappingRun(MapBuilder(), self.control.clock, self.control.note,
                                         after=self._laid_in)  # fmt: skip
         self.control.subscribe(self._heard)
@@ -110,12 +111,17 @@ class BuildingMap:
         try:
             marks = [(mark.name, mark.at) for mark in status.marks]
             made = write_mapped_plan(run.grid(), marks, navigator.start_pose, to)
+            walls = walls_of(made.plan)
         except MappedPlanError as error:
             return Reply(False, f"map save: nothing written: {error}; still mapping")
+        except OSError as error:  # the grid just written cannot be read back
+            return Reply(False, f"map save: {made.plan.path} written, but its grid cannot "
+                                f"be read: {error}; still mapping")  # fmt: skip
         self._end(run)
-        pose = run.corrected(self.control.pose)
-        navigator.use_building(made.plan, walls_of(made.plan))
-        self.control.between_ticks(lambda: self.control.place(pose, PoseBasis.GIVEN))
+        navigator.use_building(made.plan, walls)
+        control = self.control
+        # Where the map has the robot, on the loop's thread: the pose of that tick.
+        control.between_ticks(lambda: control.place(run.corrected(control.pose), PoseBasis.GIVEN))
         self.tell(PlanChanged(made.plan.path))
         self.tell(RouteShown.of(navigator.state))
         rooms = ", ".join(made.plan.rooms)
