@@ -33,7 +33,9 @@ from giraff_console.planning.map_saving import MapSaveError, save_ros_map
 from giraff_console.planning.output_files import OutputError, check_outputs
 from giraff_console.planning.plan_writing import millimetres, write_floorplan
 from giraff_console.planning.room_picture import draw_rooms, encode_png
+from giraff_console.planning.room_marks import MarkProblem
 from giraff_console.planning.room_segmentation import (
+    MarkError,
     Segmentation,
     SegmentationError,
     scan_plan,
@@ -82,7 +84,7 @@ def write_mapped_plan(grid: OccupancyGrid, marks: Sequence[tuple[str, Point]],
     written = [map_path, image]
     try:
         scan = read_scan(map_path)
-        found = segment_rooms(scan.grid, robot_radius, cropped=scan.cropped, marks=marks)
+        found, unused = _segmented(scan.grid, scan.cropped, marks, robot_radius)
         made = scan_plan(found, map_path, f"Mapped by driving round ({plan_path.stem})")
         start = _start_room(found, dock)
         if start is not None and dock is not None:
@@ -99,7 +101,25 @@ def write_mapped_plan(grid: OccupancyGrid, marks: Sequence[tuple[str, Point]],
             path.unlink(missing_ok=True)
         raise MappedPlanError(_said(error)) from None
     notes = tuple(f"{map_path.name}: {note}" for note in (*scan.notes, *found.notes))
-    return MappedPlan(plan, tuple(written), notes)
+    return MappedPlan(plan, tuple(written), unused + notes)
+
+
+def _segmented(grid: OccupancyGrid, cropped: bool, marks: Sequence[tuple[str, Point]],
+               robot_radius: float) -> tuple[Segmentation, tuple[str, ...]]:  # fmt: skip
+    """The rooms found, named by `marks`; a mark that falls in a room marked before it,
+    or on no room, is left out and said so (the map has no wall where the operator saw
+    one, or the robot stood in a doorway): the plan is still made, its other names kept,
+    rather than the whole drive's map refused."""
+    try:
+        return segment_rooms(grid, robot_radius, cropped=cropped, marks=marks), ()
+    except MarkError as error:
+        placeable = (MarkProblem.SAME_ROOM, MarkProblem.OFF_ROOMS)
+        if not all(issue.problem in placeable for issue in error.issues):
+            raise
+        dropped = {issue.name for issue in error.issues}
+        kept = [mark for mark in marks if mark[0] not in dropped]
+        notes = tuple(f"not named: {issue.detail}" for issue in error.issues)
+        return segment_rooms(grid, robot_radius, cropped=cropped, marks=kept), notes
 
 
 def _start_room(found: Segmentation, dock: Pose | None) -> str | None:
