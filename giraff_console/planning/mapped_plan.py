@@ -32,8 +32,8 @@ from giraff_console.planning.grid import OccupancyGrid
 from giraff_console.planning.map_saving import MapSaveError, save_ros_map
 from giraff_console.planning.output_files import OutputError, check_outputs
 from giraff_console.planning.plan_writing import millimetres, write_floorplan
-from giraff_console.planning.room_picture import draw_rooms, encode_png
 from giraff_console.planning.room_marks import MarkProblem
+from giraff_console.planning.room_picture import draw_rooms, encode_png
 from giraff_console.planning.room_segmentation import (
     MarkError,
     Segmentation,
