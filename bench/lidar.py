@@ -87,7 +87,7 @@ def by_reader_mapping(path: str) -> Callable[[float], int]:
     def run(seconds: float) -> int:
         laid = [0]
         reader = LidarReader(open_named(path, 115200, 1.0), path)
-        mapping = MappingRun(MapBuilder(), RealClock(), lambda text: None,
+        mapping = MappingRun(MapBuilder(), RealClock(), lambda text: None, Pose(0.0, 0.0, 0.0),
                              after=lambda run: laid.__setitem__(0, run.status().scans))  # fmt: skip
         reader.subscribe(mapping.scan)
         reader.start()

@@ -263,6 +263,10 @@ class FleetSettings:
         return self.on_broker_lost == "stop"
 
 
+# The shortest range_max a lidar may be given: what it sees must reach past the robot.
+LIDAR_LEAST_RANGE_M = 2.0
+
+
 @dataclass(frozen=True)
 class LidarSettings:
     """The RPLIDAR, if the robot has one: where it is plugged in and where it sits."""
@@ -283,8 +287,12 @@ class LidarSettings:
             return "forward", "must be within 1 m of the robot's centre"
         if not abs(self.yaw) <= 180.0:
             return "yaw", "must be from -180 to 180 degrees"
-        if not 0 <= self.range_min < self.range_max <= 40.0:
-            return "range_max", "range_min and range_max must be 0 <= min < max <= 40 m"
+        if not 0.05 <= self.range_min < self.range_max <= 40.0:
+            return "range_max", "range_min and range_max must be 0.05 <= min < max <= 40 m"
+        if self.range_max < LIDAR_LEAST_RANGE_M:
+            # Nearer hits are the robot itself to the map (planning/map_building.py), and
+            # the way ahead is looked at for metres (missions/lookout.py).
+            return "range_max", f"must be at least {LIDAR_LEAST_RANGE_M:g} m"
         if not 0.05 <= self.timeout <= 10.0:
             return "timeout", "must be from 0.05 to 10 s"
         return None

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import contextlib
 import enum
+import logging
 import threading
 import time
 from collections.abc import Callable
@@ -31,6 +32,8 @@ from adafruit_rplidar import SCAN_TYPE_NORMAL, RPLidarException
 from giraff_console.lidar.device import LineSilent, Opener, RplidarDevice
 from giraff_console.lidar.scan import LidarScan, Mount, robot_beams
 from giraff_console.protocol.rplidar import SAMPLE_LEN, Health
+
+log = logging.getLogger(__name__)
 
 # Waits before opening the port again, doubling from the first to the last.
 FIRST_BACKOFF_S = 0.2
@@ -147,13 +150,19 @@ class LidarReader:
                 device = RplidarDevice(self.opener, self.name, self.baudrate,
                                        self.settings.timeout)  # fmt: skip
                 if self._healthy(device):
+                    # Scanning again: the next loss waits the shortest time first.
+                    backoff = FIRST_BACKOFF_S
                     device.start(SCAN_TYPE_NORMAL)
                     self._read_scans(device)
-                    backoff = FIRST_BACKOFF_S
             except LineSilent as error:
                 self._set_status(LidarStatus(LidarState.LOST, f"the sensor is silent: {error}"))
             except (RPLidarException, serial.SerialException, OSError, ValueError) as error:
                 self._set_status(LidarStatus(LidarState.LOST, str(error) or type(error).__name__))
+            except Exception as error:
+                # A bug (ours, or the package's): the sensor is said lost, never silently
+                # left for dead while the missions drive on without it; read again.
+                log.exception("lidar: reading failed")
+                self._set_status(LidarStatus(LidarState.LOST, f"internal error: {error!r}"))
             finally:
                 if device is not None:
                     self._let_go(device)
@@ -226,7 +235,12 @@ class LidarReader:
         with self._lock:
             listeners = list(self._listeners)
         for listener in listeners:
-            listener(scan)
+            try:
+                listener(scan)
+            except Exception:
+                # One listener's bug (mapping, say) must not stop the others' scans,
+                # nor the obstacle sensing that reads the latest.
+                log.exception("lidar: a listener failed")
 
     def _let_go(self, device: RplidarDevice) -> None:
         """Stop the scan and the motor, and close the port; a line already gone is let

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -37,6 +38,8 @@ class LidarScan:
     beams: tuple[tuple[float, float], ...]
     taken_at: float
     samples: int
+    # A lidar sees the building's walls as well as what is in the way (missions/lookout.py).
+    sees_walls: ClassVar[bool] = True
 
     @property
     def hits(self) -> list[tuple[float, float]]:

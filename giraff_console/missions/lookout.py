@@ -7,11 +7,14 @@ checked against the grid as it now is: within LOOKOUT_M of the drive under way, 
 the next one after a turn on the spot. A path mission (path_mission.py) stops and
 plans again when it is blocked.
 
-A sensor that sees the building's walls too (a 360° lidar, lidar/) would paint them into
-the grid again, a few centimetres off where the pose is a few centimetres off, and
-narrow every doorway it looks through. So a hit within KNOWN_WALL_M of what the plan's
-grid already has blocked is that wall, not an obstacle: its beam counts as seen through
-up to it, and nothing is blocked.
+A sensor that sees the building's walls too (a 360° lidar, lidar/; its scans say so,
+`sees_walls`) would paint them into the grid again, a few centimetres off where the pose
+is a few centimetres off, and narrow every doorway it looks through. So its hit within
+KNOWN_WALL_M of what the plan's grid already has blocked is that wall, not an obstacle:
+its beam counts as seen through up to it, and nothing is blocked. A sensor that sees
+only what is in the way (the simulator's range finder) has every hit counted: the
+price of the filter, an obstacle against a wall missed, is paid only where it buys
+something.
 """
 
 from __future__ import annotations
@@ -46,6 +49,10 @@ class Scan(Protocol):
     @property
     def beams(self) -> Sequence[tuple[float, float]]: ...
 
+    @property
+    def sees_walls(self) -> bool:
+        """Whether the sensor sees the building's walls as well as what is in the way."""
+
 
 Sense = Callable[[], Scan]
 
@@ -71,7 +78,7 @@ class Lookout:
         self._planned: PlannedPath | None = None
         self._leg: Leg | None = None
         self._leg_index = -1
-        self._walls = KnownWalls(navigator.walls) if navigator.walls is not None else None
+        self._walls: KnownWalls | None = None  # made when a sensor that sees walls first says
 
     def new_plan(self, planned: PlannedPath | None) -> None:
         """The mission drives a new plan (its route, for the legs' D* Lite planners)."""
@@ -84,6 +91,7 @@ class Lookout:
         scan = self.sense()
         hits: list[Point] = []
         free: list[Point] = []
+        walls = self._known_walls() if scan.sees_walls else None
         for distance, bearing in scan.beams:
             if math.isnan(distance):
                 continue  # a failed measurement (REP 117) says nothing either way
@@ -91,13 +99,18 @@ class Lookout:
             reach = distance if seen else scan.range_max
             angle = pose.heading + bearing
             end = (pose.x + reach * math.cos(angle), pose.y + reach * math.sin(angle))
-            known = seen and self._walls is not None and self._walls.near(end)
+            known = seen and walls is not None and walls.near(end)
             (hits if seen and not known else free).append(end)
         changes = self.navigator.report_obstacles(hits, (pose.x, pose.y), free)
         if changes:
             leg = self._current_leg(pose)
             if leg is not None:
                 leg.update(changes)
+
+    def _known_walls(self) -> KnownWalls | None:
+        if self._walls is None and self.navigator.walls is not None:
+            self._walls = KnownWalls(self.navigator.walls)
+        return self._walls
 
     def blocks(self, executor: Executor) -> bool:
         """Whether the grid, as it now is, blocks the path within LOOKOUT_M ahead: of

@@ -86,10 +86,13 @@ class MappingStatus:
 class MappingRun:
     """One drive through the building, mapped; safe to call from any thread."""
 
-    def __init__(self, builder: MapBuilder, clock: Clock, note: Callable[[str], None], *,
+    def __init__(self, builder: MapBuilder, clock: Clock, note: Callable[[str], None],
+                 start: Pose, *,
                  after: Callable[[MappingRun], None] = lambda run: None) -> None:  # fmt: skip
-        """`after` is called on the run's thread after each revolution laid in."""
+        """`start`: where the robot stood when mapping began (the map's dock). `after`
+        is called on the run's thread after each revolution laid in."""
         self.builder = builder
+        self.start = start
         self.clock = clock
         self.note = note
         self.after = after
@@ -168,7 +171,6 @@ class MappingRun:
                 scan, stamp = self._waiting.popleft()
             try:
                 self._lay_in(scan, stamp)
-                self.after(self)
             except Exception:
                 # A bug: the map stops growing, and the operator is told; the robot
                 # drives on as before, since mapping only listens.
@@ -178,6 +180,11 @@ class MappingRun:
                 with self._ready:
                     self._running = False
                 return
+            try:
+                self.after(self)
+            except Exception:
+                # The screens' picture failed (a listener's bug): the map grows on.
+                log.exception("mapping: telling of the map failed")
 
     def _lay_in(self, scan: Scan, stamp: float) -> None:
         pose = self.trail.at(stamp)

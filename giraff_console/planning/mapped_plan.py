@@ -29,7 +29,7 @@ import numpy as np
 
 from giraff_console.planning.floorplan import FloorPlan, FloorPlanError, Point, load_floorplan
 from giraff_console.planning.grid import OccupancyGrid
-from giraff_console.planning.map_saving import MapSaveError, save_ros_map
+from giraff_console.planning.map_saving import PRIVATE_FILE, MapSaveError, save_ros_map
 from giraff_console.planning.output_files import OutputError, check_outputs
 from giraff_console.planning.plan_writing import millimetres, write_floorplan
 from giraff_console.planning.room_marks import MarkProblem
@@ -70,36 +70,54 @@ def write_mapped_plan(grid: OccupancyGrid, marks: Sequence[tuple[str, Point]],
     """The map `grid`, saved, and the plan made of it, with the rooms at `marks`
     named and the start room at `dock`; MappedPlanError if it cannot be, with nothing
     written."""
+    if to.is_dir():
+        raise MappedPlanError(f"{to} is a folder: give the map a name (map save {to}/home)")
     plan_path, map_path, picture = mapped_files(to)
     image = map_path.with_suffix(".pgm")
+    outputs = [
+        ("the plan", plan_path),
+        ("the plan's grid", plan_path.with_suffix(".pgm")),
+        ("the map", map_path),
+        ("its image", image),
+        ("the rooms' picture", picture),
+    ]
     try:
-        check_outputs([("the plan", plan_path), ("the map", map_path), ("its image", image),
-                       ("the rooms' picture", picture)], [], False)  # fmt: skip
+        check_outputs(outputs, [], False)
     except OutputError as error:
         raise MappedPlanError(str(error)) from None
     try:
-        save_ros_map(grid, map_path)
-    except MapSaveError as error:
-        raise MappedPlanError(str(error)) from None
-    written = [map_path, image]
-    try:
-        scan = read_scan(map_path)
-        found, unused = _segmented(scan.grid, scan.cropped, marks, robot_radius)
-        made = scan_plan(found, map_path, f"Mapped by driving round ({plan_path.stem})")
-        start = _start_room(found, dock)
-        if start is not None and dock is not None:
-            made.plan["start"] = start
-            room = made.plan["rooms"][start]
-            room["at"] = [millimetres(dock.x), millimetres(dock.y)]
-            room["heading"] = round(math.degrees(dock.heading) % 360.0, 1)
-        written += write_floorplan(made, plan_path, None if found.redrawn else scan.spec)
-        picture.write_bytes(encode_png(draw_rooms(found)))
-        written.append(picture)
-        plan = load_floorplan(plan_path)
-    except (SegmentationError, FloorPlanError, OSError) as error:
-        for path in written:
+        return _written(grid, marks, dock, plan_path, map_path, picture, robot_radius)
+    except (MapSaveError, SegmentationError, FloorPlanError, OSError) as error:
+        # None of them was there before (check_outputs): none is left half made.
+        for _, path in outputs:
             path.unlink(missing_ok=True)
         raise MappedPlanError(_said(error)) from None
+
+
+def _written(grid: OccupancyGrid, marks: Sequence[tuple[str, Point]], dock: Pose | None,
+             plan_path: Path, map_path: Path, picture: Path,
+             robot_radius: float) -> MappedPlan:  # fmt: skip
+    save_ros_map(grid, map_path)
+    written = [map_path, map_path.with_suffix(".pgm")]
+    scan = read_scan(map_path)
+    found, unused = _segmented(scan.grid, scan.cropped, marks, robot_radius)
+    made = scan_plan(found, map_path, f"Mapped by driving round ({plan_path.stem})")
+    start, on_floor = _start_room(found, dock)
+    if start is not None and dock is not None:
+        made.plan["start"] = start
+        room = made.plan["rooms"][start]
+        if on_floor:
+            room["at"] = [millimetres(dock.x), millimetres(dock.y)]
+        else:
+            unused += (f"the dock ({dock.x:.2f}, {dock.y:.2f}) is not on the map's "
+                       f"floor: {start}, the start room, keeps its own point",)  # fmt: skip
+        room["heading"] = round(math.degrees(dock.heading) % 360.0, 1)
+    written += write_floorplan(made, plan_path, None if found.redrawn else scan.spec)
+    picture.write_bytes(encode_png(draw_rooms(found)))
+    written.append(picture)
+    for path in written:
+        path.chmod(PRIVATE_FILE)  # what the robot writes is its owner's alone
+    plan = load_floorplan(plan_path)
     notes = tuple(f"{map_path.name}: {note}" for note in (*scan.notes, *found.notes))
     return MappedPlan(plan, tuple(written), unused + notes)
 
@@ -122,26 +140,28 @@ def _segmented(grid: OccupancyGrid, cropped: bool, marks: Sequence[tuple[str, Po
         return segment_rooms(grid, robot_radius, cropped=cropped, marks=kept), notes
 
 
-def _start_room(found: Segmentation, dock: Pose | None) -> str | None:
-    """The room the dock is in, or nearest to it; None without a dock."""
+def _start_room(found: Segmentation, dock: Pose | None) -> tuple[str | None, bool]:
+    """The room the dock is in, or nearest to it, and whether the dock is on its floor;
+    None without a dock."""
     if dock is None:
-        return None
+        return None, False
     grid = found.grid
     rows, cols = grid.shape
     labels = found.labels
     # As grid.cell_of, without its refusal off the map: the nearest room's then.
     col = math.floor((dock.x - grid.origin[0]) / grid.resolution)
     row = rows - 1 - math.floor((dock.y - grid.origin[1]) / grid.resolution)
-    if 0 <= row < rows and 0 <= col < cols and labels[row, col]:
+    on_floor = 0 <= row < rows and 0 <= col < cols and bool(labels[row, col])
+    if on_floor:
         label = int(labels[row, col])
     else:
         # The dock against a wall, outside every room's cells: the nearest room's.
         where = np.argwhere(labels > 0)
         if not len(where):
-            return None
+            return None, False
         nearest = where[np.argmin(((where - np.array((row, col))) ** 2).sum(axis=1))]
         label = int(labels[nearest[0], nearest[1]])
-    return next((room.id for room in found.rooms if room.label == label), None)
+    return next((room.id for room in found.rooms if room.label == label), None), on_floor
 
 
 def _said(error: Exception) -> str:

@@ -15,7 +15,6 @@ from __future__ import annotations
 import logging
 import math
 import threading
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Protocol
@@ -66,7 +65,9 @@ class BuildingMap:
         self.sensor = sensor
         self.tell = tell
         self.run: MappingRun | None = None
-        self._lock = threading.Lock()
+        # Held by each request to the end: a `map discard` from one console never falls
+        # between another's `mark` or `map save` looking at the run and using it.
+        self._lock = threading.RLock()
         self._drawn_at = -math.inf
         self._drawn_revision = -1
 
@@ -85,21 +86,31 @@ class BuildingMap:
             if self.run is not None:
                 return Reply(False, "map: mapping already; `map save NAME` or `map discard`")
             self._drawn_at, self._drawn_revision = -math.inf, -1
+            # Where mapping starts is the map's dock: the plan made starts there.
             run = self.run = MappingRun(MapBuilder(), self.control.clock, self.control.note,
-                                        after=self._laid_in)  # fmt: skip
-        self.control.subscribe(self._heard)
-        self.sensor.subscribe(run.scan)
+                                        self.control.pose, after=self._laid_in)  # fmt: skip
+            self.control.subscribe(self._heard)
+            self.sensor.subscribe(run.scan)
         return Reply(True, "mapping: drive through every room, and type `mark ROOM` in each; "
                            "`map save NAME` when done")  # fmt: skip
 
     def mark(self, name: str) -> Reply:
-        run = self.run
-        assert run is not None
-        mark = run.mark(name, self.control.pose)
+        with self._lock:
+            run = self.run
+            if run is None:
+                return Reply(False, "mark: mapping has ended")
+            mark = run.mark(name, self.control.pose)
         return Reply(True, f"marked {name} at ({mark.at[0]:.2f}, {mark.at[1]:.2f}): the room "
                            "here takes the name when the map is saved")  # fmt: skip
 
     def save(self, to: Path) -> Reply:
+        if not to.is_absolute():
+            # A daemon's folder is not the console's: the console resolves what is typed.
+            return Reply(False, f"map save: {to} is not a whole path")
+        with self._lock:
+            return self._save(to)
+
+    def _save(self, to: Path) -> Reply:
         run, navigator = self.run, self.navigator
         if run is None or navigator is None:
             return Reply(False, "map save: not mapping (`map` starts)")
@@ -110,7 +121,7 @@ class BuildingMap:
             return Reply(False, "map save: nothing mapped yet: is the range sensor turning?")
         try:
             marks = [(mark.name, mark.at) for mark in status.marks]
-            made = write_mapped_plan(run.grid(), marks, navigator.start_pose, to)
+            made = write_mapped_plan(run.grid(), marks, run.start, to)
             walls = walls_of(made.plan)
         except MappedPlanError as error:
             return Reply(False, f"map save: nothing written: {error}; still mapping")
@@ -120,8 +131,15 @@ class BuildingMap:
         self._end(run)
         navigator.use_building(made.plan, walls)
         control = self.control
-        # Where the map has the robot, on the loop's thread: the pose of that tick.
-        control.between_ticks(lambda: control.place(run.corrected(control.pose), PoseBasis.GIVEN))
+        localisation = control.localisation
+
+        def placed() -> None:
+            # Where the map has the robot, as of this tick; and no markers of the old plan
+            # (a survey finds the new plan's), which would pull it back to the old frame.
+            localisation.use_markers({}, localisation.marker_size)
+            control.place(run.corrected(control.pose), PoseBasis.GIVEN)
+
+        control.between_ticks(placed)
         self.tell(PlanChanged(made.plan.path))
         self.tell(RouteShown.of(navigator.state))
         rooms = ", ".join(made.plan.rooms)
@@ -131,15 +149,20 @@ class BuildingMap:
                      lines=wrote + made.notes)  # fmt: skip
 
     def discard(self) -> Reply:
-        run = self.run
-        if run is None:
-            return Reply(False, "map discard: not mapping")
-        self._end(run)
+        with self._lock:
+            run = self.run
+            if run is None:
+                return Reply(False, "map discard: not mapping")
+            self._end(run)
+        if self.navigator is not None:
+            # The screens draw the plan again in place of the map they were shown.
+            self.tell(PlanChanged(self.navigator.plan.path))
         return Reply(True, "mapping stopped; the map is thrown away")
 
     def close(self) -> None:
-        if self.run is not None:
-            self._end(self.run)
+        with self._lock:
+            if self.run is not None:
+                self._end(self.run)
 
     def _end(self, run: MappingRun) -> None:
         with self._lock:
@@ -159,7 +182,7 @@ class BuildingMap:
 
     def _laid_in(self, run: MappingRun) -> None:
         """On the run's thread, after a revolution: the screens' picture, now and then."""
-        now = time.monotonic()
+        now = self.control.clock.now()
         revision = run.builder.revision
         if now - self._drawn_at < DRAWN_EVERY_S or revision == self._drawn_revision:
             return
@@ -192,8 +215,19 @@ def map_picture(grid: OccupancyGrid, revision: int) -> MapDrawn:
 
 
 def picture_grid(drawn: MapDrawn) -> OccupancyGrid | None:
-    """The grid a MapDrawn's picture shows; None for one that is not a picture."""
-    pixels = cv2.imdecode(np.frombuffer(drawn.png, np.uint8), cv2.IMREAD_GRAYSCALE)
+    """The grid a MapDrawn's picture shows; None for one that is not such a picture (it
+    crossed a socket: a PNG's header is read, and one larger than MAP_PICTURE_CELLS a
+    side refused, before anything is decoded)."""
+    png = drawn.png
+    numbers = (drawn.resolution, *drawn.origin)
+    if not (all(map(math.isfinite, numbers)) and drawn.resolution > 0):
+        return None
+    if len(png) < 24 or png[:8] != b"\x89PNG\r\n\x1a\n" or png[12:16] != b"IHDR":
+        return None
+    width, height = int.from_bytes(png[16:20], "big"), int.from_bytes(png[20:24], "big")
+    if not (0 < width <= MAP_PICTURE_CELLS and 0 < height <= MAP_PICTURE_CELLS):
+        return None
+    pixels = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_GRAYSCALE)
     if pixels is None or pixels.ndim != 2:
         return None
     return OccupancyGrid.from_image(pixels, drawn.resolution, drawn.origin)

@@ -292,8 +292,11 @@ class Name(Request):
 @dataclass(frozen=True)
 class StartMapping(Request):
     """Map the building as the operator drives it (issue 29): the range sensor's
-    revolutions laid into a grid, `mark ROOM` naming the room the robot stands in."""
+    revolutions laid into a grid, `mark ROOM` naming the room the robot stands in. Only
+    the holder of the controls may map, save or throw the map away: saving places the
+    robot where the map has it, which moves it as surely as a key."""
 
+    moves: ClassVar[bool] = True
     quick: ClassVar[bool] = True
 
 
@@ -304,12 +307,14 @@ class SaveMap(Request):
     names kept), and plan on that from now on."""
 
     to: Path
+    moves: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)
 class DiscardMap(Request):
     """Stop mapping, and throw the map away."""
 
+    moves: ClassVar[bool] = True
     quick: ClassVar[bool] = True
 
 

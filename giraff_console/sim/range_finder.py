@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -38,6 +39,8 @@ class Scan:
 
     range_max: float
     beams: tuple[tuple[float, float], ...]
+    # It senses only what is in the way, never the building's walls (missions/lookout.py).
+    sees_walls: ClassVar[bool] = False
 
     @property
     def hits(self) -> list[tuple[float, float]]:

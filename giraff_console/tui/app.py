@@ -372,6 +372,9 @@ class GiraffConsole(RobotKeys, KeyGuard):
         """The plan a saved map made: its rooms and doors from now on."""
         self.plan, self.walls = message.plan, message.walls
         if message.walls is None:
+            # A plan of points alone (the dock, before a map): nothing to draw.
+            self._scene = None
+            self.map_view.display = False
             return
         self._scene = plan_scene(message.plan, message.walls)
         self.map_view.display = True
