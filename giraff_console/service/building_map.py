@@ -40,6 +40,8 @@ log = logging.getLogger(__name__)
 # for a bigger map), and no more often than every DRAWN_EVERY_S.
 MAP_PICTURE_CELLS = 600
 DRAWN_EVERY_S = 1.0
+# Seconds `map save` waits for the loop to place the robot on the new map (a tick).
+PLACED_WITHIN_S = 2.0
 # map_server's trinary pixels (planning/ros_map.py reads them back).
 _PIXEL_FREE, _PIXEL_OCCUPIED, _PIXEL_UNKNOWN = 254, 0, 205
 
@@ -133,13 +135,21 @@ class BuildingMap:
         control = self.control
         localisation = control.localisation
 
+        done = threading.Event()
+
         def placed() -> None:
             # Where the map has the robot, as of this tick; and no markers of the old plan
             # (a survey finds the new plan's), which would pull it back to the old frame.
             localisation.use_markers({}, localisation.marker_size)
             control.place(run.corrected(control.pose), PoseBasis.GIVEN)
+            done.set()
 
         control.between_ticks(placed)
+        # Answered once the robot stands where the map has it: a `go` typed next plans
+        # from there, not from the filter's drifted pose, which may be off the new map.
+        if not done.wait(PLACED_WITHIN_S):
+            control.note(f"map save: the robot is not placed on the new map yet (no tick in "
+                         f"{PLACED_WITHIN_S:g} s)")  # fmt: skip
         self.tell(PlanChanged(made.plan.path))
         self.tell(RouteShown.of(navigator.state))
         rooms = ", ".join(made.plan.rooms)
