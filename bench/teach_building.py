@@ -34,9 +34,6 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-import numpy as np
-from scipy import ndimage
-
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from bench.any_building import (
@@ -53,7 +50,6 @@ from bench.any_building import (
 )
 from giraff_console.lidar import SIMULATED_LIDAR
 from giraff_console.planning.floorplan import FloorPlan, load_floorplan
-from giraff_console.planning.grid import OCCUPIED
 from giraff_console.planning.route_planner import RoutePlanner, walls_of
 from giraff_console.planning.scan_grid import read_scan
 from giraff_console.runtime.options import RobotOptions
@@ -63,6 +59,7 @@ from giraff_console.settings import Settings
 from tests.buildings.console import put_up_markers
 from tests.teaching import BUILDINGS, Teaching
 from tests.teaching.flat import unmapped_plan
+from tests.teaching.map_truth import map_truth
 from tests.teaching.operator import Operator, tour
 
 SURVEY_TIMEOUT_S = 1800.0
@@ -135,20 +132,11 @@ def judge_plan(plan: FloorPlan, truth: FloorPlan, teaching: Teaching) -> dict:
 
 
 def judge_map(out: Path, truth: FloorPlan) -> dict:
-    mapped = read_scan(out.with_name(f"{out.name}-map.yaml")).grid
     grid = walls_of(truth)
     assert grid is not None
-    near = ndimage.distance_transform_edt(grid.cells != OCCUPIED) * grid.resolution
-    rows, cols = np.nonzero(mapped.cells == OCCUPIED)
-    xs = mapped.origin[0] + (cols + 0.5) * mapped.resolution
-    ys = mapped.origin[1] + (mapped.shape[0] - rows - 0.5) * mapped.resolution
-    t_rows = grid.shape[0] - 1 - np.floor((ys - grid.origin[1]) / grid.resolution).astype(int)
-    t_cols = np.floor((xs - grid.origin[0]) / grid.resolution).astype(int)
-    inside = (t_rows >= 0) & (t_rows < grid.shape[0]) & (t_cols >= 0) & (t_cols < grid.shape[1])
-    off = near[t_rows[inside], t_cols[inside]]
-    return {"occupied_cells": len(rows),
-            "within_5cm": float((off <= 0.05).mean()) if len(off) else 0.0,
-            "within_10cm": float((off <= 0.10).mean()) if len(off) else 0.0}  # fmt: skip
+    judged = map_truth(read_scan(out.with_name(f"{out.name}-map.yaml")).grid, grid)
+    return {"occupied_cells": judged.occupied, "within_5cm": judged.within_5cm,
+            "within_10cm": judged.within_10cm}  # fmt: skip
 
 
 def survey(plan: Path, truth: FloorPlan, seed: int) -> dict:

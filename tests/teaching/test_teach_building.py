@@ -7,13 +7,10 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import pytest
-from scipy import ndimage
 
 from giraff_console.lidar import SIMULATED_LIDAR
 from giraff_console.planning.floorplan import load_floorplan
-from giraff_console.planning.grid import OCCUPIED
 from giraff_console.planning.route_planner import RoutePlanner, walls_of
 from giraff_console.planning.scan_grid import read_scan
 from giraff_console.robot.mission import Outcome
@@ -25,6 +22,7 @@ from giraff_console.settings import Settings
 from tests.service.daemon_rig import wait_until
 from tests.teaching.flat import ROOMS, write_flat
 from tests.teaching.flat import unmapped_plan as dock_only
+from tests.teaching.map_truth import map_truth
 from tests.teaching.operator import Operator, tour
 
 pytestmark = pytest.mark.timeout(420)
@@ -76,16 +74,9 @@ def test_the_map_is_saved_as_ros_reads_it_and_matches_the_building(taught):
     truth = walls_of(taught["truth"])
     assert truth is not None
     # Where the map says occupied, the building has a wall or furniture within 0.10 m.
-    near_truth = ndimage.distance_transform_edt(truth.cells != OCCUPIED) * truth.resolution
-    rows, cols = np.nonzero(mapped.cells == OCCUPIED)
-    xs = mapped.origin[0] + (cols + 0.5) * mapped.resolution
-    ys = mapped.origin[1] + (mapped.shape[0] - rows - 0.5) * mapped.resolution
-    t_rows = truth.shape[0] - 1 - np.floor((ys - truth.origin[1]) / truth.resolution).astype(int)
-    t_cols = np.floor((xs - truth.origin[0]) / truth.resolution).astype(int)
-    inside = (t_rows >= 0) & (t_rows < truth.shape[0]) & (t_cols >= 0) & (t_cols < truth.shape[1])
-    assert inside.mean() > 0.99
-    within = near_truth[t_rows[inside], t_cols[inside]] <= 0.10
-    assert len(rows) > 1000 and within.mean() >= 0.85, f"{within.mean():.3f} of {len(rows)}"
+    judged = map_truth(mapped, truth)
+    assert judged.inside > 0.99
+    assert judged.occupied > 1000 and judged.within_10cm >= 0.85, judged
 
 
 def test_the_plan_has_a_room_for_each_room_by_the_names_marked(taught):
