@@ -33,7 +33,6 @@ from pathlib import Path
 
 from adafruit_rplidar import SCAN_TYPE_NORMAL
 
-from giraff_console.clock import RealClock
 from giraff_console.lidar.device import RplidarDevice, open_named
 from giraff_console.lidar.reader import LidarReader
 from giraff_console.missions.mapping import MappingRun
@@ -87,7 +86,7 @@ def by_reader_mapping(path: str) -> Callable[[float], int]:
     def run(seconds: float) -> int:
         laid = [0]
         reader = LidarReader(open_named(path, 115200, 1.0), path)
-        mapping = MappingRun(MapBuilder(), RealClock(), lambda text: None, Pose(0.0, 0.0, 0.0),
+        mapping = MappingRun(MapBuilder(), lambda text: None, Pose(0.0, 0.0, 0.0),
                              after=lambda run: laid.__setitem__(0, run.status().scans))  # fmt: skip
         reader.subscribe(mapping.scan)
         reader.start()

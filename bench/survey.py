@@ -83,11 +83,12 @@ def stripped(truth: FloorPlan) -> Path:
     return path
 
 
-def survey(plan: Path, truth: Path, seed: int) -> dict:
-    """Survey `plan` against the true markers of `truth`; its JSON and the wall time."""
+def survey(plan: Path, truth: Path, seed: int, *extra: str) -> dict:
+    """Survey `plan` against the true markers of `truth` (and `extra` options); its JSON
+    and the wall time."""
     command = [sys.executable, "-m", "giraff_console", "survey", "--sim", "--sim-speed", "inf",
                "--imperfect", "--seed", str(seed), "--faults", "off", "--floorplan", str(plan),
-               "--sim-markers", str(truth), "--json"]  # fmt: skip
+               "--sim-markers", str(truth), "--json", *extra]  # fmt: skip
     began = time.perf_counter()
     try:
         done = subprocess.run(command, capture_output=True, text=True, timeout=SURVEY_TIMEOUT_S)

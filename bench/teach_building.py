@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
 import tempfile
 import threading
@@ -48,6 +47,7 @@ from bench.any_building import (
     source,
     write_patrol,
 )
+from bench.survey import survey
 from giraff_console.lidar import SIMULATED_LIDAR
 from giraff_console.planning.floorplan import FloorPlan, load_floorplan
 from giraff_console.planning.route_planner import RoutePlanner, walls_of
@@ -62,7 +62,6 @@ from tests.teaching.flat import unmapped_plan
 from tests.teaching.map_truth import map_truth
 from tests.teaching.operator import Operator, tour
 
-SURVEY_TIMEOUT_S = 1800.0
 PATROL_TIMEOUT_S = 3600.0
 DRIVE_TIMEOUT_S = 1800.0
 
@@ -139,26 +138,6 @@ def judge_map(out: Path, truth: FloorPlan) -> dict:
             "within_10cm": judged.within_10cm}  # fmt: skip
 
 
-def survey(plan: Path, truth: FloorPlan, seed: int) -> dict:
-    assert truth.landmarks is not None and truth.path is not None
-    command = [sys.executable, "-m", "giraff_console", "survey", "--sim", "--sim-speed", "inf",
-               "--imperfect", "--seed", str(seed), "--faults", "off", "--floorplan", str(plan),
-               "--sim-building", str(truth.path), "--family", truth.landmarks.family,
-               "--size", str(truth.landmarks.size), "--json"]  # fmt: skip
-    began = time.perf_counter()
-    try:
-        done = subprocess.run(command, capture_output=True, text=True, timeout=SURVEY_TIMEOUT_S)
-    except subprocess.TimeoutExpired:
-        return {"problem": f"timed out after {SURVEY_TIMEOUT_S:.0f} s"}
-    lines = [line for line in done.stdout.splitlines() if line.startswith("{")]
-    if not lines:
-        return {"problem": f"exit {done.returncode}: {done.stderr.strip()[-400:]}"}
-    report = json.loads(lines[-1])
-    report["wall_s"] = time.perf_counter() - began
-    report["code"] = done.returncode
-    return report
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--building", choices=sorted(BUILDINGS), default="flat")
@@ -184,7 +163,11 @@ def main() -> None:
         print("NOT MET: the map was not saved")
         return
     plan_path = Path(mapped["plan"])
-    surveyed = survey(plan_path, truth, args.map_seed)
+    assert truth.landmarks is not None  # put up above
+    # The plan made has no markers' family and size: the building's are given.
+    surveyed = survey(plan_path, teaching.truth, args.map_seed, "--sim-building",
+                      str(teaching.truth), "--family", truth.landmarks.family,
+                      "--size", str(truth.landmarks.size))  # fmt: skip
     print("survey:", json.dumps({k: v for k, v in surveyed.items() if k != "markers"}),
           f"{len(surveyed.get('markers', []))} markers", flush=True)  # fmt: skip
     plan = load_floorplan(plan_path)

@@ -27,7 +27,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
-from giraff_console.clock import Clock
 from giraff_console.missions.lookout import Scan
 from giraff_console.missions.pose_trail import PoseTrail
 from giraff_console.planning.floorplan import Point
@@ -67,8 +66,7 @@ class MapMark:
     """`mark NAME` while mapping: the room where the robot stood is NAME."""
 
     name: str
-    at: Point
-    heading: float  # radians, the map frame's
+    at: Point  # the map's frame
 
 
 @dataclass(frozen=True)
@@ -80,24 +78,21 @@ class MappingStatus:
     unplaced: int  # revolutions too old or too new for the trail's poses
     turning: int  # revolutions taken while the robot turned, left out
     marks: tuple[MapMark, ...]
-    revision: int  # the grid's: it has changed when this has
 
 
 class MappingRun:
     """One drive through the building, mapped; safe to call from any thread."""
 
-    def __init__(self, builder: MapBuilder, clock: Clock, note: Callable[[str], None],
-                 start: Pose, *,
+    def __init__(self, builder: MapBuilder, note: Callable[[str], None], start: Pose, *,
                  after: Callable[[MappingRun], None] = lambda run: None) -> None:  # fmt: skip
         """`start`: where the robot stood when mapping began (the map's dock). `after`
         is called on the run's thread after each revolution laid in."""
         self.builder = builder
         self.start = start
-        self.clock = clock
         self.note = note
         self.after = after
         self.trail = PoseTrail()
-        self._waiting: collections.deque[tuple[Scan, float]] = collections.deque(maxlen=MAX_WAITING)
+        self._waiting: collections.deque[StampedScan] = collections.deque(maxlen=MAX_WAITING)
         self._ready = threading.Condition()
         self._lock = threading.Lock()
         # The builder's grid grows on this run's thread; it is read on others.
@@ -121,7 +116,7 @@ class MappingRun:
         with self._ready:
             if len(self._waiting) == self._waiting.maxlen:
                 self._dropped += 1
-            self._waiting.append((scan, scan.taken_at))
+            self._waiting.append(scan)
             self._ready.notify()
 
     # -- asked by the service ------------------------------------------------------
@@ -130,7 +125,7 @@ class MappingRun:
         """The room where the robot stands (the filter's `pose`) is `name`; a second
         mark of the same name moves it."""
         corrected = self.corrected(pose)
-        mark = MapMark(name, (corrected.x, corrected.y), corrected.heading)
+        mark = MapMark(name, (corrected.x, corrected.y))
         with self._lock:
             self._marks[name] = mark
         return mark
@@ -143,7 +138,7 @@ class MappingRun:
     def status(self) -> MappingStatus:
         with self._lock:
             return MappingStatus(self._scans, self._dropped, self._unplaced, self._turning,
-                                 tuple(self._marks.values()), self.builder.revision)  # fmt: skip
+                                 tuple(self._marks.values()))  # fmt: skip
 
     def grid(self) -> OccupancyGrid:
         """The map so far."""
@@ -168,9 +163,9 @@ class MappingRun:
                     return
                 if not self._waiting:
                     continue
-                scan, stamp = self._waiting.popleft()
+                scan = self._waiting.popleft()
             try:
-                self._lay_in(scan, stamp)
+                self._lay_in(scan)
             except Exception:
                 # A bug: the map stops growing, and the operator is told; the robot
                 # drives on as before, since mapping only listens.
@@ -186,7 +181,8 @@ class MappingRun:
                 # The screens' picture failed (a listener's bug): the map grows on.
                 log.exception("mapping: telling of the map failed")
 
-    def _lay_in(self, scan: Scan, stamp: float) -> None:
+    def _lay_in(self, scan: StampedScan) -> None:
+        stamp = scan.taken_at
         pose = self.trail.at(stamp)
         if pose is None:
             with self._lock:

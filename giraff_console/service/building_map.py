@@ -89,8 +89,8 @@ class BuildingMap:
                 return Reply(False, "map: mapping already; `map save NAME` or `map discard`")
             self._drawn_at, self._drawn_revision = -math.inf, -1
             # Where mapping starts is the map's dock: the plan made starts there.
-            run = self.run = MappingRun(MapBuilder(), self.control.clock, self.control.note,
-                                        self.control.pose, after=self._laid_in)  # fmt: skip
+            run = self.run = MappingRun(MapBuilder(), self.control.note, self.control.pose,
+                                        after=self._laid_in)  # fmt: skip
             self.control.subscribe(self._heard)
             self.sensor.subscribe(run.scan)
         return Reply(True, "mapping: drive through every room, and type `mark ROOM` in each; "
