@@ -288,8 +288,9 @@ class Daemon:
         self._wake()
 
     def _wake(self) -> None:
-        # Cleared by the event loop before it looks at what it was woken for, so that
-        # nothing added after the look goes unseen.
+        # At most one byte on its way: cleared by the event loop once it has taken the
+        # bytes and before it looks at what it was woken for, so that nothing added
+        # after the look goes unseen (_turn).
         if not self._woken:
             self._woken = True
             with contextlib.suppress(OSError):  # full: it is awake already; closed: ended
@@ -310,9 +311,11 @@ class Daemon:
             if key.fileobj is self._listener:
                 accepting = True
             elif key.fileobj is self._wake_in:
-                self._woken = False
+                # Emptied first, then cleared: a byte sent in between must not be taken
+                # with the flag left set, or no one would wake the loop again.
                 with contextlib.suppress(OSError):
                     self._wake_in.recv(4096)
+                self._woken = False
             else:
                 console: ConsoleSocket = key.data
                 if mask & selectors.EVENT_READ and not console.gone:
