@@ -307,12 +307,18 @@ _ANY = frozenset({"null", "bool", "int", "float", "str", "list", "dict", *_TAGS}
 def _kind(data: object) -> str:
     """The shape of JSON data, as rules and unions tell them apart: null, bool, int,
     float, str, list, dict, or the tag of a tagged dict (type, enum, error, path, bytes)."""
-    if isinstance(data, dict):
-        return next((tag for tag in ("type", "enum", "error", "path", "bytes") if tag in data),
-                    "dict")  # fmt: skip
-    if data is None:
-        return "null"
-    return {bool: "bool", int: "int", float: "float", str: "str", list: "list"}[type(data)]
+    kind = _PLAIN_KINDS.get(type(data))
+    if kind is not None:
+        return kind
+    for tag in ("type", "enum", "error", "path", "bytes"):  # only a dict is left
+        if tag in data:  # type: ignore[operator]
+            return tag
+    return "dict"
+
+
+# What json.loads gives, but dicts (their tags tell them apart).
+_PLAIN_KINDS = {type(None): "null", bool: "bool", int: "int", float: "float", str: "str",
+                list: "list"}  # fmt: skip
 
 
 def _refuse(where: str, expected: str, data: object, why: str = "") -> typing.NoReturn:
