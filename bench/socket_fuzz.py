@@ -184,9 +184,8 @@ def main() -> int:
     print(f"socket fuzz: {findings.sent} lines, seed {args.seed}, {findings.seconds:.1f} s "
           f"({findings.sent / findings.seconds:.0f} lines/s)")  # fmt: skip
     print("  by kind: " + ", ".join(f"{k} {n}" for k, n in sorted(findings.by_kind.items())))
-    print(f"  answered {findings.answered} of {findings.expected} expected "
-          f"({findings.sent - findings.expected} `null` lines, which the daemon takes for "
-          f"no line); consoles hung up on: {findings.hung_up}")  # fmt: skip
+    print(f"  answered {findings.answered} of {findings.sent}; consoles hung up on: "
+          f"{findings.hung_up}")  # fmt: skip
     print(
         f"  answers with Python's own words: {len(daemon_texts)} from the daemon and the "
         f"wire, {transport_texts} from the transport's refusals of lines it cannot parse"

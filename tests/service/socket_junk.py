@@ -98,13 +98,10 @@ def python_text(text: str) -> str | None:
 
 @dataclass(frozen=True)
 class Junk:
-    """One line, with its newline, what it is (for the figures), and whether the daemon
-    answers it: every line but `null`, which the transport gives the daemon as None,
-    the same as no line at all (transport.Connection.receive)."""
+    """One line, with its newline, and what it is (for the figures)."""
 
     line: bytes
     what: str
-    answered: bool = True
 
 
 def junk_lines(count: int, seed: int = SEED) -> Iterator[Junk]:
@@ -136,7 +133,7 @@ def junk_lines(count: int, seed: int = SEED) -> Iterator[Junk]:
                 break
             # Built into a request: only one that changes nothing may be sent.
             if not isinstance(message, Asked) or isinstance(message.request, HARMLESS):
-                yield Junk(line, what, answered=message is not None)
+                yield Junk(line, what)
                 break
 
 
@@ -345,7 +342,6 @@ class Findings:
     """What came of pelting a daemon."""
 
     sent: int = 0
-    expected: int = 0  # the lines sent that the daemon answers (all but `null`)
     answered: int = 0
     by_kind: dict[str, int] = field(default_factory=dict)
     python_texts: list[tuple[str, str]] = field(default_factory=list)  # (junk's what, answer)
@@ -378,8 +374,8 @@ class JunkClient:
     def ask(self, junk: list[Junk], timeout: float = ANSWER_TIMEOUT_S) -> bool:
         """Send these lines; whether all were answered within `timeout` seconds."""
         with self._changed:
-            wanted = len(self.replies) + sum(j.answered for j in junk)
-            self._whats.extend(j.what for j in junk if j.answered)
+            wanted = len(self.replies) + len(junk)
+            self._whats.extend(j.what for j in junk)
         try:
             self.sock.sendall(b"".join(j.line for j in junk))
         except OSError:
@@ -468,7 +464,6 @@ def pelt(path: Path, count: int, seed: int = SEED) -> Findings:
             for junk in batch:
                 findings.by_kind[junk.what] = findings.by_kind.get(junk.what, 0) + 1
             findings.sent += len(batch)
-            findings.expected += sum(junk.answered for junk in batch)
             if not client.ask(batch):
                 findings.hung_up += 1
                 client.close()
