@@ -30,7 +30,7 @@ import socket
 import threading
 import time
 import typing
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -474,11 +474,17 @@ def pelt(path: Path, count: int, seed: int = SEED) -> Findings:
     return findings
 
 
-def status_after(path: Path) -> Reply | None:
-    """The daemon's answer to `status` from a new console, or None if it gives none."""
+def replies_to(path: Path, lines: Sequence[bytes]) -> list[Reply]:
+    """The daemon's answers to these lines from a new console; fewer if it gives fewer."""
     client = JunkClient(path, Findings())
     try:
-        asked = Junk(_dumps(wire.encode(Asked(1, c.Status()))), "status")
-        return client.replies[-1] if client.ask([asked], 10.0) else None
+        client.ask([Junk(line, "asked") for line in lines], 10.0)
+        return list(client.replies)
     finally:
         client.close()
+
+
+def status_after(path: Path) -> Reply | None:
+    """The daemon's answer to `status` from a new console, or None if it gives none."""
+    replies = replies_to(path, [_dumps(wire.encode(Asked(1, c.Status())))])
+    return replies[0] if replies else None

@@ -31,6 +31,7 @@ from tests.service.socket_junk import (
     junk_lines,
     pelt,
     python_text,
+    replies_to,
     status_after,
 )
 
@@ -40,9 +41,19 @@ SUITE_CASES = 10_000
 TRANSPORT_REFUSALS = ("not understood: a line that is not JSON", "not understood: a line nested")
 
 
+# The issue's two: a list where a room's id belongs (answered `failed: TypeError:
+# unhashable type: 'list'`), and a text where the key's motion belongs (it reached the
+# control loop, which raised, stopped the robot and ended the mission).
+ISSUE_LINES = (
+    b'{"type":"Asked","number":1,"request":{"type":"Go","room":["kitchen"]}}\n',
+    b'{"type":"Asked","number":2,"request":{"type":"Press","intent":"FORWARD"}}\n',
+)
+
+
 @dataclass(frozen=True)
 class Pelted:
     findings: Findings
+    issue_replies: list[Reply]
     alive: bool
     status: Reply | None
     exit_code: int
@@ -58,10 +69,11 @@ def pelted() -> Iterator[Pelted]:
         daemon: DaemonProcess = start_daemon(folder, ["--sim", "--no-landmarks"])
         try:
             findings = pelt(daemon.socket, SUITE_CASES)
+            issue_replies = replies_to(daemon.socket, ISSUE_LINES)
             alive, status = daemon.alive(), status_after(daemon.socket)
         finally:
             exit_code = stop_daemon(daemon)
-    yield Pelted(findings, alive, status, exit_code)
+    yield Pelted(findings, issue_replies, alive, status, exit_code)
     shutil.rmtree(folder, ignore_errors=True)
 
 
@@ -74,6 +86,20 @@ def test_every_junk_line_is_answered_and_the_daemon_lives(pelted: Pelted):
     assert pelted.alive
     assert pelted.status is not None and pelted.status.ok, pelted.status
     assert pelted.exit_code == 128 + signal.SIGTERM  # as the rig ends it: not a crash
+
+
+def test_the_issues_requests_are_refused_naming_the_field_and_what_was_expected(
+    pelted: Pelted,
+):
+    go, press = pelted.issue_replies
+    assert not go.ok and go.text == (
+        "not understood: Go.room: expected a room's id (1 to 64 letters, digits, '-' or '_'), "
+        "got a list of 1 item"
+    )
+    assert not press.ok and press.text == (
+        "not understood: Press.intent: expected an Intent (FORWARD, BACKWARD, LEFT, RIGHT, "
+        "FORWARD_LEFT, FORWARD_RIGHT), got a text of 7 characters"
+    )
 
 
 def test_no_answer_holds_pythons_own_words(pelted: Pelted):
