@@ -285,7 +285,8 @@ def _plan(cls: type) -> _Plan:
     try:
         hints = typing.get_type_hints(cls, include_extras=True)
     except Exception as error:  # a name that only exists under TYPE_CHECKING
-        raise WireError(f"cannot read {cls.__qualname__}'s field types: {error}") from error
+        # Said without Python's words, which a client that named the class would see.
+        raise WireError(f"cannot read {cls.__qualname__}'s field types") from error
     fields = [field for field in dataclasses.fields(cls) if field.init]
     return _Plan(
         fields={
@@ -364,7 +365,7 @@ def _rule(hint: object) -> _Rule:
         return _enum_rule(hint)
     if isinstance(hint, type) and issubclass(hint, BaseException):
         return _Rule(functools.partial(_decode_error, base=hint), frozenset({"error"}),
-                     f"an error ({hint.__name__})")  # fmt: skip
+                     "an error the robot reports")  # fmt: skip
     if isinstance(hint, type) and dataclasses.is_dataclass(hint):
         return _dataclass_rule(hint)
     # Any, object, and what no rule knows: built as the tags say.
@@ -536,7 +537,7 @@ def _decode_enum(data: object, where: str, cls: type[enum.Enum] = enum.Enum,
 
 def _decode_error(data: object, where: str,
                   base: type[BaseException] = BaseException) -> BaseException:  # fmt: skip
-    expected = f"an error ({base.__name__})"
+    expected = "an error the robot reports"  # its class's name would read as Python's
     if type(data) is not dict or "error" not in data:
         _refuse(where, expected, data)
     cls = registered(data["error"])
