@@ -8,22 +8,73 @@ its help screen and the CLI's `giraff-console do …` all read it.
 
 `moves` says whether a command can move the robot: only the console holding the
 controls may send one. A stop of any kind is open to everyone.
+
+Each field says what it may hold (`Annotated[str, ROOM]`): the bounds below, within what
+the robot means. A request that comes across the daemon's socket is held to them as it
+is decoded (service/wire.py), before anything acts on it, and refused naming the field
+and what was expected (issue 30, item 4): nothing a client sends reaches the service or
+the control loop unchecked. Requests made in this process come from the typed words
+below or from the fleet, which check what they take.
 """
 
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import ClassVar
+from typing import Annotated, ClassVar
 
 from giraff_console.protocol import CommandError, parse_number
 from giraff_console.robot.deadman import Intent
+from giraff_console.service.wire import Count, Number, Text
 
 
 class Usage(ValueError):
     """Text that does not make a command; says how to type it."""
+
+
+# -- what a request may hold ----------------------------------------------------------
+
+# Rooms, doors and routes are named as the floor plan's ids are (planning/floorplan.py
+# `_ID`, missions/yaml_file.py `_NAME`): words typed in commands and parts of file names,
+# so no spaces, no slashes, nothing a shell or a path would read otherwise.
+_ID = re.compile(r"[A-Za-z0-9_-]{1,64}")
+ROOM = Text("a room's id (1 to 64 letters, digits, '-' or '_')", 64, _ID)
+DOOR = Text("a door's id (1 to 64 letters, digits, '-' or '_')", 64, _ID)
+PLACE = Text("a place's name (1 to 64 letters, digits, '-' or '_')", 64, _ID)
+ROUTE = Text("a route's name (1 to 64 letters, digits, '-' or '_')", 64, _ID)
+# A patrol is named, or given by its file's path (`giraff-console patrol FILE`).
+PATROL = Text(
+    "a patrol's name (1 to 64 letters, digits, '-' or '_') or the path of its .patrol.yaml",
+    4096,
+    re.compile(r"[A-Za-z0-9_-]{1,64}|[^\x00-\x1f\x7f]{0,4085}\.patrol\.yaml"),
+)
+# A controller command goes to the board as a line: printable ASCII, nothing to end it
+# early and start another. The longest the board takes (`set twm` and its values, each
+# at most 40 characters: protocol/codec.py) is far shorter.
+COMMAND = Text("a controller command (at most 400 printable ASCII characters)", 400,
+               re.compile(r"[\x20-\x7e]*"))  # fmt: skip
+CONSOLE = Text("a console's name (1 to 200 printable characters)", 200,
+               re.compile(r"[^\x00-\x1f\x7f]{1,200}"))  # fmt: skip
+# PATH_MAX on Linux; a path sent from another process was resolved there.
+PATH = Text("a path of at most 4096 characters", 4096)
+# No Giraff drives at 2 m/s; teleop's own cap (settings: max_speed) is lower still.
+SPEED = Number("a speed from 0 to 2 m/s", 0.0, 2.0)
+SPEED_STEPS = Number("a number of 0.05 m/s steps from -40 to 40", -40, 40)
+HEIGHT = Number("a stalk height from 0 to 1000", 0, 1000)
+HEIGHT_STEPS = Number("a number of stalk steps from -1000 to 1000", -1000, 1000)
+# A building the size of an airport (300 x 150 m) fits many times over.
+COORDINATE = Number("a map coordinate from -10000 to 10000 m", -10_000.0, 10_000.0)
+HEADING = Number("a heading from -360 to 360 degrees", -360.0, 360.0)
+# A session is seconds to hours long; a week bounds any of them.
+WEEK_S = 7 * 24 * 3600.0
+OFFSET = Number("a time from 0 to 604800 s (a week) into the session", 0.0, WEEK_S)
+SHIFT = Number("a shift from -604800 to 604800 s", -WEEK_S, WEEK_S)
+# What the playback runs at (recording/playback.py SPEEDS), and a factor that gets there.
+PLAY_RATE = Number("a rate from 0.25 to 16 times real speed", 0.25, 16.0)
+RATE_FACTOR = Number("a factor from 1/64 to 64", 1 / 64, 64.0)
 
 
 @dataclass(frozen=True)
@@ -59,8 +110,8 @@ class Halt(Request):
 class Speed(Request):
     """Teleop's driving speed: `to` m/s, or `step` 0.05 m/s steps from where it is."""
 
-    to: float | None = None
-    step: int = 0
+    to: Annotated[float, SPEED] | None = None
+    step: Annotated[int, SPEED_STEPS] = 0
     moves: ClassVar[bool] = True
     quick: ClassVar[bool] = True
 
@@ -70,7 +121,7 @@ class Send(Request):
     """A controller command as typed (`set v 0.3`, `get bulk_data`), checked against the
     limits on the loop's thread before it goes."""
 
-    text: str
+    text: Annotated[str, COMMAND]
     moves: ClassVar[bool] = True
     quick: ClassVar[bool] = True
 
@@ -91,7 +142,9 @@ class SendCommands(Request):
     Only the holder of the controls may send a `set` or a bare command; anyone may read
     (robot_service._moves)."""
 
-    texts: tuple[str, ...]
+    texts: Annotated[
+        tuple[Annotated[str, COMMAND], ...], Count(f"1 to {MAX_COMMANDS} commands", MAX_COMMANDS, 1)
+    ]
     moves: ClassVar[bool] = True
 
 
@@ -99,8 +152,8 @@ class SendCommands(Request):
 class Stalk(Request):
     """The head's height stalk: `to` 0..1000, or `step` steps from its last height."""
 
-    to: int | None = None
-    step: int = 0
+    to: Annotated[int, HEIGHT] | None = None
+    step: Annotated[int, HEIGHT_STEPS] = 0
     moves: ClassVar[bool] = True
     quick: ClassVar[bool] = True
 
@@ -120,7 +173,7 @@ class Poll(Request):
 class Go(Request):
     """Plan a route to a room of the floor plan (or the dock) and drive it."""
 
-    room: str
+    room: Annotated[str, ROOM]
     moves: ClassVar[bool] = True
 
 
@@ -128,7 +181,7 @@ class Go(Request):
 class RunPatrol(Request):
     """Run the patrol `name` from the routes folder."""
 
-    name: str
+    name: Annotated[str, PATROL]
     moves: ClassVar[bool] = True
 
 
@@ -136,7 +189,7 @@ class RunPatrol(Request):
 class Follow(Request):
     """Drive a taught route's path closed-loop, from its start."""
 
-    name: str
+    name: Annotated[str, ROUTE]
     moves: ClassVar[bool] = True
 
 
@@ -144,7 +197,7 @@ class Follow(Request):
 class Replay(Request):
     """Drive a taught route again, open-loop, with its original timing."""
 
-    name: str
+    name: Annotated[str, ROUTE]
     moves: ClassVar[bool] = True
     quick: ClassVar[bool] = True
 
@@ -189,7 +242,7 @@ class StopMission(Request):
 class Door(Request):
     """Shut or open a door of the plan (and of the simulated building); routes go round."""
 
-    door: str
+    door: Annotated[str, DOOR]
     open: bool
     # It plans the mission under way again.
     moves: ClassVar[bool] = True
@@ -199,8 +252,8 @@ class Door(Request):
 class Block(Request):
     """Simulator: put a box in the way at x, y metres, or take it away."""
 
-    x: float
-    y: float
+    x: Annotated[float, COORDINATE]
+    y: Annotated[float, COORDINATE]
     on: bool = True
     quick: ClassVar[bool] = True
 
@@ -220,7 +273,7 @@ class Record(Request):
 class Play(Request):
     """Play a session back (the newest without `session`), or stop the playback."""
 
-    session: Path | None = None
+    session: Annotated[Path, PATH] | None = None
     stop: bool = False
     # A playback ends the mission and takes the keys: the robot's, not a watcher's.
     moves: ClassVar[bool] = True
@@ -231,8 +284,8 @@ class Play(Request):
 class Seek(Request):
     """Move the playback to `to` seconds in, or `by` seconds on (negative: back)."""
 
-    to: float | None = None
-    by: float = 0.0
+    to: Annotated[float, OFFSET] | None = None
+    by: Annotated[float, SHIFT] = 0.0
     quick: ClassVar[bool] = True
 
 
@@ -240,8 +293,8 @@ class Seek(Request):
 class Rate(Request):
     """Play back at `to` times real speed, or `times` the present speed."""
 
-    to: float | None = None
-    times: float = 1.0
+    to: Annotated[float, PLAY_RATE] | None = None
+    times: Annotated[float, RATE_FACTOR] = 1.0
     quick: ClassVar[bool] = True
 
 
@@ -256,7 +309,7 @@ class Step(Request):
 class Teach(Request):
     """Start teaching route `name`: the operator drives, `mark` names places."""
 
-    name: str
+    name: Annotated[str, ROUTE]
     moves: ClassVar[bool] = True
     quick: ClassVar[bool] = True
 
@@ -266,7 +319,7 @@ class Mark(Request):
     """Name the place where the robot stands: on the route being taught, else the room
     it stands in is renamed `place` (§2.6.3), as `Name` does."""
 
-    place: str
+    place: Annotated[str, PLACE]
 
 
 @dataclass(frozen=True)
@@ -276,8 +329,8 @@ class Place(Request):
     operator says so, and missions may drive from there (issue 25). Only the holder of
     the controls may say it: a wrong pose moves the robot as surely as a key."""
 
-    room: str
-    heading: float | None = None
+    room: Annotated[str, ROOM]
+    heading: Annotated[float, HEADING] | None = None
     moves: ClassVar[bool] = True
 
 
@@ -285,8 +338,8 @@ class Place(Request):
 class Name(Request):
     """Rename room `room` of the floor plan `to` (§2.6.3), and save the plan."""
 
-    room: str
-    to: str
+    room: Annotated[str, ROOM]
+    to: Annotated[str, ROOM]
 
 
 @dataclass(frozen=True)
@@ -306,7 +359,7 @@ class SaveMap(Request):
     them), the floor plan made from it (`to`.yaml: rooms and doors found, the marked
     names kept), and plan on that from now on."""
 
-    to: Path
+    to: Annotated[Path, PATH]
     moves: ClassVar[bool] = True
 
 
@@ -375,7 +428,7 @@ class HandControls(Request):
     """Hand the controls to the program on the virtual port (§4.5): the operator lets it
     drive; the keys the console held let go."""
 
-    to: str = PROGRAM
+    to: Annotated[str, CONSOLE] = PROGRAM
     moves: ClassVar[bool] = True
     quick: ClassVar[bool] = True
 

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import json
 import math
+import types
+import typing
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,7 +26,18 @@ from giraff_console.robot.mission import Progress
 from giraff_console.robot.odometry import Pose
 from giraff_console.robot.replay import PlaybackStatus
 from giraff_console.robot.telemetry import LinkState, Telemetry
-from giraff_console.service.wire import WireError, decode, encode, register, registered
+from giraff_console.service import commands as c
+from giraff_console.service.daemon import Asked
+from giraff_console.service.wire import (
+    Count,
+    Number,
+    Text,
+    WireError,
+    decode,
+    encode,
+    register,
+    registered,
+)
 
 register(
     SharedFrame,
@@ -232,5 +246,213 @@ def test_a_shared_camera_frame_comes_back_with_its_jpeg_bytes():
 
 
 def test_bytes_that_are_not_base64_are_a_wire_error():
-    with pytest.raises(WireError, match="bytes that are not base64"):
+    with pytest.raises(WireError, match="expected bytes in base64, got other text"):
         decode({"bytes": "not base64!"})
+
+
+# -- fields checked against their annotations (issue 30, item 4) ---------------------
+
+
+def test_a_text_where_a_number_belongs_is_refused_naming_the_field():
+    with pytest.raises(
+        WireError, match=r"^Pose\.x: expected a number, got a text of 3 characters$"
+    ):
+        decode({"type": "Pose", "x": "1.0"})
+
+
+def test_true_is_no_integer_and_no_number():
+    with pytest.raises(WireError, match=r"^MotorState\.mode: expected an integer"):
+        decode(wire_of(full_telemetry().state, mode=True))
+    with pytest.raises(WireError, match=r"^Pose\.x: expected a number, got true$"):
+        decode({"type": "Pose", "x": True})
+
+
+def test_an_integer_where_a_float_belongs_comes_back_a_float():
+    back = decode({"type": "Pose", "x": 1})
+    assert back == Pose(1.0) and type(back.x) is float  # type: ignore[attr-defined]
+
+
+def test_an_integer_beyond_64_bits_is_refused():
+    with pytest.raises(WireError, match=r"^Pose\.x: expected a number, got an integer of"):
+        decode({"type": "Pose", "x": 10**30})
+
+
+def test_a_nested_dataclass_of_another_class_is_refused():
+    with pytest.raises(WireError, match=r"^Telemetry\.pose: expected a Pose, got a Battery$"):
+        decode(wire_of(full_telemetry(), pose=encode(Battery(ChargeStatus.TRICKLE_CHARGING))))
+
+
+def test_an_enum_of_another_class_is_refused():
+    with pytest.raises(
+        WireError, match=r"^Telemetry\.link: expected a LinkState \(.*\), got an enum"
+    ):
+        decode(wire_of(full_telemetry(), link={"enum": "PoseBasis", "value": "ODOMETRY"}))
+
+
+def test_a_bad_item_of_a_tuple_is_refused_by_its_place():
+    estimate = encode(full_telemetry().estimate)
+    assert isinstance(estimate, dict)
+    with pytest.raises(WireError, match=r"^Estimate\.seen\[1\]: expected an integer"):
+        decode({**estimate, "seen": [3, "7"]})
+    with pytest.raises(WireError, match=r"^Estimate\.ellipse: expected a list of 3"):
+        decode({**estimate, "ellipse": [0.1, 0.2]})
+
+
+def test_a_refusal_never_quotes_what_came():
+    # What a client sent goes back in a refusal only as words: its kind and size.
+    for junk in ("<script>x</script>", "x" * 100, "a\nb"):
+        with pytest.raises(WireError) as refused:
+            decode({"type": junk})
+        assert junk not in str(refused.value)
+        with pytest.raises(WireError) as refused:
+            decode({"type": "Pose", "x": junk})
+        assert junk not in str(refused.value)
+
+
+def wire_of(value: object, **fields: object) -> dict[str, object]:
+    """`value` as it crosses, with `fields` replaced by these wire data."""
+    data = encode(value)
+    assert isinstance(data, dict)
+    return {**data, **fields}
+
+
+# -- every request, every field -------------------------------------------------------
+
+# A valid value of each kind of field, within every request's bounds.
+VALID: dict[object, object] = {
+    str: "kitchen",
+    bool: True,
+    int: 0,
+    float: 0.5,
+    Path: {"path": "/tmp/giraff.patrol.yaml"},
+}
+
+
+def _plain(hint: object) -> tuple[object, list[object]]:
+    """The annotation without `| None` and `Annotated`, and the bounds it carried."""
+    bounds: list[object] = []
+    while True:
+        origin, args = typing.get_origin(hint), typing.get_args(hint)
+        if origin is typing.Annotated:
+            hint, bounds = args[0], [*bounds, *args[1:]]
+        elif origin is types.UnionType or origin is typing.Union:
+            hint = next(arg for arg in args if arg is not type(None))
+        else:
+            return hint, bounds
+
+
+def _valid(hint: object) -> object:
+    plain, _ = _plain(hint)
+    if typing.get_origin(plain) is tuple:
+        return [_valid(typing.get_args(plain)[0])]
+    if isinstance(plain, type) and issubclass(plain, enum.Enum):
+        return encode(next(iter(plain)))
+    if plain is str and "controller command" in str(_plain(hint)[1]):
+        return "get bulk_data"
+    return VALID[plain]
+
+
+def _wrong(hint: object) -> list[object]:
+    """JSON values that no field of this kind may take."""
+    plain, _ = _plain(hint)
+    if typing.get_origin(plain) in (tuple, list):
+        return ["get bulk_data", 7, {"type": "Halt"}]
+    if isinstance(plain, type) and issubclass(plain, enum.Enum):
+        return [next(iter(plain)).name, [1, 0], {"enum": "LinkState", "value": "LOST"}]
+    wrong = {
+        str: [["a", "list"], 7, True, {"type": "Halt"}, {"path": "kitchen"}],
+        bool: [1, "yes", ["x"], 0.0],
+        int: [True, 1.5, "7", ["x"]],
+        float: [True, "0.5", ["x"], {"type": "Halt"}],
+        Path: ["/plain/text", ["x"], {"path": 7}],
+    }
+    assert plain in wrong, f"a field annotated {hint}: teach this test its wrong values"
+    return wrong[plain]
+
+
+def _fields(request: type[c.Request]) -> dict[str, object]:
+    hints = typing.get_type_hints(request, include_extras=True)
+    return {field.name: hints[field.name] for field in dataclasses.fields(request)}
+
+
+def _asked(request: type[c.Request], **fields: object) -> dict[str, object]:
+    """A request as a client puts it on the socket: every field valid but `fields`."""
+    valid = {name: _valid(hint) for name, hint in _fields(request).items()}
+    return {"type": "Asked", "number": 1,
+            "request": {"type": request.__name__, **valid, **fields}}  # fmt: skip
+
+
+@pytest.mark.parametrize("request_class", c.REQUESTS, ids=lambda r: r.__name__)
+def test_a_request_with_every_field_valid_is_built(request_class: type[c.Request]):
+    asked = decode(_asked(request_class))
+    assert isinstance(asked, Asked) and type(asked.request) is request_class
+
+
+@pytest.mark.parametrize("request_class", c.REQUESTS, ids=lambda r: r.__name__)
+def test_each_field_of_a_request_given_a_wrong_type_is_refused_naming_it(
+    request_class: type[c.Request],
+):
+    for name, hint in _fields(request_class).items():
+        for wrong in _wrong(hint):
+            with pytest.raises(WireError) as refused:
+                decode(_asked(request_class, **{name: wrong}))
+            message = str(refused.value)
+            assert message.startswith(f"{request_class.__name__}.{name}: expected "), message
+
+
+@pytest.mark.parametrize("request_class", c.REQUESTS, ids=lambda r: r.__name__)
+def test_every_text_number_path_and_tuple_a_request_holds_is_bounded(
+    request_class: type[c.Request],
+):
+    for name, hint in _fields(request_class).items():
+        plain, bounds = _plain(hint)
+        if plain is bool or (isinstance(plain, type) and issubclass(plain, enum.Enum)):
+            continue
+        assert bounds, f"{request_class.__name__}.{name} carries no bound (commands.py)"
+
+
+def _out_of_bounds(bound: object, hint: object) -> list[object]:
+    plain, _ = _plain(hint)
+    if isinstance(bound, Text):
+        long = "x" * (bound.longest + 1)
+        junk = ["kitchen\n", "\x00", "\x1b[2J"] if bound.pattern is not None else []
+        return [{"path": long}] if plain is Path else [long, *junk]
+    if isinstance(bound, Number):
+        if plain is int:
+            return [int(bound.low) - 1, int(bound.high) + 1]
+        return [bound.low - 1, bound.high + 1, math.nan, math.inf, -math.inf]
+    assert isinstance(bound, Count)
+    item = _valid(typing.get_args(plain)[0])
+    return [[item] * (bound.most + 1)] + ([[]] if bound.fewest else [])
+
+
+@pytest.mark.parametrize("request_class", c.REQUESTS, ids=lambda r: r.__name__)
+def test_each_field_of_a_request_out_of_its_bounds_is_refused_saying_them(
+    request_class: type[c.Request],
+):
+    for name, hint in _fields(request_class).items():
+        for bound in _plain(hint)[1]:
+            for bad in _out_of_bounds(bound, hint):
+                # The line a client writes: NaN and Infinity as json writes them.
+                line = json.dumps(_asked(request_class, **{name: bad}))
+                with pytest.raises(WireError) as refused:
+                    decode(json.loads(line))
+                where = f"{request_class.__name__}.{name}: expected {bound.what}"  # type: ignore[attr-defined]
+                assert str(refused.value).startswith(where), str(refused.value)
+
+
+def test_a_name_that_a_path_or_a_shell_would_read_otherwise_is_refused():
+    for name in ("a/b", "..", "living room", "kitchen;rm"):
+        with pytest.raises(WireError, match=r"^Teach\.name: expected a route's name"):
+            decode(_asked(c.Teach, name=name))
+
+
+def test_a_patrol_may_be_given_by_its_file_but_no_other_path():
+    assert decode(_asked(c.RunPatrol, name="/home/nurse/night.patrol.yaml"))
+    with pytest.raises(WireError, match=r"^RunPatrol\.name: expected a patrol's name"):
+        decode(_asked(c.RunPatrol, name="../../etc/passwd"))
+
+
+def test_a_request_where_another_message_belongs_is_refused():
+    with pytest.raises(WireError, match=r"^Asked\.request: expected a Request, got a Telemetry$"):
+        decode({"type": "Asked", "number": 1, "request": encode(full_telemetry())})
