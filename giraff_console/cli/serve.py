@@ -100,7 +100,22 @@ def add_serve_parser(commands: argparse._SubParsersAction, example: Path) -> Non
         help="the vehicle's serial number on the broker (default: fleet.serial_number, "
         "else the host name)",
     )  # fmt: skip
+    serve.add_argument(
+        "--max-consoles", type=_consoles, metavar="N",
+        help="consoles attached at once at most (default 64); one more is refused, but "
+        "`giraff-console stop` is still obeyed",
+    )  # fmt: skip
     add_folder_options(serve, after_command=True)
+
+
+def _consoles(text: str) -> int:
+    try:
+        count = int(text)
+    except ValueError:
+        count = 0
+    if count < 1:
+        raise argparse.ArgumentTypeError(f"a whole number of consoles, 1 or more, not {text!r}")
+    return count
 
 
 def run_serve(args: argparse.Namespace, settings: Settings, example: Path) -> int:
@@ -126,7 +141,7 @@ def run_serve(args: argparse.Namespace, settings: Settings, example: Path) -> in
 
 
 def _serve(robot: Robot, args: argparse.Namespace, settings: Settings, example: Path) -> int:
-    from giraff_console.service.daemon import Daemon
+    from giraff_console.service.daemon import MAX_CONSOLES, SWITCH_INTERVAL_S, Daemon
     from giraff_console.service.patrol_schedule import PatrolSchedule
 
     service, control = robot.service, robot.control
@@ -138,7 +153,8 @@ def _serve(robot: Robot, args: argparse.Namespace, settings: Settings, example: 
     try:
         path = socket_path(runtime_folder())
         daemon = Daemon(service, path, (args.floorplan or example).resolve(),
-                        simulator=robot.site is not None)  # fmt: skip
+                        simulator=robot.site is not None,
+                        max_consoles=args.max_consoles or MAX_CONSOLES)  # fmt: skip
     except TransportError as error:
         return fail(str(error), EXIT_USAGE)
     schedule = PatrolSchedule(service, settings.schedule, robot.routes.runs)
@@ -147,6 +163,9 @@ def _serve(robot: Robot, args: argparse.Namespace, settings: Settings, example: 
     # then the daemon stops taking consoles and ends.
     signal.signal(signal.SIGHUP, signal.SIG_IGN)
     last_stop = robot.guard(leave=lambda why: daemon.stop(), signals=SIGNALS - {signal.SIGHUP})
+    # The control loop's tick must not wait long for the interpreter behind the consoles'
+    # event loop (daemon.py): switched to more often than Python's default.
+    sys.setswitchinterval(SWITCH_INTERVAL_S)
     robot.start()
     sys.stderr.write(f"giraff-console: serving the robot at {path}\n")
     if robot.stepped is None:

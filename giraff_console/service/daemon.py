@@ -1,17 +1,31 @@
-"""The daemon's side of the socket: consoles attach to the robot service (issue 15).
+"""The daemon's side of the socket: consoles attach to the robot service (issues 15, 30).
 
 `giraff-console serve` owns the board and runs the control loop; consoles (the screen,
 `status`, `go`, `stop` …) attach over a Unix socket in the user's runtime folder, owner
 only, and nothing listens on the network (service/transport.py).
 
 A console says who it is (`Hello`), and is then told everything the service says, and
-answers to its requests, on the one connection. Each console has a thread that reads
-its requests and one that writes to it: the control loop only drops events into the
-console's outbox and never waits on a socket, so that a console that stops reading
-cannot delay a tick (issue 15, item 6). Quick requests (a key, a stop) are answered on
-the reading thread, in the order typed; the others (planning a route, a controller
-command waiting for its reply) in a thread of their own, so a stop is never queued
-behind them.
+answers to its requests, on the one connection.
+
+One thread, the event loop (`selectors`), holds the listening socket and every
+console's, non-blocking, each with bounded buffers both ways (service/console_socket.py):
+no console, slow, fast, huge or one of many, makes it wait, and a thousand idle ones are
+a thousand file descriptors, not a thousand threads. The daemon hears the service once;
+the control loop only hands each event over and wakes the event loop, which never makes
+the loop wait (issue 15, item 6), and which encodes each message once and writes the same
+bytes to every console it is for. Quick requests (a key, a stop) are answered there at
+once, in the order typed; the ones that wait (planning a route, a controller command
+waiting for the board's answer) go to a few worker threads, one at a time a console, so
+that a stop is never queued behind them.
+
+Bounds (issue 30): at most `max_consoles` attached; a connection beyond them is welcomed
+"over the limit" (up to OVER_LIMIT of them, the oldest hung up on to make room for the
+newest) and served one stop, so that `giraff-console stop`, itself a new connection,
+is obeyed however many consoles there are; anything else it asks is refused ("too many
+consoles") and it is hung up on. At most GREETING connections may be still to say Hello,
+HELLO_TIMEOUT_S each, the oldest dropped first for the same reason: a `stop` is always the
+newest. A daemon out of file descriptors refuses the newest connection with the one it
+keeps spare, and goes on serving.
 
 A console that hangs up, or whose connection dies, is detached: if it held the
 controls its keys are let go of at once, and a mission it started carries on.
@@ -22,12 +36,18 @@ as it runs, so that two started at once cannot both take the socket (and the boa
 
 from __future__ import annotations
 
+import collections
 import contextlib
+import errno
 import fcntl
 import logging
 import os
 import queue
+import selectors
+import socket
 import threading
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -59,6 +79,12 @@ from giraff_console.robot.replay import PlaybackStatus
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.service import commands as c
 from giraff_console.service import wire
+from giraff_console.service.console_socket import (
+    REQUESTS_PER_S,
+    WAITING,
+    ConsoleSocket,
+    Stage,
+)
 from giraff_console.service.events import (
     Answer,
     Controls,
@@ -74,28 +100,54 @@ from giraff_console.service.events import (
     Sent,
     Situation,
 )
-from giraff_console.service.outbox import Outbox
 from giraff_console.service.robot_service import RobotService
 from giraff_console.service.transport import (
-    Connection,
     ConnectionClosed,
     DaemonRunning,
     TransportError,
-    accept,
+    encode_line,
     listen,
+    parse,
+    peer_pid,
 )
 from giraff_console.service.wire import WireError
 
 log = logging.getLogger(__name__)
 
-# Seconds between looks at the exit event while waiting for a console or a request.
+# Seconds between looks at the exit event, the greetings and the stuck writers.
 POLL_S = 0.2
-# Answered on the reading thread at once, in the order typed: the keys, the stops and
-# what waits on nothing.
+# Answered by the event loop at once, in the order typed: the keys, the stops and what
+# waits on nothing.
 URGENT = (c.Press, c.Halt, c.StopMission, c.Pause, c.Resume, c.Speed, c.Heartbeat,
           c.TakeControls, c.Status, c.Release, c.Shutdown, c.View)  # fmt: skip
-# Seconds the first line (Hello) may take to come.
+# The operator's stops: never rate limited, and served over the connection limit.
+STOPS = (c.Halt, c.StopMission, c.Shutdown)
+# Seconds the first line (Hello) may take to come; and a console welcomed over the limit
+# to ask for its stop.
 HELLO_TIMEOUT_S = 5.0
+# Consoles attached at once, unless told otherwise (`serve --max-consoles`).
+MAX_CONSOLES = 64
+# Connections still to say Hello, and connections over the limit waiting to ask a stop.
+GREETING = 32
+OVER_LIMIT = 16
+# Threads that run the requests that wait.
+WORKERS = 4
+# Connections taken at one turn of the loop, and the characters of a console's name.
+ACCEPT_BATCH = 32
+NAME_CHARS = 80
+# Seconds a connection told why it is refused has to take it before it is closed.
+LEAVING_S = 1.0
+# Lines kept made, for the consoles still to be sent them (about a second's events).
+LINES_KEPT = 64
+# Seconds the daemon, ending, gives its last answers to reach the consoles.
+DRAIN_S = 1.0
+# The interpreter's switch interval in the daemon: a thread that wants it waits at most
+# about this long for another's pure-Python work (the control loop's tick, 50 ms, must
+# not wait behind the event loop's; Python's default is 5 ms).
+SWITCH_INTERVAL_S = 0.001
+# What a console is told when it cannot be served: no Python text, ever (issue 30).
+INTERNAL_ERROR = "refused: internal error, logged"
+NO_DESCRIPTORS = "refused: the daemon has no file descriptors left; try again later"
 
 
 @dataclass(frozen=True)
@@ -137,12 +189,16 @@ class Daemon:
     """Serves `service` on a Unix socket at `path` until `stop`."""
 
     def __init__(self, service: RobotService, path: Path, floorplan: Path | None, *,
-                 simulator: bool) -> None:  # fmt: skip
-        """`floorplan` and `simulator` are what the consoles are told of the robot."""
+                 simulator: bool, max_consoles: int = MAX_CONSOLES) -> None:  # fmt: skip
+        """`floorplan` and `simulator` are what the consoles are told of the robot;
+        `max_consoles`, how many may be attached at once."""
+        if max_consoles < 1:
+            raise ValueError(f"max_consoles must be at least 1, not {max_consoles}")
         self.service = service
         self.path = path
         self.floorplan = floorplan
         self.simulator = simulator
+        self.max_consoles = max_consoles
         self._exit = threading.Event()
         self._lock = _lock_beside(path)
         try:
@@ -150,141 +206,426 @@ class Daemon:
         except TransportError:
             os.close(self._lock)
             raise
-        self._threads: list[threading.Thread] = []
+        self._listener.setblocking(False)
+        # The control loop's and the workers' way to wake the event loop: a byte.
+        self._wake_in, self._wake_out = socket.socketpair()
+        self._wake_in.setblocking(False)
+        self._wake_out.setblocking(False)
+        self._woken = False
+        self._selector = selectors.DefaultSelector()
+        self._selector.register(self._listener, selectors.EVENT_READ, None)
+        self._selector.register(self._wake_in, selectors.EVENT_READ, None)
+        # Every connection by stage; dicts keep their order, the oldest first.
+        self._greeting: dict[ConsoleSocket, None] = {}
+        self._over_limit: dict[ConsoleSocket, None] = {}
+        self._attached: dict[ConsoleSocket, None] = {}
+        self._leaving: dict[ConsoleSocket, None] = {}  # told why, and hung up on
         self._names: set[str] = set()
-        self._names_lock = threading.Lock()
+        # What the service said, for the event loop to hand on: the newest telemetry,
+        # camera frame and map alone (as each outbox keeps them), everything else in order.
+        self._heard: collections.deque[object] = collections.deque()
+        self._newest: dict[type, object] = {}
+        # Answers from the workers: (console, answer).
+        self._answered: collections.deque[tuple[ConsoleSocket, Answered]] = collections.deque()
+        self._work: queue.SimpleQueue[tuple[ConsoleSocket, Asked] | None] = queue.SimpleQueue()
+        self._workers = [threading.Thread(target=self._worker, name=f"daemon-requests-{n}",
+                                          daemon=True) for n in range(WORKERS)]  # fmt: skip
+        # Each message's line, made once for all the consoles it goes to.
+        self._lines: collections.OrderedDict[int, tuple[object, bytes]] = collections.OrderedDict()
+        # A descriptor kept spare, given up to accept and refuse a connection when the
+        # process has no other (EMFILE), rather than leave it in the backlog for ever.
+        self._spare: int | None = _spare()
+        self._out_of_descriptors_at = -float("inf")
 
     def serve_forever(self) -> None:
         """Take consoles as they come, until `stop`."""
+        self.service.subscribe(self._hear)
+        for worker in self._workers:
+            worker.start()
         try:
             while not self._exit.is_set():
-                connection = accept(self._listener, POLL_S)
-                if connection is None:
-                    continue
-                thread = threading.Thread(target=self._console, args=(connection,),
-                                          name="daemon-console", daemon=True)  # fmt: skip
-                self._threads = [t for t in self._threads if t.is_alive()] + [thread]
-                thread.start()
+                self._turn(POLL_S)
+            self._drain(time.monotonic() + DRAIN_S)
         finally:
+            self.service.unsubscribe(self._hear)
+            for console in [*self._greeting, *self._over_limit, *self._attached, *self._leaving]:
+                self._hang_up(console)
+            for _ in self._workers:
+                self._work.put(None)
             self._close_listener()
 
     def stop(self) -> None:
-        """Stop taking consoles and let the attached ones go (each is detached)."""
+        """Stop taking consoles and let the attached ones go (each is detached); from
+        any thread."""
         self._exit.set()
+        self._wake()
 
     def join(self, timeout: float) -> None:
-        for thread in self._threads:
-            thread.join(timeout)
+        for worker in self._workers:
+            if worker.is_alive():
+                worker.join(timeout)
 
     def _close_listener(self) -> None:
+        self._selector.close()
         self._listener.close()
+        self._wake_in.close()
+        self._wake_out.close()
+        if self._spare is not None:
+            os.close(self._spare)
         with contextlib.suppress(FileNotFoundError):
             self.path.unlink()
         os.close(self._lock)
 
-    # -- one console --------------------------------------------------------------------
+    # -- from other threads: never waits ----------------------------------------------
 
-    def _console(self, connection: Connection) -> None:
-        try:
-            hello = connection.receive(HELLO_TIMEOUT_S)
-        except (ConnectionClosed, WireError):
-            connection.close()
-            return
-        if not isinstance(hello, Hello):
-            connection.close()
-            return
-        pid = connection.peer_pid()
-        where = "this process" if pid == os.getpid() else f"pid {pid}"
-        name = self._unique(f"{hello.console} ({where})")
-        outbox = Outbox()
-        writer = threading.Thread(target=self._write, args=(connection, outbox),
-                                  name="daemon-writer", daemon=True)  # fmt: skip
-        asked: queue.SimpleQueue[Asked | None] = queue.SimpleQueue()
-        worker = threading.Thread(target=self._work, args=(asked, name, outbox),
-                                  name="daemon-requests", daemon=True)  # fmt: skip
-        service = self.service
-        # The welcome first, with this console among the attached: what the service says
-        # from then on follows it. `outbox.put` never waits (see the module's note).
-        service.attach(name, take=hello.take)
-        outbox.put(Welcome(name, self.floorplan, self.simulator, service.controls(),
-                           service.situation(), service.route()))  # fmt: skip
-        service.subscribe(outbox.put)
-        writer.start()
-        worker.start()
-        try:
-            self._read(connection, name, outbox, asked)
-        finally:
-            service.unsubscribe(outbox.put)
-            service.detach(name)
-            asked.put(None)
-            worker.join(2.0)
-            outbox.close()
-            writer.join(2.0)
-            connection.close()
-            with self._names_lock:
-                self._names.discard(name)
+    def _hear(self, event: object) -> None:
+        """Everything the service says, on its thread (the control loop's, mostly)."""
+        if isinstance(event, (Telemetry, SharedFrame, MapDrawn)):
+            self._newest[type(event)] = event
+        else:
+            self._heard.append(event)
+        self._wake()
 
-    def _read(self, connection: Connection, name: str, outbox: Outbox,
-              asked: queue.SimpleQueue[Asked | None]) -> None:  # fmt: skip
-        """The console's requests, until it hangs up, falls too far behind, or the
-        daemon stops."""
-        while not self._exit.is_set() and not outbox.closed:
-            try:
-                message = connection.receive(POLL_S)
-            except ConnectionClosed:
-                return
-            except WireError as error:
-                outbox.put(Answered(-1, Reply(False, f"not understood: {error}")))
-                continue
-            if message is None:
-                continue
-            if not isinstance(message, Asked) or not isinstance(message.request, c.Request):
-                outbox.put(Answered(-1, Reply(False, "not understood: not a request")))
-                continue
-            if isinstance(message.request, URGENT):
-                self._answer(message, name, outbox)
+    def _wake(self) -> None:
+        # Cleared by the event loop before it looks at what it was woken for, so that
+        # nothing added after the look goes unseen.
+        if not self._woken:
+            self._woken = True
+            with contextlib.suppress(OSError):  # full: it is awake already; closed: ended
+                self._wake_out.send(b"\0")
+
+    def _worker(self) -> None:
+        while (job := self._work.get()) is not None:
+            console, asked = job
+            reply = self._execute(asked.request, console)
+            self._answered.append((console, Answered(asked.number, reply)))
+            self._wake()
+
+    # -- the event loop ---------------------------------------------------------------
+
+    def _turn(self, timeout: float) -> None:
+        accepting = False
+        for key, mask in self._selector.select(timeout):
+            if key.fileobj is self._listener:
+                accepting = True
+            elif key.fileobj is self._wake_in:
+                self._woken = False
+                with contextlib.suppress(OSError):
+                    self._wake_in.recv(4096)
             else:
-                asked.put(message)
+                console: ConsoleSocket = key.data
+                if mask & selectors.EVENT_READ and not console.gone:
+                    self._guarded(console, self._read)
+                if mask & selectors.EVENT_WRITE and not console.gone:
+                    self._guarded(console, self._flush)
+        self._hand_on()
+        if accepting:
+            self._accept()
+        self._expire(time.monotonic())
 
-    def _work(self, asked: queue.SimpleQueue[Asked | None], name: str, outbox: Outbox) -> None:
-        while (message := asked.get()) is not None:
-            self._answer(message, name, outbox)
+    def _drain(self, deadline: float) -> None:
+        """The last answers (a Shutdown's) and notes to the consoles, until `deadline`."""
+        self._hand_on()
+        while time.monotonic() < deadline and any(
+            console.unsent or console.outbox.pending for console in self._attached
+        ):
+            for key, mask in self._selector.select(min(POLL_S, deadline - time.monotonic())):
+                if key.data is not None and mask & selectors.EVENT_WRITE and not key.data.gone:
+                    self._guarded(key.data, self._flush)
 
-    def _answer(self, asked: Asked, name: str, outbox: Outbox) -> None:
-        if isinstance(asked.request, c.View):
-            outbox.wants_frames = asked.request.on
+    def _guarded(self, console: ConsoleSocket, handle: Callable[[ConsoleSocket], None]) -> None:
+        """`handle(console)`; a console that has gone, or that a bug cannot serve, is hung
+        up on, and the others are served as before."""
+        if console.gone:
+            return
         try:
-            reply = self.service.execute(asked.request, name)
-        except Exception as error:  # a bug must not end the console's connection
-            log.exception("request %r failed", asked.request)
-            reply = Reply(False, f"failed: {type(error).__name__}: {error}")
-        outbox.put(Answered(asked.number, reply))
+            handle(console)
+        except ConnectionClosed as why:
+            if console.outbox.overflowed:
+                log.error("a console fell too far behind; hanging up on it")
+            elif str(why) == "peer not reading":
+                log.error("a console stopped reading; hanging up on it")
+            self._hang_up(console)
+        except Exception:
+            log.exception("serving a console failed; hanging up on it")
+            self._hang_up(console)
+
+    def _hand_on(self) -> None:
+        """What the service said and the workers answered, into the consoles' outboxes,
+        and written."""
+        touched: set[ConsoleSocket] = set()
+        while self._answered:
+            console, answered = self._answered.popleft()
+            console.working = False
+            if not console.gone:
+                console.outbox.put(answered)
+                touched.add(console)
+                self._next_work(console)
+        heard = [self._heard.popleft() for _ in range(len(self._heard))]
+        if sum(isinstance(event, Controls) for event in heard) > 1:
+            # Each says who holds the controls and who is attached, all of it: of those
+            # said at one turn (many consoles attaching at once) only the last is news.
+            last = max(i for i, event in enumerate(heard) if isinstance(event, Controls))
+            heard = [e for i, e in enumerate(heard) if i == last or not isinstance(e, Controls)]
+        for kind in (Telemetry, SharedFrame, MapDrawn):
+            newest = self._newest.pop(kind, None)
+            if newest is not None:
+                heard.append(newest)
+        if heard:
+            for console in self._attached:
+                for event in heard:
+                    console.outbox.put(event)
+            touched.update(self._attached)
+        for console in touched:
+            if not console.gone:
+                self._guarded(console, self._flush)
+
+    def _flush(self, console: ConsoleSocket) -> None:
+        """As much as the console's socket takes now, from its outbox; watched for
+        writing while some waits."""
+        now = time.monotonic()
+        while console.wants_more and (message := console.outbox.take(0)) is not None:
+            line = self._line(message)
+            if line is not None:
+                console.queue(line)
+        if console.outbox.overflowed:
+            raise ConnectionClosed("too far behind")
+        console.write(now)
+        if console.closing and not console.unsent and not console.outbox.pending:
+            raise ConnectionClosed("told why")
+        events = selectors.EVENT_READ | (selectors.EVENT_WRITE if console.unsent else 0)
+        if self._selector.get_key(console).events != events:
+            self._selector.modify(console, events, console)
+
+    def _line(self, message: object) -> bytes | None:
+        """The line that carries `message`, made once for every console it goes to."""
+        made = self._lines.get(id(message))
+        if made is not None and made[0] is message:
+            return made[1]
+        try:
+            line = encode_line(message)
+        except Exception:  # a message that cannot cross is a bug here, not the console's
+            log.exception("cannot send a %s to the consoles", type(message).__name__)
+            return None
+        self._lines[id(message)] = (message, line)
+        if len(self._lines) > LINES_KEPT:
+            self._lines.popitem(last=False)
+        return line
+
+    def _accept(self) -> None:
+        now = time.monotonic()
+        for _ in range(ACCEPT_BATCH):
+            try:
+                client, _ = self._listener.accept()
+            except (BlockingIOError, InterruptedError):
+                return
+            except ConnectionAbortedError:
+                continue
+            except OSError as error:
+                if error.errno not in (errno.EMFILE, errno.ENFILE):
+                    raise
+                self._refuse_newest(now)
+                return
+            console = ConsoleSocket(client, now)
+            self._selector.register(console, selectors.EVENT_READ, console)
+            self._greeting[console] = None
+            if len(self._greeting) > GREETING:
+                # The oldest goes: a `stop` just connected says Hello at once.
+                self._hang_up(next(iter(self._greeting)))
+
+    def _refuse_newest(self, now: float) -> None:
+        """Out of file descriptors: the spare one is given up for a moment to take the
+        newest connection off the backlog, tell it why, and close it."""
+        if now - self._out_of_descriptors_at > 10.0:
+            log.error("out of file descriptors: refusing new consoles until some leave")
+        self._out_of_descriptors_at = now
+        if self._spare is not None:
+            os.close(self._spare)
+            self._spare = None
+        try:
+            client, _ = self._listener.accept()
+        except OSError:
+            pass
+        else:
+            with client:
+                client.setblocking(False)
+                with contextlib.suppress(OSError):
+                    client.send(encode_line(Answered(-1, Reply(False, NO_DESCRIPTORS))))
+        self._spare = _spare()
+
+    def _expire(self, now: float) -> None:
+        """Hang up on connections that did not say Hello, or ask their stop, in time, and
+        on consoles that stopped reading."""
+        for console in self._oldest(self._greeting, now - HELLO_TIMEOUT_S):
+            self._hang_up(console)
+        for console in self._oldest(self._over_limit, now - HELLO_TIMEOUT_S):
+            self._refuse(console, self._too_many())
+        for console in self._oldest(self._leaving, now - LEAVING_S):
+            self._hang_up(console)
+        for console in list(self._attached):
+            if console.unsent:
+                self._guarded(console, lambda stuck: stuck.check_stuck(now))
+
+    @staticmethod
+    def _oldest(stage: dict[ConsoleSocket, None], before: float) -> list[ConsoleSocket]:
+        """The connections of `stage` there since `before`, oldest first."""
+        old = []
+        for console in stage:
+            if console.since > before:
+                break
+            old.append(console)
+        return old
+
+    # -- one console ------------------------------------------------------------------
+
+    def _read(self, console: ConsoleSocket) -> None:
+        console.read()
+        while not console.gone and not console.closing:
+            try:
+                line = console.line()
+            except WireError as error:
+                if console.stage is Stage.GREETING:
+                    self._hang_up(console)  # not a console: it did not even say Hello
+                else:
+                    self._tell(console, Answered(-1, Reply(False, f"not understood: {error}")))
+                continue
+            if line is None:
+                return
+            try:
+                message = parse(line)
+            except WireError as error:
+                message = error
+            except Exception:  # a bug in decoding: the console is told no more than that
+                log.exception("decoding a console's line failed")
+                message = WireError("internal error, logged")
+            if console.stage is Stage.GREETING:
+                self._greet(console, message)
+            else:
+                self._asked(console, message)
+
+    def _greet(self, console: ConsoleSocket, hello: object) -> None:
+        del self._greeting[console]
+        if not isinstance(hello, Hello) or not isinstance(hello.console, str):
+            self._hang_up(console)
+            return
+        pid = peer_pid(console.socket)
+        where = "this process" if pid == os.getpid() else f"pid {pid}"
+        # A name goes to every console each time the controls change hands: kept short.
+        name = self._unique(f"{hello.console[:NAME_CHARS]} ({where})")
+        console.name = name
+        console.since = time.monotonic()
+        over = len(self._attached) >= self.max_consoles
+        if over:
+            # Not attached, told nothing more, and served a stop alone (the module's note).
+            console.stage = Stage.OVER_LIMIT
+            self._over_limit[console] = None
+        else:
+            # The welcome first, with this console among the attached: what the service
+            # says from then on follows it.
+            console.stage = Stage.ATTACHED
+            self._attached[console] = None
+            self.service.attach(name, take=hello.take is True)
+        self._tell(console, self._welcome(name))
+        if over and len(self._over_limit) > OVER_LIMIT:
+            self._refuse(next(iter(self._over_limit)), self._too_many())
+
+    def _welcome(self, name: str) -> Welcome:
+        service = self.service
+        return Welcome(name, self.floorplan, self.simulator, service.controls(),
+                       service.situation(), service.route())  # fmt: skip
+
+    def _asked(self, console: ConsoleSocket, message: object) -> None:
+        if isinstance(message, WireError):
+            self._tell(console, Answered(-1, Reply(False, f"not understood: {message}")))
+            return
+        if not isinstance(message, Asked) or not isinstance(message.request, c.Request) or (
+                not isinstance(message.number, int)):  # fmt: skip
+            self._tell(console, Answered(-1, Reply(False, "not understood: not a request")))
+            return
+        request = message.request
+        if console.stage is Stage.OVER_LIMIT:
+            if isinstance(request, STOPS):
+                self._leave(console)
+                self._answer(console, message)
+            elif isinstance(request, c.Heartbeat):
+                self._tell(console, Answered(message.number, Reply(True)))
+            else:
+                self._refuse(console, self._too_many(), message.number)
+            return
+        if not isinstance(request, STOPS) and not console.allowed(time.monotonic()):
+            self._tell(console, Answered(message.number, Reply(
+                False, f"refused: more than {REQUESTS_PER_S:g} requests a second")))  # fmt: skip
+        elif isinstance(request, URGENT):
+            self._answer(console, message)
+        elif len(console.waiting) >= WAITING:
+            self._tell(console, Answered(message.number, Reply(
+                False, f"refused: {WAITING} requests of this console wait already")))  # fmt: skip
+        else:
+            console.waiting.append(message)
+            self._next_work(console)
+
+    def _answer(self, console: ConsoleSocket, asked: Asked) -> None:
+        if isinstance(asked.request, c.View):
+            console.outbox.wants_frames = asked.request.on
+        self._tell(console, Answered(asked.number, self._execute(asked.request, console)))
         if isinstance(asked.request, c.Shutdown):
             self.stop()
 
-    def _write(self, connection: Connection, outbox: Outbox) -> None:
+    def _execute(self, request: c.Request, console: ConsoleSocket) -> Reply:
         try:
-            while (message := outbox.take(POLL_S)) is not None or not outbox.closed:
-                if message is not None:
-                    connection.send(message)
-        except ConnectionClosed:
-            pass  # the reading thread sees the hang-up too and detaches the console
-        except Exception:
-            # A console that can no longer be told what the robot does is hung up on,
-            # so that its keys are let go of, rather than left driving blind.
-            log.exception("writing to a console failed; hanging up on it")
-        finally:
-            if outbox.overflowed:
-                log.error("a console fell too far behind; hanging up on it")
-            connection.close()
+            return self.service.execute(request, console.name)
+        except Exception:  # a bug must not end the console's connection, nor be shown it
+            log.exception("request %r failed", request)
+            return Reply(False, INTERNAL_ERROR)
+
+    def _next_work(self, console: ConsoleSocket) -> None:
+        """The console's next waiting request to a worker, once its last is answered."""
+        if not console.working and console.waiting:
+            console.working = True
+            self._work.put((console, console.waiting.popleft()))
+
+    def _tell(self, console: ConsoleSocket, message: object) -> None:
+        console.outbox.put(message)
+        self._guarded(console, self._flush)
+
+    def _refuse(self, console: ConsoleSocket, why: str, number: int = -1) -> None:
+        """Tell `console` why, then hang up on it once that has gone, LEAVING_S at most."""
+        self._leave(console)
+        self._tell(console, Answered(number, Reply(False, why)))
+
+    def _leave(self, console: ConsoleSocket) -> None:
+        """Hung up on once what it was told has gone, LEAVING_S at most."""
+        self._over_limit.pop(console, None)
+        console.closing = True
+        console.since = time.monotonic()
+        self._leaving[console] = None
+        if len(self._leaving) > GREETING:
+            self._hang_up(next(iter(self._leaving)))
+
+    def _too_many(self) -> str:
+        return (f"refused: too many consoles attached (limit {self.max_consoles}); "
+                "`giraff-console stop` still stops the robot")  # fmt: skip
+
+    def _hang_up(self, console: ConsoleSocket) -> None:
+        if console.gone:
+            return
+        for stage in (self._greeting, self._over_limit, self._attached, self._leaving):
+            stage.pop(console, None)
+        console.waiting.clear()
+        with contextlib.suppress(KeyError, ValueError):
+            self._selector.unregister(console)
+        attached = console.stage is Stage.ATTACHED
+        console.close()
+        self._names.discard(console.name)
+        if attached:
+            self.service.detach(console.name)
 
     def _unique(self, name: str) -> str:
-        with self._names_lock:
-            unique, n = name, 2
-            while unique in self._names:
-                unique, n = f"{name} #{n}", n + 1
-            self._names.add(unique)
-            return unique
+        unique, n = name, 2
+        while unique in self._names:
+            unique, n = f"{name} #{n}", n + 1
+        self._names.add(unique)
+        return unique
 
 
 def daemon_alive(path: Path) -> bool:
@@ -313,6 +654,14 @@ def _lock_beside(path: Path) -> int:
         os.close(lock)
         raise DaemonRunning(path) from None
     return lock
+
+
+def _spare() -> int | None:
+    """A descriptor to give up when there is no other (Daemon._refuse_newest)."""
+    try:
+        return os.open(os.devnull, os.O_RDONLY)
+    except OSError:
+        return None  # out already: taken again at the next refusal
 
 
 # What crosses the socket: the daemon's own messages, the requests, and everything the

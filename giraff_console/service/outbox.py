@@ -92,6 +92,13 @@ class Outbox:
             return latest
 
     @property
+    def pending(self) -> bool:
+        """Whether anything waits to be taken."""
+        with self._ready:
+            return bool(self._messages or self._latest is not None or self._map is not None
+                        or self._frame is not None)  # fmt: skip
+
+    @property
     def closed(self) -> bool:
         with self._ready:
             return self._closed and not self._messages

@@ -62,6 +62,9 @@ class RemoteRobot:
             raise DaemonGone(f"the daemon at {path} did not welcome us: {error}") from None
         if not isinstance(welcome, Welcome):
             self._connection.close()
+            if isinstance(welcome, Answered) and not welcome.reply.ok:
+                # Refused before the welcome: too many consoles, or no descriptors left.
+                raise DaemonGone(f"the daemon at {path} {welcome.reply.text}")
             raise DaemonGone(f"the daemon at {path} did not welcome us")
         self.welcome = welcome
         self.console = welcome.console

@@ -30,6 +30,8 @@ from giraff_console.service import wire
 # that is not speaking the protocol, and is thrown away rather than buffered for ever.
 MAX_LINE = 1024 * 1024
 SEND_TIMEOUT_S = 2.0
+# Seconds between tries to connect to a daemon whose backlog is full.
+CONNECT_RETRY_S = 0.005
 _CHUNK = 65536
 # AF_UNIX paths are limited to 108 bytes with the terminating NUL (sun_path, unix(7)).
 _MAX_PATH = 107
@@ -72,8 +74,7 @@ class Connection:
         self._socket = sock
         self._send_lock = threading.Lock()
         self._receive_lock = threading.Lock()
-        self._buffer = bytearray()
-        self._discarding = False  # inside an oversized line, until its newline
+        self._lines = LineBuffer(MAX_LINE)
         self._closed = False
 
     def fileno(self) -> int:
@@ -81,18 +82,11 @@ class Connection:
 
     def peer_pid(self) -> int | None:
         """The process at the other end, as the kernel says (SO_PEERCRED), or None."""
-        try:
-            credentials = self._socket.getsockopt(socket.SOL_SOCKET, socket.SO_PEERCRED, 12)
-        except OSError:
-            return None
-        return int.from_bytes(credentials[:4], sys.byteorder)
+        return peer_pid(self._socket)
 
     def send(self, message: object) -> None:
         """Send one message; ConnectionClosed if the peer has gone or is not reading."""
-        # allow_nan, the default: inf and nan cross as Infinity and NaN (wire.py).
-        line = json.dumps(wire.encode(message), separators=(",", ":")).encode() + b"\n"
-        if len(line) > MAX_LINE:
-            raise wire.WireError(f"a message of {len(line)} bytes is over the {MAX_LINE} limit")
+        line = encode_line(message)
         with self._send_lock:
             if self._closed:
                 raise ConnectionClosed("connection closed")
@@ -115,36 +109,13 @@ class Connection:
         deadline = time.monotonic() + max(timeout, 0.0)
         with self._receive_lock:
             while True:
-                line = self._take_line()
+                line = self._lines.take()
                 if line is not None:
-                    return _parse(line)
+                    return parse(line)
                 remaining = deadline - time.monotonic()
                 if remaining <= 0 or not self._wait_readable(remaining):
                     return None
                 self._read_chunk()
-
-    def _take_line(self) -> bytes | None:
-        """A whole line from the buffer; WireError once an oversized one is seen."""
-        newline = self._buffer.find(b"\n")
-        if self._discarding:
-            if newline < 0:
-                self._buffer.clear()
-                return None
-            del self._buffer[: newline + 1]
-            self._discarding = False
-            newline = self._buffer.find(b"\n")
-        if newline > MAX_LINE or (newline < 0 and len(self._buffer) > MAX_LINE):
-            if newline < 0:
-                self._discarding = True  # the rest of it is dropped as it arrives
-                self._buffer.clear()
-            else:
-                del self._buffer[: newline + 1]
-            raise wire.WireError(f"a line over {MAX_LINE} bytes: skipped")
-        if newline < 0:
-            return None
-        line = bytes(self._buffer[:newline])
-        del self._buffer[: newline + 1]
-        return line
 
     def _wait_readable(self, timeout: float) -> bool:
         descriptor = self._socket.fileno()  # -1 once closed, perhaps by another thread
@@ -166,7 +137,7 @@ class Connection:
         if not chunk:
             self.close()
             raise ConnectionClosed("peer closed the connection")
-        self._buffer += chunk
+        self._lines.add(chunk)
 
     def close(self) -> None:
         """Close the connection; closing it again does nothing."""
@@ -185,7 +156,68 @@ class Connection:
         self.close()
 
 
-def _parse(line: bytes) -> object:
+def peer_pid(sock: socket.socket) -> int | None:
+    """The process at the other end of `sock`, as the kernel says (SO_PEERCRED), or None."""
+    try:
+        credentials = sock.getsockopt(socket.SOL_SOCKET, socket.SO_PEERCRED, 12)
+    except OSError:
+        return None
+    return int.from_bytes(credentials[:4], sys.byteorder)
+
+
+def encode_line(message: object) -> bytes:
+    """`message` as the line that carries it; WireError if it is over MAX_LINE."""
+    # allow_nan, the default: inf and nan cross as Infinity and NaN (wire.py).
+    line = json.dumps(wire.encode(message), separators=(",", ":")).encode() + b"\n"
+    if len(line) > MAX_LINE:
+        raise wire.WireError(f"a message of {len(line)} bytes is over the {MAX_LINE} limit")
+    return line
+
+
+class LineBuffer:
+    """Bytes as they come off a socket, handed back a whole line at a time, never more
+    than `limit` of them held: a line past it is thrown away as it streams in, unread,
+    and reported once (WireError), so that a peer that never sends a newline costs
+    neither memory nor the time to parse it."""
+
+    def __init__(self, limit: int) -> None:
+        self.limit = limit
+        self._buffer = bytearray()
+        self._discarding = False  # inside an oversized line, until its newline
+
+    def add(self, chunk: bytes) -> None:
+        if self._discarding:
+            newline = chunk.find(b"\n")
+            if newline < 0:
+                return
+            chunk = chunk[newline + 1 :]
+            self._discarding = False
+        self._buffer += chunk
+
+    def take(self) -> bytes | None:
+        """A whole line (without its newline), or None until one has come; WireError
+        once for a line over the limit, which is skipped to its end."""
+        newline = self._buffer.find(b"\n", 0, self.limit + 1)
+        if newline < 0 and len(self._buffer) > self.limit:
+            end = self._buffer.find(b"\n", self.limit)
+            if end < 0:
+                self._discarding = True  # the rest of it is dropped as it arrives
+                self._buffer.clear()
+            else:
+                del self._buffer[: end + 1]
+            raise wire.WireError(f"a line over {self.limit} bytes: skipped")
+        if newline < 0:
+            return None
+        line = bytes(self._buffer[:newline])
+        del self._buffer[: newline + 1]
+        return line
+
+    def __len__(self) -> int:
+        return len(self._buffer)
+
+
+def parse(line: bytes) -> object:
+    """The message a line holds (wire.decode); WireError if it holds none."""
     try:
         data = json.loads(line)
     except ValueError as error:  # also UnicodeDecodeError
@@ -229,7 +261,8 @@ def listen(path: Path) -> socket.socket:
     finally:
         os.umask(previous)
     os.chmod(path, 0o600)
-    server.listen(8)
+    # Room for a burst of consoles between two turns of the daemon's loop (daemon.py).
+    server.listen(64)
     return server
 
 
@@ -274,20 +307,29 @@ def connect(path: Path, timeout: float = 2.0) -> Connection:
     _check_length(path)
     if not path.exists():
         raise NoDaemon(path, "no socket file")
-    client = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    client.settimeout(timeout)  # a daemon whose backlog is full would keep us waiting
-    try:
-        client.connect(str(path))
-    except (ConnectionRefusedError, FileNotFoundError):
-        client.close()
-        raise NoDaemon(path, "connection refused (a daemon that died?)") from None
-    except TimeoutError:
-        client.close()
-        raise TransportError(f"the daemon at {path} did not answer in {timeout} s") from None
-    except OSError as error:
-        client.close()
-        raise TransportError(f"cannot connect to {path}: {error.strerror or error}") from None
-    return Connection(client)
+    deadline = time.monotonic() + timeout
+    while True:
+        client = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        client.settimeout(timeout)
+        try:
+            client.connect(str(path))
+        except (ConnectionRefusedError, FileNotFoundError):
+            client.close()
+            raise NoDaemon(path, "connection refused (a daemon that died?)") from None
+        except (BlockingIOError, TimeoutError):
+            # A Unix socket whose backlog is full says so at once (EAGAIN) rather than
+            # wait: the daemon takes connections by the dozen, so asked again, until
+            # `timeout` (a `stop` in a flood of connections must still get through).
+            client.close()
+            if time.monotonic() >= deadline:
+                why = f"the daemon at {path} did not answer in {timeout} s"
+                raise TransportError(why) from None
+            time.sleep(CONNECT_RETRY_S)
+            continue
+        except OSError as error:
+            client.close()
+            raise TransportError(f"cannot connect to {path}: {error.strerror or error}") from None
+        return Connection(client)
 
 
 def _check_length(path: Path) -> None:

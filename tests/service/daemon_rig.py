@@ -10,6 +10,7 @@ from __future__ import annotations
 import itertools
 import math
 import os
+import resource
 import signal
 import subprocess
 import sys
@@ -63,11 +64,18 @@ def program(*args: str) -> list[str]:
     return [sys.executable, "-m", "giraff_console", *args]
 
 
-def start_daemon(runtime: Path, args: Sequence[str], log_name: str = "serve.log") -> DaemonProcess:
+def start_daemon(runtime: Path, args: Sequence[str], log_name: str = "serve.log",
+                 files: int | None = None) -> DaemonProcess:  # fmt: skip
     """`giraff-console serve ARGS` with XDG_RUNTIME_DIR at `runtime` (the environment
     must already say so, for the test's own consoles to find it), once it takes
-    consoles. Killed, and the test failed, if it does not within START_TIMEOUT_S."""
+    consoles; `files`, the most file descriptors it may hold (RLIMIT_NOFILE). Killed,
+    and the test failed, if it does not take consoles within START_TIMEOUT_S."""
     log = runtime / log_name
+
+    def limit_files() -> None:  # in the child, before it runs the program
+        if files is not None:
+            resource.setrlimit(resource.RLIMIT_NOFILE, (files, files))
+
     with open(log, "wb") as errors:
         process = subprocess.Popen(
             program("serve", *args),
@@ -75,6 +83,7 @@ def start_daemon(runtime: Path, args: Sequence[str], log_name: str = "serve.log"
             stdout=subprocess.DEVNULL,
             stderr=errors,
             env=dict(os.environ),
+            preexec_fn=limit_files,
         )
     daemon = DaemonProcess(process, runtime / "giraff-console" / "robot.sock", log)
     try:
