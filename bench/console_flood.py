@@ -14,7 +14,8 @@ would wait (service/transport.py's `connect` waits 2 s).
 
 Driven by lines on standard input, answered with one JSON line on standard output each:
 
-    attach N          attach N consoles     -> {"attached": a, "refused": r, "seconds": s}
+    attach N K        attach N consoles, K at a time
+                                            -> {"attached": a, "refused": r, "seconds": s}
     attempts N HOLD   N attempts at once, each held HOLD s
                                             -> {"attempts": {outcome: count}, "seconds": s}
     end               hang up on everything -> {"dropped": d}: consoles the daemon hung up on
@@ -82,17 +83,20 @@ class Console:
         self.hung_up_on = False
         self._task: asyncio.Task[None] | None = None
 
-    async def attach(self, path: Path) -> bool:
-        sock = await open_connection(path, time.monotonic() + CONSOLE_CONNECT_S)
-        if sock is None:
-            return False
-        reader, writer = await asyncio.open_unix_connection(sock=sock, limit=2**21)
-        self._task = asyncio.create_task(self._run(reader, writer))
-        try:
-            await asyncio.wait_for(self.welcomed.wait(), WELCOME_S)
-        except TimeoutError:
-            return False
-        return True
+    async def attach(self, path: Path, at_once: asyncio.Semaphore) -> bool:
+        """Whether the daemon welcomed it; `at_once` bounds the consoles attaching at the
+        same time, as consoles started over a few seconds would come."""
+        async with at_once:
+            sock = await open_connection(path, time.monotonic() + CONSOLE_CONNECT_S)
+            if sock is None:
+                return False
+            reader, writer = await asyncio.open_unix_connection(sock=sock, limit=2**21)
+            self._task = asyncio.create_task(self._run(reader, writer))
+            try:
+                await asyncio.wait_for(self.welcomed.wait(), WELCOME_S)
+            except TimeoutError:
+                return False
+            return True
 
     async def _run(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         beating = asyncio.create_task(self._beat(writer))
@@ -159,7 +163,8 @@ async def serve(path: Path) -> None:
         began = time.monotonic()
         if line[0] == "attach":
             new = [Console() for _ in range(int(line[1]))]
-            attached = await asyncio.gather(*(console.attach(path) for console in new))
+            at_once = asyncio.Semaphore(int(line[2]))
+            attached = await asyncio.gather(*(console.attach(path, at_once) for console in new))
             consoles += new
             said: dict[str, object] = {"attached": sum(attached),
                                        "refused": len(new) - sum(attached)}  # fmt: skip

@@ -30,22 +30,23 @@ For each stop: how long until braking began (the last pose-log sample at the spe
 stop found, within 0.02 m/s, before the robot came to rest: braking had begun by
 then), until the robot was at rest, and how far it ran from where it was when the stop
 was sent (target: braking within 0.2 s, at most 0.3 m). The flood (bench/
-console_flood.py, one asyncio process) attaches `--consoles` consoles that say Hello,
-read everything and beat their hearts, and sends bursts of `--attempts` connections at
-once, each held 1 s, saying nothing, junk, or Hello. The peer: the same setup without
-the flood ("baseline"), in the same run.
+console_flood.py, one asyncio process) attaches `--consoles` consoles, `--at-once` at a
+time, that say Hello, read everything and beat their hearts, and sends bursts of
+`--attempts` connections at once, each held 1 s, saying nothing, junk, or Hello. The
+peer: the same setup without the flood ("baseline"), in the same run.
 
 `--busy N` runs N busy loops beside it (`python3 -c 'while 1: pass'`, default 2, as
 the issue asks). Every process started is ended whatever happens; every wait has a
 timeout.
 
-Usage: python bench/daemon_flood.py [--consoles 300] [--attempts 1000] [--busy 2]
-                                     [--daemon-nofile 1024] [--no-peer]
+Usage: python bench/daemon_flood.py [--consoles 300] [--at-once 16] [--attempts 1000]
+                                     [--busy 2] [--daemon-nofile 1024] [--no-peer|--no-flood]
 """
 
 from __future__ import annotations
 
 import argparse
+import bisect
 import contextlib
 import itertools
 import json
@@ -128,6 +129,7 @@ class PoseLog:
     def __init__(self, path: Path) -> None:
         self.path = path
         self.samples: list[Sample] = []
+        self.times: list[float] = []  # the samples', for bisect
         self._offset = 0
 
     def read(self) -> list[Sample]:
@@ -139,11 +141,18 @@ class PoseLog:
             for line in whole.decode().splitlines():
                 t, x, y, _, _ = line.split()
                 self.samples.append(Sample(float(t), float(x), float(y)))
+                self.times.append(float(t))
         return self.samples
+
+    def between(self, begin: float, end: float) -> list[Sample]:
+        """The samples from `begin` to `end`, read so far."""
+        self.read()
+        return self.samples[bisect.bisect_left(self.times, begin) :
+                            bisect.bisect_right(self.times, end)]  # fmt: skip
 
     def speed(self, at: float, span: float = 0.1) -> float:
         """The true speed over the `span` seconds before `at`, m/s."""
-        window = [s for s in self.read() if at - span <= s.at <= at]
+        window = self.between(at - span, at)
         if len(window) < 2 or window[-1].at <= window[0].at:
             return 0.0
         run = sum(math.dist((a.x, a.y), (b.x, b.y)) for a, b in itertools.pairwise(window))
@@ -169,13 +178,13 @@ class PoseLog:
         to REST_TIMEOUT_S for it."""
         deadline = time.monotonic() + REST_TIMEOUT_S
         while time.monotonic() < deadline:
-            after = [s for s in self.read() if s.at >= sent]
-            for n, first in enumerate(after):
-                later = after[n:]
-                if later[-1].at - first.at < REST_S:
-                    break
-                if all((s.x, s.y) == (first.x, first.y) for s in later):
-                    return first
+            after = self.between(sent, math.inf)
+            # The first of the run of samples at the last one's place, if it is long enough.
+            n = len(after) - 1
+            while n > 0 and (after[n - 1].x, after[n - 1].y) == (after[-1].x, after[-1].y):
+                n -= 1
+            if after and after[-1].at - after[n].at >= REST_S:
+                return after[n]
             time.sleep(0.1)
         return None
 
@@ -319,8 +328,7 @@ def measure_stop(poses: PoseLog, path: str, sent: float, answered: float | None,
     rest = poses.rest_after(sent)
     if rest is None or speed <= 0:
         return Stop(path, speed, answered, ended, None, None, None, note or "never at rest")
-    track = [s for s in poses.read() if s.at <= sent][-1:]
-    track += [s for s in poses.read() if sent < s.at <= rest.at]
+    track = poses.between(-math.inf, sent)[-1:] + poses.between(sent, rest.at)
     ran = sum(math.dist((a.x, a.y), (b.x, b.y)) for a, b in itertools.pairwise(track))
     resting = rest.at - sent
     braking = 2 * ran / speed - resting
@@ -422,7 +430,7 @@ def run_setup(name: str, folder: Path, args: argparse.Namespace, flooded: bool) 
             since = go("room-101")
             poses.wait_moving(0.5, 30.0)
             if flood is not None:
-                flood.send(f"attach {args.consoles}")
+                flood.send(f"attach {args.consoles} {args.at_once}")
                 result.flood.append(f"{args.consoles} consoles: {flood.answer()}")
                 flood.send(f"attempts {args.attempts} {HOLD_S}")
                 burst_heard()
@@ -628,6 +636,8 @@ def has_max_consoles() -> bool:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--consoles", type=int, default=300, help="consoles the flood attaches")
+    parser.add_argument("--at-once", type=int, default=16, metavar="K",
+                        help="consoles attaching at the same time (default 16)")  # fmt: skip
     parser.add_argument("--attempts", type=int, default=1000,
                         help="connection attempts in each burst")  # fmt: skip
     parser.add_argument("--busy", type=int, default=2, metavar="N",
@@ -664,7 +674,8 @@ def main() -> int:
           f"{platform.release()}")  # fmt: skip
     print(f"load: {args.busy} busy loops beside it; load average {load_before} at the start, "
           f"{load_after} at the end; {time.monotonic() - began:.0f} s; flood: "
-          f"{args.consoles} consoles, bursts of {args.attempts} attempts; the daemon's file "
+          f"{args.consoles} consoles ({args.at_once} at a time), bursts of {args.attempts} "
+          f"attempts; the daemon's file "
           f"limit {args.daemon_nofile}; --max-consoles "
           f"{args.max_consoles or '(not in this daemon)'}")  # fmt: skip
     print()
