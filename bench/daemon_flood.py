@@ -26,10 +26,12 @@ The phases, in one daemon each setup:
    above, then the drivers' stop idiom `set a 0`, `set v 0`, `set p 0`.
 5. **after**: the flood hangs up; a new console attaches and drives `go dock`.
 
-For each stop: how long until braking began (the last pose-log sample at the speed the
-stop found, within 0.02 m/s, before the robot came to rest: braking had begun by
-then), until the robot was at rest, and how far it ran from where it was when the stop
-was sent (target: braking within 0.2 s, at most 0.3 m). The flood (bench/
+For each stop, in seconds after it was sent (the CLI: after its process started): its
+answer (the CLI's exit, the reply, the port's prompt); for the CLI, when the daemon told
+its consoles the CLI had attached ("seen": its start-up over); when the listener heard
+the mission end; when braking began (from the true pose: see `measure_stop`); when the
+robot was at rest; and how far it ran from where it was when the stop was sent
+(target: braking within 0.2 s, at most 0.3 m). The flood (bench/
 console_flood.py, one asyncio process) attaches `--consoles` consoles, `--at-once` at a
 time, that say Hello, read everything and beat their hearts, and sends bursts of
 `--attempts` connections at once, each held 1 s, saying nothing, junk, or Hello. The
@@ -74,6 +76,7 @@ from giraff_console.robot.loop_events import MissionChanged  # noqa: E402
 from giraff_console.robot.safety import RUNAWAY_M  # noqa: E402
 from giraff_console.robot.telemetry import Telemetry  # noqa: E402
 from giraff_console.service import commands as c  # noqa: E402
+from giraff_console.service.events import Controls  # noqa: E402
 from giraff_console.service.remote import RemoteRobot  # noqa: E402
 from tests.drivers.wire import RawPort  # noqa: E402
 
@@ -205,6 +208,7 @@ class Listener:
     def __init__(self, socket: Path) -> None:
         self.ticks: list[Tick] = []
         self.ends: list[tuple[float, MissionChanged]] = []
+        self.controls: list[tuple[float, Controls]] = []
         self.robot = RemoteRobot(socket, "bench-listener", take=False)
         self.robot.subscribe(self._hear)
 
@@ -213,6 +217,16 @@ class Listener:
             self.ticks.append(Tick(time.monotonic(), event.late_ms, event.loop_hz))
         elif isinstance(event, MissionChanged) and not event.running:
             self.ends.append((time.monotonic(), event))
+        elif isinstance(event, Controls):
+            self.controls.append((time.monotonic(), event))
+
+    def seen(self, console: str, since: float) -> float | None:
+        """When the daemon first told of a console named `console …` attached, after
+        `since`: `giraff-console stop` is there, its start-up over."""
+        for at, told in self.controls:
+            if at >= since and any(name.startswith(console) for name in told.consoles):
+                return at
+        return None
 
     def wait_end(self, since: int, timeout: float) -> MissionChanged | None:
         deadline = time.monotonic() + timeout
@@ -295,6 +309,7 @@ class Stop:
     path: str
     speed: float  # m/s, when sent
     answered_s: float | None  # the CLI's exit, the reply, the port's prompt
+    seen_s: float | None  # the CLI attached, as the daemon told its consoles
     ended_s: float | None  # the listener heard the mission end (none on the port)
     braking_s: float | None
     rest_s: float | None
@@ -318,7 +333,8 @@ class Result:
 
 
 def measure_stop(poses: PoseLog, path: str, sent: float, answered: float | None,
-                 ended: float | None, note: str = "") -> Stop:  # fmt: skip
+                 ended: float | None, note: str = "",
+                 seen: float | None = None) -> Stop:  # fmt: skip
     """How the stop sent at `sent` went, by the true pose. The robot cruises at `speed`
     until braking begins, B seconds after `sent`, then slows evenly to rest, R seconds
     after `sent`, having run s metres: s = speed * B + speed * (R - B) / 2, so
@@ -327,7 +343,7 @@ def measure_stop(poses: PoseLog, path: str, sent: float, answered: float | None,
     speed = poses.speed(sent)
     rest = poses.rest_after(sent)
     if rest is None or speed <= 0:
-        return Stop(path, speed, answered, ended, None, None, None, note or "never at rest")
+        return Stop(path, speed, answered, seen, ended, None, None, None, note or "never at rest")
     track = poses.between(-math.inf, sent)[-1:] + poses.between(sent, rest.at)
     ran = sum(math.dist((a.x, a.y), (b.x, b.y)) for a, b in itertools.pairwise(track))
     resting = rest.at - sent
@@ -335,8 +351,8 @@ def measure_stop(poses: PoseLog, path: str, sent: float, answered: float | None,
     # Outside 0..`resting`: the robot was not cruising evenly until the stop braked it (a
     # stop so late that the mission's own slowing came first, or a loop too late to hold
     # a speed): no figure rather than a wrong one.
-    return Stop(path, speed, answered, ended, braking if 0 <= braking <= resting else None,
-                resting, ran, note)  # fmt: skip
+    return Stop(path, speed, answered, seen, ended,
+                braking if 0 <= braking <= resting else None, resting, ran, note)  # fmt: skip
 
 
 def run_setup(name: str, folder: Path, args: argparse.Namespace, flooded: bool) -> Result:
@@ -446,8 +462,10 @@ def run_setup(name: str, folder: Path, args: argparse.Namespace, flooded: bool) 
             burst()
             mark, sent = len(listener.ends), time.monotonic()
             answered, said = cli(60.0)
+            seen = listener.seen("stop", sent)
             result.stops.append(measure_stop(poses, "giraff-console stop", sent, answered,
-                                             ended_since(mark, sent), said))  # fmt: skip
+                                             ended_since(mark, sent), said,
+                                             None if seen is None else seen - sent))  # fmt: skip
             burst_heard()
 
         def console_stop() -> None:
@@ -570,11 +588,13 @@ def report(results: list[Result]) -> None:
             ended = max(e for _, e in r.phases.values())
             print(tick_row(r.name, "all", [t for t in r.ticks if began <= t.at <= ended]))
     print()
-    print("stops                                 speed  answered  ended  braking  at rest  ran on")
-    print(f"{'':<38}m/s         s      s        s        s       m")
+    print("stops, s after sent                   speed  answered   seen  ended  braking  at rest"
+          "  ran on")  # fmt: skip
+    print(f"{'':<38}m/s{'':<51}m")
     for r in results:
         for s in r.stops:
             print(f"{r.name:<10}{s.path:<27}{s.speed:>6.2f}{figure(s.answered_s, '10.3f'):>10}"
+                  f"{figure(s.seen_s, '7.3f'):>7}"
                   f"{figure(s.ended_s, '7.3f'):>7}{figure(s.braking_s, '9.3f'):>9}"
                   f"{figure(s.rest_s, '9.3f'):>9}{figure(s.run_on_m, '8.3f'):>8}"
                   f"  {s.note}")  # fmt: skip

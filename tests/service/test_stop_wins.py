@@ -2,14 +2,16 @@
 of a test: bench/daemon_flood.py measures the strict figures (0.2 s, 300 consoles,
 1,000 attempts, beside busy loops).
 
-The real daemon (`giraff-console serve --sim`) in a child process, with a file limit
-of 128 so that the flood reaches it as 1,000 connections reach a login session's 1024;
-the flood is bench/console_flood.py in a process of its own: 60 consoles that say
-Hello, read everything and beat their hearts, and bursts of 200 connection attempts
-held a second each. During a `go`, `giraff-console stop` and a console's stop must
-each end the mission within STOP_S (the CLI's own start-up, measured first on the
-idle daemon, aside) and bring the robot to rest; the daemon lives, and afterwards a
-new console attaches and drives.
+The real daemon (`giraff-console serve --sim --max-consoles 210`) in a child process,
+with a login session's file limit (1024) whatever the machine's; the flood is
+bench/console_flood.py in a process of its own: 200 consoles, 16 attaching at a time,
+that say Hello, read everything and beat their hearts, and bursts of 200 connection
+attempts held a second each. (Issue 30 saw the daemon of a thread per console answer
+`stop` in 6.2 s with 340 consoles attached; that daemon does not take these 200 within
+FLOOD_WAIT_S.) During a `go`, `giraff-console stop` and a console's stop must
+each end the mission within STOP_S (the CLI's from when the daemon tells its consoles
+it has attached: its own start-up aside) and bring the robot to rest; the daemon
+lives, and afterwards a new console attaches and drives.
 
 Every wait has a timeout, and every process is ended whatever the test does.
 """
@@ -33,6 +35,7 @@ import pytest
 from giraff_console.robot.loop_events import MissionChanged
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
+from giraff_console.service.events import Controls
 from giraff_console.service.remote import RemoteRobot
 from tests.service.daemon_rig import (
     SERVING,
@@ -46,12 +49,14 @@ from tests.service.daemon_rig import (
 )
 
 FLOOD = Path(__file__).resolve().parents[2] / "bench" / "console_flood.py"
-CONSOLES = 60  # beside the listener and the driver, within the default --max-consoles 64
-AT_ONCE = 16  # consoles attaching at the same time
+CONSOLES = 200
+AT_ONCE = 16  # consoles attaching at the same time, as if started over a few seconds
+# Room for the flood's consoles, the test's own and the CLI; the attempts beyond it.
+LIMIT = ("--max-consoles", "210")
 ATTEMPTS = 200
-# The daemon's open file limit: the 200 attempts, held at once beside the 60 consoles,
-# run past it, as 1,000 connections run past a login session's 1024 (issue 30).
-DAEMON_FILES = 128
+# The daemon's open file limit: a login session's (`ulimit -n`), as on a robot's PC,
+# whatever the test machine's.
+DAEMON_FILES = 1024
 # Seconds a stop may take to end the mission: generous beside the issue's 0.2 s (the
 # bench's), yet far below the 6.2 s issue 30 saw with 340 consoles attached.
 STOP_S = 1.0
@@ -85,7 +90,7 @@ def daemon(runtime: Path) -> Iterator[DaemonProcess]:
     log = runtime / "serve.log"
     with log.open("wb") as errors:
         process = subprocess.Popen(
-            program("serve", "--sim", "--no-landmarks"), stdin=subprocess.DEVNULL,
+            program("serve", "--sim", "--no-landmarks", *LIMIT), stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL, stderr=errors, env=dict(os.environ),
             preexec_fn=limit_files,
         )  # fmt: skip
@@ -119,7 +124,9 @@ class Flood:
         assert self.process.stdout is not None
         ready = select.select([self.process.stdout], [], [], FLOOD_WAIT_S)[0]
         assert ready, f"the flood did not answer in {FLOOD_WAIT_S:g} s"
-        return dict(json.loads(self.process.stdout.readline()))
+        line = self.process.stdout.readline()
+        assert line, f"the flood ended ({self.process.poll()})"
+        return dict(json.loads(line))
 
     def close(self) -> None:
         self.process.kill()
@@ -148,26 +155,51 @@ def drive(driver: RemoteRobot, heard: Heard) -> None:
     heard.wait_for(Telemetry, moving, WAIT_S, since=mark, what="the robot moving")
 
 
-def stopped_within(heard: Heard, mark: int, sent: float, allowed: float, who: str) -> None:
+class Told:
+    """When the daemon told its consoles who is attached, and of each mission's end
+    (time.monotonic(), on the listener's reading thread)."""
+
+    def __init__(self) -> None:
+        self.heard: list[tuple[float, Controls | MissionChanged]] = []
+
+    def __call__(self, event: object) -> None:
+        if isinstance(event, (Controls, MissionChanged)):
+            self.heard.append((time.monotonic(), event))
+
+    def attached(self, console: str, since: float) -> float:
+        """When a console named `console …` was first told attached, after `since`."""
+        for at, event in list(self.heard):
+            if (at >= since and isinstance(event, Controls)
+                    and any(name.startswith(console) for name in event.consoles)):  # fmt: skip
+                return at
+        raise AssertionError(f"no console {console!r} attached after the stop was sent")
+
+    def ended(self, since: float) -> float:
+        """When a mission's end was first told, after `since`."""
+        for at, event in list(self.heard):
+            if at >= since and isinstance(event, MissionChanged) and not event.running:
+                return at
+        raise AssertionError("no mission's end told after the stop was sent")
+
+
+def stopped_within(heard: Heard, told: Told, mark: int, sent: float, allowed: float,
+                   who: str) -> None:  # fmt: skip
     """The mission ends within `allowed` s of `sent`, and the robot comes to rest."""
-    ended = heard.wait_for(MissionChanged, lambda e: not e.running, WAIT_S + allowed,
-                           since=mark, what=f"the mission's end after {who}")  # fmt: skip
-    took = time.monotonic() - sent
-    assert ended.end is not None
+    heard.wait_for(MissionChanged, lambda e: not e.running, WAIT_S + allowed, since=mark,
+                   what=f"the mission's end after {who}")  # fmt: skip
+    took = told.ended(sent) - sent
     assert took <= allowed, f"{who} ended the mission {took:.2f} s after it was sent"
     heard.wait_for(Telemetry, at_rest, BRAKE_S, since=heard.mark(),
                    what=f"the robot at rest after {who}")  # fmt: skip
 
 
 def test_the_operator_s_stop_wins_over_a_flood_of_clients(daemon, flood):
-    heard = Heard()
+    heard, told = Heard(), Told()
     listener = RemoteRobot(daemon.socket, "listener", take=False)
     driver = RemoteRobot(daemon.socket, "driver", take=True)
     try:
         listener.subscribe(heard)
-        began = time.monotonic()
-        assert run_cli("stop").returncode == 0  # the robot standing: the CLI's start-up
-        cli_s = time.monotonic() - began
+        listener.subscribe(told)
         flood.send(f"attach {CONSOLES} {AT_ONCE}")
         attached = flood.answer()
         assert attached["attached"] == CONSOLES, attached
@@ -176,9 +208,12 @@ def test_the_operator_s_stop_wins_over_a_flood_of_clients(daemon, flood):
         flood.send(f"attempts {ATTEMPTS} 1.0")
         time.sleep(INTO_BURST_S)
         mark, sent = heard.mark(), time.monotonic()
-        stopped = run_cli("stop", timeout=WAIT_S + cli_s)
+        stopped = run_cli("stop")
         assert stopped.returncode == 0, stopped.stderr
-        stopped_within(heard, mark, sent, cli_s + STOP_S, "`giraff-console stop`")
+        # Timed from when the daemon told of the CLI attached: its own start-up (seconds
+        # on a loaded machine, importing the robot's types) is not the daemon's doing.
+        attached = told.attached("stop", sent)
+        stopped_within(heard, told, mark, attached, STOP_S, "`giraff-console stop`")
         flood.answer()
 
         drive(driver, heard)
@@ -186,7 +221,7 @@ def test_the_operator_s_stop_wins_over_a_flood_of_clients(daemon, flood):
         time.sleep(INTO_BURST_S)
         mark, sent = heard.mark(), time.monotonic()
         driver.post(c.Halt())
-        stopped_within(heard, mark, sent, STOP_S, "a console's stop")
+        stopped_within(heard, told, mark, sent, STOP_S, "a console's stop")
         flood.answer()
         assert daemon.alive(), f"the daemon ended ({daemon.process.returncode}):\n{daemon.notes()}"
 
@@ -198,7 +233,7 @@ def test_the_operator_s_stop_wins_over_a_flood_of_clients(daemon, flood):
             drive(fresh, heard)
             mark, sent = heard.mark(), time.monotonic()
             fresh.post(c.Halt())
-            stopped_within(heard, mark, sent, STOP_S, "the fresh console's stop")
+            stopped_within(heard, told, mark, sent, STOP_S, "the fresh console's stop")
         finally:
             fresh.close()
     finally:
