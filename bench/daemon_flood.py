@@ -78,7 +78,7 @@ from giraff_console.robot.telemetry import Telemetry  # noqa: E402
 from giraff_console.service import commands as c  # noqa: E402
 from giraff_console.service.events import Controls  # noqa: E402
 from giraff_console.service.remote import RemoteRobot  # noqa: E402
-from tests.drivers.wire import RawPort  # noqa: E402
+from tests.drivers.wire import RawPort, ReplyTimeout  # noqa: E402
 
 FLOORPLAN = ROOT / "giraff_console/floorplans/care-home.yaml"
 START_TIMEOUT_S = 30.0
@@ -280,8 +280,9 @@ class Program:
             self.ask(line)
 
         def renew() -> None:
-            while not self._exit.wait(0.1):
-                self.ask("set p -0.25")
+            with contextlib.suppress(ReplyTimeout):  # a daemon too slow to answer: no more
+                while not self._exit.wait(0.1):
+                    self.ask("set p -0.25")
 
         self._renewer = threading.Thread(target=renew, name="bench-program", daemon=True)
         self._renewer.start()
@@ -298,6 +299,8 @@ class Program:
 
     def close(self) -> None:
         self._exit.set()
+        if self._renewer is not None:
+            self._renewer.join(10.0)  # its last ask times out within 5 s
         self.port.close()
 
 
@@ -485,15 +488,16 @@ def run_setup(name: str, folder: Path, args: argparse.Namespace, flooded: bool) 
             if not released.ok:
                 raise RuntimeError(f"release refused: {released.text}")
             program = Program(virtual_port)
-            stack.callback(program.close)
-            program.drive()
-            poses.wait_moving(CRUISE_S, 30.0)
-            burst()
-            sent = program.stop()
-            answered = time.monotonic() - sent
-            result.stops.append(measure_stop(poses, "the virtual port's set p 0", sent,
-                                             answered, None))  # fmt: skip
-            program.close()  # hanging up lets go of the controls it took
+            try:
+                program.drive()
+                poses.wait_moving(CRUISE_S, 30.0)
+                burst()
+                sent = program.stop()
+                answered = time.monotonic() - sent
+                result.stops.append(measure_stop(poses, "the virtual port's set p 0", sent,
+                                                 answered, None))  # fmt: skip
+            finally:
+                program.close()  # hanging up lets go of the controls it took, and stops it
             burst_heard()
 
         def after() -> None:
