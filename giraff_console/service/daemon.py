@@ -75,6 +75,7 @@ from giraff_console.robot.localisation import Estimate, PoseBasis
 from giraff_console.robot.loop_events import MissionChanged, Note
 from giraff_console.robot.mission import MissionEnd, Outcome, Progress
 from giraff_console.robot.odometry import Pose
+from giraff_console.robot.realtime import PRIORITY, run_promptly
 from giraff_console.robot.replay import PlaybackStatus
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.service import commands as c
@@ -200,6 +201,8 @@ class Daemon:
         self.simulator = simulator
         self.max_consoles = max_consoles
         self._exit = threading.Event()
+        # How the event loop's thread is scheduled, once it runs (serve_forever).
+        self.priority = "normal priority"
         self._lock = _lock_beside(path)
         try:
             self._listener = listen(path)
@@ -242,6 +245,12 @@ class Daemon:
         self.service.subscribe(self._hear)
         for worker in self._workers:
             worker.start()
+        # Just behind the control loop's real-time priority, ahead of ordinary work: the
+        # loop waits for the interpreter's lock whenever this thread holds it, so this
+        # thread must never be kept from the CPU while it does (by a busy process), or
+        # the loop waits as long. What it does a turn is bounded (console_socket.py).
+        # The workers, started before, stay ordinary: planning takes long.
+        self.priority = run_promptly(threading.get_native_id(), PRIORITY - 1)
         try:
             while not self._exit.is_set():
                 self._turn(POLL_S)
@@ -253,6 +262,9 @@ class Daemon:
             for _ in self._workers:
                 self._work.put(None)
             self._close_listener()
+            # What the thread does next (closing the robot, writing files) is ordinary work.
+            with contextlib.suppress(OSError):
+                os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
 
     def stop(self) -> None:
         """Stop taking consoles and let the attached ones go (each is detached); from

@@ -21,6 +21,7 @@ from giraff_console.service.transport import (
     Connection,
     ConnectionClosed,
     DaemonRunning,
+    LineBuffer,
     NoDaemon,
     TransportError,
     accept,
@@ -295,3 +296,16 @@ def test_a_line_nested_too_deep_is_a_wire_error(raw_pair):
     with pytest.raises(WireError, match="nested too deep"):
         connection.receive(WAIT_S)
     assert connection.receive(WAIT_S) == "after"
+
+
+def test_a_line_buffer_drops_an_oversized_line_as_it_streams_and_holds_no_more_than_its_limit():
+    lines = LineBuffer(100)
+    lines.add(b'"ok"\n' + b"x" * 150)
+    assert lines.take() == b'"ok"'
+    with pytest.raises(WireError, match="over 100 bytes"):
+        lines.take()
+    for _ in range(50):  # the rest of the long line, never kept
+        lines.add(b"x" * 1000)
+        assert len(lines) == 0 and lines.take() is None
+    lines.add(b'x\n"after"\n')
+    assert lines.take() == b'"after"'
