@@ -24,12 +24,12 @@ import os
 PRIORITY = 10
 
 
-def run_promptly(thread: int, wanted: int = PRIORITY) -> str:
-    """Put `thread` (a native thread id) under SCHED_RR at `wanted`, if this process
+def run_promptly(thread: int) -> str:
+    """Put `thread` (a native thread id) under SCHED_RR at PRIORITY, if this process
     may; what became of it, for the operator ("real-time priority 10", or why not)."""
     try:
         limit = os.sched_get_priority_max(os.SCHED_RR)
-        priority = min(wanted, limit)
+        priority = min(PRIORITY, limit)
         # Reset on fork: the threads the loop starts (a session's metadata, a patrol's
         # snapshot) do disk work that must not run ahead of everything else.
         policy = os.SCHED_RR | os.SCHED_RESET_ON_FORK

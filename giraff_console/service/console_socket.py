@@ -45,6 +45,10 @@ REQUESTS_PER_S = 100.0
 BURST = 200.0
 
 
+class StoppedReading(ConnectionClosed):
+    """The console's socket has taken nothing for SEND_TIMEOUT_S."""
+
+
 class Stage(enum.Enum):
     """Where a connection is: not yet said Hello; welcomed over the connection limit,
     and served only a stop (daemon.py); attached."""
@@ -108,7 +112,7 @@ class ConsoleSocket:
 
     def write(self, now: float) -> None:
         """As much of what waits as the socket takes now; ConnectionClosed if the peer
-        has gone, or has taken nothing for SEND_TIMEOUT_S."""
+        has gone, StoppedReading if it has taken nothing for SEND_TIMEOUT_S."""
         if self._unsent:
             try:
                 sent = self.socket.send(self._unsent)
@@ -127,7 +131,7 @@ class ConsoleSocket:
 
     def check_stuck(self, now: float) -> None:
         if self._stuck_since is not None and now - self._stuck_since > SEND_TIMEOUT_S:
-            raise ConnectionClosed("peer not reading")
+            raise StoppedReading("peer not reading")
 
     def allowed(self, now: float) -> bool:
         """Whether one more request is within the console's rate (a token is taken)."""

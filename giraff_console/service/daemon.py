@@ -75,7 +75,6 @@ from giraff_console.robot.localisation import Estimate, PoseBasis
 from giraff_console.robot.loop_events import MissionChanged, Note
 from giraff_console.robot.mission import MissionEnd, Outcome, Progress
 from giraff_console.robot.odometry import Pose
-from giraff_console.robot.realtime import PRIORITY, run_promptly
 from giraff_console.robot.replay import PlaybackStatus
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.service import commands as c
@@ -85,6 +84,7 @@ from giraff_console.service.console_socket import (
     WAITING,
     ConsoleSocket,
     Stage,
+    StoppedReading,
 )
 from giraff_console.service.events import (
     Answer,
@@ -201,8 +201,6 @@ class Daemon:
         self.simulator = simulator
         self.max_consoles = max_consoles
         self._exit = threading.Event()
-        # How the event loop's thread is scheduled, once it runs (serve_forever).
-        self.priority = "normal priority"
         self._lock = _lock_beside(path)
         try:
             self._listener = listen(path)
@@ -245,12 +243,6 @@ class Daemon:
         self.service.subscribe(self._hear)
         for worker in self._workers:
             worker.start()
-        # Just behind the control loop's real-time priority, ahead of ordinary work: the
-        # loop waits for the interpreter's lock whenever this thread holds it, so this
-        # thread must never be kept from the CPU while it does (by a busy process), or
-        # the loop waits as long. What it does a turn is bounded (console_socket.py).
-        # The workers, started before, stay ordinary: planning takes long.
-        self.priority = run_promptly(threading.get_native_id(), PRIORITY - 1)
         try:
             while not self._exit.is_set():
                 self._turn(POLL_S)
@@ -262,9 +254,6 @@ class Daemon:
             for _ in self._workers:
                 self._work.put(None)
             self._close_listener()
-            # What the thread does next (closing the robot, writing files) is ordinary work.
-            with contextlib.suppress(OSError):
-                os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
 
     def stop(self) -> None:
         """Stop taking consoles and let the attached ones go (each is detached); from
@@ -299,8 +288,9 @@ class Daemon:
         self._wake()
 
     def _wake(self) -> None:
-        # Cleared by the event loop before it looks at what it was woken for, so that
-        # nothing added after the look goes unseen.
+        # At most one byte on its way: cleared by the event loop once it has taken the
+        # bytes and before it looks at what it was woken for, so that nothing added
+        # after the look goes unseen (_turn).
         if not self._woken:
             self._woken = True
             with contextlib.suppress(OSError):  # full: it is awake already; closed: ended
@@ -321,9 +311,11 @@ class Daemon:
             if key.fileobj is self._listener:
                 accepting = True
             elif key.fileobj is self._wake_in:
-                self._woken = False
+                # Emptied first, then cleared: a byte sent in between must not be taken
+                # with the flag left set, or no one would wake the loop again.
                 with contextlib.suppress(OSError):
                     self._wake_in.recv(4096)
+                self._woken = False
             else:
                 console: ConsoleSocket = key.data
                 if mask & selectors.EVENT_READ and not console.gone:
@@ -355,7 +347,7 @@ class Daemon:
         except ConnectionClosed as why:
             if console.outbox.overflowed:
                 log.error("a console fell too far behind; hanging up on it")
-            elif str(why) == "peer not reading":
+            elif isinstance(why, StoppedReading):
                 log.error("a console stopped reading; hanging up on it")
             self._hang_up(console)
         except Exception:
