@@ -54,46 +54,68 @@ def test_the_board_and_battery_tables(tmp_path):
 @pytest.mark.parametrize(
     ("text", "message"),
     [
-        ("prot = 1", "unknown key prot"),
-        ("[teleop]\nsped = 1", "unknown key teleop.sped"),
-        ('timeout = "fast"', "timeout has the wrong type"),
-        ("port = 3", "port has the wrong type"),
-        ('power_line = "dsr"', "power_line must be"),
-        ('virtual_port = "writes"', "virtual_port must be drives or reads"),
-        ("virtual_port = true", "virtual_port has the wrong type"),
-        ("[teleop]\nmax_speed = 0.6\nspeed = 0.6", "within 0.25 m"),
+        ("prot = 1", ":1: unknown key prot"),
+        ("[teleop]\nsped = 1", ":2: unknown key teleop.sped"),
+        ('timeout = "fast"', ":1: timeout has the wrong type"),
+        ("port = 3", ":1: port has the wrong type"),
+        ('power_line = "dsr"', ":1: power_line is 'dsr': it must be one of dtr, rts, both, none"),
+        ('virtual_port = "writes"', ":1: virtual_port is 'writes': it must be one of drives, "
+         "reads"),
+        ("virtual_port = true", ":1: virtual_port has the wrong type"),
+        ("[teleop]\nmax_speed = 0.6\nspeed = 0.6",
+         ":2: [teleop] accel must be at least 0.720 m/s^2 to stop from max_speed within 0.25 m"),
         ("[teleop]\nmax_speed = 0.6\nspeed = 0.6\naccel = 1.0", "over the 0.25 m limit"),
-        ("[teleop]\ngrace = 0", "grace and repeat_timeout must be positive"),
-        ("[teleop]\nundock_distance = 5", "undock_distance must be in"),
-        ("timeout = [", "config.toml"),
-        ("teleop = 3", "must be a table"),
-        ("motion = 3", "[motion] must be a table"),
-        ("[motion]\nv_max = 0.6", "may not exceed"),
-        ("[motion]\nj_max = 0", "j_max"),
-        ("[motion]\nwarp = 9", "unknown key motion.warp"),
-        ("board = 3", "[board] must be a table"),
-        ("[board]\nwheel_base = 49.9", "board.wheel_base is 49.9 m: it must be between"),
-        ("[board]\nwheel_base = 0", "board.wheel_base is 0 m"),
+        ("[teleop]\ngrace = 0", ":2: teleop.grace is 0 s: it must be between 0.1 and 2 s"),
+        ("[teleop]\nundock_distance = 5", ":2: teleop.undock_distance is 5 m: it must be between"),
+        ("\ntimeout = [", ":2: Invalid value"),
+        ("timeout = 1\ntimeout = 2", ":2: Cannot overwrite a value"),
+        ("teleop = 3", ":1: [teleop] must be a table"),
+        ("motion = 3", ":1: [motion] must be a table"),
+        ("[motion]\nv_max = 0.6", ":2: motion.v_max and motion.a_max may not exceed"),
+        ("[motion]\nj_max = 0", ":2: motion.j_max is 0 m/s^3: it must be between 0.1 and 10"),
+        ("[motion]\nwarp = 9", ":2: unknown key motion.warp"),
+        ("[motion]\nmax_replans = 2.5", ":2: motion.max_replans must be a whole number from 1"),
+        ("board = 3", ":1: [board] must be a table"),
+        ("[board]\nwheel_base = 49.9", ":2: board.wheel_base is 49.9 m: it must be between"),
+        ("[board]\nwheel_base = 0", ":2: board.wheel_base is 0 m"),
         ("[board]\nwheel_base = 0.15", "it must be between 0.2 and 1 m"),
-        ('[board]\ntwm = "yes"', "board.twm is 'yes': it must be one of auto, on, off"),
-        ("[board]\ntwm = true", "board.twm has the wrong type"),
-        ('[board]\nwheel_base = "wide"', "board.wheel_base has the wrong type"),
-        (
-            '[board]\nodometers = "total"',
-            "board.odometers is 'total': it must be one of auto, totals, increments, encoders",
-        ),
-        ("[board]\nodometers = 1", "board.odometers has the wrong type"),
-        ("[board]\nwheels = 2", "unknown key board.wheels"),
-        ("[battery]\nlow = 95", "battery.low (95) must be below battery.charged (90)"),
-        ("[battery]\ncharged = 120", "both percentages from 0 to 100"),
-        ("[battery]\nlow = -1", "both percentages"),
+        ('[board]\ntwm = "yes"', ":2: board.twm is 'yes': it must be one of auto, on, off"),
+        ("[board]\ntwm = true", ":2: board.twm has the wrong type"),
+        ('[board]\nwheel_base = "wide"', ":2: board.wheel_base has the wrong type"),
+        ('[board]\nodometers = "total"',
+         ":2: board.odometers is 'total': it must be one of auto, totals, increments, encoders"),
+        ("[board]\nodometers = 1", ":2: board.odometers has the wrong type"),
+        ("[board]\nwheels = 2", ":2: unknown key board.wheels"),
+        ("[battery]\ncharged = 80\nlow = 95",
+         ":2: battery.low (95) must be below battery.charged (80)"),
+        ("[battery]\ncharged = 120", ":2: battery.charged is 120 %: it must be between 0 and 100"),
+        ("[battery]\nlow = -1", ":2: battery.low is -1 %"),
+        ("[lidar]\nbaudrate = 9600", ":2: lidar.baudrate is 9600: it must be one of 115200, "
+         "256000"),
+        ("[lidar]\nbaudrate = 115200.0", ":2: lidar.baudrate has the wrong type"),
+        ("[lidar]\nrange_min = 5\nrange_max = 3", ":2: lidar.range_min must be below"),
+        ("# the robot\ncontrol_rate = 1e6", ":2: control_rate is 1e+06 Hz: it must be between 10 "
+         "and 30 Hz"),
+        ("control_rate = 0.2", ":1: control_rate is 0.2 Hz"),
+        ("control_rate = nan", ":1: control_rate is nan Hz"),
+        ("max_consoles = 0", ":1: max_consoles is 0: it must be between 1 and 1000"),
+        ("max_consoles = 64.5", ":1: max_consoles must be a whole number from 1 to 1000"),
+        ('[fleet]\non_broker_lost = "panic"', ":2: fleet.on_broker_lost is 'panic': it must be"),
+        ('recordings = " "', ":1: recordings must name a folder"),
+        ("[limits]\nfile_bytes = 0", ":2: limits.file_bytes is 0: it must be between 1 and"),
+        ("[limits]\n\nrooms = 1e3", ":3: limits.rooms must be a whole number"),
+        ("[limits]\nfile_bites = 10", ":2: unknown key limits.file_bites"),
+        ('[limits]\nmarkers = "many"', ":2: limits.markers has the wrong type"),
+        ("limits = 3", ":1: [limits] must be a table"),
+        ("[teleop]\nspeed = 0.3\n[motion]\nv_max = 99", ":4: motion.v_max is 99 m/s"),
+        ("x = 1\n[teleop]\ndeep.er = 1", ":3: unknown key teleop.deep"),
     ],
-)
-def test_bad_files_are_refused_with_the_path_and_the_key(tmp_path, text, message):
+)  # fmt: skip
+def test_bad_files_are_refused_with_the_path_and_the_line(tmp_path, text, message):
     path = write(tmp_path, text)
     with pytest.raises(SettingsError) as caught:
         load_settings(path)
-    assert str(path) in str(caught.value)
+    assert str(caught.value).startswith(f"{path}:")
     assert message in str(caught.value)
 
 
@@ -104,7 +126,7 @@ def test_the_console_refuses_a_bad_file_without_a_traceback(tmp_path):
         capture_output=True, text=True, timeout=20,
     )  # fmt: skip
     assert result.returncode == 2
-    assert "speed must be positive" in result.stderr
+    assert f"{path}:2: teleop.speed is -1 m/s: it must be between 0.05 and 1 m/s" in result.stderr
     assert "Traceback" not in result.stderr
 
 
