@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from dataclasses import fields
 from datetime import time
 
 import pytest
 
+from giraff_console.file_limits import FileLimits
 from giraff_console.missions.schedule import ScheduledPatrol
 from giraff_console.settings import Settings, SettingsError, load_settings
 
@@ -171,3 +173,21 @@ def test_a_bad_schedule_is_refused_with_its_line(tmp_path, text, message):
         load_settings(path)
     assert str(caught.value).startswith(f"{path}:")
     assert f"{path}{message}" in str(caught.value)
+
+
+def test_the_limits_table_is_read_by_the_names_of_file_limits_fields(tmp_path):
+    names = [limit.name for limit in fields(FileLimits)]
+    table = "".join(f"{name} = {n + 7}\n" for n, name in enumerate(names))
+    path = write(tmp_path, "max_consoles = 8\n[limits]\n" + table)
+    settings = load_settings(path)
+    assert settings.limits == FileLimits(**{name: n + 7 for n, name in enumerate(names)})
+    assert settings.max_consoles == 8
+    assert Settings().limits == FileLimits() and Settings().max_consoles == 64
+
+
+def test_the_control_rate_is_within_the_boards_means(tmp_path):
+    for rate in (10, 20, 30):
+        assert load_settings(write(tmp_path, f"control_rate = {rate}")).control_rate == rate
+    for rate in (9.9, 30.5, 1e6, 0.2):
+        with pytest.raises(SettingsError, match=r":1: control_rate is .* it must be between 10"):
+            load_settings(write(tmp_path, f"control_rate = {rate}"))
