@@ -6,12 +6,20 @@ import subprocess
 import sys
 from dataclasses import fields
 from datetime import time
+from pathlib import Path
 
 import pytest
 
 from giraff_console.file_limits import FileLimits
 from giraff_console.missions.schedule import ScheduledPatrol
-from giraff_console.settings import Settings, SettingsError, load_settings
+from giraff_console.settings import (
+    CHOICES,
+    MAX_LIMIT,
+    RANGES,
+    Settings,
+    SettingsError,
+    load_settings,
+)
 
 
 def write(tmp_path, text: str):
@@ -191,3 +199,22 @@ def test_the_control_rate_is_within_the_boards_means(tmp_path):
     for rate in (9.9, 30.5, 1e6, 0.2):
         with pytest.raises(SettingsError, match=r":1: control_rate is .* it must be between 10"):
             load_settings(write(tmp_path, f"control_rate = {rate}"))
+
+
+def test_the_readme_table_gives_every_keys_range_as_checked():
+    readme = (Path(__file__).parents[1] / "README.md").read_text()
+    section = readme.split("### Settings\n", 1)[1].split("\n### ", 1)[0]
+    rows = {}
+    for line in section.splitlines():
+        if line.startswith("| `"):
+            cells = [cell.strip() for cell in line.strip("|").split("|")]
+            rows[cells[0].strip("`")] = cells[2]
+    for name, span in RANGES.items():
+        if name.startswith("limits."):
+            assert f"`{name.removeprefix('limits.')}`" in section
+            continue
+        unit = f" {span.unit}" if span.unit else ""
+        assert rows[name].startswith(f"{span.low:g} to {span.high:g}{unit}"), name
+    for name, choices in CHOICES.items():
+        assert rows[name] == ", ".join(map(str, choices)), name
+    assert rows["[limits]"].startswith(f"each 1 to 2^{MAX_LIMIT.bit_length() - 1}, whole")
