@@ -5,9 +5,10 @@ The robot records a session on the simulator (its control log, meta.json, estima
 camera video written by OpenCV), teaches and saves a route, logs a patrol run, keeps its
 pose and prints marker pages, all into a fresh 0755 folder of the operator's outside
 the test's own (private) temporary folder; the real command line then exports the
-session. The writers run under a umask of 0o022, the loosest a caller might have, so
-that the modes are theirs and not the program's umask; the export runs through the
-program's entry point, whose own umask (0o077) covers it.
+session and makes a floor plan from a scan there. The writers run under a umask of
+0o022, the loosest a caller might have, so that the modes are theirs and not the
+program's umask; the commands run through the program's entry point, whose own umask
+(0o077) covers writers that give no mode.
 
 As root, a child that has become nobody (uid and gid 65534) then tries to list every
 folder and open every file written: each attempt must fail with PermissionError, and
@@ -41,7 +42,9 @@ from giraff_console.planning.marker_pages import write_pages
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.recording.session import RecordingSetup
 from giraff_console.robot.pose_keeper import PoseKeeper
+from tests.buildings.scanned_home import home_image
 from tests.missions.site import PLAN, Site
+from tests.planning.scanned_rooms import write_scanned_map
 
 NOBODY = 65534
 # What a second user tries on each thing written, in a child that has become nobody:
@@ -124,7 +127,9 @@ def written(folder: Path) -> list[Path]:
     return sorted(path for path in folder.rglob("*"))
 
 
-def test_nothing_the_robot_writes_can_be_read_by_a_second_user(operators_folder, loose_umask):
+def test_nothing_the_robot_writes_can_be_read_by_a_second_user(
+    operators_folder, loose_umask, tmp_path
+):
     session = record_teach_and_log(operators_folder)
     assert (session / "camera").is_dir() and any((session / "camera").iterdir())
     # Straight into the operator's 0755 folder: the file's own mode must keep it.
@@ -134,10 +139,20 @@ def test_nothing_the_robot_writes_can_be_read_by_a_second_user(operators_folder,
         capture_output=True, text=True, timeout=120,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
+    # A floor plan made from a scan by the command line: its plan, grid and picture are
+    # written by writers that give no mode (plan_writing.py, OpenCV): the program's
+    # umask covers them. The scan itself is the test's, in its own private folder.
+    scan = write_scanned_map(tmp_path, "home-map", home_image())
+    result = subprocess.run(
+        [sys.executable, "-m", "giraff_console", "floorplan", "rooms", str(scan),
+         str(operators_folder / "home.yaml")],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
     paths = written(operators_folder)
     names = {path.name for path in paths}
     assert {"control.log", "meta.json", "round.yaml", "pose.json", "markers.pdf",
-            "session.mcap"} <= names  # fmt: skip
+            "session.mcap", "home.yaml", "home-rooms.png"} <= names  # fmt: skip
     assert any(path.suffix == ".mp4" for path in paths)
     # The operator's folder keeps the mode they gave it; all in it is theirs alone.
     assert stat.S_IMODE(operators_folder.stat().st_mode) == 0o755
