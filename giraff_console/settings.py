@@ -212,7 +212,7 @@ RANGES: dict[str, Range] = {
         MIN_RATE_HZ,
         MAX_RATE_HZ,
         "Hz",
-        why="what the board's 115200 baud and the deadman's timing allow",
+        why="the most the board's 115200 baud carries, the least the deadman's timing allows",
     ),
     # A Giraff is about 0.6 m across.
     "robot_radius": Range(0.1, 1.0, "m"),
@@ -242,7 +242,7 @@ RANGES: dict[str, Range] = {
     ),
     "battery.low": Range(0.0, 100.0, "%"),
     "battery.charged": Range(0.0, 100.0, "%"),
-    "lidar.forward": Range(-1.0, 1.0, "m", why="within 1 m of the robot's centre"),
+    "lidar.forward": Range(-1.0, 1.0, "m"),
     "lidar.yaw": Range(-180.0, 180.0, "deg"),
     "lidar.range_min": Range(0.05, 40.0, "m"),
     # Nearer hits are the robot itself to the map (planning/map_building.py), and the
@@ -500,22 +500,24 @@ class _Where:
                 assert isinstance(value, int | float)  # a number, checked as one above
                 _check_range(self, name, value, span)
             if choices is not None and value not in choices:
-                self.refuse(name, f"{name} is {value!r}: it must be one of "
-                                  f"{', '.join(map(str, choices))}")  # fmt: skip
+                self.refuse(name, f"{name} must be one of {', '.join(map(str, choices))}, "
+                                  f"not {value!r}")  # fmt: skip
         return data
 
 
 def _check_range(where: _Where, name: str, value: float, span: Range) -> None:
+    # Whole numbers in full (a limit of 2**40 is no 1.09951e+12 to whoever raises it).
+    low, high = (str(int(end)) if span.whole else f"{end:g}" for end in (span.low, span.high))
     if span.whole and not isinstance(value, int):
-        where.refuse(name, f"{name} must be a whole number from {span.low:g} to {span.high:g}")
+        where.refuse(name, f"{name} must be a whole number from {low} to {high}, not {value:g}")
     # Written so that NaN, which passes every `<=` by failing it, is refused too.
     if not span.low <= value <= span.high:
         unit = f" {span.unit}" if span.unit else ""
-        why = f" ({span.why})" if span.why else ""
+        why = f": {span.why}" if span.why else ""
         # An int past a float's range has no `g` form.
-        shown = "too large" if isinstance(value, int) and abs(value) > 1e300 else f"{value:g}"
-        where.refuse(name, f"{name} is {shown}{unit}: it must be between {span.low:g} and "
-                           f"{span.high:g}{unit}{why}")  # fmt: skip
+        shown = "a larger number" if isinstance(value, int) and abs(value) > 1e300 else f"{value:g}"
+        where.refuse(name, f"{name} must be between {low} and {high}{unit}, not "
+                           f"{shown}{unit}{why}")  # fmt: skip
 
 
 def _read(path: Path) -> str | None:
