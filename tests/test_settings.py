@@ -137,7 +137,7 @@ def test_the_console_refuses_a_bad_file_without_a_traceback(tmp_path):
     path = write(tmp_path, "[teleop]\nspeed = -1")
     result = subprocess.run(
         [sys.executable, "-m", "giraff_console", "--config", str(path)],
-        capture_output=True, text=True, timeout=20,
+        capture_output=True, text=True, timeout=120,  # it loads Textual first
     )  # fmt: skip
     assert result.returncode == 2
     assert f"{path}:2: teleop.speed must be between 0.05 and 1 m/s, not -1 m/s" in result.stderr
