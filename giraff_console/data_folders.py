@@ -18,9 +18,9 @@ import os
 from importlib.resources import files
 from pathlib import Path
 
+from giraff_console.private_files import private_folder
+
 APP = "giraff-console"
-# Sessions hold camera video of residents and staff: only the operator may read them.
-PRIVATE = 0o700
 
 
 def example_floorplan() -> Path:
@@ -73,7 +73,8 @@ def data_folder(given: Path | None, configured: str | None, default: Path) -> Pa
     settings file, else `default`, whose parent is made owner-only here.
 
     `default` itself is made on first use (the first recording, the first route
-    saved), inside the private parent.
+    saved), inside the private parent: sessions hold camera video of residents and
+    staff, and only the operator may read them.
     """
     if given is not None:
         return given
@@ -82,5 +83,5 @@ def data_folder(given: Path | None, configured: str | None, default: Path) -> Pa
     # A folder that cannot be made (a read-only home) is not fatal here: recording or
     # saving a route reports it when it is tried, and driving goes on.
     with contextlib.suppress(OSError):
-        default.parent.mkdir(mode=PRIVATE, parents=True, exist_ok=True)
+        private_folder(default.parent)
     return default

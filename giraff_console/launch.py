@@ -12,6 +12,12 @@ busy-waits as it loads, about 0.09 s of CPU each, paid by every command that loa
 filter's, a survey's marker covariances, 750 across for 250 markers) are too small for a
 second thread to pay for itself, so BLAS runs on the calling thread unless the
 environment asks for more.
+
+Everything the robot writes is its owner's alone (issue 30, private_files.py): the umask
+is set to 0o077 before anything else, once, so that every file and folder the program
+makes is private whoever makes it: our writers (which give the modes themselves too),
+OpenCV's VideoWriter, NumPy, the YAML and image writers, temporary files. It only
+narrows: a folder the operator made keeps its mode.
 """
 
 from __future__ import annotations
@@ -19,10 +25,12 @@ from __future__ import annotations
 import os
 import signal
 
+from giraff_console.private_files import PRIVATE_UMASK
 from giraff_console.robot.last_stop import SIGNALS
 
 
 def main() -> int:
+    os.umask(PRIVATE_UMASK)
     # Read by each OpenBLAS as it loads, so before anything imports numpy or OpenCV.
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)

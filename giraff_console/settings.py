@@ -14,7 +14,8 @@ The file is `$XDG_CONFIG_HOME/giraff-console/config.toml` (usually
 Without `recordings` and `routes`, both live in `$XDG_DATA_HOME/giraff-console/`
 (usually `~/.local/share/giraff-console/recordings` and `.../routes`). `~` is expanded,
 and a relative folder is taken from this file's folder.
-The [teleop] and [motion] tables:
+Every key's range is in the README's table of settings (RANGES and CHOICES here); a value
+outside it is refused with the file and the key's line. The [teleop] and [motion] tables:
 
     [teleop]
     speed = 0.4                # m/s, the thesis's KBD_MOVE_SPEED
@@ -100,16 +101,35 @@ table each, as many as wanted:
 It runs at `from`, then every `every` after it while in the window, `to` included when
 it falls on that grid: 22:00, 00:00, 02:00, 04:00 and 06:00 here (missions/schedule.py).
 A run due while the last one of the same patrol is still going is skipped, and logged.
+
+`max_consoles` bounds the consoles attached to `serve` at once, and the [limits] table
+raises (or lowers) the limits on the files the console reads (file_limits.py, each a
+positive whole number; the README lists them):
+
+    max_consoles = 64          # 1 to 1000
+
+    [limits]
+    file_bytes = 67108864      # any one file read whole
+    image_pixels = 40000000    # a grid image, read from its header
+
+The file itself is read within bounds, before TOML is parsed: a regular file of at most
+MAX_FILE_BYTES, nested at most MAX_NESTING deep. A device, a FIFO or a symlink to
+/dev/zero is refused by its type without being opened for reading (a FIFO's open would
+wait for a writer).
 """
 
 from __future__ import annotations
 
+import os
 import re
+import stat
 import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
+from typing import NoReturn
 
 from giraff_console.data_folders import config_path
+from giraff_console.file_limits import FileLimits
 from giraff_console.link import DEFAULT_TIMEOUT_S
 from giraff_console.missions.docking import ChargeLevels
 from giraff_console.missions.progress_watch import Patience
@@ -122,34 +142,125 @@ from giraff_console.robot.control_loop import DEFAULT_RATE_HZ
 from giraff_console.robot.deadman import DEFAULT_GRACE_S, DEFAULT_REPEAT_TIMEOUT_S
 from giraff_console.robot.odometry_feed import TWM_CHOICES
 from giraff_console.robot.teleop import DriveLimits
-from giraff_console.robot.wheel_odometers import AUTO, CHOICES
+from giraff_console.robot.wheel_odometers import AUTO
+from giraff_console.robot.wheel_odometers import CHOICES as ODOMETER_CHOICES
 
-# Larger than any setting's sensible value, small enough that no check overflows.
-MAX_NUMBER = 1e6
 # Settings that name a folder; data_folders.py says where they are without them.
 FOLDER_KEYS = ("recordings", "routes")
-# Settings whose value is text.
 # What a program on the virtual port may do (serve --virtual-port, docs/daemon.md):
 # drive when nobody else holds the controls, or only read.
 VIRTUAL_PORT_CHOICES = ("drives", "reads")
 # What an order under way does when the broker goes (docs/fleet.md).
 BROKER_LOST_CHOICES = ("carry_on", "stop")
-LIDAR_TEXT_KEYS = ("port",)
-FLEET_TEXT_KEYS = ("broker", "ca_file", "credentials", "manufacturer", "serial_number",
-                   "interface", "on_broker_lost")  # fmt: skip
-TEXT_KEYS = ("port", "power_line", "odometers", "twm", "virtual_port", *FOLDER_KEYS,
-             *FLEET_TEXT_KEYS)  # fmt: skip
 # Tables within the file, each its own dataclass below.
-TABLES = ("teleop", "motion", "board", "battery", "fleet", "lidar")
+TABLES = ("teleop", "motion", "board", "battery", "fleet", "lidar", "limits")
 # The baud rates an RPLIDAR's USB adapter runs at (A1, A2M8: 115200; later A2: 256000).
 LIDAR_BAUDRATES = (115200, 256000)
 # The array of tables of scheduled patrols, and the keys of each.
 SCHEDULE = "schedule"
 SCHEDULE_KEYS = ("patrol", "every", "from", "to")
+# The shortest range_max a lidar may be given: what it sees must reach past the robot.
+LIDAR_LEAST_RANGE_M = 2.0
+# A hand-written settings file is a few kilobytes. It is read before [limits] is known,
+# so it has a bound of its own, not file_limits'.
+MAX_FILE_BYTES = 1024 * 1024
+# No settings file nests past three levels (a table, an array, a value). tomllib
+# recurses on nested arrays and inline tables (a RecursionError at about 1,000 levels),
+# and a dotted key of 10,000 parts takes it 6 s and 400 MB; so the depth is bounded
+# before it parses, as yaml_source.py does for YAML.
+MAX_NESTING = 100
+# The largest a [limits] value may be raised to: more than a robot's PC holds, in bytes
+# or things, and small enough that no sum over such numbers loses exactness.
+MAX_LIMIT = 2**40
+
+# The control rate's range. The board talks at 115200 baud, 10 bits a byte: 11,520
+# bytes a second (wire-facts, "Serial line"). A later board's poll each tick is
+# `get bulk_data` (14 bytes, 150 back), `get enc0` and `get enc1` (27 bytes each, both
+# ways): 218 bytes, 19 ms of the line; a move's settings and target (three `set`s, about
+# 30 bytes each with their replies) take 8 ms more, 27 ms in all. At 30 Hz a tick lasts
+# 33 ms and they fit with room for the gauges every half second and typed commands; at
+# 40 Hz (25 ms) they would not, and the loop would run late on every tick of a move.
+# The deployed drivers poll at 25-40 Hz.
+MAX_RATE_HZ = 30.0
+# Below, the safety rules' timing: a target lies at most REACH_M = 0.25 m ahead
+# (robot/safety.py), and at 0.4 m/s and 0.5 m/s^2 the robot needs 0.16 m to brake, so
+# the target must be renewed before the robot covers the 0.09 m between them; teleop
+# renews it RENEW_TICKS = 2 ticks early (0.08 m at 0.1 s a tick). And a let-go key (the
+# deadman's repeat timeout, 0.15 s) is acted on at the next tick: within 0.25 s at 10 Hz.
+# At 0.2 Hz a tick came every 5 s and `go` never moved.
+MIN_RATE_HZ = 10.0
 
 
-# No dock needs a longer way out than this.
-MAX_UNDOCK_M = 1.0
+@dataclass(frozen=True)
+class Range:
+    """A number's allowed values, both ends included; `unit` as the README writes it."""
+
+    low: float
+    high: float
+    unit: str = ""
+    whole: bool = False  # a whole number, not a fraction
+    why: str = ""
+
+
+# Every number a settings file may hold, by its dotted name (the README's table says the
+# same). Speeds and accelerations are bounded further by the runaway rule (DriveLimits).
+RANGES: dict[str, Range] = {
+    # A `get` reply is 18 bytes, under 2 ms at 115200 baud; the thesis's board answers
+    # in milliseconds, and a link lost for 10 s is lost.
+    "timeout": Range(0.05, 10.0, "s"),
+    "control_rate": Range(
+        MIN_RATE_HZ,
+        MAX_RATE_HZ,
+        "Hz",
+        why="the most the board's 115200 baud carries, the least the deadman's timing allows",
+    ),
+    # A Giraff is about 0.6 m across.
+    "robot_radius": Range(0.1, 1.0, "m"),
+    # Each console is a client the daemon serves beside the control loop (issue 30).
+    "max_consoles": Range(1, 1000, whole=True),
+    "teleop.speed": Range(0.05, 1.0, "m/s"),
+    "teleop.max_speed": Range(0.05, 1.0, "m/s"),
+    "teleop.accel": Range(0.1, 2.0, "m/s^2"),
+    # At 90 degrees a second on a 0.5 m wheel base, a wheel goes 0.39 m/s.
+    "teleop.turn_rate": Range(1.0, 90.0, "deg/s"),
+    # The terminals' initial repeat delays are 0.5-0.66 s; repeats come every 30-40 ms.
+    "teleop.grace": Range(0.1, 2.0, "s"),
+    "teleop.repeat_timeout": Range(0.05, 0.5, "s"),
+    # The console streams the undock in steps within its reach (missions/undock.py), so
+    # the distance is bounded only by what a dock needs.
+    "teleop.undock_distance": Range(0.05, 1.0, "m"),
+    "motion.v_max": Range(0.05, 1.0, "m/s"),
+    "motion.a_max": Range(0.05, 2.0, "m/s^2"),
+    "motion.j_max": Range(0.1, 10.0, "m/s^3"),
+    "motion.lateral_accel": Range(0.05, 2.0, "m/s^2"),
+    "motion.door_speed": Range(0.05, 1.0, "m/s"),
+    "motion.sensing_range": Range(0.2, 12.0, "m"),
+    "motion.stuck_s": Range(1.0, 3600.0, "s"),
+    "motion.max_replans": Range(1, 1000, whole=True),
+    "board.wheel_base": Range(
+        *WHEEL_BASE_RANGE_M, "m", why="a Giraff's wheels are about 0.5 m apart"
+    ),
+    "battery.low": Range(0.0, 100.0, "%"),
+    "battery.charged": Range(0.0, 100.0, "%"),
+    "lidar.forward": Range(-1.0, 1.0, "m"),
+    "lidar.yaw": Range(-180.0, 180.0, "deg"),
+    "lidar.range_min": Range(0.05, 40.0, "m"),
+    # Nearer hits are the robot itself to the map (planning/map_building.py), and the
+    # way ahead is looked at for metres (missions/lookout.py).
+    "lidar.range_max": Range(LIDAR_LEAST_RANGE_M, 40.0, "m"),
+    "lidar.timeout": Range(0.05, 10.0, "s"),
+    # Read by their names, whatever fields file_limits.py has.
+    **{f"limits.{limit.name}": Range(1, MAX_LIMIT, whole=True) for limit in fields(FileLimits)},
+}
+# Every text with a fixed set of values, and the one number that has one.
+CHOICES: dict[str, tuple[str | int, ...]] = {
+    "power_line": ("dtr", "rts", "both", "none"),
+    "virtual_port": VIRTUAL_PORT_CHOICES,
+    "board.odometers": ODOMETER_CHOICES,
+    "board.twm": TWM_CHOICES,
+    "fleet.on_broker_lost": BROKER_LOST_CHOICES,
+    "lidar.baudrate": LIDAR_BAUDRATES,
+}
 
 
 class SettingsError(GiraffError):
@@ -205,23 +316,6 @@ class BoardSettings:
     odometers: str = AUTO
     twm: str = AUTO
 
-    def check(self) -> None:
-        """ValueError for a wheel base, a reading or a twm choice that cannot be right."""
-        low, high = WHEEL_BASE_RANGE_M
-        if not low <= self.wheel_base <= high:
-            raise ValueError(
-                f"board.wheel_base is {self.wheel_base:g} m: it must be between {low:g} and "
-                f"{high:g} m (a Giraff's wheels are about 0.5 m apart)"
-            )
-        if self.odometers not in CHOICES:
-            raise ValueError(
-                f"board.odometers is {self.odometers!r}: it must be one of {', '.join(CHOICES)}"
-            )
-        if self.twm not in TWM_CHOICES:
-            raise ValueError(
-                f"board.twm is {self.twm!r}: it must be one of {', '.join(TWM_CHOICES)}"
-            )
-
 
 @dataclass(frozen=True)
 class BatterySettings:
@@ -253,18 +347,9 @@ class FleetSettings:
     interface: str = "uagv"
     on_broker_lost: str = BROKER_LOST_CHOICES[0]
 
-    def check(self) -> None:
-        if self.on_broker_lost not in BROKER_LOST_CHOICES:
-            raise ValueError(f"fleet.on_broker_lost must be "
-                             f"{' or '.join(BROKER_LOST_CHOICES)}")  # fmt: skip
-
     @property
     def stops_when_broker_lost(self) -> bool:
         return self.on_broker_lost == "stop"
-
-
-# The shortest range_max a lidar may be given: what it sees must reach past the robot.
-LIDAR_LEAST_RANGE_M = 2.0
 
 
 @dataclass(frozen=True)
@@ -279,24 +364,6 @@ class LidarSettings:
     range_max: float = 12.0
     timeout: float = 1.0
 
-    def check(self) -> tuple[str, str] | None:
-        """The key that cannot be right and why; None if all can."""
-        if self.baudrate not in LIDAR_BAUDRATES:
-            return "baudrate", f"must be one of {', '.join(map(str, LIDAR_BAUDRATES))}"
-        if not abs(self.forward) <= 1.0:
-            return "forward", "must be within 1 m of the robot's centre"
-        if not abs(self.yaw) <= 180.0:
-            return "yaw", "must be from -180 to 180 degrees"
-        if not 0.05 <= self.range_min < self.range_max <= 40.0:
-            return "range_max", "range_min and range_max must be 0.05 <= min < max <= 40 m"
-        if self.range_max < LIDAR_LEAST_RANGE_M:
-            # Nearer hits are the robot itself to the map (planning/map_building.py), and
-            # the way ahead is looked at for metres (missions/lookout.py).
-            return "range_max", f"must be at least {LIDAR_LEAST_RANGE_M:g} m"
-        if not 0.05 <= self.timeout <= 10.0:
-            return "timeout", "must be from 0.05 to 10 s"
-        return None
-
 
 @dataclass(frozen=True)
 class Settings:
@@ -308,12 +375,14 @@ class Settings:
     recordings: str | None = None
     routes: str | None = None
     virtual_port: str = "drives"
+    max_consoles: int = 64
     teleop: TeleopSettings = field(default_factory=TeleopSettings)
     motion: MotionSettings = field(default_factory=MotionSettings)
     board: BoardSettings = field(default_factory=BoardSettings)
     battery: BatterySettings = field(default_factory=BatterySettings)
     fleet: FleetSettings = field(default_factory=FleetSettings)
     lidar: LidarSettings = field(default_factory=LidarSettings)
+    limits: FileLimits = field(default_factory=FileLimits)
     schedule: tuple[ScheduledPatrol, ...] = ()
     source: str = "built-in defaults"
 
@@ -324,122 +393,216 @@ class Settings:
 
 
 def load_settings(path: Path | None = None) -> Settings:
-    """Read the settings file if there is one; SettingsError for anything wrong in it."""
+    """Read the settings file if there is one; SettingsError for anything wrong in it,
+    as `file:line: message` where the line is known."""
     path = path or config_path()
-    if not path.exists():
+    text = _read(path)
+    if text is None:
         return Settings()
+    deep = _too_deep(text)
+    if deep is not None:
+        raise SettingsError(_at(path, deep, f"nested more than {MAX_NESTING} levels deep"))
     try:
-        text = path.read_text(encoding="utf-8")
         data = tomllib.loads(text)
-    except (OSError, ValueError) as error:
-        # ValueError: TOMLDecodeError, UnicodeDecodeError, and an int of 5,000 digits.
-        raise SettingsError(f"{path}: {str(error)[:200]}") from None
+    except ValueError as error:
+        # TOMLDecodeError ends "(at line N, column M)"; an int of 5,000 digits is one too.
+        message = str(error)[:200]
+        found = re.search(r"\(at line (\d+), column \d+\)", message)
+        line = int(found.group(1)) if found else None
+        if "(at end of document)" in message:
+            line = text.count("\n") + 1
+        message = re.sub(r"\s*\(at (line|end of document).*\)", "", message)
+        raise SettingsError(_at(path, line, message)) from None
+    where = _Where(path, _key_lines(text))
     schedule = _schedule(path, text, data.pop(SCHEDULE, []))
     tables = {table: data.pop(table, {}) for table in TABLES}
     for table, value in tables.items():
         if not isinstance(value, dict):
-            raise SettingsError(f"{path}: [{table}] must be a table")
-    try:
-        teleop = TeleopSettings(**_checked(path, "teleop.", TeleopSettings, tables["teleop"]))
-        motion = MotionSettings(**_checked(path, "motion.", MotionSettings, tables["motion"]))
-        board = BoardSettings(**_checked(path, "board.", BoardSettings, tables["board"]))
-        battery = BatterySettings(**_checked(path, "battery.", BatterySettings, tables["battery"]))
-        fleet = FleetSettings(**_fleet_files(path, _checked(path, "fleet.", FleetSettings,
-                                                            tables["fleet"])))  # fmt: skip
-        lidar = _lidar(path, text, tables["lidar"])
-        settings = Settings(**_checked(path, "", Settings, data), teleop=teleop, motion=motion,
-                            board=board, battery=battery, fleet=fleet, lidar=lidar,
-                            schedule=schedule,
-                            source=str(path))  # fmt: skip
-        if settings.power_line not in ("dtr", "rts", "both", "none"):
-            raise ValueError("power_line must be dtr, rts, both or none")
-        if settings.virtual_port not in VIRTUAL_PORT_CHOICES:
-            raise ValueError(f"virtual_port must be {' or '.join(VIRTUAL_PORT_CHOICES)}")
-        if settings.timeout <= 0 or settings.control_rate <= 0 or settings.robot_radius <= 0:
-            raise ValueError("timeout, control_rate and robot_radius must be positive")
-        teleop.limits()
-        if teleop.grace <= 0 or teleop.repeat_timeout <= 0:
-            raise ValueError("grace and repeat_timeout must be positive")
-        # The console streams the undock in steps within its reach (missions/undock.py),
-        # so the distance is bounded only by what a dock needs.
-        if not 0 < teleop.undock_distance <= MAX_UNDOCK_M:
-            raise ValueError(f"undock_distance must be in (0, {MAX_UNDOCK_M}] m")
-        motion.limits()
-        if motion.v_max > teleop.max_speed or motion.a_max > teleop.accel:
-            raise ValueError(
-                "motion.v_max and motion.a_max may not exceed teleop's max_speed and accel: "
-                "every move is checked against those"
-            )
-        if motion.sensing_range <= 0:
-            raise ValueError("motion.sensing_range must be positive")
-        motion.patience()
-        board.check()
-        battery.levels()
-        fleet.check()
-    except ValueError as error:
-        raise SettingsError(f"{path}: {error}") from None
-    except ArithmeticError:
-        # Limits so far apart that the checks' own sums overflow or divide by nothing.
-        raise SettingsError(f"{path}: the values are too extreme to check") from None
-    return settings
-
-
-def _checked(path: Path, prefix: str, kind: type, data: dict) -> dict:
-    allowed = {f.name: f for f in fields(kind) if f.name not in (*TABLES, SCHEDULE, "source")}
-    for key, value in data.items():
-        if key not in allowed:
-            raise SettingsError(f"{path}: unknown key {prefix}{key}")
-        expected = str if key in TEXT_KEYS else (int, float)
-        if not isinstance(value, expected) or isinstance(value, bool):
-            raise SettingsError(f"{path}: {prefix}{key} has the wrong type")
-        # TOML writes nan and inf, which pass every `<=` check without being limits; and
-        # no speed, rate or time of this robot comes near a million.
-        if isinstance(value, int | float) and not abs(value) <= MAX_NUMBER:
-            raise SettingsError(f"{path}: {prefix}{key} is {value}, out of range")
-        if key in FOLDER_KEYS:
-            assert isinstance(value, str)  # a folder key is a text key, checked as one above
-            if not value.strip() or "\0" in value:
-                raise SettingsError(f"{path}: {prefix}{key} must name a folder")
+            where.refuse(table, f"[{table}] must be a table")
+    teleop = TeleopSettings(**where.checked("teleop.", TeleopSettings, tables["teleop"]))
+    motion = MotionSettings(**where.checked("motion.", MotionSettings, tables["motion"]))
+    board = BoardSettings(**where.checked("board.", BoardSettings, tables["board"]))
+    battery = BatterySettings(**where.checked("battery.", BatterySettings, tables["battery"]))
+    fleet = FleetSettings(**_fleet_files(path, where.checked("fleet.", FleetSettings,
+                                                             tables["fleet"])))  # fmt: skip
+    lidar = LidarSettings(**where.checked("lidar.", LidarSettings, tables["lidar"]))
+    limits = FileLimits(**where.checked("limits.", FileLimits, tables["limits"]))
+    top = where.checked("", Settings, data)
+    for key in FOLDER_KEYS:
+        if key in top:
+            if not top[key].strip() or "\0" in top[key]:
+                where.refuse(key, f"{key} must name a folder")
             # Relative to the settings file, not to wherever the console is started.
-            data[key] = str(path.parent / Path(value).expanduser())
-    return data
+            top[key] = str(path.parent / Path(top[key]).expanduser())
+    _check_together(where, teleop, motion, battery, lidar)
+    return Settings(**top, teleop=teleop, motion=motion, board=board, battery=battery,
+                    fleet=fleet, lidar=lidar, limits=limits, schedule=schedule,
+                    source=str(path))  # fmt: skip
 
 
-def _lidar(path: Path, text: str, table: dict) -> LidarSettings:
-    """The [lidar] table; SettingsError as `file:line: message` for a bad key."""
-    lines = _plain_table_lines(text, "lidar")
-    for key, value in table.items():
-        line = lines.get(key)
-        if key not in {f.name for f in fields(LidarSettings)}:
-            raise SettingsError(_at(path, line, f"unknown key lidar.{key}"))
-        expected = str if key in LIDAR_TEXT_KEYS else int if key == "baudrate" else (int, float)
-        if not isinstance(value, expected) or isinstance(value, bool):
-            raise SettingsError(_at(path, line, f"lidar.{key} has the wrong type"))
-        if isinstance(value, int | float) and not abs(value) <= MAX_NUMBER:
-            raise SettingsError(_at(path, line, f"lidar.{key} is {value}, out of range"))
-    lidar = LidarSettings(**table)
-    wrong = lidar.check()
-    if wrong is not None:
-        key, why = wrong
-        raise SettingsError(_at(path, lines.get(key, lines.get("")), f"lidar.{key} {why}"))
-    return lidar
+def _check_together(where: _Where, teleop: TeleopSettings, motion: MotionSettings,
+                    battery: BatterySettings, lidar: LidarSettings) -> None:  # fmt: skip
+    """The rules between keys, each in range by itself; refused at the line of the first
+    of the keys that break one together."""
+    try:
+        teleop.limits()  # the runaway rule: the speed, the cap and the acceleration
+    except ValueError as error:
+        where.refuse_first(("teleop.speed", "teleop.max_speed", "teleop.accel"),
+                           f"[teleop] {error}")  # fmt: skip
+    if motion.v_max > teleop.max_speed or motion.a_max > teleop.accel:
+        where.refuse_first(("motion.v_max", "motion.a_max", "teleop.max_speed", "teleop.accel"),
+                           "motion.v_max and motion.a_max may not exceed teleop's max_speed "
+                           "and accel: every move is checked against those")  # fmt: skip
+    # Motion's limits and patience (MotionLimits, Patience) hold by the ranges alone.
+    try:
+        battery.levels()
+    except ValueError as error:
+        where.refuse_first(("battery.low", "battery.charged"), str(error))
+    if not lidar.range_min < lidar.range_max:
+        where.refuse_first(("lidar.range_min", "lidar.range_max"),
+                           "lidar.range_min must be below lidar.range_max")  # fmt: skip
 
 
-def _plain_table_lines(text: str, name: str) -> dict[str, int]:
-    """The lines of a `[name]` table's keys, and of its header (key ""): tomllib keeps
-    no lines, so they are found in the text, as _table_lines finds a [[schedule]]'s."""
-    header = re.compile(rf"\s*\[\s*{re.escape(name)}\s*\]\s*(#.*)?\Z")
-    key = re.compile(r"""\s*([A-Za-z0-9_-]+)\s*=""")
-    found: dict[str, int] = {}
-    inside = False
+@dataclass(frozen=True)
+class _Where:
+    """The settings file and the lines of its keys, for refusals as `file:line: ...`."""
+
+    path: Path
+    lines: dict[str, int]
+
+    def refuse(self, key: str, message: str) -> NoReturn:
+        """SettingsError at `key`'s line, or its table's header, or the file."""
+        table = key.rpartition(".")[0]
+        line = self.lines.get(key) or self.lines.get(table) or self.lines.get(f"{key}.")
+        raise SettingsError(_at(self.path, line, message))
+
+    def refuse_first(self, keys: tuple[str, ...], message: str) -> NoReturn:
+        """SettingsError at the first line of `keys` in the file."""
+        found = sorted(self.lines[key] for key in keys if key in self.lines)
+        raise SettingsError(_at(self.path, found[0] if found else None, message))
+
+    def checked(self, prefix: str, kind: type, data: dict) -> dict:
+        """`data`, a table of `kind`, with every key known, of its type and in range."""
+        allowed = {f.name for f in fields(kind)} - {*TABLES, SCHEDULE, "source"}
+        for key, value in data.items():
+            name = prefix + key
+            if key not in allowed:
+                self.refuse(name, f"unknown key {name}")
+            span, choices = RANGES.get(name), CHOICES.get(name)
+            whole_choice = choices is not None and isinstance(choices[0], int)
+            expected = (int, float) if span is not None else int if whole_choice else str
+            if not isinstance(value, expected) or isinstance(value, bool):
+                self.refuse(name, f"{name} has the wrong type")
+            if span is not None:
+                assert isinstance(value, int | float)  # a number, checked as one above
+                _check_range(self, name, value, span)
+            if choices is not None and value not in choices:
+                self.refuse(name, f"{name} must be one of {', '.join(map(str, choices))}, "
+                                  f"not {value!r}")  # fmt: skip
+        return data
+
+
+def _check_range(where: _Where, name: str, value: float, span: Range) -> None:
+    # Whole numbers in full (a limit of 2**40 is no 1.09951e+12 to whoever raises it).
+    low, high = (str(int(end)) if span.whole else f"{end:g}" for end in (span.low, span.high))
+    if span.whole and not isinstance(value, int):
+        where.refuse(name, f"{name} must be a whole number from {low} to {high}, not {value:g}")
+    # Written so that NaN, which passes every `<=` by failing it, is refused too.
+    if not span.low <= value <= span.high:
+        unit = f" {span.unit}" if span.unit else ""
+        why = f": {span.why}" if span.why else ""
+        # An int past a float's range has no `g` form.
+        shown = "a larger number" if isinstance(value, int) and abs(value) > 1e300 else f"{value:g}"
+        where.refuse(name, f"{name} must be between {low} and {high}{unit}, not "
+                           f"{shown}{unit}{why}")  # fmt: skip
+
+
+def _read(path: Path) -> str | None:
+    """The settings file's text; None if there is none; SettingsError, naming the file,
+    for one that is not a regular file, too large or not UTF-8 text.
+
+    Its type is looked at before it is opened: opening a FIFO for reading waits for a
+    writer, and /dev/zero never ends. It is opened without waiting and looked at again,
+    in case it was replaced in between, and read no further than its bound."""
+    try:
+        found = path.stat()
+    except FileNotFoundError:
+        return None  # no file (or a symlink to none): the built-in defaults
+    except (OSError, ValueError) as error:
+        raise SettingsError(f"{path}: {_os_error(error)}") from None
+    if not stat.S_ISREG(found.st_mode):
+        raise SettingsError(f"{path}: not a regular file ({_kind(found.st_mode)})")
+    if found.st_size > MAX_FILE_BYTES:
+        raise SettingsError(f"{path}: {found.st_size:,} bytes, over the "
+                            f"{MAX_FILE_BYTES:,} a settings file may have")  # fmt: skip
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_NOCTTY)
+    except OSError as error:
+        raise SettingsError(f"{path}: {_os_error(error)}") from None
+    with os.fdopen(fd, "rb") as file:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise SettingsError(f"{path}: not a regular file ({_kind(os.fstat(fd).st_mode)})")
+        data = file.read(MAX_FILE_BYTES + 1)
+    if len(data) > MAX_FILE_BYTES:
+        raise SettingsError(f"{path}: over the {MAX_FILE_BYTES:,} bytes a settings file "
+                            "may have")  # fmt: skip
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        line = data.count(b"\n", 0, error.start) + 1
+        message = f"not UTF-8 text (byte {data[error.start]:#04x})"
+        raise SettingsError(_at(path, line, message)) from None
+
+
+def _kind(mode: int) -> str:
+    """What a file that is not a regular one is, in the words of `ls -l`'s users."""
+    kinds = ((stat.S_ISDIR, "a folder"), (stat.S_ISCHR, "a character device"),
+             (stat.S_ISBLK, "a block device"), (stat.S_ISFIFO, "a FIFO"),
+             (stat.S_ISSOCK, "a socket"))  # fmt: skip
+    return next((name for test, name in kinds if test(mode)), "not a file")
+
+
+def _os_error(error: OSError | ValueError) -> str:
+    return (error.strerror if isinstance(error, OSError) else None) or str(error)[:200]
+
+
+def _too_deep(text: str) -> int | None:
+    """The first line nested deeper than MAX_NESTING, by an upper bound on its depth:
+    the brackets and braces open before it and on it, and the dots of its keys (a dotted
+    key or table name is a table in a table). The dots are counted on the whole line,
+    values and comments included, and brackets inside strings count too: overcounting
+    only refuses sooner. A line that is only a comment nests nothing. Counted with
+    str.count, so that a long file costs little."""
+    flow_depth = 0
     for number, line in enumerate(text.split("\n"), start=1):
-        if header.match(line):
-            inside = True
-            found[""] = number
-        elif line.lstrip().startswith("["):
-            inside = False
-        elif inside and (match := key.match(line)):
+        if line.lstrip().startswith("#"):
+            continue
+        opens = line.count("[") + line.count("{")
+        if flow_depth + opens + line.count(".") + 1 > MAX_NESTING:
+            return number
+        flow_depth = max(flow_depth + opens - line.count("]") - line.count("}"), 0)
+    return None
+
+
+def _key_lines(text: str) -> dict[str, int]:
+    """The line of every key outside [[...]] arrays, by its dotted name ("teleop.speed"),
+    and of every table's header ("teleop"): tomllib keeps no lines, so they are found in
+    the text, as _table_lines finds a [[schedule]]'s. A good guess for the files people
+    write, though a multi-line string that looks like a key would fool it."""
+    header = re.compile(r"\s*\[\s*([A-Za-z0-9_-]+)\s*\]\s*(#.*)?\Z")
+    # A dotted key (`deep.er = 1`) is found by its first part, the key of its table.
+    key = re.compile(r"""\s*(?:"([^"]*)"|'([^']*)'|([A-Za-z0-9_-]+))\s*[=.]""")
+    found: dict[str, int] = {}
+    prefix: str | None = ""
+    for number, line in enumerate(text.split("\n"), start=1):
+        if match := header.match(line):
+            prefix = match.group(1) + "."
             found.setdefault(match.group(1), number)
+        elif line.lstrip().startswith("["):
+            prefix = None  # an array of tables, [[schedule]], read by _table_lines
+        elif prefix is not None and (match := key.match(line)):
+            name = next(part for part in match.groups() if part is not None)
+            found.setdefault(prefix + name, number)
     return found
 
 

@@ -122,6 +122,13 @@ ALLOWED_IMPORTS = {
         "yaml_source",
     },
 }
+# Writing a file owner-only (issue 30): a leaf that any layer but the simulator may use.
+ALLOWED_IMPORTS["private_files"] = set()
+for _part, _below in ALLOWED_IMPORTS.items():
+    if _part != "sim":
+        _below.add("private_files")
+# The settings' [limits] table is read into file_limits.FileLimits.
+ALLOWED_IMPORTS["settings"].add("file_limits")
 ALLOWED_IMPORTS["runtime"] = ALLOWED_IMPORTS["service"] | {"runtime", "settings", "sim",
                                                            "data_folders", "lidar"}  # fmt: skip
 # The fleet link is a client of the service, as the screen is; the composition root

@@ -26,6 +26,7 @@ from pathlib import Path
 import cv2
 
 from giraff_console.camera.source import Frame
+from giraff_console.private_files import PRIVATE_FOLDER, make_private, open_private
 
 # The thesis's CAM_REC_BUFFERS (B.3).
 BUFFERS = 8
@@ -73,8 +74,8 @@ class VideoRecorder:
         self.written = 0
         self.dropped = 0
         self.error: str | None = None
-        folder.mkdir(exist_ok=True)
-        self._index = folder.with_suffix(".frames.csv").open("w", newline="")
+        folder.mkdir(mode=PRIVATE_FOLDER, exist_ok=True)
+        self._index = open_private(folder.with_suffix(".frames.csv"), "w", newline="")
         self._csv = csv.writer(self._index)
         self._csv.writerow(["frame", "captured_at", "x", "y", "heading"])
         self._writer: cv2.VideoWriter | None = None
@@ -143,6 +144,10 @@ class VideoRecorder:
         writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"mp4v"), self.fps, self.size)
         if not writer.isOpened():
             raise OSError(f"cannot write video to {path}")
+        # OpenCV makes the file with the umask's mode (the program's is private, but a
+        # caller's may not be): narrowed before a frame of anyone goes into it.
+        if path.exists():
+            make_private(path)
         self._writer, self._segment, self._segment_start = writer, path, captured_at
         return writer
 
@@ -155,6 +160,7 @@ class VideoRecorder:
             return
         self._writer.release()
         segment, self._writer, self._segment = self._segment, None, None
+        make_private(segment)  # in case OpenCV made it only as it wrote
         fsync_path(segment)
         fsync_path(self.path)
         os.fsync(self._index.fileno())

@@ -144,6 +144,7 @@ def run(args: argparse.Namespace) -> int:
     # The commands that drive the robot, on the settings file's rates and limits: the
     # console with no command (or replay), the only one that loads Textual.
     command = DRIVING[args.command] if args.command in DRIVING else load_console()
+    from giraff_console import file_limits
     from giraff_console.settings import SettingsError, load_settings
 
     try:
@@ -151,6 +152,9 @@ def run(args: argparse.Namespace) -> int:
     except SettingsError as error:
         print(f"giraff-console: {error}", file=sys.stderr)
         return EXIT_USAGE
+    # Every file the command reads from here on (plans, routes, recordings) is read
+    # within the settings' [limits].
+    file_limits.use(settings.limits)
     return command(args, settings, EXAMPLE_FLOORPLAN)
 
 

@@ -31,12 +31,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from giraff_console.private_files import PRIVATE_FILE, private_folder
+
 RUNS_FOLDER = "patrol-runs"
 SUFFIX = ".jsonl"
 UNFINISHED = "unfinished (the daemon stopped during it)"
 RUNNING = "running"
-# The log names the residents' rooms and their pictures: only the operator may read it.
-PRIVATE_FOLDER, PRIVATE_FILE = 0o700, 0o600
 _UNSAFE = re.compile(r"[^A-Za-z0-9_-]")
 # Garbled lines noted in a summary; more are counted, not listed.
 MAX_NOTES = 5
@@ -126,7 +126,9 @@ class PatrolRunLog:
         """Make the run's file; the problem if it cannot be made."""
         base = f"{at.astimezone(dt.UTC):%Y%m%dT%H%M%SZ}-{_UNSAFE.sub('_', patrol)[:64]}"
         try:
-            self.folder.mkdir(mode=PRIVATE_FOLDER, parents=True, exist_ok=True)
+            # The log names the residents' rooms and their pictures: only the operator
+            # may read it.
+            private_folder(self.folder)
             # Two runs started in the same second (a skipped slot and a run) get their
             # own files.
             for attempt in range(1, 100):

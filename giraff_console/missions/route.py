@@ -24,6 +24,7 @@ import yaml
 
 from giraff_console.link.exchange import Exchange
 from giraff_console.missions.yaml_file import YamlFile, name_problem, shown
+from giraff_console.private_files import private_folder
 from giraff_console.protocol.codec import Command, format_number, parse_command, parse_number
 from giraff_console.protocol.errors import CommandError, GiraffError
 from giraff_console.robot.odometry import Pose
@@ -184,7 +185,8 @@ def save_route(route: Route, directory: Path) -> Path:
     path = Path(directory) / f"{route.name}.yaml"
     temp: str | None = None
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
+        private_folder(path.parent)
+        # mkstemp makes the file 0600: the route is the operator's alone, as it is written.
         fd, temp = tempfile.mkstemp(dir=path.parent, prefix=f".{route.name}.", suffix=".tmp")
         with os.fdopen(fd, "w", encoding="utf-8") as file:
             file.write(text)

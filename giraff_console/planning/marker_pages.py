@@ -24,6 +24,7 @@ import numpy as np
 
 from giraff_console.planning.floorplan import FloorPlan, Landmarks, Marker
 from giraff_console.planning.landmarks import cells, marker_image, where_it_goes
+from giraff_console.private_files import open_private, private_folder, write_private
 
 DPI = 300
 # ISO paper, width by height in metres, smallest first: the first that holds the page.
@@ -157,14 +158,16 @@ def write_pages(plan: FloorPlan, folder: Path) -> list[Path]:
     if landmarks is None or not landmarks.markers:
         raise ValueError(f"{plan.path} has no markers: `giraff-console floorplan landmarks "
                          f"{plan.path}` places them")  # fmt: skip
-    folder.mkdir(parents=True, exist_ok=True)
+    # The pages say where each marker hangs in the building: the operator's alone, as
+    # everything the robot writes is (private_files.py).
+    private_folder(folder)
     written = []
     pdf = _Pdf(folder / "markers.pdf")
     try:
         for marker in landmarks.markers:
             page = marker_page(plan, landmarks, marker)
             path = folder / f"marker-{marker.id:03d}.png"
-            path.write_bytes(_png(page))
+            write_private(path, _png(page))
             written.append(path)
             pdf.add(page)
     finally:
@@ -178,7 +181,7 @@ class _Pdf:
 
     def __init__(self, path: Path) -> None:
         self.path = path
-        self.out = path.open("wb")
+        self.out = open_private(path, "wb")
         self.offsets: list[int] = []
         self.pages: list[int] = []
         self.out.write(b"%PDF-1.4\n%\xe2\xe3\xcf\xd3\n")

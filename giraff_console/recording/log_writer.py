@@ -18,6 +18,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from giraff_console.private_files import open_private
+
 # The bound on what a power loss may take away.
 FSYNC_INTERVAL_S = 1.0
 
@@ -33,7 +35,7 @@ class LogWriter:
         self.fsync_interval = fsync_interval
         self.written = 0
         self.error: str | None = None
-        self._file = path.open("w", encoding="utf-8", newline="\n")
+        self._file = open_private(path, "w", encoding="utf-8", newline="\n")
         self._queue: queue.SimpleQueue[str | None] = queue.SimpleQueue()
         self._closed = False
         self._thread = threading.Thread(target=self._run, name="log-writer", daemon=True)

@@ -39,6 +39,7 @@ import cv2
 from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import Writer
 
+from giraff_console.private_files import open_private
 from giraff_console.recording.control_log import LogRead
 from giraff_console.recording.estimates import ESTIMATES, RecordedEstimate
 from giraff_console.recording.playback import frame_times, open_estimates, open_log
@@ -144,7 +145,7 @@ def export_session(session: Path, out: Path, poses: Iterable[PoseSample], *,
         start = log_path.stat().st_mtime - log.duration
     temp = out.with_name(f".{out.name}.{os.getpid()}.part")
     try:
-        with temp.open("wb") as file:
+        with open_private(temp, "wb") as file:
             # In time order overall, so that chunks do not overlap in time.
             merged = heapq.merge(*streams.values(), key=lambda message: message[0])
             counts = _write(file, start, list(streams), merged)

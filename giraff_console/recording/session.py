@@ -30,6 +30,7 @@ from giraff_console.camera.association import Sample
 from giraff_console.camera.recorder import RecordedFrame, VideoRecorder
 from giraff_console.camera.source import Frame
 from giraff_console.link.exchange import Exchange
+from giraff_console.private_files import PRIVATE_FOLDER, open_private, private_folder, write_private
 from giraff_console.protocol.kinematics import WHEEL_BASE_M, WHEEL_BASE_RANGE_M
 from giraff_console.recording.control_log import entry_for, format_entry
 from giraff_console.recording.estimates import (
@@ -74,11 +75,13 @@ def new_session_dir(root: Path, now: time.struct_time | None = None) -> Path:
     """Create and return `root/<YYYYmmdd_HHMMSS>`, with a suffix if that one exists."""
     stamp = time.strftime("%Y%m%d_%H%M%S", now or time.localtime())
     try:
-        root.mkdir(parents=True, exist_ok=True)
+        # The folder made owner-only if it is made here; one the operator made keeps its
+        # mode, and the session in it is theirs alone (private_files.py).
+        private_folder(root)
         for attempt in range(1, 100):
             path = root / (stamp if attempt == 1 else f"{stamp}-{attempt}")
             try:
-                path.mkdir()
+                path.mkdir(mode=PRIVATE_FOLDER)
             except FileExistsError:
                 continue
             return path
@@ -241,7 +244,8 @@ class SessionRecorder:
         threading.Thread(target=self._rewrite_meta, name="session-meta", daemon=True).start()
 
     def _write_meta(self) -> None:
-        (self.path / META).write_text(json.dumps(self.meta, indent=2) + "\n", encoding="utf-8")
+        with open_private(self.path / META, "w", encoding="utf-8") as file:
+            file.write(json.dumps(self.meta, indent=2) + "\n")
 
     def _rewrite_meta(self) -> None:
         try:
@@ -294,11 +298,11 @@ class SessionRecorder:
         """Save one frame as `snapshots/<name>.jpg`; None, and a message, if it fails."""
         path = self.path / SNAPSHOTS / f"{name}.jpg"
         try:
-            path.parent.mkdir(exist_ok=True)
+            path.parent.mkdir(mode=PRIVATE_FOLDER, exist_ok=True)
             ok, data = cv2.imencode(".jpg", frame.image)
             if not ok:
                 raise OSError("JPEG encoding failed")
-            path.write_bytes(data.tobytes())
+            write_private(path, data.tobytes())
         except OSError as error:
             self.warn(f"snapshot {name} not saved: {error}")
             return None

@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from giraff_console.private_files import PRIVATE_FILE, private_folder
 from giraff_console.robot.localisation import Estimate, PoseBasis
 from giraff_console.robot.loop_events import LoopEvent
 from giraff_console.robot.odometry import Pose
@@ -48,7 +49,6 @@ MISSED_M = RUNAWAY_M + 0.2
 MISSED_HEADING = math.radians(20.0)
 # A file longer than this is not ours.
 MAX_BYTES = 4096
-PRIVATE_FILE = 0o600
 FORMAT = 1
 
 
@@ -172,7 +172,7 @@ class PoseKeeper:
         })  # fmt: skip
         temporary = self.path.with_name(f".{self.path.name}.{os.getpid()}")
         try:
-            self.path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+            private_folder(self.path.parent)
             descriptor = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, PRIVATE_FILE)
             try:
                 os.write(descriptor, text.encode())

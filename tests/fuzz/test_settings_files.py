@@ -1,10 +1,19 @@
 """Settings files: whatever their bytes, load_settings gives settings or a
-SettingsError that names the file, never a traceback (issue 12)."""
+SettingsError that names the file, never a traceback (issue 12); and the files made to
+hurt (issue 30) are refused through the real command line with exit 2, each within 5 s
+and 300 MB of the child's peak memory."""
 
 from __future__ import annotations
 
+import os
 import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
 
+import pytest
 from hypothesis import given
 
 from giraff_console.settings import SettingsError, load_settings
@@ -64,9 +73,122 @@ def test_a_speed_of_1e308_is_refused_naming_the_key(folder):
     try:
         load_settings(path)
     except SettingsError as error:
-        assert str(error) == f"{path}: teleop.max_speed is 1e+308, out of range"
+        assert str(error) == (f"{path}:2: teleop.max_speed must be between 0.05 and 1 m/s, "
+                              "not 1e+308 m/s")  # fmt: skip
     else:
         raise AssertionError("max_speed = 1e308 loaded")
+
+
+# Issue 30's bounds on any refusal of a file made to hurt.
+SECONDS = 5.0
+PEAK_BYTES = 300 * 1024 * 1024
+# Longer than any refusal takes on a loaded machine: a child still running then hangs.
+HANG_S = 60.0
+DEEP = 100_000
+
+
+def refused_by_the_cli(path: Path) -> tuple[str, float, int]:
+    """`giraff-console --config path go kitchen` run to its end: its standard error, its
+    CPU time and its peak resident memory in bytes (wait4's rusage, polled so that a
+    child that hangs, on a FIFO say, is killed rather than waited for). Fails unless it
+    exits 2 within HANG_S.
+
+    CPU time, not the wall clock's: starting Python and the package is 1.3 s of it on an
+    idle machine, and the wall clock's share of that grows with whatever else the machine
+    runs (beside the other tests, 5 s), which says nothing of the file."""
+    command = [sys.executable, "-m", "giraff_console", "--config", str(path), "go", "kitchen"]
+    started = time.monotonic()
+    child = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                             stdin=subprocess.DEVNULL)  # fmt: skip
+    try:
+        while True:
+            pid, status, usage = os.wait4(child.pid, os.WNOHANG)
+            if pid == child.pid:
+                child.returncode = os.waitstatus_to_exitcode(status)
+                break
+            if time.monotonic() - started > HANG_S:
+                pytest.fail(f"{path.name}: still running after {HANG_S:g} s")
+            time.sleep(0.01)
+        assert child.stderr is not None
+        stderr = child.stderr.read().decode()
+    finally:
+        if child.returncode is None:
+            child.send_signal(signal.SIGKILL)
+            child.wait(timeout=5)
+        assert child.stderr is not None
+        child.stderr.close()
+    assert child.returncode == 2, stderr
+    assert "Traceback" not in stderr
+    # Starting Python and the package counts too: the bounds are on all of it.
+    cpu = usage.ru_utime + usage.ru_stime
+    return stderr, cpu, usage.ru_maxrss * 1024  # Linux counts it in KiB
+
+
+def nested_arrays(path: Path) -> str:
+    path.write_text("speeds = " + "[" * DEEP + "]" * DEEP + "\n")
+    return ":1: nested more than 100 levels deep"
+
+
+def nested_arrays_over_lines(path: Path) -> str:
+    path.write_text("# a file of arrays, each on its own line\nspeeds = [\n" + "[\n" * DEEP)
+    return ":101: nested more than 100 levels deep"
+
+
+def nested_inline_tables(path: Path) -> str:
+    path.write_text("[teleop]\nspeed = 0.3\nx = " + "{a = " * DEEP + "1" + "}" * DEEP + "\n")
+    return ":3: nested more than 100 levels deep"
+
+
+def a_dotted_key(path: Path) -> str:
+    # tomllib makes a table per part, and takes 6 s and 400 MB over 10,000 of them.
+    path.write_text("a" + ".a" * DEEP + " = 1\n")
+    return ":1: nested more than 100 levels deep"
+
+
+def a_dotted_table(path: Path) -> str:
+    path.write_text('port = "/dev/ttyS0"\n[' + "a." * DEEP + "a]\n")
+    return ":2: nested more than 100 levels deep"
+
+
+def too_large(path: Path) -> str:
+    path.write_text("# a comment\n" * 200_000)  # 2.4 MB of nothing that nests
+    return ": 2,400,000 bytes, over the 1,048,576 a settings file may have"
+
+
+def a_fifo(path: Path) -> str:
+    os.mkfifo(path)  # opened for reading, it would wait for a writer that never comes
+    return ": not a regular file (a FIFO)"
+
+
+def a_link_to_dev_zero(path: Path) -> str:
+    path.symlink_to("/dev/zero")
+    return ": not a regular file (a character device)"
+
+
+def a_folder(path: Path) -> str:
+    path.mkdir()
+    return ": not a regular file (a folder)"
+
+
+def a_huge_number(path: Path) -> str:
+    path.write_text("[limits]\nfile_bytes = " + "9" * 4000 + "\n")
+    return ":2: limits.file_bytes must be between 1 and 1099511627776, not a larger number"
+
+
+BOMBS = (nested_arrays, nested_arrays_over_lines, nested_inline_tables, a_dotted_key,
+         a_dotted_table, too_large, a_fifo, a_link_to_dev_zero, a_folder,
+         a_huge_number)  # fmt: skip
+
+
+@pytest.mark.timeout(HANG_S + 30)
+@pytest.mark.parametrize("bomb", BOMBS, ids=lambda bomb: bomb.__name__)
+def test_a_settings_file_made_to_hurt_is_refused_in_bounds(tmp_path, bomb):
+    path = tmp_path / "config.toml"
+    where = bomb(path)
+    stderr, cpu, peak = refused_by_the_cli(path)
+    assert f"giraff-console: {path}{where}" in stderr
+    assert cpu < SECONDS, f"{cpu:.1f} s of CPU"
+    assert peak < PEAK_BYTES, f"{peak / 2**20:.0f} MB"
 
 
 @FUZZ
