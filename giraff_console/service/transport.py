@@ -218,16 +218,22 @@ class LineBuffer:
 
 def parse(line: bytes) -> object:
     """The message a line holds (wire.decode); WireError if it holds none."""
+    # The refusals say where, never what Python said nor the bytes themselves: a client
+    # is told what was wrong with its line in the protocol's terms (issue 30, item 4).
     try:
         data = json.loads(line)
-    except ValueError as error:  # also UnicodeDecodeError
-        raise wire.WireError(f"a line that is not JSON ({error}): {line[:60]!r}") from None
+    except json.JSONDecodeError as error:
+        raise wire.WireError(f"a line that is not JSON (at byte {error.pos})") from None
+    except UnicodeDecodeError as error:
+        raise wire.WireError(f"a line that is not UTF-8 (at byte {error.start})") from None
+    except ValueError:  # an integer of more digits than Python converts
+        raise wire.WireError("a line with a number too long to read") from None
     except RecursionError:
-        raise wire.WireError(f"a line nested too deep: {line[:60]!r}") from None
+        raise wire.WireError("a line nested too deep") from None
     try:
         return wire.decode(data)
     except RecursionError:  # decoding takes more frames a level than parsing
-        raise wire.WireError(f"a line nested too deep: {line[:60]!r}") from None
+        raise wire.WireError("a line nested too deep") from None
 
 
 def listen(path: Path) -> socket.socket:
