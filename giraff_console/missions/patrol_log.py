@@ -31,6 +31,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from giraff_console.file_limits import read_bounded
+
 RUNS_FOLDER = "patrol-runs"
 SUFFIX = ".jsonl"
 UNFINISHED = "unfinished (the daemon stopped during it)"
@@ -245,7 +247,7 @@ def _summary(path: Path, running: bool) -> RunSummary:
     notes: list[str] = []
     bad = 0
     try:
-        lines = path.read_bytes().split(b"\n")
+        lines = read_bounded(path, "log_bytes").split(b"\n")
     except OSError as error:
         lines = []
         notes.append(f"cannot read it: {_reason(error)}")
