@@ -42,16 +42,20 @@ class FileLimits:
     # about 5 times its size.
     log_bytes: int = 64 * _MIB
     # Pixels of a grid image, read from its header before decoding: 300 x 150 m at
-    # 0.05 m is 18 million; a 12000 x 12000 image would need 4 GB to plan on.
-    image_pixels: int = 40_000_000
+    # 0.05 m is 18 million. Planning takes about 29 bytes a cell (a 12000 x 12000 image
+    # took 4.2 GB), so this many need some 730 MB.
+    image_pixels: int = 25_000_000
     # Nodes of a YAML document counted with its aliases expanded, before it is built:
-    # PyYAML holds about 320 bytes a node, so this many need about 160 MB at most.
-    yaml_nodes: int = 500_000
-    # Things in a building: rooms, doors, markers; and in a route or patrol, its points.
+    # reading one (building it, finding the lines of its keys) takes about 800 bytes and
+    # 12 microseconds a node, so this many need some 200 MB and 3 s. A plan of 10,000
+    # markers is 130,000 nodes.
+    yaml_nodes: int = 250_000
+    # Things in a building: rooms, doors (two a room), markers; and in a route or patrol,
+    # its points (a route samples its path every 0.1 m: 2 km of it).
     rooms: int = 5_000
-    doors: int = 20_000
+    doors: int = 10_000
     markers: int = 10_000
-    waypoints: int = 100_000
+    waypoints: int = 20_000
 
 
 _current = FileLimits()

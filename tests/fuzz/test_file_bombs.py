@@ -154,7 +154,7 @@ PLAN_BOMBS: dict[str, Bomb] = {
     "100,000 doors": written(_lines([*_PLAN_HEAD, "doors:"], _DOOR, 100_000)),
     "one marker over the limit": written(_lines(_LANDMARKS_HEAD, _MARKER, 10_001)),
     "one room over the limit": written(_lines(["name: bomb", "rooms:"], _ROOM, 5_001)),
-    "one door over the limit": written(_lines([*_PLAN_HEAD, "doors:"], _DOOR, 20_001)),
+    "one door over the limit": written(_lines([*_PLAN_HEAD, "doors:"], _DOOR, 10_001)),
 }
 # A grid image's: headers claiming 10 gigapixels, a real image of 144 megapixels (all
 # white, so a few hundred kB), and files that are not files.
@@ -246,7 +246,7 @@ BUILDING_BOMBS: dict[str, Bomb] = {
     **YAML_BOMBS,
     "100,000 vertices": written(_lines(_LEVEL_HEAD, "      - [{i}, 5, 0, '']", 100_000)),
     "one door over the limit": written(
-        _lines([*_LEVEL_HEAD, "    doors:"], "      - [0, 1, {{name: d{i}}}]", 20_001)
+        _lines([*_LEVEL_HEAD, "    doors:"], "      - [0, 1, {{name: d{i}}}]", 10_001)
     ),
 }
 
@@ -264,6 +264,7 @@ _STOP = "  - {{room: b}}"
 PATROL_BOMBS: dict[str, Bomb] = {
     **YAML_BOMBS,
     "100,001 stops": written(_lines(["rounds: 1", "stops:"], _STOP, 100_001)),
+    "one stop over the limit": written(_lines(["rounds: 1", "stops:"], _STOP, 20_001)),
 }
 _ROUTE_HEAD = ["format: 1", "taught: '2026-01-01T00:00:00'", "duration: 1", "settings: {}",
                "commands: []", "path:"]  # fmt: skip
