@@ -12,6 +12,7 @@ import cv2
 import numpy as np
 
 from giraff_console.camera.defaults import FAST_THRESHOLD
+from giraff_console.file_limits import FileRefused, read_bounded
 from giraff_console.yaml_source import YamlSourceError, parse_yaml
 
 # FAST's pink in the thesis (B.9): BGR (128, 0, 255); its threshold is in defaults.py.
@@ -250,9 +251,12 @@ class Undistortion:
     @classmethod
     def from_file(cls, path: str) -> Undistortion:
         """The calibration in `path`: OSError if it cannot be read, CalibrationError (a
-        ValueError) for anything in it that is not a usable fisheye calibration."""
-        with open(path, "rb") as file:
-            data = file.read()
+        ValueError) for anything in it that is not a usable fisheye calibration, or for a
+        file that is not a regular one or is larger than the limits (file_limits.py)."""
+        try:
+            data = read_bounded(path)
+        except FileRefused as error:
+            raise CalibrationError(f"{path}: {error}") from None
         data = _OPENCV_HEADER.sub(b"", data, count=1).replace(_OPENCV_MATRIX, b"")
         try:
             _, document = parse_yaml(data)

@@ -132,7 +132,7 @@ def _load(name: str, folder: Path) -> tuple[Path, Patrol]:
 
     # The operator's own patrol of that name first, then the examples (data_folders.py).
     path = patrol_file(name, (folder, example_routes()))
-    if not path.is_file():
+    if not path.exists():  # a FIFO or a device is refused by load_patrol
         known = ", ".join(list_patrols(folder)) or "none"
         examples = ", ".join(list_patrols(example_routes())) or "none"
         raise UsageError(f"no patrol {name} (no file {path}; patrols in {folder}: {known}; "

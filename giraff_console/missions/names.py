@@ -26,8 +26,10 @@ def patrol_file(name: str, folders: Sequence[Path]) -> Path:
     `NAME.patrol.yaml` in the first of `folders` that holds one (the operator's routes
     folder before the examples shipped with the package, so that the operator's own
     `night` is the one run). With none, the first folder's, for the error to name.
-    The routes a patrol drives are looked for beside its file."""
+    The routes a patrol drives are looked for beside its file. An operator's file that
+    is not a regular one (a FIFO, a link to a device) is still theirs, to be refused
+    by the reader, not passed over for an example of the same name."""
     if name.endswith(PATROL_SUFFIX):
         return Path(name)
     candidates = [Path(folder) / f"{name}{PATROL_SUFFIX}" for folder in folders]
-    return next((path for path in candidates if path.is_file()), candidates[0])
+    return next((path for path in candidates if path.exists()), candidates[0])

@@ -120,6 +120,7 @@ def load_patrol(path: Path) -> Patrol:
     stops = doc["stops"]
     if not isinstance(stops, list) or not stops:
         file.fail("stops should be a list of {route: NAME} or {room: ROOM}, at least one", "stops")
+    file.within_limit(stops, "stops", "stops")
     return Patrol(
         name,
         rounds,

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from giraff_console.file_limits import read_bounded
 from giraff_console.private_files import PRIVATE_FILE, private_folder
 
 RUNS_FOLDER = "patrol-runs"
@@ -247,7 +248,7 @@ def _summary(path: Path, running: bool) -> RunSummary:
     notes: list[str] = []
     bad = 0
     try:
-        lines = path.read_bytes().split(b"\n")
+        lines = read_bounded(path, "log_bytes").split(b"\n")
     except OSError as error:
         lines = []
         notes.append(f"cannot read it: {_reason(error)}")

@@ -225,6 +225,7 @@ def load_route(path: Path) -> Route:
         )
     rows = file.timed_rows(doc.get("path") or [], "path", 4)
     marks = file.table(doc.get("marks") or {}, "marks", None)
+    file.within_limit(marks, "marks", "places")
     return Route(
         name=name,
         taught=file.text(doc["taught"], "taught"),

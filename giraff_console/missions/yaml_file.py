@@ -14,6 +14,7 @@ import reprlib
 from pathlib import Path
 from typing import Any, NoReturn
 
+from giraff_console.file_limits import read_bounded, too_many
 from giraff_console.planning.floorplan import Where, _node_lines, dotted
 from giraff_console.yaml_source import YamlSourceError, parse_yaml
 
@@ -65,7 +66,7 @@ class YamlFile:
     def mapping(self, required: tuple[str, ...], optional: tuple[str, ...]) -> dict[str, Any]:
         """The whole file, which must be a mapping with these keys."""
         try:
-            data = self.path.read_bytes()
+            data = read_bounded(self.path)
         except OSError as error:
             self.fail(f"cannot read it: {error.strerror or error}")
         try:
@@ -130,10 +131,18 @@ class YamlFile:
             self.fail(f"{where} should be text, not {shown(value)}", where)
         return value
 
+    def within_limit(self, items: list[Any] | dict[Any, Any], where: str, what: str) -> None:
+        """Refuse more `what` in `items` than the `waypoints` limit (file_limits.py), before
+        any of them is read: a route of a million points is a mistake, not a route."""
+        message = too_many(len(items), "waypoints", what)
+        if message is not None:
+            self.fail(f"{where}: {message}", where)
+
     def timed_rows(self, value: object, where: str, width: int) -> list[list[Any]]:
         """Rows `[offset, ...]` of `width` items, their offsets never going backwards."""
         if not isinstance(value, list):
             self.fail(f"{where} should be a list, not {shown(value)}", where)
+        self.within_limit(value, where, "rows")
         previous = 0.0
         rows = []
         for i, row in enumerate(value):

@@ -25,6 +25,7 @@ import cv2
 import numpy as np
 import yaml
 
+from giraff_console.file_limits import CountLimit, read_bounded, too_many
 from giraff_console.planning.names import no_such
 from giraff_console.yaml_source import YamlSourceError, parse_yaml
 
@@ -401,7 +402,7 @@ def load_yaml(path: Path) -> tuple[yaml.Node | None, Any]:
     """The YAML file at `path`, as its node tree (for lines) and its document; raises
     FloorPlanError, at the line where one is known, for whatever the bytes are."""
     try:
-        data = path.read_bytes()
+        data = read_bounded(path)
     except OSError as error:
         raise FloorPlanError([Problem(path, None, f"cannot read it: {error}")]) from None
     try:
@@ -423,7 +424,7 @@ def _read(path: Path) -> tuple[FloorPlan | None, list[Problem]]:
     for where, key, line in duplicates:
         reader.problems.append(Problem(path, line, f"duplicate key {dotted((*where, key))}"))
     top = reader.mapping(document, (), _TOP)
-    if top is None:
+    if top is None or _too_many(reader, top):
         return None, reader.problems
     name = reader.text(top.get("name", ""), ("name",))
     raw_rooms = top.get("rooms", {})
@@ -468,6 +469,25 @@ def _read(path: Path) -> tuple[FloorPlan | None, list[Problem]]:
     if reader.problems:
         return None, reader.problems
     return FloorPlan(name, rooms, good_doors, grid, start, path, landmarks), []
+
+
+def _too_many(reader: _Reader, top: dict[Any, Any]) -> bool:
+    """Whether the plan holds more rooms, doors or markers than the limits
+    (file_limits.py), each then a problem: refused before any of them is checked, since
+    the checks (doors on walls, markers in sight) grow faster than the count."""
+    landmarks = top.get("landmarks")
+    markers = landmarks.get("markers") if isinstance(landmarks, dict) else None
+    before = len(reader.problems)
+    counted: tuple[tuple[Where, Any, CountLimit], ...] = (
+        (("rooms",), top.get("rooms"), "rooms"),
+        (("doors",), top.get("doors"), "doors"),
+        (("landmarks", "markers"), markers, "markers"),
+    )
+    for where, items, limit in counted:
+        message = too_many(len(items), limit, limit) if isinstance(items, list | dict) else None
+        if message is not None:
+            reader.add(where, f"{dotted(where)}: {message}")
+    return len(reader.problems) > before
 
 
 def _landmarks(reader: _Reader, value: Any, walls: FloorPlan | None) -> Landmarks | None:
@@ -556,31 +576,37 @@ def _check_grid(
     must be a free cell of it, and no door's `at` an occupied one (the robot could never
     pass it, open or not). Read by ROS map_server's rules: row 0 is the top, `origin`
     the lower-left pixel's corner."""
-    # Imported here: ros_map.py imports this module. The check read_grid_image makes,
+    # Imported here: ros_map.py imports this module. The checks read_grid_image makes,
     # reported here at the grid key's line.
-    from giraff_console.planning.ros_map import netpbm_mismatch
+    from giraff_console.planning.ros_map import grid_image_problem
 
-    pixels = None
-    if grid.image.is_file():
-        try:
-            data = grid.image.read_bytes()
-        except OSError:
-            data = b""
-        mismatch = netpbm_mismatch(data)
-        if mismatch is not None:
-            reader.add(("grid", "image"), f"grid image {str(grid.image)!r}: {mismatch}")
-            return
-        pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
-    if pixels is None:
-        state = "unreadable" if grid.image.is_file() else "missing"
-        reader.add(("grid", "image"), f"grid image {str(grid.image)!r} is {state}")
+    if not grid.image.exists():
+        reader.add(("grid", "image"), f"grid image {str(grid.image)!r} is missing")
         return
-    if pixels.ndim == 3:  # colour: the mean of the colour channels, alpha ignored
-        pixels = pixels[:, :, : 3 if pixels.shape[2] >= 3 else 1].mean(axis=2)
-    scale = float(np.iinfo(pixels.dtype).max) if pixels.dtype.kind in "ui" else 255.0
-    value = pixels.astype(np.float64) / scale
-    occupancy = value if grid.negate else 1.0 - value
-    rows, cols = occupancy.shape
+    try:
+        data = read_bounded(grid.image, "image_bytes")
+    except OSError as error:
+        reader.add(("grid", "image"), f"grid image {str(grid.image)!r}: cannot read it: "
+                   f"{error.strerror or error}")  # fmt: skip
+        return
+    mismatch = grid_image_problem(data)
+    if mismatch is not None:
+        reader.add(("grid", "image"), f"grid image {str(grid.image)!r}: {mismatch}")
+        return
+    pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
+    if pixels is None:
+        reader.add(("grid", "image"), f"grid image {str(grid.image)!r} is unreadable")
+        return
+    scale = float(np.iinfo(pixels.dtype.name).max) if pixels.dtype.kind in "ui" else 255.0
+    rows, cols = pixels.shape[:2]
+
+    def occupied(found: tuple[int, int]) -> bool:
+        # Read at the cell alone: the whole grid as floats would be 8 bytes a cell.
+        pixel = pixels[found]
+        if pixels.ndim == 3:  # colour: the mean of the colour channels, alpha ignored
+            pixel = pixel[: 3 if pixels.shape[2] >= 3 else 1].mean()
+        value = float(pixel) / scale
+        return (value if grid.negate else 1.0 - value) > grid.occupied_thresh
 
     def cell(point: Point) -> tuple[int, int] | None:
         # Cells as floats first: a far origin over a tiny resolution may not be finite.
@@ -595,7 +621,7 @@ def _check_grid(
         found = cell(room.at)
         if found is None:
             reader.add(where, f"room {room.id!r} at {list(room.at)} is off the grid")
-        elif occupancy[found] > grid.occupied_thresh:
+        elif occupied(found):
             reader.add(
                 where,
                 f"room {room.id!r} at {list(room.at)} is on an occupied cell "
@@ -608,7 +634,7 @@ def _check_grid(
         found = cell(door.at)
         if found is None:
             reader.add(where, f"door {door.id!r} at {list(door.at)} is off the grid")
-        elif occupancy[found] > grid.occupied_thresh:
+        elif occupied(found):
             reader.add(
                 where,
                 f"door {door.id!r} at {list(door.at)} is on an occupied cell (row "

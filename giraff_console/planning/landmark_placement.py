@@ -20,6 +20,7 @@ from dataclasses import dataclass, replace
 import yaml
 
 from giraff_console.camera.marker_reach import STANDARD_SIZE_M
+from giraff_console.file_limits import read_bounded
 from giraff_console.planning.defaults import DEFAULT_EVERY_M, DEFAULT_FAMILY
 from giraff_console.planning.floorplan import (
     Door,
@@ -289,8 +290,7 @@ def write_landmarks(plan: FloorPlan, landmarks: Landmarks) -> FloorPlan:
     if path.is_symlink():
         # Renaming over a link would replace the link, not the plan it points to.
         raise ValueError(f"{path} is a symbolic link: give the file it points to")
-    with path.open(encoding="utf-8", newline="") as source:
-        text = source.read()
+    text = read_bounded(path).decode("utf-8")  # its line endings kept
     block = landmarks_block(plan, landmarks)
     if "\r\n" in text:
         block = block.replace("\n", "\r\n")  # a file written on Windows stays as it was

@@ -25,6 +25,7 @@ import re
 from pathlib import Path
 from typing import Any, cast
 
+from giraff_console.file_limits import CountLimit, too_many
 from giraff_console.planning.floorplan import (
     Point,
     Where,
@@ -56,6 +57,14 @@ def sanitise_id(text: str) -> str:
     return _NOT_ID.sub("-", text).strip("-")[:ID_LENGTH].rstrip("-")
 
 
+# A level's items and the limit (file_limits.py) each counts against: its vertices, the
+# lanes and walls between them, as the points of a route; its doors, as a plan's doors.
+_COUNTED: tuple[tuple[str, CountLimit], ...] = (
+    ("vertices", "waypoints"), ("lanes", "waypoints"), ("walls", "waypoints"),
+    ("doors", "doors"),
+)  # fmt: skip
+
+
 def read_building(
     path: str | Path, level: str | None = None, name: str | None = None, graph: int | None = None
 ) -> MadePlan:
@@ -82,6 +91,12 @@ def read_building(
     raw = by_name[level]
     if not isinstance(raw, dict):
         source.fail(where, f"{dotted(where)} should be a mapping of keys, not {raw!r:.60}")
+    # Counted before any is read: finding the rooms grows faster than the items do.
+    for key, limit in _COUNTED:
+        items = raw.get(key)
+        crowded = too_many(len(items), limit, key) if isinstance(items, list) else None
+        if crowded is not None:
+            source.fail((*where, key), f"{dotted((*where, key))}: {crowded}")
 
     shape = "[longitude, latitude, z, name, {parameters}]" if system == "wgs84" else None
     points, names, params = read_vertices(source, raw.get("vertices"), where, shape)

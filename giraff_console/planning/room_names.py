@@ -23,6 +23,7 @@ from pathlib import Path
 
 import yaml
 
+from giraff_console.file_limits import read_bounded
 from giraff_console.planning.floorplan import (
     FloorPlan,
     FloorPlanError,
@@ -79,8 +80,7 @@ def rename_in_file(plan: FloorPlan, old: str, new: str) -> FloorPlan:
     if path.parent == SHIPPED:
         raise RenameError(f"{path.name} is the example that comes with the console and is not "
                           "renamed: copy it, and start with --floorplan COPY")  # fmt: skip
-    with open(path, encoding="utf-8", newline="") as file:  # its line endings kept
-        text = file.read()
+    text = read_bounded(path).decode("utf-8")  # its line endings kept
     edits = _edits(text, old, new)
     if not any(end > start for start, end, _ in edits):
         raise RenameError(f"{path} does not name room {old!r} any more: was it edited?")

@@ -14,12 +14,14 @@ YAML and report mistakes the way `load_floorplan` does, as `FloorPlanError` prob
 from __future__ import annotations
 
 import math
+import struct
 from pathlib import Path
 from typing import Any, TypeGuard
 
 import cv2
 import numpy as np
 
+from giraff_console.file_limits import current, raising, read_bounded
 from giraff_console.planning.floorplan import (
     FloorPlanError,
     GridSpec,
@@ -41,6 +43,9 @@ _NETPBM = {
     b"P4": (False, 1, False), b"P5": (False, 1, True), b"P6": (False, 3, True),
 }  # fmt: skip
 _WHITESPACE = b" \t\r\n\v\f"
+# A PNG's signature, then its first chunk, IHDR: length, name, width, height.
+_PNG = b"\x89PNG\r\n\x1a\n"
+_IHDR = struct.Struct(">I4sII")
 
 
 class GridImageError(OSError):
@@ -51,21 +56,50 @@ class GridImageError(OSError):
 def read_grid_image(path: Path) -> np.ndarray:
     """The pixels of a grid image (a PGM or a PNG), as OpenCV reads them, unchanged.
 
-    GridImageError if it cannot be read, or if it is a Netpbm file (PGM, PPM, PBM) whose
-    pixels do not fill the size its header says exactly: OpenCV reads a header narrower
-    than its image as a garbled grid, each row starting where the last one's pixels
-    ended (issue 16), and a header wider than its image not at all."""
+    GridImageError if it cannot be read, if grid_image_problem finds a problem in it
+    (larger than the limits, or a Netpbm image whose pixels do not fill its header's
+    size), or if OpenCV cannot decode it."""
     try:
-        data = path.read_bytes()
+        data = read_bounded(path, "image_bytes")
     except OSError as error:
         raise GridImageError(f"{path}: cannot read it: {error.strerror or error}") from None
-    mismatch = netpbm_mismatch(data)
+    mismatch = grid_image_problem(data)
     if mismatch is not None:
         raise GridImageError(f"{path}: {mismatch}")
     pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
     if pixels is None:
         raise GridImageError(f"{path}: not an image OpenCV can read")
     return pixels
+
+
+def grid_image_problem(data: bytes) -> str | None:
+    """What keeps `data` from being a grid image, found from its header before anything
+    is decoded; None if it may be decoded. It must be a PGM (or another Netpbm image) or
+    a PNG, of no more pixels than the `image_pixels` limit: OpenCV would allocate what
+    the header claims (a PNG claiming 100,000 x 100,000 makes it raise), and planning
+    on a grid takes about 30 bytes a cell."""
+    if not data:
+        return "the file is empty"
+    if data[:2] in _NETPBM:
+        return netpbm_mismatch(data)
+    if not data.startswith(_PNG):
+        return "not a PGM or PNG image"
+    if len(data) < len(_PNG) + _IHDR.size:
+        return "a PNG cut short in its header"
+    _, chunk, width, height = _IHDR.unpack_from(data, len(_PNG))
+    if chunk != b"IHDR":
+        return "a PNG whose header (IHDR) is not where it belongs"
+    return _too_many_pixels(width, height)
+
+
+def _too_many_pixels(width: int, height: int) -> str | None:
+    most = current().image_pixels
+    if width * height <= most:
+        return None
+    return (
+        f"its header says {width} x {height} pixels, more than the {most:,} this console "
+        f"reads ({raising('image_pixels')})"
+    )
 
 
 def netpbm_mismatch(data: bytes) -> str | None:
@@ -104,6 +138,9 @@ def netpbm_mismatch(data: bytes) -> str | None:
         return f"its header says {width} x {height} pixels: an image needs at least one"
     if not 1 <= largest <= 65535:
         return f"its header gives {largest} as the largest value, not 1 to 65535"
+    too_large = _too_many_pixels(width, height)
+    if too_large is not None:
+        return too_large
     if at >= len(data) or data[at] not in _WHITESPACE:
         return "its header should end with a space or a newline before the pixels"
     pixels = data[at + 1 :]
@@ -209,7 +246,7 @@ def read_ros_map(path: str | Path) -> GridSpec:
     image_path = None
     if image is not None:
         image_path = path.parent / image  # ROS: relative to the map.yaml, or absolute
-        if not image_path.is_file():
+        if not image_path.exists():  # a FIFO or a device is refused by read_grid_image
             add("image", f"image {image!r} is missing (looked for {image_path})")
         else:
             try:

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol, TypeVar
 
+from giraff_console.file_limits import read_bounded
 from giraff_console.link.exchange import Exchange
 from giraff_console.protocol.replies import format_reply
 
@@ -141,10 +142,10 @@ def read_log(path: Path) -> LogRead:
 
     A session cut off by a crash or a power loss may end in half a line: that line is
     reported and everything before it plays. Times must not go backwards, since playback
-    keeps to them; a line that does is reported and skipped.
+    keeps to them; a line that does is reported and skipped. OSError (FileRefused) for a
+    file that is not a regular one, or larger than the `log_bytes` limit.
     """
-    with path.open("rb") as file:
-        data = file.read()
+    data = read_bounded(path, "log_bytes")
     return parse_log(data.decode("utf-8", "replace").split("\n"))
 
 

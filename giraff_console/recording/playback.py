@@ -19,11 +19,13 @@ from __future__ import annotations
 
 import bisect
 import csv
+import io
 import math
 import threading
 from collections.abc import Sequence
 from pathlib import Path
 
+from giraff_console.file_limits import read_bounded
 from giraff_console.link.exchange import Exchange, ExchangeKind
 from giraff_console.protocol.errors import GiraffError
 from giraff_console.protocol.replies import parse_reply
@@ -60,13 +62,14 @@ def as_exchange(entry: LogEntry, at: float) -> Exchange:
 
 def open_log(session: Path) -> tuple[Path, LogRead]:
     """The control log of a session directory, or a log file given directly."""
+    path = session
     try:
         path = session / CONTROL_LOG if session.is_dir() else session
-        if not path.is_file():
+        if not path.exists():  # a FIFO or a device is refused by read_log
             raise SessionError(f"no session log at {path}")
         return path, read_log(path)
-    except OSError as error:  # unreadable, a name too long, ...
-        raise SessionError(f"cannot read {session}: {error.strerror or error}") from None
+    except OSError as error:  # unreadable, a name too long, a FIFO, too large...
+        raise SessionError(f"cannot read {path}: {error.strerror or error}") from None
 
 
 def open_estimates(session: Path) -> EstimatesRead:
@@ -74,10 +77,9 @@ def open_estimates(session: Path) -> EstimatesRead:
     pose filter, or for an original console's log file."""
     path = session / ESTIMATES
     try:
-        if not session.is_dir() or not path.is_file():
+        if not session.is_dir() or not path.exists():
             return EstimatesRead([], [])
-        with path.open("rb") as file:
-            data = file.read()
+        data = read_bounded(path, "log_bytes")
     except OSError as error:
         raise SessionError(f"cannot read {path}: {error.strerror or error}") from None
     return parse_estimates(data.decode("utf-8", "replace").split("\n"))
@@ -91,12 +93,12 @@ def frame_times(session: Path, log: LogRead) -> list[float]:
     if isinstance(origin, int | float) and index.is_file():
         times: list[float] = []
         try:
-            with index.open(newline="") as file:
-                for row in csv.DictReader(file):
-                    time = float(row["captured_at"]) - origin
-                    if not math.isfinite(time):
-                        break
-                    times.append(time)
+            text = read_bounded(index, "log_bytes").decode("utf-8", "replace")
+            for row in csv.DictReader(io.StringIO(text, newline="")):
+                time = float(row["captured_at"]) - origin
+                if not math.isfinite(time):
+                    break
+                times.append(time)
         except (OSError, KeyError, TypeError, ValueError, csv.Error):
             # A frame index cut short (a crash mid-row leaves a row with missing fields)
             # or garbled (a NUL, a huge field): the frames before it are still placed right.

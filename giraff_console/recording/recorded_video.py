@@ -36,11 +36,13 @@ def session_video(session: Path) -> Path | None:
 
 
 def video_segments(video: Path) -> list[tuple[int, Path]]:
-    """(number of its first frame, file) for each segment, in order."""
+    """(number of its first frame, file) for each segment, in order. Regular files only:
+    OpenCV's open of a FIFO blocks until a writer comes, and a device never ends."""
     if video.is_file():
         return [(0, video)]
     try:
-        files = [path for path in video.iterdir() if path.suffix == ".mp4" and path.stem.isdigit()]
+        files = [path for path in video.iterdir()
+                 if path.suffix == ".mp4" and path.stem.isdigit() and path.is_file()]  # fmt: skip
     except OSError:
         return []
     return sorted((int(path.stem), path) for path in files)

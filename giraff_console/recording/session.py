@@ -29,6 +29,7 @@ from giraff_console import __version__
 from giraff_console.camera.association import Sample
 from giraff_console.camera.recorder import RecordedFrame, VideoRecorder
 from giraff_console.camera.source import Frame
+from giraff_console.file_limits import read_bounded
 from giraff_console.link.exchange import Exchange
 from giraff_console.private_files import PRIVATE_FOLDER, open_private, private_folder, write_private
 from giraff_console.protocol.kinematics import WHEEL_BASE_M, WHEEL_BASE_RANGE_M
@@ -91,13 +92,15 @@ def new_session_dir(root: Path, now: time.struct_time | None = None) -> Path:
 
 
 def read_meta(session: Path) -> dict[str, Any]:
-    """The session's meta.json; an empty dict if there is none (an original log)."""
+    """The session's meta.json; an empty dict if there is none (an original log).
+    SessionError for one that cannot be read, is not a regular file (a FIFO would block
+    the reader), is larger than the `file_bytes` limit, or is not a JSON object."""
     path = session / META
     if not path.exists():
         return {}
     try:
         meta = json.loads(
-            path.read_text(encoding="utf-8"),
+            read_bounded(path).decode("utf-8"),
             parse_int=_finite_int,
             parse_float=_finite_float,
             parse_constant=_no_constant,

@@ -1,5 +1,7 @@
 """What the fuzz tests feed the console's readers: bytes, mutations of real files, wrong
-encodings, huge numbers, NaN and deep nesting (issue 12: no traceback for any input).
+encodings, huge numbers, NaN and deep nesting (issue 12: no traceback for any input); and
+the bombs (issue 30): aliases that expand a billion times, image headers that claim 10
+gigapixels, files that never end or never open.
 
 Every kind runs FUZZ_EXAMPLES cases, derandomized so that CI sees the same ones every
 time; GIRAFF_FUZZ_EXAMPLES raises or lowers that for a longer hunt or a quick look.
@@ -9,7 +11,10 @@ from __future__ import annotations
 
 import os
 import random
+import struct
+import zlib
 from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any
 
 from hypothesis import HealthCheck, settings
@@ -171,3 +176,64 @@ def file_cases(seed: bytes, structured: Maker) -> st.SearchStrategy[bytes]:
     structured mutations `structured` makes for this kind of file."""
     mutate = mutated(seed)
     return cases(raw_bytes, mutate, mutate, encoded(seed), nested, structured, structured)
+
+
+# Files that would take a reader all the memory a robot's PC has, or all the time there is
+# (issue 30): each is a few bytes on disk, or no file at all.
+
+
+def laughs(levels: int = 9, wide: int = 10) -> bytes:
+    """A "billion laughs": `wide`**`levels` nodes with its aliases expanded, in under a
+    kilobyte, each level a list of `wide` aliases of the one before."""
+    lines = [b"a0: &a0 [lol]"]
+    for level in range(1, levels + 1):
+        aliases = b", ".join([b"*a%d" % (level - 1)] * wide)
+        lines.append(b"a%d: &a%d [%s]" % (level, level, aliases))
+    return b"\n".join(lines) + b"\n"
+
+
+def png(width: int, height: int, rows: bytes | None = None) -> bytes:
+    """A grey PNG of `width` x `height` (8 bits a pixel). With `rows` (each row's filter
+    byte and pixels, compressed), a real one; without, its header alone, claiming the
+    size: no decoder should ever get that far."""
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        check = struct.pack(">I", zlib.crc32(kind + data))
+        return struct.pack(">I", len(data)) + kind + data + check
+
+    header = chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0))
+    body = b"" if rows is None else chunk(b"IDAT", rows) + chunk(b"IEND", b"")
+    return b"\x89PNG\r\n\x1a\n" + header + body
+
+
+def white_rows(width: int, height: int) -> bytes:
+    """The compressed rows of an all-white `width` x `height` grey PNG, made a row at a
+    time: a 12000 x 12000 one is 144 MB of pixels but a few hundred kB compressed."""
+    compressor = zlib.compressobj(9)
+    row = b"\x00" + b"\xff" * width
+    return b"".join(compressor.compress(row) for _ in range(height)) + compressor.flush()
+
+
+def pgm_header(width: int, height: int) -> bytes:
+    """A PGM's header claiming `width` x `height`, and no pixels after it."""
+    return b"P5\n%d %d\n255\n" % (width, height)
+
+
+def sparse(path: Path, size: int) -> Path:
+    """A file at `path` whose size says `size` bytes and which holds none on disk: a
+    reader that trusts the size before reading refuses it at once."""
+    with path.open("wb") as file:
+        file.truncate(size)
+    return path
+
+
+def fifo(path: Path) -> Path:
+    """A named pipe at `path` with nobody writing: opening it for reading blocks."""
+    os.mkfifo(path)
+    return path
+
+
+def dev_zero(path: Path) -> Path:
+    """A link at `path` to /dev/zero, which gives zeros for ever whatever size it says."""
+    path.symlink_to("/dev/zero")
+    return path

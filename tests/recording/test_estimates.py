@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from dataclasses import replace
 from pathlib import Path
 
@@ -187,13 +188,13 @@ def test_bytes_that_are_not_text_are_a_bad_line(tmp_path):
 def test_an_unreadable_estimates_file_is_a_session_error(tmp_path, monkeypatch):
     session = record(tmp_path, [ESTIMATE])
     path = session / ESTIMATES
-    opened = Path.open
+    opened = os.open
 
-    def refuse(self, *args, **kwargs):
-        if self == path:
+    def refuse(name, *args, **kwargs):
+        if Path(name) == path:
             raise PermissionError(13, "Permission denied")
-        return opened(self, *args, **kwargs)
+        return opened(name, *args, **kwargs)
 
-    monkeypatch.setattr(Path, "open", refuse)
+    monkeypatch.setattr(os, "open", refuse)
     with pytest.raises(SessionError, match=f"cannot read {path}: Permission denied"):
         open_estimates(session)
