@@ -127,8 +127,11 @@ ALLOWED_IMPORTS["private_files"] = set()
 for _part, _below in ALLOWED_IMPORTS.items():
     if _part != "sim":
         _below.add("private_files")
-# The settings' [limits] table is read into file_limits.FileLimits.
-ALLOWED_IMPORTS["settings"].add("file_limits")
+# How large a file may be read (issue 30): a leaf that every reader of files asks, the
+# settings' [limits] table sets.
+ALLOWED_IMPORTS["file_limits"] = set()
+for _below in ALLOWED_IMPORTS.values():
+    _below.add("file_limits")
 ALLOWED_IMPORTS["runtime"] = ALLOWED_IMPORTS["service"] | {"runtime", "settings", "sim",
                                                            "data_folders", "lidar"}  # fmt: skip
 # The fleet link is a client of the service, as the screen is; the composition root
