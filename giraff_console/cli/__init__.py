@@ -121,6 +121,24 @@ def run(args: argparse.Namespace) -> int:
         # Nothing here drives by itself: signals end the command as usual. The program's
         # entry point blocked them for the console's own watcher (launch.py).
         signal.pthread_sigmask(signal.SIG_UNBLOCK, SIGNALS)
+    if args.command == "stop":
+        return run_stop(args)
+    if args.command == "status":
+        return run_status(args)
+    if args.command == "watch":
+        return run_watch(args)
+    # Every other command reads files (plans, buildings, routes, recordings): within the
+    # settings' [limits], whichever command it is (issue 30). A stop, a status and a watch
+    # read none, and work whatever the settings file holds.
+    from giraff_console import file_limits
+    from giraff_console.settings import SettingsError, load_settings
+
+    try:
+        settings = load_settings(getattr(args, "config", None))
+    except SettingsError as error:
+        print(f"giraff-console: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    file_limits.use(settings.limits)
     if args.command == "sim":
         return run_sim(args)
     if args.command == "send":
@@ -129,14 +147,8 @@ def run(args: argparse.Namespace) -> int:
         return run_export(args)
     if args.command == "plan":
         return run_plan(args)
-    if args.command == "status":
-        return run_status(args)
-    if args.command == "stop":
-        return run_stop(args)
     if args.command == "patrols":
         return run_patrols(args)
-    if args.command == "watch":
-        return run_watch(args)
     if args.command == "floorplan":
         return run_floorplan(args)
     if args.command == "fleet":
@@ -144,17 +156,6 @@ def run(args: argparse.Namespace) -> int:
     # The commands that drive the robot, on the settings file's rates and limits: the
     # console with no command (or replay), the only one that loads Textual.
     command = DRIVING[args.command] if args.command in DRIVING else load_console()
-    from giraff_console import file_limits
-    from giraff_console.settings import SettingsError, load_settings
-
-    try:
-        settings = load_settings(args.config)
-    except SettingsError as error:
-        print(f"giraff-console: {error}", file=sys.stderr)
-        return EXIT_USAGE
-    # Every file the command reads from here on (plans, routes, recordings) is read
-    # within the settings' [limits].
-    file_limits.use(settings.limits)
     return command(args, settings, EXAMPLE_FLOORPLAN)
 
 

@@ -102,7 +102,8 @@ def add_serve_parser(commands: argparse._SubParsersAction, example: Path) -> Non
     )  # fmt: skip
     serve.add_argument(
         "--max-consoles", type=_consoles, metavar="N",
-        help="consoles attached at once at most (default 64); one more is refused, but "
+        help="consoles attached at once at most (default: the settings' max_consoles, 64); "
+        "one more is refused, but "
         "`giraff-console stop` is still obeyed",
     )  # fmt: skip
     add_folder_options(serve, after_command=True)
@@ -141,7 +142,7 @@ def run_serve(args: argparse.Namespace, settings: Settings, example: Path) -> in
 
 
 def _serve(robot: Robot, args: argparse.Namespace, settings: Settings, example: Path) -> int:
-    from giraff_console.service.daemon import MAX_CONSOLES, SWITCH_INTERVAL_S, Daemon
+    from giraff_console.service.daemon import SWITCH_INTERVAL_S, Daemon
     from giraff_console.service.patrol_schedule import PatrolSchedule
 
     service, control = robot.service, robot.control
@@ -154,7 +155,7 @@ def _serve(robot: Robot, args: argparse.Namespace, settings: Settings, example: 
         path = socket_path(runtime_folder())
         daemon = Daemon(service, path, (args.floorplan or example).resolve(),
                         simulator=robot.site is not None,
-                        max_consoles=args.max_consoles or MAX_CONSOLES)  # fmt: skip
+                        max_consoles=args.max_consoles or settings.max_consoles)  # fmt: skip
     except TransportError as error:
         return fail(str(error), EXIT_USAGE)
     schedule = PatrolSchedule(service, settings.schedule, robot.routes.runs)

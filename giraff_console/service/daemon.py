@@ -50,6 +50,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Annotated
 
 from giraff_console.camera.shared_frame import SharedFrame
 from giraff_console.link import Exchange
@@ -129,7 +130,9 @@ HELLO_TIMEOUT_S = 5.0
 # Consoles attached at once, unless told otherwise (`serve --max-consoles`).
 MAX_CONSOLES = 64
 # Connections still to say Hello, and connections over the limit waiting to ask a stop.
-GREETING = 32
+# Room for a burst of consoles connecting at once (each says Hello as it connects, but a
+# loaded machine may take a while to run them), within the descriptors a process has.
+GREETING = 128
 OVER_LIMIT = 16
 # Threads that run the requests that wait.
 WORKERS = 4
@@ -155,7 +158,7 @@ NO_DESCRIPTORS = "refused: the daemon has no file descriptors left; try again la
 class Hello:
     """A console's first message: who it is, and whether it wants the controls."""
 
-    console: str
+    console: Annotated[str, c.CONSOLE]
     take: bool = True
 
 
@@ -509,7 +512,10 @@ class Daemon:
 
     def _greet(self, console: ConsoleSocket, hello: object) -> None:
         del self._greeting[console]
-        if not isinstance(hello, Hello) or not isinstance(hello.console, str):
+        if isinstance(hello, WireError):  # a Hello with a field wrong: told which, and gone
+            self._refuse(console, f"not understood: {hello}")
+            return
+        if not isinstance(hello, Hello):
             self._hang_up(console)
             return
         pid = peer_pid(console.socket)
@@ -528,7 +534,7 @@ class Daemon:
             # says from then on follows it.
             console.stage = Stage.ATTACHED
             self._attached[console] = None
-            self.service.attach(name, take=hello.take is True)
+            self.service.attach(name, take=hello.take)
         self._tell(console, self._welcome(name))
         if over and len(self._over_limit) > OVER_LIMIT:
             self._refuse(next(iter(self._over_limit)), self._too_many())

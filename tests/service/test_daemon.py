@@ -44,6 +44,7 @@ from giraff_console.service.events import Controls, Reply, RoomRenamed, Situatio
 from giraff_console.service.reattach import Attached, Disconnected, Reattaching
 from giraff_console.service.remote import RemoteRobot
 from giraff_console.service.runtime_folder import socket_path
+from giraff_console.service.transport import parse
 from giraff_console.settings import Settings
 from tests.planning.scanned_building import write_scanned_plan
 from tests.service.daemon_rig import (
@@ -578,12 +579,17 @@ class RawConsole:
 
 def test_garbled_lines_do_not_end_the_daemon(serve, attach):
     daemon = serve(*SIM)
-    # Garbled instead of a hello: that connection is closed, nothing more.
+    # Garbled instead of a hello: told so, in the protocol's words, and closed.
     with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as raw:
         raw.settimeout(WAIT_S)
         raw.connect(str(daemon.socket))
         raw.sendall(b"not json\n")
-        assert raw.recv(65536) == b""
+        told = b""
+        while chunk := raw.recv(65536):
+            told += chunk
+        refused = parse(told.rstrip(b"\n"))
+        assert isinstance(refused, Answered) and not refused.reply.ok
+        assert refused.reply.text == "not understood: a line that is not JSON (at byte 0)"
     # Garbled after a hello: answered "not understood", and the connection goes on.
     raw = RawConsole(daemon.socket)
     with raw.socket:
