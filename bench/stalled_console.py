@@ -35,7 +35,7 @@ from pathlib import Path
 from giraff_console.camera.shared_frame import SharedFrame
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
-from giraff_console.service.daemon import Asked, Hello
+from giraff_console.service.console_hello import Asked, Hello
 from giraff_console.service.remote import RemoteRobot
 from giraff_console.service.transport import Connection, connect
 

@@ -28,7 +28,7 @@ from giraff_console.service.outbox import Outbox
 from giraff_console.service.transport import SEND_TIMEOUT_S, ConnectionClosed, LineBuffer
 
 if TYPE_CHECKING:
-    from giraff_console.service.daemon import Asked
+    from giraff_console.service.console_hello import Asked
 
 # A request line's bytes at most: far above any request, far below a message the daemon
 # sends (a map, a camera frame), so that parsing one holds the interpreter for well

@@ -50,7 +50,6 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated
 
 from giraff_console.camera.shared_frame import SharedFrame
 from giraff_console.link import Exchange
@@ -80,6 +79,7 @@ from giraff_console.robot.replay import PlaybackStatus
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.service import commands as c
 from giraff_console.service import wire
+from giraff_console.service.console_hello import Asked, Hello
 from giraff_console.service.console_socket import (
     REQUESTS_PER_S,
     WAITING,
@@ -155,14 +155,6 @@ NO_DESCRIPTORS = "refused: the daemon has no file descriptors left; try again la
 
 
 @dataclass(frozen=True)
-class Hello:
-    """A console's first message: who it is, and whether it wants the controls."""
-
-    console: Annotated[str, c.CONSOLE]
-    take: bool = True
-
-
-@dataclass(frozen=True)
 class Welcome:
     """The daemon's first answer: the console's name as the others see it, the floor
     plan the robot drives by (for the map) and how things stand."""
@@ -173,14 +165,6 @@ class Welcome:
     controls: Controls
     situation: Situation
     route: RouteShown | None
-
-
-@dataclass(frozen=True)
-class Asked:
-    """A request, numbered so that its answer can be told apart."""
-
-    number: int
-    request: c.Request
 
 
 @dataclass(frozen=True)
@@ -677,9 +661,9 @@ def _spare() -> int | None:
 # What crosses the socket: the daemon's own messages, the requests, and everything the
 # robot says (a snapshot and all it holds, an exchange with its errors, notes).
 wire.register(
-    Hello, Welcome, Asked, Answered, Reply, Sent, Answer, SendEnd, Controls, RouteShown,
+    Welcome, Answered, Reply, Sent, Answer, SendEnd, Controls, RouteShown,
     RoomRenamed, Situation, GoReported, GoReport, PatrolStopReported, StopReport,
-    PatrolReported, PatrolReport, SharedFrame, MapDrawn, PlanChanged, *c.REQUESTS,
+    PatrolReported, PatrolReport, SharedFrame, MapDrawn, PlanChanged,
     Telemetry, LinkState, MotorState, Pose, Intent, PlaybackStatus, Progress, Battery,
     ChargeStatus, BoardFeatures, Estimate, PoseBasis, Exchange, Note, MissionChanged, MissionEnd,
     Outcome,

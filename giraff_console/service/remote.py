@@ -13,14 +13,14 @@ from __future__ import annotations
 import contextlib
 import itertools
 import logging
-import os
 import threading
 import time
 from pathlib import Path
 
 from giraff_console.robot.loop_events import Note
 from giraff_console.service import commands as c
-from giraff_console.service.daemon import Answered, Asked, Hello, Welcome, daemon_alive
+from giraff_console.service.console_hello import Asked, Hello
+from giraff_console.service.daemon import Answered, Welcome, daemon_alive
 from giraff_console.service.events import Answered as Callback
 from giraff_console.service.events import Reply, ServiceEvent, ServiceListener
 from giraff_console.service.transport import Connection, ConnectionClosed, connect
@@ -195,17 +195,3 @@ class RemoteRobot:
                 self._connection.send(Asked(0, c.Heartbeat()))
             except ConnectionClosed:
                 return
-
-
-def console_name(kind: str) -> str:
-    """How other consoles see this one: what it is and where it runs (the SSH client's
-    address, or the terminal)."""
-    where = os.environ.get("SSH_CLIENT", "").split(" ")[0] or _terminal()
-    return f"{kind} {where}".strip()
-
-
-def _terminal() -> str:
-    try:
-        return os.ttyname(0).removeprefix("/dev/")
-    except OSError:
-        return ""

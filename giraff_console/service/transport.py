@@ -106,12 +106,18 @@ class Connection:
         ConnectionClosed at the end of the stream. WireError for a line that is too
         long, not JSON, or not something wire.decode can build; that line is skipped,
         so the next receive goes on with the line after it."""
+        line = self.receive_line(timeout)
+        return None if line is None else parse(line)
+
+    def receive_line(self, timeout: float) -> bytes | None:
+        """The next line as it came, unread, or None if none came within `timeout`
+        seconds; ConnectionClosed and WireError as for `receive`."""
         deadline = time.monotonic() + max(timeout, 0.0)
         with self._receive_lock:
             while True:
                 line = self._lines.take()
                 if line is not None:
-                    return parse(line)
+                    return line
                 remaining = deadline - time.monotonic()
                 if remaining <= 0 or not self._wait_readable(remaining):
                     return None

@@ -38,7 +38,8 @@ from giraff_console.robot.deadman import Intent
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
 from giraff_console.service import wire
-from giraff_console.service.daemon import Answered, Asked, Hello
+from giraff_console.service.console_hello import Asked, Hello
+from giraff_console.service.daemon import Answered
 from giraff_console.service.events import Reply
 from giraff_console.service.transport import MAX_LINE
 

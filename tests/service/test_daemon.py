@@ -39,7 +39,8 @@ from giraff_console.runtime.options import RobotOptions
 from giraff_console.runtime.robot import Robot
 from giraff_console.service import commands as c
 from giraff_console.service import wire
-from giraff_console.service.daemon import Answered, Asked, Hello, Welcome, daemon_alive
+from giraff_console.service.console_hello import Asked, Hello
+from giraff_console.service.daemon import Answered, Welcome, daemon_alive
 from giraff_console.service.events import Controls, Reply, RoomRenamed, Situation
 from giraff_console.service.reattach import Attached, Disconnected, Reattaching
 from giraff_console.service.remote import RemoteRobot

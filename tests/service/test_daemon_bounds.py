@@ -18,7 +18,8 @@ import pytest
 from giraff_console.robot.loop_events import MissionChanged
 from giraff_console.service import commands as c
 from giraff_console.service import wire
-from giraff_console.service.daemon import Answered, Asked, Hello, Welcome
+from giraff_console.service.console_hello import Asked, Hello
+from giraff_console.service.daemon import Answered, Welcome
 from giraff_console.service.remote import DaemonGone, RemoteRobot
 from tests.service.daemon_rig import DaemonProcess, Heard, run_cli, start_daemon, stop_daemon
 

@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 
 from giraff_console.service import wire
-from giraff_console.service.daemon import Asked
+from giraff_console.service.console_hello import Asked
 from giraff_console.service.events import Reply
 from tests.service.daemon_rig import DaemonProcess, start_daemon, stop_daemon
 from tests.service.socket_junk import (

@@ -9,9 +9,9 @@ that say Hello, read everything and beat their hearts, and bursts of 200 connect
 attempts held a second each. (Issue 30 saw the daemon of a thread per console answer
 `stop` in 6.2 s with 340 consoles attached; that daemon does not take these 200 within
 FLOOD_WAIT_S.) During a `go`, `giraff-console stop` and a console's stop must
-each end the mission within STOP_S (the CLI's from when the daemon tells its consoles
-it has attached: its own start-up aside) and bring the robot to rest; the daemon
-lives, and afterwards a new console attaches and drives.
+each end the mission within STOP_S (the CLI's CLI_START_S more, from its start) and
+bring the robot to rest; the daemon lives, and afterwards a new console attaches and
+drives.
 
 Every wait has a timeout, and every process is ended whatever the test does.
 """
@@ -35,7 +35,6 @@ import pytest
 from giraff_console.robot.loop_events import MissionChanged
 from giraff_console.robot.telemetry import Telemetry
 from giraff_console.service import commands as c
-from giraff_console.service.events import Controls
 from giraff_console.service.remote import RemoteRobot
 from tests.service.daemon_rig import (
     SERVING,
@@ -60,6 +59,8 @@ DAEMON_FILES = 1024
 # Seconds a stop may take to end the mission: generous beside the issue's 0.2 s (the
 # bench's), yet far below the 6.2 s issue 30 saw with 340 consoles attached.
 STOP_S = 1.0
+# A Python program's start on a machine as loaded as the suite's (the bench times it).
+CLI_START_S = 1.0
 # Seconds from the mission's end to rest: a brake from 0.4 m/s at 0.5 m/s^2, and slack.
 BRAKE_S = 0.8 + 0.4
 WAIT_S = 10.0
@@ -156,23 +157,15 @@ def drive(driver: RemoteRobot, heard: Heard) -> None:
 
 
 class Told:
-    """When the daemon told its consoles who is attached, and of each mission's end
-    (time.monotonic(), on the listener's reading thread)."""
+    """When the daemon told its consoles of each mission's end (time.monotonic(), on the
+    listener's reading thread)."""
 
     def __init__(self) -> None:
-        self.heard: list[tuple[float, Controls | MissionChanged]] = []
+        self.heard: list[tuple[float, MissionChanged]] = []
 
     def __call__(self, event: object) -> None:
-        if isinstance(event, (Controls, MissionChanged)):
+        if isinstance(event, MissionChanged):
             self.heard.append((time.monotonic(), event))
-
-    def attached(self, console: str, since: float) -> float:
-        """When a console named `console …` was first told attached, after `since`."""
-        for at, event in list(self.heard):
-            if (at >= since and isinstance(event, Controls)
-                    and any(name.startswith(console) for name in event.consoles)):  # fmt: skip
-                return at
-        raise AssertionError(f"no console {console!r} attached after the stop was sent")
 
     def ended(self, since: float) -> float:
         """When a mission's end was first told, after `since`."""
@@ -210,10 +203,9 @@ def test_the_operator_s_stop_wins_over_a_flood_of_clients(daemon, flood):
         mark, sent = heard.mark(), time.monotonic()
         stopped = run_cli("stop")
         assert stopped.returncode == 0, stopped.stderr
-        # Timed from when the daemon told of the CLI attached: its own start-up (seconds
-        # on a loaded machine, importing the robot's types) is not the daemon's doing.
-        attached = told.attached("stop", sent)
-        stopped_within(heard, told, mark, attached, STOP_S, "`giraff-console stop`")
+        # Timed from the command's start: its own start-up counts (0.14 s on an idle
+        # 2-core PC, service/stop_request.py), so it has CLI_START_S more.
+        stopped_within(heard, told, mark, sent, STOP_S + CLI_START_S, "`giraff-console stop`")
         flood.answer()
 
         drive(driver, heard)

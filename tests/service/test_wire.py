@@ -27,7 +27,7 @@ from giraff_console.robot.odometry import Pose
 from giraff_console.robot.replay import PlaybackStatus
 from giraff_console.robot.telemetry import LinkState, Telemetry
 from giraff_console.service import commands as c
-from giraff_console.service.daemon import Asked
+from giraff_console.service.console_hello import Asked
 from giraff_console.service.wire import (
     Count,
     Number,

@@ -1,0 +1,80 @@
+"""`giraff-console stop` in a hurry: the operator's stop from a shell (issue 30, item 3).
+
+A stop must take effect within 0.2 s of being typed, however busy the robot's PC. The
+consoles' client (remote.py) loads most of the package to read everything the daemon
+says (telemetry, maps, the missions' reports): half a second of imports on an idle
+robot PC, seconds on a loaded one, before the stop could even be sent. A stop needs
+none of that: it says Hello, asks Halt (or Shutdown), and waits for that one answer,
+passing over every other line without building it. What it sends is wire.py's encoding
+of the same messages a console sends, so the daemon serves it as any console, over the
+connection limit too (daemon.py).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from giraff_console.service import commands as c
+from giraff_console.service.console_hello import Asked, Hello, console_name
+from giraff_console.service.transport import ConnectionClosed, TransportError, connect
+from giraff_console.service.wire import WireError
+
+# The number the stop is asked by; the daemon answers refusals it cannot number with -1
+# (too many consoles, no descriptors left, a line it could not read).
+NUMBER = 1
+UNNUMBERED = -1
+# The tag of the daemon's answer on the wire (daemon.Answered, wire.py's "type").
+ANSWERED = "Answered"
+
+
+@dataclass(frozen=True)
+class StopAnswer:
+    """What the daemon said to the stop: done or refused, and its words."""
+
+    ok: bool
+    text: str
+
+
+def ask_stop(path: Path, *, shutdown: bool = False, timeout: float = 5.0) -> StopAnswer:
+    """Stop the robot (and end the daemon too, if `shutdown`) through the daemon at
+    `path`; NoDaemon if none listens there, TransportError if it cannot be reached or
+    does not answer within `timeout` seconds."""
+    deadline = time.monotonic() + timeout
+    request = c.Shutdown() if shutdown else c.Halt()
+    with connect(path, timeout) as connection:
+        try:
+            connection.send(Hello(console_name("stop"), take=False))
+            connection.send(Asked(NUMBER, request))
+            while (remaining := deadline - time.monotonic()) > 0:
+                try:
+                    line = connection.receive_line(remaining)
+                except WireError:  # a line too long for any answer: not the stop's
+                    continue
+                answer = None if line is None else _answer_in(line)
+                if answer is not None:
+                    return answer
+        except ConnectionClosed as error:
+            raise TransportError(
+                f"the daemon at {path} hung up before it answered: {error}"
+            ) from None
+    raise TransportError(f"the daemon at {path} did not answer the stop in {timeout:g} s")
+
+
+def _answer_in(line: bytes) -> StopAnswer | None:
+    """The answer to the stop if `line` carries it; None for every other message."""
+    try:
+        message = json.loads(line)
+    except ValueError:
+        return None
+    if not isinstance(message, dict) or message.get("type") != ANSWERED:
+        return None
+    reply = message.get("reply")
+    if message.get("number") not in (NUMBER, UNNUMBERED) or not isinstance(reply, dict):
+        return None
+    ok, text = reply.get("ok"), reply.get("text", "")
+    if not isinstance(ok, bool) or not isinstance(text, str):
+        return None
+    return StopAnswer(ok, text)
