@@ -490,7 +490,8 @@ class VirtualPort:
         or the keys cannot start between the check and what is done: a move of the
         program's own is stopped with the console's braking stop; with nobody else
         driving, an idle setting goes to the board, guarded; while others drive, it is
-        answered as the board answers and kept for before the program's next command."""
+        answered as the board answers and kept for before the program's next command,
+        as it is during a move of the program's own (the drivers' stop sets v 0 first)."""
         name = command.name
 
         def stop_or_idle(link: BoardLink) -> Lines:
@@ -508,13 +509,17 @@ class VirtualPort:
                 # Never sent (undocumented, refused by the guard): it sets a again first.
                 self._zeroed.add("a")
                 return [_echo(command)]
-            if others is None:
+            if others is None and not self._moved:
                 # A setting, as on a board: it applies from the next move (`set v 0` with
                 # `vg` in mode 2 is a turn on the spot, wire-facts).
                 sent = self._send_guarded(link, command)
                 return [_error(sent)] if isinstance(sent, str) else list(sent.lines)
+            # Kept for before the program's next command: while others drive, and while
+            # a move of its own runs, whose stop (`set p 0` after it, wire-facts
+            # "Stopping") brakes within the board's settings as they are: a board left
+            # at v = 0 would run the move out instead (issue 30).
             self._pending[name] = command
-            if not self._idle_noted:
+            if others is not None and not self._idle_noted:
                 self._idle_noted = True
                 self.control.note(NOT_DRIVING)
             return [_echo(command)]

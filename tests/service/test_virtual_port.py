@@ -272,6 +272,23 @@ def test_a_stop_from_the_program_stops_its_own_move(later, program):
     assert not later.sent("set p 0")
 
 
+def test_the_drivers_stop_idiom_brakes_the_program_s_own_move(later, program):
+    """Both deployed drivers stop with `set a 0`, `set v 0`, `set p 0` (wire-facts): the
+    braking stop must not find the board at v = 0, which would run the move out."""
+    assert program.ask("set p 0.25") == [encode_float(0.25)]
+    later.run(0.3)
+    moving = MotorState.from_bulk(program.bulk(), 0.0)
+    assert moving.moving
+    stopped_at = later.board.true_pose.x
+    for name in ("a", "v", "p"):
+        assert program.ask(f"set {name} 0") == [encode_float(0.0)]
+    later.run(1.5)
+    assert not MotorState.from_bulk(program.bulk(), 0.0).moving
+    # Braked from where the stop was asked (about 0.04 m at 0.2 m/s), not run out to 0.25.
+    assert later.board.true_pose.x - stopped_at < 0.1
+    assert not later.sent("set v 0") and not later.sent("set p 0")
+
+
 def test_while_the_operator_drives_the_program_may_only_read(later, program):
     later.driving = Intent.FORWARD
     later.run(0.5)
