@@ -54,12 +54,14 @@ TURN_RATE_S = 0.2
 # While the heading may have turned unseen by more than this since the last revolution
 # the matcher placed (the casters after a turn on the spot), a revolution it cannot
 # place is left out rather than drawn at the filter's heading: drawn, it would turn the
-# map's walls there, and every revolution after would match the turned walls (the
-# scanned home's replayed drive: 17 degrees kept so for a minute, the map's rooms run
-# together). Measured with bench/teach_replay.py: 8 degrees kept more of the map true
-# than 12 or never (73 % of its cells within 0.10 m, against 72 and 73, and a heading
-# 95th percentile of 5.9 degrees against 10.9 and 11.9).
+# map's walls there, and every revolution after would match the turned walls (on the
+# scanned home's drive replayed by bench/teach_replay.py, 17 degrees kept so for a
+# minute, and the map's rooms ran together). 8 degrees was measured against 12 and never.
 UNSURE_TURN = math.radians(8.0)
+# At most this many in a row are left out so: a drive the matcher cannot follow (the
+# sensor's revolutions coming too seldom to match, on a starved machine) is mapped at
+# the filter's poses as it was before, rather than not at all.
+MAX_LEFT_OUT = 10
 # A revolution lasts the time between two revolutions' ends, unless that is more than
 # this (one was lost between them): then an A1's 5.5 turns a second is taken.
 MAX_PERIOD_S = 0.25
@@ -117,6 +119,7 @@ class MappingRun:
         self._sigma: float | None = None  # the heading's, at the last revolution laid in
         self._unsure = 0.0  # the heading's variance grown since the matcher last placed one
         self._last_stamp = -math.inf  # the last revolution's end
+        self._left_out = 0  # revolutions left out in a row, the heading uncertain
         self._running = True
         self._thread = threading.Thread(target=self._run, name="mapping", daemon=True)
         self._thread.start()
@@ -230,8 +233,8 @@ class MappingRun:
         reach = max(COARSE_TURN, TURN_SIGMAS * math.sqrt(self._unsure))
         try:
             with self._building:
-                laid = self.builder.add(pose, swept, stamp, reach,
-                                        unless_matched=reach > UNSURE_TURN)  # fmt: skip
+                unsure = reach > UNSURE_TURN and self._left_out < MAX_LEFT_OUT
+                laid = self.builder.add(pose, swept, stamp, reach, unless_matched=unsure)
         except MapTooLarge as error:
             self.note(f"mapping stopped: {error}; `map save NAME` keeps what was mapped")
             with self._ready:
@@ -242,11 +245,15 @@ class MappingRun:
             with self._lock:
                 self._unplaced += 1
             return
-        if laid.matched:
-            self._unsure = 0.0
         if not laid.drawn:
+            self._left_out += 1
             with self._lock:
                 self._uncertain += 1
             return
+        if laid.matched or self._left_out:
+            # Placed by the matcher; or drawn at the filter's heading after MAX_LEFT_OUT
+            # left out, which the map takes as its own from here.
+            self._unsure = 0.0
+        self._left_out = 0
         with self._lock:
             self._scans += 1
