@@ -5,9 +5,10 @@ the operator drives, and the rooms named as the robot stands in them.
 The thesis's ideal is a robot "driven once round by a person who names the rooms"
 (§2.6.3) that builds the map it plans on itself (§2.1). Here the operator drives by
 hand as ever; a mapping run only listens: every revolution the sensor completes is
-placed at the pose the filter had when it was taken (missions/pose_trail.py) and laid
-into the grid by the map builder (planning/map_building.py), which matches it against
-the map so far where that helps and keeps the correction it found. `mark NAME` notes
+placed at the pose the filter had when it was taken (missions/pose_trail.py), each beam
+moved by the robot's motion over the sweep (missions/deskewing.py), and laid into the
+grid by the map builder (planning/map_building.py), which matches it against the map so
+far where that helps and keeps the correction it found. `mark NAME` notes
 where the robot stands, in the corrected frame, for the room there to take NAME when
 the plan is written (planning/mapped_plan.py).
 
