@@ -137,7 +137,7 @@ OVER_LIMIT = 16
 # Threads that run the requests that wait.
 WORKERS = 4
 # Connections taken at one turn of the loop, and the characters of a console's name.
-ACCEPT_BATCH = 32
+ACCEPT_BATCH = GREETING
 NAME_CHARS = 80
 # Seconds a connection told why it is refused has to take it before it is closed.
 LEAVING_S = 1.0

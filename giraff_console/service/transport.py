@@ -32,6 +32,11 @@ MAX_LINE = 1024 * 1024
 SEND_TIMEOUT_S = 2.0
 # Seconds between tries to connect to a daemon whose backlog is full.
 CONNECT_RETRY_S = 0.005
+# Connections the kernel holds for the daemon to take (capped by net.core.somaxconn).
+# Deep: a Unix socket whose backlog is full refuses a connection at once, so behind a
+# flood of connections `giraff-console stop` would have to win a race of retries;
+# queued, it waits its turn while the daemon takes them by the hundred (daemon.py).
+BACKLOG = 1024
 _CHUNK = 65536
 # AF_UNIX paths are limited to 108 bytes with the terminating NUL (sun_path, unix(7)).
 _MAX_PATH = 107
@@ -273,8 +278,7 @@ def listen(path: Path) -> socket.socket:
     finally:
         os.umask(previous)
     os.chmod(path, 0o600)
-    # Room for a burst of consoles between two turns of the daemon's loop (daemon.py).
-    server.listen(64)
+    server.listen(BACKLOG)
     return server
 
 
