@@ -107,8 +107,7 @@ def map_it(teaching: Teaching, folder: Path, seed: int) -> dict:
                     "lines": list(saved.lines), "revolutions": revolutions}  # fmt: skip
     if status is not None:
         report |= {"laid_in": status.scans, "dropped": status.dropped,
-                   "unplaced": status.unplaced, "turning": status.turning,
-                   "uncertain": status.uncertain}  # fmt: skip
+                   "unplaced": status.unplaced}  # fmt: skip
     # The virtual clock runs twice as fast as the wall's: a second of it is half a real one.
     for name in ("lidar", "mapping"):
         report[f"cpu_{name}_percent"] = 100 * (cpu_after[name] - cpu_before[name]) / drive.seconds

@@ -492,7 +492,10 @@ class _Where:
             whole_choice = choices is not None and isinstance(choices[0], int)
             expected = (int, float) if span is not None else int if whole_choice else str
             if not isinstance(value, expected) or isinstance(value, bool):
-                self.refuse(name, f"{name} has the wrong type")
+                whole = whole_choice or (span is not None and span.whole)
+                wanted = ("a whole number" if whole else "a number" if span is not None
+                          else "a text in quotes")  # fmt: skip
+                self.refuse(name, f"{name} must be {wanted}, not {_toml_kind(value)}")
             if span is not None:
                 assert isinstance(value, int | float)  # a number, checked as one above
                 _check_range(self, name, value, span)
@@ -670,3 +673,20 @@ def _key_line(text: str, name: str) -> int | None:
         if re.match(rf"\s*{re.escape(name)}\s*=", line):
             return number
     return None
+
+
+def _toml_kind(value: object) -> str:
+    """What a value read from TOML is, in the file's terms."""
+    if isinstance(value, bool):
+        return "true or false"
+    if isinstance(value, int):
+        return "a whole number"
+    if isinstance(value, float):
+        return "a number with a decimal point"
+    if isinstance(value, str):
+        return "a text"
+    if isinstance(value, list):
+        return "a list"
+    if isinstance(value, dict):
+        return "a table"
+    return "a date or time"

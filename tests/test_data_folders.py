@@ -75,7 +75,7 @@ def test_settings_folders_are_taken_from_the_settings_files_folder(home, tmp_pat
 @pytest.mark.parametrize(
     ("text", "message"),
     [
-        ("recordings = 3", "recordings has the wrong type"),
+        ("recordings = 3", "recordings must be a text in quotes, not a whole number"),
         ('routes = " "', "routes must name a folder"),
         ('routes = "a\\u0000b"', "routes must name a folder"),
     ],

@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import queue
+import resource
 import signal
 import sys
 import threading
@@ -142,7 +143,7 @@ def run_serve(args: argparse.Namespace, settings: Settings, example: Path) -> in
 
 
 def _serve(robot: Robot, args: argparse.Namespace, settings: Settings, example: Path) -> int:
-    from giraff_console.service.daemon import SWITCH_INTERVAL_S, Daemon
+    from giraff_console.service.daemon import SWITCH_INTERVAL_S, Daemon, descriptors_for
     from giraff_console.service.patrol_schedule import PatrolSchedule
 
     service, control = robot.service, robot.control
@@ -151,11 +152,20 @@ def _serve(robot: Robot, args: argparse.Namespace, settings: Settings, example: 
         fleet = _fleet(service, args, settings)
     except ValueError as error:  # BrokerError, a serial number that cannot be a topic
         return fail(f"--fleet: {error}", EXIT_USAGE)
+    max_consoles = args.max_consoles or settings.max_consoles
+    # Every console is a file descriptor: out of them, the daemon can only refuse the
+    # newest, `stop` perhaps. So the limit is raised as far as the system lets this
+    # process, and a console limit it cannot keep is refused now.
+    may_open = _descriptors_raised()
+    if descriptors_for(max_consoles) > may_open:
+        return fail(f"max_consoles {max_consoles} needs up to {descriptors_for(max_consoles)} "
+                    f"file descriptors, and this process may open {may_open} (ulimit -n)",
+                    EXIT_USAGE)  # fmt: skip
     try:
         path = socket_path(runtime_folder())
         daemon = Daemon(service, path, (args.floorplan or example).resolve(),
                         simulator=robot.site is not None,
-                        max_consoles=args.max_consoles or settings.max_consoles)  # fmt: skip
+                        max_consoles=max_consoles)  # fmt: skip
     except TransportError as error:
         return fail(str(error), EXIT_USAGE)
     schedule = PatrolSchedule(service, settings.schedule, robot.routes.runs)
@@ -214,3 +224,14 @@ def _fleet(
         fleet.manufacturer, args.serial_number or serial_number(settings), fleet.interface
     )
     return FleetVehicle(service, broker, vehicle, settings)
+
+
+def _descriptors_raised() -> int:
+    """The soft limit on open files raised to the hard one (a login session's soft 1024
+    under a hard limit of thousands); what it is now."""
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if soft != hard:
+        with contextlib.suppress(ValueError, OSError):
+            resource.setrlimit(resource.RLIMIT_NOFILE, (hard, hard))
+            soft = hard
+    return sys.maxsize if soft == resource.RLIM_INFINITY else soft

@@ -5,10 +5,9 @@ the operator drives, and the rooms named as the robot stands in them.
 The thesis's ideal is a robot "driven once round by a person who names the rooms"
 (§2.6.3) that builds the map it plans on itself (§2.1). Here the operator drives by
 hand as ever; a mapping run only listens: every revolution the sensor completes is
-placed at the pose the filter had when it was taken (missions/pose_trail.py), each beam
-moved by the robot's motion over the sweep (missions/deskewing.py), and laid into the
-grid by the map builder (planning/map_building.py), which matches it against the map so
-far where that helps and keeps the correction it found. `mark NAME` notes
+placed at the pose the filter had when it was taken (missions/pose_trail.py) and laid
+into the grid by the map builder (planning/map_building.py), which matches it against
+the map so far where that helps and keeps the correction it found. `mark NAME` notes
 where the robot stands, in the corrected frame, for the room there to take NAME when
 the plan is written (planning/mapped_plan.py).
 
@@ -28,7 +27,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
-from giraff_console.missions.deskewing import deskewed
 from giraff_console.missions.lookout import Scan
 from giraff_console.missions.pose_trail import PoseTrail
 from giraff_console.planning.floorplan import Point
@@ -42,8 +40,8 @@ log = logging.getLogger(__name__)
 # Revolutions waiting to be laid in: the newest few; older ones are dropped.
 MAX_WAITING = 4
 # The matcher searches round the filter's heading three of the filter's standard
-# deviations of what the heading may have turned, unseen, since the last revolution it
-# placed (the casters after a turn on the spot, §3.2.1.5), and COARSE_TURN at least.
+# deviations of what the heading may have turned, unseen, since the last revolution
+# (the casters after a turn on the spot, §3.2.1.5), and COARSE_TURN at least.
 TURN_SIGMAS = 3.0
 # A revolution taken while the robot turns faster than this is not laid in: the sensor
 # sweeps for a fifth of a second, and a turn on the spot at teleop's 45 degrees a second
@@ -52,21 +50,6 @@ TURN_SIGMAS = 3.0
 MAX_TURN_RATE = math.radians(15.0)
 # Over this much time before a revolution's end the turn rate is taken.
 TURN_RATE_S = 0.2
-# While the heading may have turned unseen by more than this since the last revolution
-# the matcher placed (the casters after a turn on the spot), a revolution it cannot
-# place is left out rather than drawn at the filter's heading: drawn, it would turn the
-# map's walls there, and every revolution after would match the turned walls (on the
-# scanned home's drive replayed by bench/teach_replay.py, 17 degrees kept so for a
-# minute, and the map's rooms ran together). 8 degrees was measured against 12 and never.
-UNSURE_TURN = math.radians(8.0)
-# At most this many in a row are left out so: a drive the matcher cannot follow (the
-# sensor's revolutions coming too seldom to match, on a starved machine) is mapped at
-# the filter's poses as it was before, rather than not at all.
-MAX_LEFT_OUT = 10
-# A revolution lasts the time between two revolutions' ends, unless that is more than
-# this (one was lost between them): then an A1's 5.5 turns a second is taken.
-MAX_PERIOD_S = 0.25
-USUAL_PERIOD_S = 1 / 5.5
 # Seconds the run's thread waits for a revolution before it looks whether to stop.
 WAIT_S = 0.2
 
@@ -94,7 +77,6 @@ class MappingStatus:
     dropped: int  # revolutions that came faster than they could be laid in
     unplaced: int  # revolutions too old or too new for the trail's poses
     turning: int  # revolutions taken while the robot turned, left out
-    uncertain: int  # left out: the heading uncertain, and the matcher could not place them
     marks: tuple[MapMark, ...]
 
 
@@ -116,11 +98,8 @@ class MappingRun:
         # The builder's grid grows on this run's thread; it is read on others.
         self._building = threading.Lock()
         self._marks: dict[str, MapMark] = {}
-        self._scans = self._dropped = self._unplaced = self._turning = self._uncertain = 0
+        self._scans = self._dropped = self._unplaced = self._turning = 0
         self._sigma: float | None = None  # the heading's, at the last revolution laid in
-        self._unsure = 0.0  # the heading's variance grown since the matcher last placed one
-        self._last_stamp = -math.inf  # the last revolution's end
-        self._left_out = 0  # revolutions left out in a row, the heading uncertain
         self._running = True
         self._thread = threading.Thread(target=self._run, name="mapping", daemon=True)
         self._thread.start()
@@ -159,7 +138,7 @@ class MappingRun:
     def status(self) -> MappingStatus:
         with self._lock:
             return MappingStatus(self._scans, self._dropped, self._unplaced, self._turning,
-                                 self._uncertain, tuple(self._marks.values()))  # fmt: skip
+                                 tuple(self._marks.values()))  # fmt: skip
 
     def grid(self) -> OccupancyGrid:
         """The map so far."""
@@ -186,7 +165,7 @@ class MappingRun:
                     continue
                 scan = self._waiting.popleft()
             try:
-                self.lay_in(scan)
+                self._lay_in(scan)
             except Exception:
                 # A bug: the map stops growing, and the operator is told; the robot
                 # drives on as before, since mapping only listens.
@@ -202,10 +181,7 @@ class MappingRun:
                 # The screens' picture failed (a listener's bug): the map grows on.
                 log.exception("mapping: telling of the map failed")
 
-    def lay_in(self, scan: StampedScan) -> None:
-        """Lay `scan` into the map now, on the caller's thread: the run's thread does,
-        for each revolution it is given; a drive replayed (bench/teach_replay.py) calls
-        it in turn, none dropped."""
+    def _lay_in(self, scan: StampedScan) -> None:
         stamp = scan.taken_at
         pose = self.trail.at(stamp)
         if pose is None:
@@ -219,23 +195,13 @@ class MappingRun:
                 with self._lock:
                     self._turning += 1
                 return
-        period = stamp - self._last_stamp
-        self._last_stamp = stamp
-        began = self.trail.at(stamp - (period if 0.0 < period <= MAX_PERIOD_S else USUAL_PERIOD_S))
-        # The robot moves while the sensor sweeps (at 0.25 m/s, 4.5 cm in a revolution):
-        # each beam is put where it was seen from, by the filter's poses over the sweep.
-        swept = deskewed(scan, began, pose) if began is not None else scan
         sigma = self.trail.heading_sigma(stamp)
-        # The heading's variance grows by what it may have turned since the last
-        # revolution, and adds up until the matcher places one again.
-        grown = max(0.0, sigma**2 - self._sigma**2) if self._sigma is not None else 0.0
+        # The heading's variance grows by what it may have turned since the last one.
+        grown = math.sqrt(max(0.0, sigma**2 - self._sigma**2)) if self._sigma is not None else 0.0
         self._sigma = sigma
-        self._unsure += grown
-        reach = max(COARSE_TURN, TURN_SIGMAS * math.sqrt(self._unsure))
         try:
             with self._building:
-                unsure = reach > UNSURE_TURN and self._left_out < MAX_LEFT_OUT
-                laid = self.builder.add(pose, swept, stamp, reach, unless_matched=unsure)
+                self.builder.add(pose, scan, stamp, max(COARSE_TURN, TURN_SIGMAS * grown))
         except MapTooLarge as error:
             self.note(f"mapping stopped: {error}; `map save NAME` keeps what was mapped")
             with self._ready:
@@ -246,15 +212,5 @@ class MappingRun:
             with self._lock:
                 self._unplaced += 1
             return
-        if not laid.drawn:
-            self._left_out += 1
-            with self._lock:
-                self._uncertain += 1
-            return
-        if laid.matched or self._left_out:
-            # Placed by the matcher; or drawn at the filter's heading after MAX_LEFT_OUT
-            # left out, which the map takes as its own from here.
-            self._unsure = 0.0
-        self._left_out = 0
         with self._lock:
             self._scans += 1

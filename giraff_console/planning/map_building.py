@@ -103,7 +103,7 @@ class RangeScan(Protocol):
     def range_max(self) -> float: ...
 
     @property
-    def beams(self) -> Sequence[tuple[float, float]] | np.ndarray: ...
+    def beams(self) -> Sequence[tuple[float, float]]: ...
 
 
 class MapTooLarge(ValueError):
@@ -143,7 +143,6 @@ class MatchedPose:
     pose: Pose  # the pose the scan was drawn at
     outcome: MatchOutcome
     quality: float  # the hits' mean likelihood at `pose`, 0 to 1 (0: not matched)
-    drawn: bool = True  # False: left out, its pose too uncertain and not matched
 
     @property
     def matched(self) -> bool:
@@ -188,8 +187,8 @@ class MapBuilder:
         self._stamp = -math.inf
         self._view: MapView | None = None
 
-    def add(self, pose: Pose, scan: RangeScan, stamp: float, turn_reach: float = COARSE_TURN,
-            *, unless_matched: bool = False) -> MatchedPose:  # fmt: skip
+    def add(self, pose: Pose, scan: RangeScan, stamp: float,
+            turn_reach: float = COARSE_TURN) -> MatchedPose:  # fmt: skip
         """Draw `scan`, taken at the filter's `pose` at `stamp` (seconds, not earlier
         than the last), at the pose the scan matcher finds for it; ValueError for a pose,
         scan or stamp that cannot be used, MapTooLarge if the map would outgrow
@@ -210,12 +209,9 @@ class MapBuilder:
         self._cover(prior, reach + _SEARCH_M + BODY_RADIUS_M)
         points = np.column_stack([distance * np.cos(bearing), distance * np.sin(bearing)])
         found = self._match(prior, points[hit], _spacing(bearing), reach, turn_reach)
-        self._stamp = stamp
-        if unless_matched and found.outcome not in USED:
-            return MatchedPose(stamp, pose, prior, found.pose, found.outcome, found.quality,
-                               drawn=False)  # fmt: skip
         self.correction = Correction.between(pose, found.pose)
         self._draw(found.pose, points, hit, bearing)
+        self._stamp = stamp
         self.revision += 1
         return MatchedPose(stamp, pose, prior, found.pose, found.outcome, found.quality)
 
@@ -361,8 +357,7 @@ class MapBuilder:
         self._states[rows, cols] = _STATES[odds + BOUND]
 
 
-def _beams(beams: Sequence[tuple[float, float]] | np.ndarray,
-           range_max: float) -> tuple[np.ndarray, ...]:  # fmt: skip
+def _beams(beams: Sequence[tuple[float, float]], range_max: float) -> tuple[np.ndarray, ...]:
     """A scan's beams in bearing order, those it can use: (distance to draw to, bearing,
     whether it ended on a hit). Readings of 0 or NaN (a sensor's "no reading") and hits
     on the robot itself are dropped; a beam that met nothing, or met it beyond

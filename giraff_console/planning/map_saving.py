@@ -26,8 +26,8 @@ import numpy as np
 
 from giraff_console.planning.grid import OccupancyGrid
 from giraff_console.planning.rasterise import grid_image
+from giraff_console.private_files import private_folder
 
-PRIVATE_FILE, PRIVATE_FOLDER = 0o600, 0o700
 # map_server's trinary thresholds, as map_saver writes them.
 OCCUPIED_THRESH, FREE_THRESH = 0.65, 0.196
 
@@ -44,7 +44,7 @@ def save_ros_map(grid: OccupancyGrid, yaml_path: str | Path) -> tuple[Path, Path
         raise MapSaveError(f"{yaml_path}: a map_server map's file ends in .yaml")
     image_path = yaml_path.with_suffix(".pgm")
     try:
-        yaml_path.parent.mkdir(mode=PRIVATE_FOLDER, parents=True, exist_ok=True)
+        private_folder(yaml_path.parent)
     except OSError as error:
         raise MapSaveError(f"{yaml_path.parent}: cannot make the folder: "
                            f"{error.strerror or error}") from None  # fmt: skip

@@ -29,7 +29,7 @@ import numpy as np
 
 from giraff_console.planning.floorplan import FloorPlan, FloorPlanError, Point, load_floorplan
 from giraff_console.planning.grid import OccupancyGrid
-from giraff_console.planning.map_saving import PRIVATE_FILE, MapSaveError, save_ros_map
+from giraff_console.planning.map_saving import MapSaveError, save_ros_map
 from giraff_console.planning.output_files import OutputError, check_outputs
 from giraff_console.planning.plan_writing import millimetres, write_floorplan
 from giraff_console.planning.room_marks import MarkProblem
@@ -43,6 +43,7 @@ from giraff_console.planning.room_segmentation import (
 )
 from giraff_console.planning.route_planner import ROBOT_RADIUS_M
 from giraff_console.planning.scan_grid import read_scan
+from giraff_console.private_files import PRIVATE_FILE
 from giraff_console.robot.odometry import Pose
 
 

@@ -138,6 +138,8 @@ class ControlLoop:
         self.priority = "not running"
         self._starting_lock = threading.Lock()
         self._starting = 0
+        # The mission's end asked and not yet come to (stop_mission), as (outcome, why).
+        self._end_queued: tuple[Outcome, str] | None = None
         self._closed = threading.Event()
 
     # -- from other threads -------------------------------------------------------------
@@ -287,8 +289,6 @@ class ControlLoop:
 
         `ended` is called with how it ended, on the loop's thread, when it is over.
         """
-        with self._starting_lock:
-            self._starting += 1
 
         def start() -> None:
             try:
@@ -297,7 +297,12 @@ class ControlLoop:
                 with self._starting_lock:
                     self._starting -= 1
 
-        self.between_ticks(start)
+        with self._starting_lock:
+            self._starting += 1
+            # A stop asked from now on must end this mission, not ride on one asked
+            # before it (stop_mission).
+            self._end_queued = None
+            self.between_ticks(start)
 
     @property
     def running(self) -> bool:
@@ -313,8 +318,24 @@ class ControlLoop:
 
     def stop_mission(self, outcome: Outcome = Outcome.STOPPED_BY_OPERATOR,
                      why: str = "stopped by the operator") -> None:  # fmt: skip
-        """End the mission (the robot stops) with `outcome`, and `why` for the operator."""
-        self.between_ticks(lambda: self._end_mission(outcome, why))
+        """End the mission (the robot stops) with `outcome`, and `why` for the operator.
+
+        The same stop asked again before the loop has come to it, with no mission handed
+        to the loop since, is that one: a stop asked thousands of times (a console in a
+        loop, a flood, issue 30) is one request for the loop, not thousands of ticks."""
+        asked = (outcome, why)
+
+        def end() -> None:
+            with self._starting_lock:
+                if self._end_queued == asked:
+                    self._end_queued = None
+            self._end_mission(outcome, why)
+
+        with self._starting_lock:
+            if self._end_queued == asked:
+                return
+            self._end_queued = asked
+            self.between_ticks(end)
 
     def pause_mission(self, paused: bool) -> None:
         """Pause (the robot stops) or resume the mission."""

@@ -129,7 +129,8 @@ class BuildingMap:
             return Reply(False, f"map save: nothing written: {error}; still mapping")
         except OSError as error:  # the grid just written cannot be read back
             return Reply(False, f"map save: {made.plan.path} written, but its grid cannot "
-                                f"be read: {error}; still mapping")  # fmt: skip
+                                f"be read: {error.strerror or 'unreadable'}; still "
+                                "mapping")  # fmt: skip
         self._end(run)
         navigator.use_building(made.plan, walls)
         control = self.control

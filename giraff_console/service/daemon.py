@@ -134,6 +134,9 @@ MAX_CONSOLES = 64
 # loaded machine may take a while to run them), within the descriptors a process has.
 GREETING = 128
 OVER_LIMIT = 16
+# Descriptors the daemon keeps besides its connections: the board, the lidar, the
+# camera, the logs and a recording's files, the lock, the selector and its wake-up pair.
+RESERVED_DESCRIPTORS = 64
 # Threads that run the requests that wait.
 WORKERS = 4
 # Connections taken at one turn of the loop, and the characters of a console's name.
@@ -165,6 +168,9 @@ class Welcome:
     controls: Controls
     situation: Situation
     route: RouteShown | None
+    # The limit on consoles this one is over: not attached, it may ask one stop and is
+    # then hung up on (Daemon's note); None for a console attached.
+    over_limit: int | None = None
 
 
 @dataclass(frozen=True)
@@ -232,7 +238,13 @@ class Daemon:
             worker.start()
         try:
             while not self._exit.is_set():
-                self._turn(POLL_S)
+                try:
+                    self._turn(POLL_S)
+                except Exception:
+                    # A bug here must not end every console and mission with the daemon:
+                    # said, and the next turn served as before.
+                    log.exception("the consoles' event loop failed a turn")
+                    time.sleep(POLL_S)
             self._drain(time.monotonic() + DRAIN_S)
         finally:
             self.service.unsubscribe(self._hear)
@@ -413,9 +425,12 @@ class Daemon:
             except ConnectionAbortedError:
                 continue
             except OSError as error:
-                if error.errno not in (errno.EMFILE, errno.ENFILE):
-                    raise
-                self._refuse_newest(now)
+                if error.errno in (errno.EMFILE, errno.ENFILE) and self._make_room(now):
+                    continue
+                if error.errno in (errno.EMFILE, errno.ENFILE):
+                    self._refuse_newest(now)
+                else:  # ENOBUFS, ENOMEM: the machine's, for a moment; serve on
+                    log.error("cannot take a console: %s", error.strerror or error)
                 return
             console = ConsoleSocket(client, now)
             self._selector.register(console, selectors.EVENT_READ, console)
@@ -424,12 +439,26 @@ class Daemon:
                 # The oldest goes: a `stop` just connected says Hello at once.
                 self._hang_up(next(iter(self._greeting)))
 
-    def _refuse_newest(self, now: float) -> None:
-        """Out of file descriptors: the spare one is given up for a moment to take the
-        newest connection off the backlog, tell it why, and close it."""
+    def _make_room(self, now: float) -> bool:
+        """Out of file descriptors: the oldest connection that is not a console (one
+        still to say Hello, or told why it is refused) is hung up on, so that the newest
+        (perhaps `giraff-console stop`) can be taken. False if there is none."""
+        for stage in (self._leaving, self._greeting):
+            if stage:
+                self._note_out_of_descriptors(now)
+                self._hang_up(next(iter(stage)))
+                return True
+        return False
+
+    def _note_out_of_descriptors(self, now: float) -> None:
         if now - self._out_of_descriptors_at > 10.0:
             log.error("out of file descriptors: refusing new consoles until some leave")
         self._out_of_descriptors_at = now
+
+    def _refuse_newest(self, now: float) -> None:
+        """Out of file descriptors: the spare one is given up for a moment to take the
+        newest connection off the backlog, tell it why, and close it."""
+        self._note_out_of_descriptors(now)
         if self._spare is not None:
             os.close(self._spare)
             self._spare = None
@@ -519,14 +548,14 @@ class Daemon:
             console.stage = Stage.ATTACHED
             self._attached[console] = None
             self.service.attach(name, take=hello.take)
-        self._tell(console, self._welcome(name))
+        self._tell(console, self._welcome(name, self.max_consoles if over else None))
         if over and len(self._over_limit) > OVER_LIMIT:
             self._refuse(next(iter(self._over_limit)), self._too_many())
 
-    def _welcome(self, name: str) -> Welcome:
+    def _welcome(self, name: str, over_limit: int | None = None) -> Welcome:
         service = self.service
         return Welcome(name, self.floorplan, self.simulator, service.controls(),
-                       service.situation(), service.route())  # fmt: skip
+                       service.situation(), service.route(), over_limit)  # fmt: skip
 
     def _asked(self, console: ConsoleSocket, message: object) -> None:
         if isinstance(message, WireError):
@@ -620,6 +649,13 @@ class Daemon:
             unique, n = f"{name} #{n}", n + 1
         self._names.add(unique)
         return unique
+
+
+def descriptors_for(max_consoles: int) -> int:
+    """The file descriptors a daemon serving `max_consoles` may need at once: every
+    stage of connection full (the leaving ones bounded as the greeting ones), and what
+    it keeps open besides."""
+    return max_consoles + OVER_LIMIT + 2 * GREETING + RESERVED_DESCRIPTORS
 
 
 def daemon_alive(path: Path) -> bool:

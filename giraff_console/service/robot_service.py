@@ -153,6 +153,8 @@ class RobotService:
         self.telemetry: Telemetry | None = None
         # Every stop counts: a mission planned meanwhile does not start (execute).
         self._stops = 0
+        # A braking stop (Halt) on its way to the board, not yet sent.
+        self._braking = False
         # Called at each operator's stop: what else may move the robot is held; and at
         # `release`, when the operator lets it go again.
         self.on_stop: list[Callable[[], None]] = []
@@ -340,8 +342,20 @@ class RobotService:
         self._stopped()
         self.control.halt()
         self.control.stop_mission()
-        self.control.submit(stop_robot, stop=True)
+        # One braking stop on its way to the board stops for every Halt asked meanwhile:
+        # a console asking again and again (a flood, issue 30) must not fill the loop's
+        # ticks with board exchanges. A mission started meanwhile is ended by the
+        # stop_mission above, which stops the robot again.
+        with self._lock:
+            braking, self._braking = self._braking, True
+        if not braking:
+            self.control.submit(stop_robot, self._braked, stop=True)
         return Reply(True, "stop")
+
+    def _braked(self, result: object) -> None:
+        """The braking stop was sent, or could not be (the loop's thread)."""
+        with self._lock:
+            self._braking = False
 
     def _stopped(self) -> None:
         self._stops += 1

@@ -43,38 +43,49 @@ def ask_stop(path: Path, *, shutdown: bool = False, timeout: float = 5.0) -> Sto
     `path`; NoDaemon if none listens there, TransportError if it cannot be reached or
     does not answer within `timeout` seconds."""
     deadline = time.monotonic() + timeout
+    answer, numbered = _ask(path, shutdown, deadline)
+    if not answer.ok and not numbered and time.monotonic() < deadline:
+        # Refused before it was read (a connection the daemon had no room for, in a
+        # flood of them): asked once more.
+        answer, _ = _ask(path, shutdown, deadline)
+    return answer
+
+
+def _ask(path: Path, shutdown: bool, deadline: float) -> tuple[StopAnswer, bool]:
+    """The daemon's answer, and whether it was to the stop (not a refusal of the
+    connection before it was read)."""
     request = c.Shutdown() if shutdown else c.Halt()
-    with connect(path, timeout) as connection:
+    with connect(path, max(deadline - time.monotonic(), 0.1)) as connection:
         try:
-            connection.send(Hello(console_name("stop"), take=False))
-            connection.send(Asked(NUMBER, request))
+            # In one write: the daemon reads the stop with the Hello, in the same turn.
+            connection.send(Hello(console_name("stop"), take=False), Asked(NUMBER, request))
             while (remaining := deadline - time.monotonic()) > 0:
                 try:
                     line = connection.receive_line(remaining)
                 except WireError:  # a line too long for any answer: not the stop's
                     continue
-                answer = None if line is None else _answer_in(line)
-                if answer is not None:
-                    return answer
+                found = None if line is None else _answer_in(line)
+                if found is not None:
+                    return found
         except ConnectionClosed as error:
-            raise TransportError(
-                f"the daemon at {path} hung up before it answered: {error}"
-            ) from None
-    raise TransportError(f"the daemon at {path} did not answer the stop in {timeout:g} s")
+            why = f"the daemon at {path} hung up before it answered: {error}"
+            raise TransportError(why) from None
+    raise TransportError(f"the daemon at {path} did not answer the stop in time")
 
 
-def _answer_in(line: bytes) -> StopAnswer | None:
-    """The answer to the stop if `line` carries it; None for every other message."""
+def _answer_in(line: bytes) -> tuple[StopAnswer, bool] | None:
+    """The answer to the stop, and whether it was numbered as the stop, if `line`
+    carries it; None for every other message."""
     try:
         message = json.loads(line)
     except ValueError:
         return None
     if not isinstance(message, dict) or message.get("type") != ANSWERED:
         return None
-    reply = message.get("reply")
-    if message.get("number") not in (NUMBER, UNNUMBERED) or not isinstance(reply, dict):
+    reply, number = message.get("reply"), message.get("number")
+    if number not in (NUMBER, UNNUMBERED) or not isinstance(reply, dict):
         return None
     ok, text = reply.get("ok"), reply.get("text", "")
     if not isinstance(ok, bool) or not isinstance(text, str):
         return None
-    return StopAnswer(ok, text)
+    return StopAnswer(ok, text), number == NUMBER

@@ -89,9 +89,10 @@ class Connection:
         """The process at the other end, as the kernel says (SO_PEERCRED), or None."""
         return peer_pid(self._socket)
 
-    def send(self, message: object) -> None:
-        """Send one message; ConnectionClosed if the peer has gone or is not reading."""
-        line = encode_line(message)
+    def send(self, *messages: object) -> None:
+        """Send these messages, in one write; ConnectionClosed if the peer has gone or
+        is not reading."""
+        line = b"".join(encode_line(message) for message in messages)
         with self._send_lock:
             if self._closed:
                 raise ConnectionClosed("connection closed")

@@ -7,16 +7,13 @@ from __future__ import annotations
 
 import os
 import random
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import pytest
 from hypothesis import given
 
 from giraff_console.settings import SettingsError, load_settings
+from tests.fuzz.bounded_run import run_bounded
 from tests.fuzz.inputs import FUZZ, file_cases
 
 # Every key settings.py documents, at its default.
@@ -88,40 +85,19 @@ DEEP = 100_000
 
 
 def refused_by_the_cli(path: Path) -> tuple[str, float, int]:
-    """`giraff-console --config path go kitchen` run to its end: its standard error, its
-    CPU time and its peak resident memory in bytes (wait4's rusage, polled so that a
-    child that hangs, on a FIFO say, is killed rather than waited for). Fails unless it
-    exits 2 within HANG_S.
+    """`giraff-console --config path go kitchen` run to its end: what it said, its CPU
+    time and its own peak resident memory in bytes. Fails unless it exits 2 within
+    HANG_S, without a traceback.
 
     CPU time, not the wall clock's: starting Python and the package is 1.3 s of it on an
     idle machine, and the wall clock's share of that grows with whatever else the machine
     runs (beside the other tests, 5 s), which says nothing of the file."""
-    command = [sys.executable, "-m", "giraff_console", "--config", str(path), "go", "kitchen"]
-    started = time.monotonic()
-    child = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                             stdin=subprocess.DEVNULL)  # fmt: skip
-    try:
-        while True:
-            pid, status, usage = os.wait4(child.pid, os.WNOHANG)
-            if pid == child.pid:
-                child.returncode = os.waitstatus_to_exitcode(status)
-                break
-            if time.monotonic() - started > HANG_S:
-                pytest.fail(f"{path.name}: still running after {HANG_S:g} s")
-            time.sleep(0.01)
-        assert child.stderr is not None
-        stderr = child.stderr.read().decode()
-    finally:
-        if child.returncode is None:
-            child.send_signal(signal.SIGKILL)
-            child.wait(timeout=5)
-        assert child.stderr is not None
-        child.stderr.close()
-    assert child.returncode == 2, stderr
-    assert "Traceback" not in stderr
+    finished = run_bounded(path.parent, "--config", str(path), "go", "kitchen", deadline=HANG_S)
+    assert finished.status is not None, f"{path.name}: still running after {HANG_S:g} s"
+    assert finished.status == 2, finished.said
+    assert "Traceback" not in finished.said
     # Starting Python and the package counts too: the bounds are on all of it.
-    cpu = usage.ru_utime + usage.ru_stime
-    return stderr, cpu, usage.ru_maxrss * 1024  # Linux counts it in KiB
+    return finished.said, finished.cpu_seconds, finished.peak_kib * 1024
 
 
 def nested_arrays(path: Path) -> str:

@@ -7,6 +7,7 @@ import shutil
 import threading
 from dataclasses import replace
 
+from giraff_console.link import Exchange
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import Navigator
 from giraff_console.planning.floorplan import load_floorplan
@@ -52,6 +53,37 @@ def test_stop_mission_ends_one_the_loop_has_not_taken_up_yet():
     site.run(2.0, until_ended=False)
     assert site.control.mission is None
     assert service.situation().last_mission is not None
+
+
+def test_a_stop_asked_thousands_of_times_is_one_stop_for_the_loop():
+    """A console asking again and again (issue 30: 2,000 Halts in one write froze the
+    loop for 30 s, a board exchange each) costs the loop's tick one stop."""
+    service, site = service_on_site()
+    assert service.execute(c.Go("room-101")).ok
+    site.run(1.5, until_ended=False)
+    exchanges: list[Exchange] = []
+    site.control.subscribe(lambda event: isinstance(event, Exchange) and exchanges.append(event))
+    for _ in range(2000):
+        assert service.execute(c.Halt()).ok
+        assert service.execute(c.StopMission()).ok
+    site.run(0.05, until_ended=False)  # one tick
+    assert site.control.mission is None
+    assert len(exchanges) < 20, len(exchanges)
+    site.run(2.0, until_ended=False)
+    telemetry = service.telemetry
+    assert telemetry is not None and telemetry.state is not None
+    assert not telemetry.state.moving
+
+
+def test_a_stop_after_a_mission_was_handed_over_ends_it_whatever_was_asked_before():
+    service, site = service_on_site()
+    assert service.execute(c.StopMission()).ok  # nothing runs: queued for the loop
+    assert service.execute(c.Go("room-101")).ok
+    assert service.execute(c.StopMission()).ok  # the same stop, asked after the go
+    site.run(2.0, until_ended=False)
+    assert site.control.mission is None
+    last = service.situation().last_mission
+    assert last is not None and last.end is not None
 
 
 def test_each_operator_s_stop_holds_what_else_may_move_the_robot_until_released():
