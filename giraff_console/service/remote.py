@@ -69,9 +69,9 @@ class RemoteRobot:
         if welcome.over_limit is not None:
             # Welcomed only to ask a stop (stop_request.py does): a console is no use.
             self._connection.close()
-            raise DaemonGone(f"the daemon at {path} has {welcome.over_limit} consoles "
-                             "attached, its limit; `giraff-console stop` still stops the "
-                             "robot")  # fmt: skip
+            raise DaemonGone(f"the daemon at {path} has as many consoles attached as it "
+                             f"takes ({welcome.over_limit}); `giraff-console stop` still "
+                             "stops the robot")  # fmt: skip
         self.welcome = welcome
         self.console = welcome.console
         self._reader = threading.Thread(target=self._read, name="remote-reader", daemon=True)
