@@ -25,10 +25,10 @@ from tests.teaching.flat import unmapped_plan as dock_only
 from tests.teaching.map_truth import map_truth
 from tests.teaching.operator import Operator, tour
 
-pytestmark = pytest.mark.timeout(420)
+pytestmark = pytest.mark.timeout(600)
 
 TOUR = ["hall", "lounge", "bedroom", "kitchen"]  # marked from the dock on
-DRIVE_S = 300.0  # real seconds the drive may take at --sim-speed 2 on a busy machine
+DRIVE_S = 450.0  # real seconds the drive may take at --sim-speed 1 on a busy machine
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +37,7 @@ def taught(tmp_path_factory: pytest.TempPathFactory) -> dict:
     folder = tmp_path_factory.mktemp("flat")
     truth_path = write_flat(folder)
     truth = load_floorplan(truth_path)
-    options = RobotOptions(floorplan=dock_only(folder), sim_building=truth_path, sim_speed=2.0,
+    options = RobotOptions(floorplan=dock_only(folder), sim_building=truth_path, sim_speed=1.0,
                            imperfect_seed=3, faults=False, lidar=SIMULATED_LIDAR)  # fmt: skip
     heard: list = []
     with Robot(options, Settings(), truth_path) as robot:
@@ -75,7 +75,9 @@ def test_the_map_is_saved_as_ros_reads_it_and_matches_the_building(taught):
     assert truth is not None
     # Where the map says occupied, the building has a wall or furniture within 0.10 m:
     # 89 to 95 % of the cells in the runs measured at --sim-speed 2 (the drive is in
-    # real time, and so not the same twice; at --sim-speed 3, on a busy machine, 71 %).
+    # real time, and so not the same twice; at --sim-speed 3, on a busy machine, 71 %,
+    # and at 2 beside the suite's heaviest tests 66-72 %: the simulated lidar starves.
+    # So the drive runs at the sensor's own pace, --sim-speed 1).
     judged = map_truth(mapped, truth)
     assert judged.inside > 0.99
     assert judged.occupied > 1000 and judged.within_10cm >= 0.80, judged
