@@ -116,7 +116,7 @@ def tapped_console(tap: Path, argv: list[str]) -> int:
     from giraff_console.robot.last_stop import SIGNALS
 
     signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)  # as launch.main, before any thread
-    from giraff_console import cli
+    from giraff_console.cli.main import main as cli_main
     from giraff_console.robot.control_loop import ControlLoop
     from giraff_console.robot.telemetry import Telemetry
 
@@ -146,7 +146,7 @@ def tapped_console(tap: Path, argv: list[str]) -> int:
     writer = threading.Thread(target=write, name="bench-tap", daemon=True)
     writer.start()
     try:
-        return cli.main(argv)
+        return cli_main(argv)
     finally:
         done.set()
         writer.join(2.0)

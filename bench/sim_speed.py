@@ -83,7 +83,7 @@ def child(mode: str, argv: list[str]) -> int:
         return made
 
     sim_site.SimulatedSite.eye = counted  # type: ignore[method-assign]
-    from giraff_console.cli import main
+    from giraff_console.cli.main import main
 
     sys.argv = ["giraff-console", *argv]
     try:

@@ -4,7 +4,7 @@ numpy's and OpenCV's thread pools start as they are imported, with the signal ma
 the thread that imports them. A SIGHUP landing on one of those threads would end the
 process at once, leaving the robot on its last target; blocked on every thread, the
 console's own watcher takes it instead and stops the robot first (robot/last_stop.py).
-Commands that drive nothing unblock them again straight away (cli/__init__.py).
+Commands that drive nothing unblock them again straight away (cli/main.py).
 
 Those pools are OpenBLAS's: numpy's and OpenCV's own copy each start a worker that
 busy-waits as it loads, about 0.09 s of CPU each, paid by every command that loads them
@@ -24,17 +24,25 @@ from __future__ import annotations
 
 import os
 import signal
+import sys
 
 from giraff_console.private_files import PRIVATE_UMASK
-from giraff_console.robot.last_stop import SIGNALS
 
 
 def main() -> int:
     os.umask(PRIVATE_UMASK)
+    if sys.argv[1:2] == ["stop"]:
+        # The operator's stop, in a hurry: its own module alone, no signals blocked (it
+        # starts no thread), nothing else of the package loaded (cli/stop.py).
+        from giraff_console.cli.stop import main as stop
+
+        return stop(sys.argv[2:])
     # Read by each OpenBLAS as it loads, so before anything imports numpy or OpenCV.
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    from giraff_console.robot.last_stop import SIGNALS
+
     signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
     # Imported only now, so that no thread can start before the mask is in place.
-    from giraff_console.cli import main as run
+    from giraff_console.cli.main import main as run
 
     return run()

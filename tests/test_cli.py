@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import os
 import signal
+import socket
 import subprocess
 import sys
+import time
+from pathlib import Path
 
 import pytest
 
@@ -34,7 +38,7 @@ def test_every_command_explains_itself(args, expected):
 HEAVY = ("numpy", "cv2", "scipy", "networkx", "textual", "rich", "yaml", "ruckig", "mcap")
 PARSE_ONLY = f"""
 import sys
-from giraff_console.cli import build_parser
+from giraff_console.cli.main import build_parser
 parser = build_parser()
 parser.format_help()
 try:
@@ -51,6 +55,81 @@ def test_version_and_help_load_none_of_the_heavy_libraries():
                             text=True, timeout=60)  # fmt: skip
     assert result.returncode == 0, result.stderr
     assert result.stdout.splitlines() == [f"giraff-console {__version__}", "loaded:"]
+
+
+# What `giraff-console stop` must not load (issue 30, item 3): the robot, the requests'
+# types, the other commands, and the libraries they bring (each tens of milliseconds, more
+# on a loaded PC). pyserial is the package's own (giraff_console/__init__.py teaches it
+# the simulator's URLs).
+STOP_HEAVY = (
+    "numpy", "cv2", "scipy", "textual", "rich", "yaml",
+    "giraff_console.robot", "giraff_console.link", "giraff_console.service.commands",
+    "giraff_console.service.console_hello", "giraff_console.cli.main",
+)  # fmt: skip
+STOP_ALONE = """
+import sys
+sys.argv = ["giraff-console", "stop"]
+from giraff_console.launch import main
+code = main()
+print("exit", code)
+print("loaded:", *(name for name in {heavy!r} if name in sys.modules))
+"""
+
+
+def test_stop_loads_neither_the_robot_nor_the_other_commands(tmp_path: Path) -> None:
+    env = {**os.environ, "XDG_RUNTIME_DIR": str(tmp_path)}  # no daemon there
+    result = subprocess.run(
+        [sys.executable, "-c", STOP_ALONE.format(heavy=STOP_HEAVY)],
+        capture_output=True, text=True, timeout=60, env=env,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines() == ["exit 3", "loaded:"]
+    assert "no socket file" in result.stderr
+
+
+@pytest.mark.parametrize("before", [[], ["--config", "none.toml"]])
+def test_stop_with_no_daemon_says_so_either_way(before: list[str], tmp_path: Path) -> None:
+    """Alone (its own module, launch.py) or after the full command line's options
+    (main.py): the same stop, the same words."""
+    env = {**os.environ, "XDG_RUNTIME_DIR": str(tmp_path)}
+    result = subprocess.run([sys.executable, "-m", "giraff_console", *before, "stop"],
+                            capture_output=True, text=True, timeout=60, env=env)  # fmt: skip
+    assert result.returncode == 3, result.stderr
+    assert "no giraff-console daemon" in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_a_stop_waiting_on_a_silent_daemon_ends_at_ctrl_c(tmp_path: Path) -> None:
+    """Started with the signals blocked (as a console's threads have them), a stop that
+    waits for an answer still ends at Ctrl-C, at once and without a traceback."""
+    folder = tmp_path / "giraff-console"
+    folder.mkdir(mode=0o700)
+    silent = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    silent.bind(str(folder / "robot.sock"))
+    silent.listen()
+    blocked = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
+    env = {**os.environ, "XDG_RUNTIME_DIR": str(tmp_path)}
+    with silent:
+        stop = subprocess.Popen(
+            [sys.executable, "-m", "giraff_console", "stop"], env=env,
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            preexec_fn=lambda: signal.pthread_sigmask(signal.SIG_BLOCK, blocked),
+        )  # fmt: skip
+        try:
+            silent.settimeout(30)
+            connection, _ = silent.accept()  # the stop has asked, and waits
+            with connection:
+                stop.send_signal(signal.SIGINT)
+                started = time.monotonic()
+                _, errors = stop.communicate(timeout=3)  # its own timeout is 5 s
+                took = time.monotonic() - started
+        finally:
+            stop.kill()
+            stop.wait(10)
+    assert stop.returncode == 128 + signal.SIGINT, errors
+    assert took < 2, took
+    assert "interrupted before the daemon answered" in errors
+    assert "Traceback" not in errors
 
 
 def test_send_without_a_port_uses_the_built_in_simulator():
@@ -129,7 +208,8 @@ def test_floorplan_landmarks_places_and_prints_from_the_shell(tmp_path):
 def test_every_outcome_has_an_exit_code_and_help_says_each_code():
     """Issue 26: exit codes per outcome, listed in --help: a new Outcome without a code,
     or a code --help does not mention, fails here."""
-    from giraff_console.cli.exit_codes import EXIT_CODES, EXIT_HELP
+    from giraff_console.cli.exit_codes import EXIT_HELP
+    from giraff_console.cli.outcome_codes import EXIT_CODES
     from giraff_console.robot.mission import Outcome
 
     assert set(EXIT_CODES) == set(Outcome)

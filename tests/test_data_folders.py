@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from giraff_console.cli import build_parser
+from giraff_console.cli.main import build_parser
 from giraff_console.data_folders import (
     data_folder,
     data_home,

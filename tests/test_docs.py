@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from giraff_console.cli import build_parser
+from giraff_console.cli.main import build_parser
 from giraff_console.data_folders import example_floorplan, example_routes
 from giraff_console.missions.docking import DOCK
 from giraff_console.missions.names import patrol_file

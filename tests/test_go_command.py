@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.runtime.board import built_in_simulator
 
 # A small camera, a few frames a second: enough to find the robot by, and quick.

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.clock import VirtualClock
 from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.robot.odometry import Pose

@@ -10,7 +10,7 @@ import sys
 import pytest
 import yaml
 
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.data_folders import patrol_runs
 from giraff_console.missions.patrol_log import list_runs
 

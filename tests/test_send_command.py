@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 import serial
 
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.cli.send import UNSAFE_WARNING, print_sent, send_unchecked
 from giraff_console.link import BoardLink, Exchange
 from giraff_console.protocol import parse_command

@@ -9,7 +9,7 @@ import math
 
 import pytest
 
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.planning.landmark_placement import place_markers, write_landmarks
 

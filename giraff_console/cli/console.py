@@ -102,7 +102,7 @@ def collected_from_first_screen() -> Iterator[Callable[[], None]]:
     with what was made until then left out of its rounds (gc.freeze); on again in any
     case once the console ends. The function given says the screen is drawn.
 
-    As with the modules the console loads (cli.load_console): the robot built for the
+    As with the modules the console loads (cli/main.py, load_console): the robot built for the
     console and the screen's widgets live as long as the console, and the collector
     walked them again and again as they were made, about a hundred rounds before the
     first screen (8 ms of its CPU, issue 26, item 6). What the console makes from then on

@@ -20,7 +20,8 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from giraff_console.cli.exit_codes import EXIT_FAILED, EXIT_USAGE
+from giraff_console.cli.exit_codes import EXIT_DONE, EXIT_FAILED, EXIT_NO_DAEMON, EXIT_USAGE
+from giraff_console.cli.stop import add_stop_parser
 from giraff_console.data_folders import patrol_runs
 from giraff_console.missions.patrol_log import list_runs
 from giraff_console.robot.last_stop import SIGNALS
@@ -31,8 +32,6 @@ if TYPE_CHECKING:
     from giraff_console.service.events import ServiceEvent
     from giraff_console.service.remote import RemoteRobot
 
-# `status`, `stop`, `patrols` and `watch`: done, or no daemon to ask.
-EXIT_DONE, EXIT_NO_DAEMON = 0, 3
 # Events `watch` holds for a reader slower than the robot.
 WATCH_QUEUE = 1000
 
@@ -46,17 +45,7 @@ def add_daemon_parsers(commands: argparse._SubParsersAction) -> None:
         "Exits 3 when no daemon runs.",
     )
     status.add_argument("--json", action="store_true", help="print it as JSON")
-    stop = commands.add_parser(
-        "stop",
-        help="stop the robot now (and, with --daemon, the daemon)",
-        description="Stop the robot the daemon runs: let go of the keys, end the mission, "
-        "stop the wheels. Anyone may, whoever holds the controls. Exits 3 when no daemon "
-        "runs.",
-    )
-    stop.add_argument(
-        "--daemon", action="store_true",
-        help="then end the daemon too (as systemctl --user stop does)",
-    )  # fmt: skip
+    add_stop_parser(commands)
     patrols = commands.add_parser(
         "patrols",
         help="the log of patrol runs, newest first",
@@ -89,7 +78,7 @@ def daemon_robot(kind: str, take: bool = False) -> RemoteRobot:
     controls only if `take`. NoDaemon when none answers (no socket, or one left by a
     daemon that died); TransportError for one that is there but cannot be used."""
     # Imported here, not with the parsers: it loads the robot's types (issue 26, item 6).
-    from giraff_console.service.console_hello import console_name
+    from giraff_console.service.console_name import console_name
     from giraff_console.service.remote import DaemonGone, RemoteRobot
 
     try:
@@ -188,23 +177,6 @@ def _say(event: ServiceEvent, as_json: bool) -> None:
         print(f"{event.name} {said}", flush=True)
     elif isinstance(event, Telemetry) and event.mission is not None:
         print(event.mission.line(), flush=True)
-
-
-def run_stop(args: argparse.Namespace) -> int:
-    # Not through the consoles' client: a stop asks and waits for nothing else
-    # (service/stop_request.py: within 0.2 s of being typed, issue 30).
-    from giraff_console.service.stop_request import ask_stop
-
-    try:
-        answer = ask_stop(socket_path(), shutdown=args.daemon)
-    except NoDaemon as error:
-        print(f"giraff-console: {error}; `giraff-console serve` starts one", file=sys.stderr)
-        return EXIT_NO_DAEMON
-    except TransportError as error:
-        print(f"giraff-console: {error}", file=sys.stderr)
-        return EXIT_FAILED
-    print(f"giraff-console: {answer.text or 'stopped'}", file=sys.stderr)
-    return EXIT_DONE if answer.ok else EXIT_FAILED
 
 
 def run_patrols(args: argparse.Namespace) -> int:

@@ -3,8 +3,8 @@ and `patrol`, on the robot in this process (runtime/robot.py) or on the daemon's
 its socket, the same way (issue 26). The notes and the progress go to standard error;
 how it ended to standard output, in words or as JSON, and in the exit code.
 
-How a mission ends decides the exit code (Outcome, robot/mission.py; EXIT_CODES in
-exit_codes.py, which `--help` and the README say in words).
+How a mission ends decides the exit code (Outcome, robot/mission.py; outcome_codes.py;
+exit_codes.py's numbers, which `--help` and the README say in words).
 """
 
 from __future__ import annotations

@@ -1,11 +1,10 @@
-"""How a command that drives ends: an exit code for each outcome of its mission, and the
-words `--help` gives them. Apart from drive.py, which follows the mission, so that
-`--help` can say them without loading the robot (issue 26, item 6).
+"""How a command ends: the exit codes, and the words `--help` gives those of a command
+that drives. Plain numbers, so that `--help`, and `giraff-console stop` in a hurry
+(stop.py), say and use them without loading the robot (issue 26, item 6; issue 30);
+which outcome of a mission gives which is outcome_codes.py's.
 """
 
 from __future__ import annotations
-
-from giraff_console.robot.mission import MissionEnd, Outcome
 
 EXIT_ARRIVED = 0  # also: a patrol whose every stop was reached, confirmed
 EXIT_FAILED = 1
@@ -14,24 +13,8 @@ EXIT_UNVERIFIED = 3
 EXIT_STOPPED = 4
 EXIT_BOARD = 5
 EXIT_NOT_STARTED = 6
-# How each outcome ends the command.
-EXIT_CODES: dict[Outcome, int] = {
-    Outcome.ARRIVED: EXIT_ARRIVED,
-    Outcome.DONE: EXIT_ARRIVED,
-    Outcome.ARRIVED_UNVERIFIED: EXIT_UNVERIFIED,
-    Outcome.STALLED: EXIT_FAILED,
-    Outcome.BLOCKED: EXIT_FAILED,
-    Outcome.LOST: EXIT_FAILED,
-    Outcome.FAILED: EXIT_FAILED,
-    Outcome.REFUSED: EXIT_FAILED,
-    Outcome.STOPPED_BY_OPERATOR: EXIT_STOPPED,
-    Outcome.CANCELLED: EXIT_STOPPED,
-    Outcome.HALTED: EXIT_STOPPED,
-    Outcome.ESTOP: EXIT_BOARD,
-    Outcome.LINK_LOST: EXIT_BOARD,
-    Outcome.NOT_STARTED: EXIT_NOT_STARTED,
-    Outcome.UNVERIFIED: EXIT_NOT_STARTED,
-}
+# `status`, `stop`, `patrols` and `watch`: done, or no daemon to ask.
+EXIT_DONE, EXIT_NO_DAEMON = 0, 3
 EXIT_HELP = (
     "Exit codes: 0 arrived with the pose confirmed by a marker (a patrol: every stop); "
     "1 did not get there (stalled, blocked, lost, failed, a command refused; a patrol: a "
@@ -40,7 +23,3 @@ EXIT_HELP = (
     "mission; 5 the board's ESTOP, or the link to it lost; 6 not started (the pose "
     "cannot be trusted, or a playback runs)."
 )
-
-
-def exit_code(end: MissionEnd) -> int:
-    return EXIT_CODES[end.outcome]

@@ -16,10 +16,10 @@ import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-# Light modules only: the parser is built with every command's (cli/__init__.py). What
+# Light modules only: the parser is built with every command's (cli/main.py). What
 # `go` drives with is imported when it runs (issue 26, item 6).
 from giraff_console.cli.daemon import attach_if_running
-from giraff_console.cli.exit_codes import EXIT_FAILED, EXIT_HELP, EXIT_USAGE, exit_code
+from giraff_console.cli.exit_codes import EXIT_FAILED, EXIT_HELP, EXIT_USAGE
 from giraff_console.cli.options import add_robot_options, robot_options
 from giraff_console.cli.report import fail
 from giraff_console.missions.names import DOCK
@@ -110,7 +110,7 @@ def _without_report(request: c.Go, end: MissionEnd) -> dict:
 
 def _said(request: c.Go, ended: Ended | Reply | None, as_json: bool) -> int:
     """Say how the go ended, on standard output; its exit code."""
-    from giraff_console.cli.exit_codes import EXIT_CODES
+    from giraff_console.cli.outcome_codes import EXIT_CODES, exit_code
     from giraff_console.robot.mission import MissionEnd, Outcome
     from giraff_console.service.events import Reply
 

@@ -9,7 +9,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-# Light modules only: every command's parser is built with these (cli/__init__.py).
+# Light modules only: every command's parser is built with these (cli/main.py).
 from giraff_console.camera.defaults import DEFAULT_FPS, EYE_FPS, EYE_SIZE, FAST_THRESHOLD
 from giraff_console.cli.simulator_options import add_firmware_option
 from giraff_console.data_folders import default_recordings, default_routes

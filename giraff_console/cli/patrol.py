@@ -27,7 +27,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-# Light modules only: the parser is built with every command's (cli/__init__.py). What
+# Light modules only: the parser is built with every command's (cli/main.py). What
 # the patrol drives with is imported when it runs (issue 26, item 6).
 from giraff_console.cli.daemon import attach_if_running
 from giraff_console.cli.exit_codes import EXIT_HELP, EXIT_USAGE

@@ -10,7 +10,8 @@ from __future__ import annotations
 import json
 
 from giraff_console.cli.drive import Ended
-from giraff_console.cli.exit_codes import EXIT_CODES, EXIT_FAILED, exit_code
+from giraff_console.cli.exit_codes import EXIT_FAILED
+from giraff_console.cli.outcome_codes import EXIT_CODES, exit_code
 from giraff_console.cli.report import fail
 from giraff_console.missions.patrol_report import PATROL_JSON_KEYS, PatrolReport
 from giraff_console.service.events import PatrolStopReported, Reply, ServiceEvent

@@ -47,7 +47,7 @@ import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-# Light modules only: the parser is built with every command's (cli/__init__.py). What
+# Light modules only: the parser is built with every command's (cli/main.py). What
 # `send` talks to is imported when it runs (issue 26, item 6).
 from giraff_console.cli.simulator_options import add_firmware_option
 from giraff_console.protocol import (

@@ -24,7 +24,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-# Light modules only: the parser is built with every command's (cli/__init__.py). What
+# Light modules only: the parser is built with every command's (cli/main.py). What
 # the survey drives and maps with is imported when it runs (issue 26, item 6).
 from giraff_console.camera.marker_reach import STANDARD_SIZE_M
 from giraff_console.cli.exit_codes import EXIT_ARRIVED, EXIT_FAILED, EXIT_USAGE

@@ -1,13 +1,12 @@
 """What a console says first and how it asks: the two messages every client sends.
 
 Apart from the daemon (daemon.py), which brings in most of the robot's types to tell the
-consoles everything, so that a client that only asks (`giraff-console stop`,
-stop_request.py) can say them without loading the rest (issue 30, item 3).
+consoles everything, so that a client that only asks need not load them. `giraff-console
+stop` writes the same two lines without even these (stop_request.py, issue 30).
 """
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from typing import Annotated
 
@@ -29,20 +28,6 @@ class Asked:
 
     number: int
     request: c.Request
-
-
-def console_name(kind: str) -> str:
-    """How other consoles see this one: what it is and where it runs (the SSH client's
-    address, or the terminal)."""
-    where = os.environ.get("SSH_CLIENT", "").split(" ")[0] or _terminal()
-    return f"{kind} {where}".strip()
-
-
-def _terminal() -> str:
-    try:
-        return os.ttyname(0).removeprefix("/dev/")
-    except OSError:
-        return ""
 
 
 wire.register(Hello, Asked, *c.REQUESTS)

@@ -2,12 +2,14 @@
 
 A stop must take effect within 0.2 s of being typed, however busy the robot's PC. The
 consoles' client (remote.py) loads most of the package to read everything the daemon
-says (telemetry, maps, the missions' reports): half a second of imports on an idle
-robot PC, seconds on a loaded one, before the stop could even be sent. A stop needs
-none of that: it says Hello, asks Halt (or Shutdown), and waits for that one answer,
-passing over every other line without building it. What it sends is wire.py's encoding
-of the same messages a console sends, so the daemon serves it as any console, over the
-connection limit too (daemon.py).
+says (telemetry, maps, the missions' reports), and even the requests' own types
+(commands.py) bring in the robot's: 0.2 s of imports on an idle robot PC, more on a
+loaded one, before the stop could even be sent. A stop needs none of that: it says
+Hello, asks Halt (or Shutdown), and waits for that one answer, passing over every other
+line without building it. Its two lines are written here as plain JSON, the very lines
+wire.py's encoding gives console_hello.Hello and Asked (tests/service/test_stop_request.py
+holds them to it), so the daemon serves it as any console, over the connection limit too
+(daemon.py).
 """
 
 from __future__ import annotations
@@ -17,8 +19,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from giraff_console.service import commands as c
-from giraff_console.service.console_hello import Asked, Hello, console_name
+from giraff_console.service.console_name import console_name
 from giraff_console.service.transport import ConnectionClosed, TransportError, connect
 from giraff_console.service.wire import WireError
 
@@ -26,8 +27,8 @@ from giraff_console.service.wire import WireError
 # (too many consoles, no descriptors left, a line it could not read).
 NUMBER = 1
 UNNUMBERED = -1
-# The tag of the daemon's answer on the wire (daemon.Answered, wire.py's "type").
-ANSWERED = "Answered"
+# The tags of the messages on the wire (wire.py's "type": the classes' names).
+HELLO, ASKED, HALT, SHUTDOWN, ANSWERED = "Hello", "Asked", "Halt", "Shutdown", "Answered"
 
 
 @dataclass(frozen=True)
@@ -51,14 +52,22 @@ def ask_stop(path: Path, *, shutdown: bool = False, timeout: float = 5.0) -> Sto
     return answer
 
 
+def stop_lines(shutdown: bool = False) -> bytes:
+    """What the stop sends, in one write: a Hello that does not take the controls, and
+    the Halt (or Shutdown) numbered NUMBER; a line each."""
+    hello = {"type": HELLO, "console": console_name("stop"), "take": False}
+    asked = {"type": ASKED, "number": NUMBER, "request": {"type": SHUTDOWN if shutdown else HALT}}
+    return b"".join(json.dumps(line, separators=(",", ":")).encode() + b"\n"
+                    for line in (hello, asked))  # fmt: skip
+
+
 def _ask(path: Path, shutdown: bool, deadline: float) -> tuple[StopAnswer, bool]:
     """The daemon's answer, and whether it was to the stop (not a refusal of the
     connection before it was read)."""
-    request = c.Shutdown() if shutdown else c.Halt()
     with connect(path, max(deadline - time.monotonic(), 0.1)) as connection:
         try:
             # In one write: the daemon reads the stop with the Hello, in the same turn.
-            connection.send(Hello(console_name("stop"), take=False), Asked(NUMBER, request))
+            connection.send_lines(stop_lines(shutdown))
             while (remaining := deadline - time.monotonic()) > 0:
                 try:
                     line = connection.receive_line(remaining)

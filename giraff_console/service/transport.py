@@ -92,7 +92,10 @@ class Connection:
     def send(self, *messages: object) -> None:
         """Send these messages, in one write; ConnectionClosed if the peer has gone or
         is not reading."""
-        line = b"".join(encode_line(message) for message in messages)
+        self.send_lines(b"".join(encode_line(message) for message in messages))
+
+    def send_lines(self, line: bytes) -> None:
+        """Send lines already encoded, whole, in one write; ConnectionClosed as `send`."""
         with self._send_lock:
             if self._closed:
                 raise ConnectionClosed("connection closed")

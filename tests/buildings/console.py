@@ -12,7 +12,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 
 
 class BuildingError(RuntimeError):

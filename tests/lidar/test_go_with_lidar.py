@@ -9,7 +9,7 @@ import math
 import pytest
 import yaml
 
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.data_folders import example_floorplan
 
 SMALL_EYE = ("--eye-size", "400x300", "--eye-fps", "5")

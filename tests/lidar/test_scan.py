@@ -59,7 +59,7 @@ def test_lidar_settings_errors_name_the_line(tmp_path):
 
 
 def test_lidar_without_a_port_on_a_real_robot_is_a_usage_error(capsys):
-    from giraff_console.cli import main
+    from giraff_console.cli.main import main
 
     code = main(["go", "kitchen", "--port", "/dev/null", "--lidar"])
     assert code == 2 and "--lidar: give its port" in capsys.readouterr().err

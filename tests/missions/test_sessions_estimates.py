@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.link import BoardLink
 from giraff_console.missions.sessions import Sessions
 from giraff_console.recording.playback import open_estimates

@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.planning.floorplan import FloorPlanError, check_floorplan, load_floorplan
 from giraff_console.planning.ros_map import (
     GridImageError,

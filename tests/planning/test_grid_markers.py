@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from giraff_console.camera.markers import CameraIntrinsics
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.planning.floorplan import check_floorplan, load_floorplan
 from giraff_console.planning.grid import FREE, OCCUPIED, OccupancyGrid
 from giraff_console.planning.grid_walls import FURNITURE_M, SEEN_FROM_M, grid_walls

@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.planning.floorplan import FloorPlanError, load_floorplan
 from giraff_console.planning.rmf_import import read_building, sanitise_id
 from giraff_console.planning.room_graph import RoomGraph

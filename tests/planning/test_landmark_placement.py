@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from giraff_console.camera.marker_reach import STANDARD_SIZE_M
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.planning import landmark_placement
 from giraff_console.planning.floorplan import (
     FloorPlanError,

@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 import pytest
 
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.planning.floorplan import Landmarks, load_floorplan
 from giraff_console.planning.landmarks import aruco_dictionary
 from giraff_console.planning.marker_pages import DPI, marker_page, write_pages

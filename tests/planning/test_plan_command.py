@@ -9,7 +9,7 @@ from pathlib import Path
 
 import networkx as nx
 
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.planning.legs import GridLegs
 from giraff_console.planning.route_planner import CLEARANCE_M, ROBOT_RADIUS_M, walls_of

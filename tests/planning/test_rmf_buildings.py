@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 import yaml
 
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.planning.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from giraff_console.planning.rmf_import import read_building

@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 import pytest
 
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.planning.floorplan import FloorPlan, check_floorplan, load_floorplan
 from giraff_console.planning.grid import FREE, OccupancyGrid
 from giraff_console.planning.room_graph import NoRouteError

@@ -11,7 +11,7 @@ import io
 import numpy as np
 import pytest
 
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.planning.grid import FREE, OCCUPIED
 from giraff_console.planning.room_marks import MarkProblem

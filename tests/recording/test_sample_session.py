@@ -6,7 +6,7 @@ from pathlib import Path
 
 from mcap.reader import make_reader
 
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.recording.control_log import read_log
 from giraff_console.recording.playback import frame_times
 

@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import pytest
 
-from giraff_console.cli import main
+from giraff_console.cli.main import main
 from giraff_console.link import BoardFeatures, BoardLink, Exchange, probe
 from tests.link.scripted import ScriptedBoard, well_behaved
 

@@ -9,7 +9,7 @@ import time
 import pytest
 import serial
 
-from giraff_console.cli import build_parser
+from giraff_console.cli.main import build_parser
 from giraff_console.data_folders import example_floorplan
 from giraff_console.protocol.charger import ChargeStatus, parse_charger
 from giraff_console.runtime.board import simulator_url
