@@ -16,12 +16,11 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 from giraff_console.service.console_name import console_name
 from giraff_console.service.transport import ConnectionClosed, TransportError, connect
-from giraff_console.service.wire import WireError
+from giraff_console.service.wire_error import WireError
 
 # The number the stop is asked by; the daemon answers refusals it cannot number with -1
 # (too many consoles, no descriptors left, a line it could not read).
@@ -31,12 +30,15 @@ UNNUMBERED = -1
 HELLO, ASKED, HALT, SHUTDOWN, ANSWERED = "Hello", "Asked", "Halt", "Shutdown", "Answered"
 
 
-@dataclass(frozen=True)
 class StopAnswer:
-    """What the daemon said to the stop: done or refused, and its words."""
+    """What the daemon said to the stop: done or refused, and its words. (Not a
+    dataclass: dataclasses loads inspect, 0.01-0.02 s of a stop's start.)"""
 
-    ok: bool
-    text: str
+    __slots__ = ("ok", "text")
+
+    def __init__(self, ok: bool, text: str) -> None:
+        self.ok = ok
+        self.text = text
 
 
 def ask_stop(path: Path, *, shutdown: bool = False, timeout: float = 5.0) -> StopAnswer:

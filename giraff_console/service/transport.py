@@ -24,7 +24,7 @@ import threading
 import time
 from pathlib import Path
 
-from giraff_console.service import wire
+from giraff_console.service.wire_error import WireError
 
 # One message a line. A telemetry snapshot is about 2 kB; a line past this is a peer
 # that is not speaking the protocol, and is thrown away rather than buffered for ever.
@@ -182,10 +182,12 @@ def peer_pid(sock: socket.socket) -> int | None:
 
 def encode_line(message: object) -> bytes:
     """`message` as the line that carries it; WireError if it is over MAX_LINE."""
+    from giraff_console.service import wire  # not at the top: wire_error.py says why
+
     # allow_nan, the default: inf and nan cross as Infinity and NaN (wire.py).
     line = json.dumps(wire.encode(message), separators=(",", ":")).encode() + b"\n"
     if len(line) > MAX_LINE:
-        raise wire.WireError(f"a message of {len(line)} bytes is over the {MAX_LINE} limit")
+        raise WireError(f"a message of {len(line)} bytes is over the {MAX_LINE} limit")
     return line
 
 
@@ -220,7 +222,7 @@ class LineBuffer:
                 self._buffer.clear()
             else:
                 del self._buffer[: end + 1]
-            raise wire.WireError(f"a line over {self.limit} bytes: skipped")
+            raise WireError(f"a line over {self.limit} bytes: skipped")
         if newline < 0:
             return None
         line = bytes(self._buffer[:newline])
@@ -238,17 +240,19 @@ def parse(line: bytes) -> object:
     try:
         data = json.loads(line)
     except json.JSONDecodeError as error:
-        raise wire.WireError(f"a line that is not JSON (at byte {error.pos})") from None
+        raise WireError(f"a line that is not JSON (at byte {error.pos})") from None
     except UnicodeDecodeError as error:
-        raise wire.WireError(f"a line that is not UTF-8 (at byte {error.start})") from None
+        raise WireError(f"a line that is not UTF-8 (at byte {error.start})") from None
     except ValueError:  # an integer of more digits than Python converts
-        raise wire.WireError("a line with a number too long to read") from None
+        raise WireError("a line with a number too long to read") from None
     except RecursionError:
-        raise wire.WireError("a line nested too deep") from None
+        raise WireError("a line nested too deep") from None
+    from giraff_console.service import wire  # not at the top: wire_error.py says why
+
     try:
         return wire.decode(data)
     except RecursionError:  # decoding takes more frames a level than parsing
-        raise wire.WireError("a line nested too deep") from None
+        raise WireError("a line nested too deep") from None
 
 
 def listen(path: Path) -> socket.socket:

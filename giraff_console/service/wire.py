@@ -52,6 +52,8 @@ from collections.abc import Callable, Sized
 from pathlib import Path
 from typing import Any
 
+from giraff_console.service.wire_error import WireError
+
 _TAGS = frozenset({"type", "enum", "error", "path", "dict", "bytes"})
 # Integers cross as 64-bit values: a longer one is nothing the robot counts, and the
 # JSON writer refuses one past 4300 digits, which would end the connection that echoed it.
@@ -61,10 +63,6 @@ _INT_LIMIT = 2**63
 _CLASS_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}\Z")
 
 _registry: dict[str, type] = {}
-
-
-class WireError(Exception):
-    """A value that cannot be put on the wire, or wire data that cannot be built."""
 
 
 def register(*types_: type) -> None:
