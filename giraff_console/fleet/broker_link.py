@@ -20,6 +20,8 @@ from urllib.parse import urlsplit
 
 import paho.mqtt.client as mqtt
 
+from giraff_console.file_limits import read_bounded
+
 # A message larger than any VDA 5050 message this robot handles: an order of 200 nodes
 # and edges, each with a few actions, is well under it.
 MAX_MESSAGE_BYTES = 256 * 1024
@@ -75,7 +77,9 @@ class Broker:
         try:
             if path.stat().st_mode & 0o077:
                 raise BrokerError(f"{path}: others may read it; chmod 600 {path}")
-            user, colon, password = path.read_text(encoding="utf-8").strip().partition(":")
+            # Bounded and by type (file_limits.py): a FIFO would hang the daemon's start.
+            text = read_bounded(path).decode("utf-8")
+            user, colon, password = text.strip().partition(":")
         except (OSError, UnicodeDecodeError) as error:
             raise BrokerError(f"{path}: {error}") from None
         if not colon or not user or "\n" in password:
@@ -115,10 +119,12 @@ class BrokerLink:
             client.username_pw_set(*login)
         if broker.tls:
             try:
-                context = ssl.create_default_context(
-                    cafile=str(broker.ca_file) if broker.ca_file else None
-                )
-            except (OSError, ssl.SSLError) as error:
+                # Read as every file of ours is (file_limits.py), not by OpenSSL, which
+                # would wait on a FIFO or read /dev/zero for ever.
+                ca = broker.ca_file
+                authorities = read_bounded(ca).decode("ascii") if ca is not None else None
+                context = ssl.create_default_context(cadata=authorities)
+            except (OSError, UnicodeDecodeError, ssl.SSLError) as error:
                 raise BrokerError(f"{broker.ca_file}: {error}") from None
             client.tls_set_context(context)
         self._will = will
