@@ -116,10 +116,16 @@ def read_bounded(path: Path | str, limit: ByteLimit = "file_bytes") -> bytes:
     named `limit`; FileRefused if it is not a regular file or is larger (by its size, and
     by reading at most one byte more, should it grow while read); OSError if it cannot
     be read."""
-    most = getattr(_current, limit)
+    return read_at_most(path, getattr(_current, limit), f"this console reads ({raising(limit)})")
+
+
+def read_at_most(path: Path | str, most: int, whose: str) -> bytes:
+    """As read_bounded, by a bound of `most` bytes that no setting raises (the settings
+    file's own, read before its [limits] are known); `whose` ends the refusal's "more
+    than the N ..." ("a settings file may have")."""
     status = regular_file(path)
     if status.st_size > most:
-        raise FileRefused(_larger(status.st_size, most, limit))
+        raise FileRefused(_larger(status.st_size, most, whose))
     # O_NONBLOCK: were it swapped for a FIFO since the stat, the open must not block.
     descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_NOCTTY)
     try:
@@ -135,12 +141,12 @@ def read_bounded(path: Path | str, limit: ByteLimit = "file_bytes") -> bytes:
     finally:
         os.close(descriptor)
     if size > most:
-        raise FileRefused(_larger(size, most, limit))
+        raise FileRefused(_larger(size, most, whose))
     return b"".join(chunks)
 
 
-def _larger(size: int, most: int, limit: str) -> str:
-    return f"it holds {size:,} bytes, more than the {most:,} this console reads ({raising(limit)})"
+def _larger(size: int, most: int, whose: str) -> str:
+    return f"it holds {size:,} bytes, more than the {most:,} {whose}"
 
 
 def _kind(mode: int) -> str:

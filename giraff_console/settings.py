@@ -120,16 +120,14 @@ wait for a writer).
 
 from __future__ import annotations
 
-import os
 import re
-import stat
 import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import NoReturn
 
 from giraff_console.data_folders import config_path
-from giraff_console.file_limits import FileLimits
+from giraff_console.file_limits import FileLimits, read_at_most
 from giraff_console.link import DEFAULT_TIMEOUT_S
 from giraff_console.missions.docking import ChargeLevels
 from giraff_console.missions.progress_watch import Patience
@@ -522,47 +520,20 @@ def _check_range(where: _Where, name: str, value: float, span: Range) -> None:
 
 def _read(path: Path) -> str | None:
     """The settings file's text; None if there is none; SettingsError, naming the file,
-    for one that is not a regular file, too large or not UTF-8 text.
-
-    Its type is looked at before it is opened: opening a FIFO for reading waits for a
-    writer, and /dev/zero never ends. It is opened without waiting and looked at again,
-    in case it was replaced in between, and read no further than its bound."""
+    for one that is not a regular file, too large or not UTF-8 text (by type before it
+    is opened, and read no further than its bound: file_limits.read_at_most)."""
     try:
-        found = path.stat()
+        data = read_at_most(path, MAX_FILE_BYTES, "a settings file may have")
     except FileNotFoundError:
         return None  # no file (or a symlink to none): the built-in defaults
     except (OSError, ValueError) as error:
         raise SettingsError(f"{path}: {_os_error(error)}") from None
-    if not stat.S_ISREG(found.st_mode):
-        raise SettingsError(f"{path}: not a regular file ({_kind(found.st_mode)})")
-    if found.st_size > MAX_FILE_BYTES:
-        raise SettingsError(f"{path}: {found.st_size:,} bytes, over the "
-                            f"{MAX_FILE_BYTES:,} a settings file may have")  # fmt: skip
-    try:
-        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_NOCTTY)
-    except OSError as error:
-        raise SettingsError(f"{path}: {_os_error(error)}") from None
-    with os.fdopen(fd, "rb") as file:
-        if not stat.S_ISREG(os.fstat(fd).st_mode):
-            raise SettingsError(f"{path}: not a regular file ({_kind(os.fstat(fd).st_mode)})")
-        data = file.read(MAX_FILE_BYTES + 1)
-    if len(data) > MAX_FILE_BYTES:
-        raise SettingsError(f"{path}: over the {MAX_FILE_BYTES:,} bytes a settings file "
-                            "may have")  # fmt: skip
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as error:
         line = data.count(b"\n", 0, error.start) + 1
         message = f"not UTF-8 text (byte {data[error.start]:#04x})"
         raise SettingsError(_at(path, line, message)) from None
-
-
-def _kind(mode: int) -> str:
-    """What a file that is not a regular one is, in the words of `ls -l`'s users."""
-    kinds = ((stat.S_ISDIR, "a folder"), (stat.S_ISCHR, "a character device"),
-             (stat.S_ISBLK, "a block device"), (stat.S_ISFIFO, "a FIFO"),
-             (stat.S_ISSOCK, "a socket"))  # fmt: skip
-    return next((name for test, name in kinds if test(mode)), "not a file")
 
 
 def _os_error(error: OSError | ValueError) -> str:

@@ -128,22 +128,22 @@ def a_dotted_table(path: Path) -> str:
 
 def too_large(path: Path) -> str:
     path.write_text("# a comment\n" * 200_000)  # 2.4 MB of nothing that nests
-    return ": 2,400,000 bytes, over the 1,048,576 a settings file may have"
+    return ": it holds 2,400,000 bytes, more than the 1,048,576 a settings file may have"
 
 
 def a_fifo(path: Path) -> str:
     os.mkfifo(path)  # opened for reading, it would wait for a writer that never comes
-    return ": not a regular file (a FIFO)"
+    return ": it is a named pipe (FIFO), not a regular file"
 
 
 def a_link_to_dev_zero(path: Path) -> str:
     path.symlink_to("/dev/zero")
-    return ": not a regular file (a character device)"
+    return ": it is a device, not a regular file"
 
 
 def a_folder(path: Path) -> str:
     path.mkdir()
-    return ": not a regular file (a folder)"
+    return ": it is a folder, not a regular file"
 
 
 def a_huge_number(path: Path) -> str:
