@@ -31,7 +31,8 @@ from giraff_console.missions.lookout import Scan
 from giraff_console.missions.pose_trail import PoseTrail
 from giraff_console.planning.floorplan import Point
 from giraff_console.planning.grid import OccupancyGrid
-from giraff_console.planning.map_building import MapBuilder, MapTooLarge
+from giraff_console.planning.loop_closure import Closed, close_loops, moved, redrawn
+from giraff_console.planning.map_building import Correction, MapBuilder, MapTooLarge
 from giraff_console.planning.scan_matching import COARSE_TURN
 from giraff_console.robot.odometry import Pose
 
@@ -67,6 +68,7 @@ class MapMark:
 
     name: str
     at: Point  # the map's frame
+    laid: int = 0  # how many revolutions were laid in when it was marked
 
 
 @dataclass(frozen=True)
@@ -124,8 +126,10 @@ class MappingRun:
     def mark(self, name: str, pose: Pose) -> MapMark:
         """The room where the robot stands (the filter's `pose`) is `name`; a second
         mark of the same name moves it."""
-        corrected = self.corrected(pose)
-        mark = MapMark(name, (corrected.x, corrected.y))
+        with self._building:
+            corrected = self.builder.correction.apply(pose)
+            laid = len(self.builder.laid)
+        mark = MapMark(name, (corrected.x, corrected.y), laid)
         with self._lock:
             self._marks[name] = mark
         return mark
@@ -134,6 +138,33 @@ class MappingRun:
         """The filter's `pose` in the map's frame, as scan matching has corrected it."""
         with self._building:
             return self.builder.correction.apply(pose)
+
+    def close_loops(self) -> Closed | None:
+        """Correct the map where the drive came back to places it had seen
+        (planning/loop_closure.py): the revolutions drawn again at the poses corrected,
+        the marks moved with them, and the filter's poses carried into the corrected
+        frame from here on. None if the builder keeps no revolutions. Seconds of work,
+        on the caller's thread; the run's thread waits meanwhile (revolutions that come
+        are dropped, counted)."""
+        with self._building:
+            old = self.builder
+            if not old.keep or not old.laid:
+                return None
+            laid = list(old.laid)
+            closed = close_loops(laid, old.resolution)
+            if not closed.loops:
+                return closed
+            builder = redrawn(laid, closed.poses, old.resolution)
+            builder.match_scans = old.match_scans
+            builder.restamp(laid[-1].stamp)
+            builder.correction = Correction.between(laid[-1].filtered, closed.poses[-1])
+            self.builder = builder
+        with self._lock:
+            for name, mark in self._marks.items():
+                if 0 < mark.laid <= len(laid):
+                    at = moved(mark.at, laid[mark.laid - 1].pose, closed.poses[mark.laid - 1])
+                    self._marks[name] = MapMark(name, at, mark.laid)
+        return closed
 
     def status(self) -> MappingStatus:
         with self._lock:
@@ -165,7 +196,7 @@ class MappingRun:
                     continue
                 scan = self._waiting.popleft()
             try:
-                self._lay_in(scan)
+                self.lay_in(scan)
             except Exception:
                 # A bug: the map stops growing, and the operator is told; the robot
                 # drives on as before, since mapping only listens.
@@ -181,7 +212,10 @@ class MappingRun:
                 # The screens' picture failed (a listener's bug): the map grows on.
                 log.exception("mapping: telling of the map failed")
 
-    def _lay_in(self, scan: StampedScan) -> None:
+    def lay_in(self, scan: StampedScan) -> None:
+        """Lay `scan` into the map now, on the caller's thread: the run's thread does,
+        for each revolution it is given; a drive replayed (bench/teach_replay.py) calls
+        it in turn, none dropped."""
         stamp = scan.taken_at
         pose = self.trail.at(stamp)
         if pose is None:

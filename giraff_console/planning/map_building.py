@@ -161,6 +161,25 @@ class MatchedPose:
 
 
 @dataclass(frozen=True)
+class Laid:
+    """One scan as it was drawn, kept for the map to be drawn again at corrected poses
+    (loop_closure.py): its stamp, the filter's pose and the pose drawn at, and its beams
+    in the robot's frame (where each was drawn to, float32; whether it ended on a hit;
+    its bearing)."""
+
+    stamp: float
+    filtered: Pose
+    pose: Pose
+    points: np.ndarray
+    hit: np.ndarray
+    bearing: np.ndarray
+
+    @property
+    def hits(self) -> np.ndarray:
+        return np.asarray(self.points[self.hit], dtype=np.float64)
+
+
+@dataclass(frozen=True)
 class MapView:
     """The map as it stands, to draw: cells FREE, OCCUPIED or UNKNOWN (read-only, row 0
     at the top), placed as an OccupancyGrid's; `revision` changes with every scan."""
@@ -174,11 +193,15 @@ class MapView:
 class MapBuilder:
     """An occupancy grid built from range scans at the pose filter's poses."""
 
-    def __init__(self, resolution: float = RESOLUTION_M, match_scans: bool = True) -> None:
+    def __init__(self, resolution: float = RESOLUTION_M, match_scans: bool = True,
+                 keep: bool = False) -> None:  # fmt: skip
+        """`keep`: each scan drawn is kept (`laid`), to draw the map again."""
         if not (math.isfinite(resolution) and 0.005 <= resolution <= 1.0):
             raise ValueError(f"resolution should be 0.005 to 1 m, not {resolution}")
         self.resolution = resolution
         self.match_scans = match_scans
+        self.keep = keep
+        self.laid: list[Laid] = []
         self.correction = Correction()
         self.revision = 0
         self._odds = np.zeros((0, 0), dtype=np.int16)
@@ -213,7 +236,31 @@ class MapBuilder:
         self._draw(found.pose, points, hit, bearing)
         self._stamp = stamp
         self.revision += 1
+        if self.keep:
+            self.laid.append(Laid(stamp, pose, found.pose, points.astype(np.float32), hit,
+                                  bearing.astype(np.float32)))  # fmt: skip
         return MatchedPose(stamp, pose, prior, found.pose, found.outcome, found.quality)
+
+    def draw_laid(self, laid: Laid, pose: Pose) -> None:
+        """Draw a scan kept by another builder at `pose`, unmatched (the map drawn again
+        at poses a loop closure corrected)."""
+        points = np.asarray(laid.points, dtype=np.float64)
+        bearing = np.asarray(laid.bearing, dtype=np.float64)
+        reach = float(np.max(np.hypot(points[:, 0], points[:, 1]), initial=0.0))
+        self._cover(pose, reach + BODY_RADIUS_M + self.resolution)
+        self._draw(pose, points, laid.hit, bearing)
+        self.revision += 1
+        if self.keep:
+            self.laid.append(Laid(laid.stamp, laid.filtered, pose, laid.points, laid.hit,
+                                  laid.bearing))  # fmt: skip
+
+    def restamp(self, stamp: float) -> None:
+        """The next scan may not be older than `stamp` (a map drawn again)."""
+        self._stamp = max(self._stamp, stamp)
+
+    def occupied_window(self) -> tuple[np.ndarray, float, float]:
+        """The grid's occupied cells, and the map (left, top) of its top-left corner."""
+        return self._odds > OCCUPIED_ABOVE, self._left * self.resolution, self._top()
 
     def view(self) -> MapView:
         """The map to draw; the same object until the next scan, so a screen that

@@ -89,8 +89,8 @@ class BuildingMap:
                 return Reply(False, "map: mapping already; `map save NAME` or `map discard`")
             self._drawn_at, self._drawn_revision = -math.inf, -1
             # Where mapping starts is the map's dock: the plan made starts there.
-            run = self.run = MappingRun(MapBuilder(), self.control.note, self.control.pose,
-                                        after=self._laid_in)  # fmt: skip
+            run = self.run = MappingRun(MapBuilder(keep=True), self.control.note,
+                                        self.control.pose, after=self._laid_in)  # fmt: skip
             self.control.subscribe(self._heard)
             self.sensor.subscribe(run.scan)
         return Reply(True, "mapping: drive through every room, and type `mark ROOM` in each; "
@@ -121,6 +121,10 @@ class BuildingMap:
         status = run.status()
         if not status.scans:
             return Reply(False, "map save: nothing mapped yet: is the range sensor turning?")
+        # Where the drive came back to places it had seen, the map is drawn again at
+        # the poses those say (planning/loop_closure.py), and the marks moved with it.
+        run.close_loops()
+        status = run.status()
         try:
             marks = [(mark.name, mark.at) for mark in status.marks]
             made = write_mapped_plan(run.grid(), marks, run.start, to)

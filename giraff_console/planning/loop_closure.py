@@ -1,0 +1,179 @@
+"""The teaching drive's loop closure (issue 29): the map drawn again at poses corrected
+where the drive came back to places it had seen.
+
+Scan-to-map matching (map_building.py) keeps each revolution true to the map drawn just
+before it, but the map grows into each new room at poses a centimetre or so off, and the
+error adds up: 0.1-0.4 m over a 100 m drive (docs/performance.md). When the drive comes
+back to a room it mapped long before, its revolutions say how far the path has drifted
+since. Here, once the drive is done (at `map save`):
+
+- Keyframes: a revolution every KEY_M of travel or KEY_TURN of turn; the others ride
+  on the keyframe before them.
+- Submaps: runs of SUBMAP_KEYS keyframes, each drawn alone on a grid of its own at the
+  drive's poses (locally true).
+- Edges: each keyframe to the next, by the drive's own relative pose; and each keyframe
+  to every submap made long before (LOOP_GAP_S earlier) that lies round it, by matching
+  its revolution against that submap (scan_matching.py's matcher). A match is an edge
+  from the submap's first keyframe, robust (a room can look like another).
+- Solved (pose_chain.py), the keyframes' corrections spread over the revolutions
+  between them, and every revolution drawn again, in order, at its corrected pose.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from giraff_console.planning.map_building import Laid, MapBuilder
+from giraff_console.planning.pose_chain import Edge, compose, relative, solve
+from giraff_console.planning.scan_matching import (
+    COARSE_TURN,
+    MIN_HITS,
+    LikelihoodField,
+    MatchOutcome,
+    likelihood_field,
+    match,
+)
+from giraff_console.robot.odometry import Pose
+
+KEY_M, KEY_TURN = 0.3, math.radians(15.0)
+SUBMAP_KEYS = 10
+# A keyframe is matched against submaps that ended at least this long before it, whose
+# keyframes come within LOOP_REACH_M of it.
+LOOP_GAP_S = 30.0
+LOOP_REACH_M = 1.5
+# The least mean likelihood of a loop closure's hits on the submap.
+LOOP_QUALITY = 0.5
+# The edges' standard deviations: the drive's own, per keyframe step, and a loop's.
+STEP_SIGMA_M, STEP_SIGMA_RAD = 0.02, math.radians(0.5)
+LOOP_SIGMA_M, LOOP_SIGMA_RAD = 0.03, math.radians(1.0)
+
+
+@dataclass(frozen=True)
+class Closed:
+    """The loop closure's outcome: each revolution's corrected pose, and what it found."""
+
+    poses: list[Pose]
+    keyframes: int
+    loops: int  # loop-closure edges found
+    outliers: int  # of those, left out by the solve
+
+
+def _array(pose: Pose) -> np.ndarray:
+    return np.array([pose.x, pose.y, pose.heading])
+
+
+def _edge(i: int, j: int, d: np.ndarray, sigma_m: float, sigma_rad: float,
+          robust: bool = False) -> Edge:  # fmt: skip
+    return Edge(i, j, float(d[0]), float(d[1]), float(d[2]), sigma_m, sigma_rad, robust)
+
+
+def keyframes(laid: list[Laid]) -> list[int]:
+    """The indices of the keyframes among the revolutions `laid`."""
+    keys: list[int] = []
+    for index, scan in enumerate(laid):
+        if len(scan.hits) < MIN_HITS:
+            continue
+        if not keys:
+            keys.append(index)
+            continue
+        last = laid[keys[-1]].pose
+        moved = math.hypot(scan.pose.x - last.x, scan.pose.y - last.y)
+        turned = abs(math.remainder(scan.pose.heading - last.heading, math.tau))
+        if moved >= KEY_M or turned >= KEY_TURN:
+            keys.append(index)
+    return keys
+
+
+def close_loops(laid: list[Laid], resolution: float) -> Closed:
+    """The revolutions `laid` (in order), their poses corrected by loop closure."""
+    poses = [scan.pose for scan in laid]
+    keys = keyframes(laid)
+    if len(keys) < 2 * SUBMAP_KEYS:
+        return Closed(poses, len(keys), 0, 0)
+    start = np.array([_array(laid[k].pose) for k in keys])
+    edges = [_edge(n, n + 1, relative(start[n], start[n + 1]), STEP_SIGMA_M, STEP_SIGMA_RAD)
+             for n in range(len(keys) - 1)]  # fmt: skip
+    submaps = _submaps(laid, keys, resolution)
+    loops = 0
+    for n, key in enumerate(keys):
+        scan = laid[key]
+        here = start[n]
+        for first, last, ended, field in submaps:
+            if ended > scan.stamp - LOOP_GAP_S:
+                break
+            near = np.hypot(start[first : last + 1, 0] - here[0],
+                            start[first : last + 1, 1] - here[1])  # fmt: skip
+            if near.min() > LOOP_REACH_M:
+                continue
+            hits = scan.hits
+            spacing = float(np.median(np.diff(scan.bearing[scan.hit]))) if len(hits) > 1 else 0.0
+            found = match(field, scan.pose, hits, spacing, COARSE_TURN)
+            if found.outcome is not MatchOutcome.MATCHED or found.quality < LOOP_QUALITY:
+                continue
+            edges.append(_edge(first, n, relative(start[first], _array(found.pose)),
+                               LOOP_SIGMA_M, LOOP_SIGMA_RAD, robust=True))  # fmt: skip
+            loops += 1
+    if not loops:
+        return Closed(poses, len(keys), 0, 0)
+    solved = solve(start, edges)
+    return Closed(_spread(laid, keys, start, solved.poses), len(keys), loops,
+                  len(solved.outliers))  # fmt: skip
+
+
+def moved(at: tuple[float, float], before: Pose, after: Pose) -> tuple[float, float]:
+    """The point `at`, moved rigidly with the pose `before` onto `after`."""
+    local = relative(_array(before), np.array([at[0], at[1], before.heading]))
+    there = compose(_array(after), local)
+    return (float(there[0]), float(there[1]))
+
+
+def redrawn(laid: list[Laid], poses: list[Pose], resolution: float) -> MapBuilder:
+    """A map of the revolutions `laid` drawn, in order, at `poses`."""
+    builder = MapBuilder(resolution, match_scans=False, keep=True)
+    for scan, pose in zip(laid, poses, strict=True):
+        builder.draw_laid(scan, pose)
+    return builder
+
+
+def _submaps(laid: list[Laid], keys: list[int],
+             resolution: float) -> list[tuple[int, int, float, LikelihoodField]]:  # fmt: skip
+    """Each submap: its first and last keyframe (indices into `keys`), the stamp it
+    ended at, and its likelihood field."""
+    out: list[tuple[int, int, float, LikelihoodField]] = []
+    for first in range(0, len(keys) - 1, SUBMAP_KEYS):
+        last = min(first + SUBMAP_KEYS, len(keys) - 1)
+        builder = MapBuilder(resolution, match_scans=False)
+        for index in range(keys[first], keys[last] + 1):
+            builder.draw_laid(laid[index], laid[index].pose)
+        occupied, left, top = builder.occupied_window()
+        if np.count_nonzero(occupied) < 50:
+            continue
+        field = likelihood_field(occupied, left, top, resolution)
+        out.append((first, last, laid[keys[last]].stamp, field))
+    return out
+
+
+def _spread(laid: list[Laid], keys: list[int], before: np.ndarray,
+            after: np.ndarray) -> list[Pose]:  # fmt: skip
+    """Each revolution's corrected pose: its pose seen from the keyframe at or before
+    it, put on that keyframe's corrected pose; between two keyframes the correction
+    is blended by time."""
+    poses: list[Pose] = []
+    stamps = np.array([laid[k].stamp for k in keys])
+    for index, scan in enumerate(laid):
+        p = _array(scan.pose)
+        n = int(np.searchsorted(stamps, scan.stamp, side="right")) - 1
+        n = max(0, min(n, len(keys) - 1))
+        moved = compose(after[n], relative(before[n], p))
+        if n + 1 < len(keys) and index > keys[n]:
+            ahead = compose(after[n + 1], relative(before[n + 1], p))
+            share = (scan.stamp - stamps[n]) / max(1e-9, stamps[n + 1] - stamps[n])
+            turn = math.remainder(ahead[2] - moved[2], math.tau)
+            moved = np.array([moved[0] + share * (ahead[0] - moved[0]),
+                              moved[1] + share * (ahead[1] - moved[1]),
+                              moved[2] + share * turn])  # fmt: skip
+        poses.append(Pose(float(moved[0]), float(moved[1]), float(moved[2])))
+    return poses
