@@ -32,7 +32,12 @@ from giraff_console.missions.pose_trail import PoseTrail
 from giraff_console.planning.floorplan import Point
 from giraff_console.planning.grid import OccupancyGrid
 from giraff_console.planning.loop_closure import Closed, close_loops, moved, redrawn
-from giraff_console.planning.map_building import Correction, MapBuilder, MapTooLarge
+from giraff_console.planning.map_building import (
+    MAX_KEPT_BYTES,
+    Correction,
+    MapBuilder,
+    MapTooLarge,
+)
 from giraff_console.planning.scan_matching import COARSE_TURN
 from giraff_console.robot.odometry import Pose
 
@@ -235,7 +240,9 @@ class MappingRun:
         self._sigma = sigma
         try:
             with self._building:
+                keeping = self.builder.keep
                 self.builder.add(pose, scan, stamp, max(COARSE_TURN, TURN_SIGMAS * grown))
+                stopped_keeping = keeping and not self.builder.keep
         except MapTooLarge as error:
             self.note(f"mapping stopped: {error}; `map save NAME` keeps what was mapped")
             with self._ready:
@@ -246,5 +253,9 @@ class MappingRun:
             with self._lock:
                 self._unplaced += 1
             return
+        if stopped_keeping:
+            self.note(f"mapping: the drive is longer than loop closure keeps "
+                      f"({MAX_KEPT_BYTES // 2**20} MB of revolutions, about 80 minutes); "
+                      "the map is saved as drawn")  # fmt: skip
         with self._lock:
             self._scans += 1

@@ -55,6 +55,10 @@ CHUNK_CELLS = 160
 # The most cells a map may hold: a 300 x 150 m airport at 0.05 m with 10 m round it
 # (320 x 170 m), 3 bytes a cell (log-odds and state): 72 MB.
 MAX_CELLS = 6400 * 3400
+# The bytes of scans a builder that keeps them (`keep`, for loop closure) holds at most:
+# a revolution of 360 beams is 4.7 kB, so about 80 minutes of a 5.5 Hz sensor (the
+# home's teaching drive, 11 minutes, kept 17 MB).
+MAX_KEPT_BYTES = 128 * 1024 * 1024
 # The most beams a scan may have: an RPLIDAR's densest mode gives about 1600 a turn.
 MAX_BEAMS = 8192
 # The most hits a scan is matched with (an A2's densest turn has 1600; 800 fix a pose).
@@ -202,6 +206,7 @@ class MapBuilder:
         self.match_scans = match_scans
         self.keep = keep
         self.laid: list[Laid] = []
+        self._kept_bytes = 0
         self.correction = Correction()
         self.revision = 0
         self._odds = np.zeros((0, 0), dtype=np.int16)
@@ -236,9 +241,8 @@ class MapBuilder:
         self._draw(found.pose, points, hit, bearing)
         self._stamp = stamp
         self.revision += 1
-        if self.keep:
-            self.laid.append(Laid(stamp, pose, found.pose, points.astype(np.float32), hit,
-                                  bearing.astype(np.float32)))  # fmt: skip
+        self._keep(Laid(stamp, pose, found.pose, points.astype(np.float32), hit,
+                        bearing.astype(np.float32)))  # fmt: skip
         return MatchedPose(stamp, pose, prior, found.pose, found.outcome, found.quality)
 
     def draw_laid(self, laid: Laid, pose: Pose) -> None:
@@ -250,9 +254,20 @@ class MapBuilder:
         self._cover(pose, reach + BODY_RADIUS_M + self.resolution)
         self._draw(pose, points, laid.hit, bearing)
         self.revision += 1
-        if self.keep:
-            self.laid.append(Laid(laid.stamp, laid.filtered, pose, laid.points, laid.hit,
-                                  laid.bearing))  # fmt: skip
+        self._keep(Laid(laid.stamp, laid.filtered, pose, laid.points, laid.hit, laid.bearing))
+
+    def _keep(self, laid: Laid) -> None:
+        """Keep `laid`, if this builder keeps its scans and has room for one more; a
+        drive that would take more than MAX_KEPT_BYTES keeps none (issue 30: every input
+        bounded)."""
+        if not self.keep:
+            return
+        size = laid.points.nbytes + laid.hit.nbytes + laid.bearing.nbytes
+        if self._kept_bytes + size > MAX_KEPT_BYTES:
+            self.keep, self.laid, self._kept_bytes = False, [], 0
+            return
+        self.laid.append(laid)
+        self._kept_bytes += size
 
     def restamp(self, stamp: float) -> None:
         """The next scan may not be older than `stamp` (a map drawn again)."""

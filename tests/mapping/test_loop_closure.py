@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from giraff_console.missions.mapping import MappingRun
+from giraff_console.planning import map_building
 from giraff_console.planning.loop_closure import close_loops, keyframes, moved, redrawn
 from giraff_console.planning.map_building import MapBuilder
 from giraff_console.planning.pose_chain import Edge, compose, relative, solve
@@ -147,6 +148,29 @@ def test_the_run_redraws_its_map_moves_its_marks_and_carries_the_filter_on() -> 
     last = run.corrected(poses[-1])
     assert math.dist((last.x, last.y), (truth[-1].x, truth[-1].y)) <= 0.1
     assert run.builder.laid[-1].pose == closed.poses[-1]
+
+
+def test_a_drive_longer_than_the_scans_kept_keeps_none_and_says_so(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Issue 30: the scans kept for loop closure are bounded; past the bound the map is
+    built and saved as drawn, and the operator told once."""
+    monkeypatch.setattr(map_building, "MAX_KEPT_BYTES", 50 * 4_700)  # 50 revolutions
+    walls = care_home_wing()
+    truth = drive(WING_DRIVE, RATE)
+    said: list[str] = []
+    run = MappingRun(MapBuilder(match_scans=False, keep=True), said.append, truth[0])
+    run.close()
+    for k, (pose, scan) in enumerate(zip(truth, sweeps(walls, truth, 360, 1), strict=True)):
+        run.pose(k / RATE, pose, 0.01)
+        run.lay_in(_Stamped(scan.range_max, scan.beams, k / RATE))
+    assert len(truth) > 50
+    assert not run.builder.keep and run.builder.laid == []
+    assert run.close_loops() is None
+    told = [text for text in said if "longer than loop closure keeps" in text]
+    assert len(told) == 1 and told[0].endswith("; the map is saved as drawn")
+    status = run.status()
+    assert status.scans + status.turning == len(truth)  # every one laid in or turning
 
 
 class _Stamped:
