@@ -435,6 +435,10 @@ class Daemon:
             console = ConsoleSocket(client, now)
             self._selector.register(console, selectors.EVENT_READ, console)
             self._greeting[console] = None
+            # Heard at once, not after the rest of a burst is taken: a client that said
+            # Hello as it connected (`giraff-console stop` says Hello and Halt in one
+            # write) is served in this turn; one that has said nothing costs a recv.
+            self._guarded(console, self._read)
             if len(self._greeting) > GREETING:
                 # The oldest goes: a `stop` just connected says Hello at once.
                 self._hang_up(next(iter(self._greeting)))
