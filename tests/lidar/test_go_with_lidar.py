@@ -14,8 +14,10 @@ from giraff_console.data_folders import example_floorplan
 
 SMALL_EYE = ("--eye-size", "400x300", "--eye-fps", "5")
 # The simulator's clock this many times real time: the lidar is read in real time on
-# its own thread, so the mission may not outrun it (--sim-speed inf would).
-SPEED = "4"
+# its own thread, so the mission may not outrun it (--sim-speed inf would). At 4, beside
+# the suite's other worker, it fell behind and the robot stopped at the narrow door
+# (2 of 5 clean-clone runs; the teaching test went to 1 for the same reason).
+SPEED = "2"
 
 
 @pytest.fixture
