@@ -8,6 +8,7 @@ import numpy as np
 
 from giraff_console.planning.map_building import MapBuilder
 from giraff_console.planning.scan_matching import (
+    FINE_STEP_M,
     MatchOutcome,
     likelihood_field,
     match,
@@ -29,7 +30,14 @@ def test_a_scan_off_by_a_drift_is_matched_back_onto_the_room() -> None:
     off = Pose(true.x + 0.2, true.y - 0.15, true.heading + math.radians(3))
     found = builder.add(off, scans[-1], 100)
     assert found.outcome is MatchOutcome.MATCHED and found.matched
-    assert math.dist((found.pose.x, found.pose.y), (true.x, true.y)) <= 0.03
+    # Within a step of the fine lattice each way: the score is read from 5 cm cells, so
+    # poses within a cell score alike. Over twelve sweep seeds of this drive the match
+    # lands 0.025 or 0.035 m from the truth (five of them 0.035, before the map's walls
+    # were kept from grazing beams as well as after).
+    assert (
+        math.dist((found.pose.x, found.pose.y), (true.x, true.y))
+        <= math.hypot(FINE_STEP_M, FINE_STEP_M) + 1e-9
+    )
     assert abs(math.degrees(found.pose.heading - true.heading)) <= 0.5
     assert found.shift_m >= 0.2 and found.quality >= 0.5
 
