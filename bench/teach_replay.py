@@ -14,8 +14,13 @@ plan has against the real rooms, the map's occupied cells within 0.05 and 0.10 m
 the truth, and the map pose's error against the true pose (median, 95th percentile,
 worst, heading's too), with the builder's process time per revolution.
 
+`--perturb N` replays each file N times more, its filter poses moved by a millimetre
+(Gaussian, seeds 1..N): a replay's rooms and scores swing that much under such a
+change (a wall kept or lost by a cell), so a change to the drawing is judged on all of
+them, not on one.
+
 Usage: python bench/teach_replay.py record --building home [--map-seed 1] --to FILE
-       python bench/teach_replay.py replay FILE [FILE ...]
+       python bench/teach_replay.py replay [--loops] [--perturb N] FILE [FILE ...]
 """
 
 from __future__ import annotations
@@ -51,6 +56,8 @@ from tests.buildings.console import put_up_markers
 from tests.teaching import BUILDINGS
 from tests.teaching.flat import unmapped_plan
 from tests.teaching.operator import Operator, tour
+
+PERTURB_M = 0.001  # `--perturb`'s move of each filter pose (m, one sigma each way)
 
 
 @dataclass
@@ -132,8 +139,21 @@ def _pose_errors(laid: list, poses: list, true_t: np.ndarray, true_xyh: np.ndarr
     }
 
 
-def replay(path: Path, quiet: bool = False, loops: bool = False) -> dict:
+def perturbed(kept: Recording, seed: int) -> Recording:
+    """`kept` with each tick's filter pose moved by a millimetre (Gaussian, `seed`)."""
+    rng = np.random.default_rng(seed)
+    moved = rng.normal(0.0, PERTURB_M, (len(kept.ticks), 2))
+    ticks = [
+        (t, Pose(pose.x + dx, pose.y + dy, pose.heading), sigma, true)
+        for (t, pose, sigma, true), (dx, dy) in zip(kept.ticks, moved, strict=True)
+    ]
+    return Recording(kept.building, kept.map_seed, kept.start, ticks, kept.scans, kept.marks)
+
+
+def replay(path: Path, quiet: bool = False, loops: bool = False, perturb: int = 0) -> dict:
     kept: Recording = pickle.loads(path.read_bytes())
+    if perturb:
+        kept = perturbed(kept, perturb)
     folder = Path(tempfile.mkdtemp(prefix="teach-replay-"))
     teaching = BUILDINGS[kept.building](folder)
     truth = load_floorplan(teaching.truth)
@@ -203,14 +223,17 @@ def main() -> None:
     rep = sub.add_parser("replay")
     rep.add_argument("files", type=Path, nargs="+")
     rep.add_argument("--loops", action="store_true", help="close loops before saving")
+    rep.add_argument("--perturb", type=int, default=0, metavar="N",
+                     help="each file replayed N times more, its poses moved by 1 mm")  # fmt: skip
     args = parser.parse_args()
     print(f"machine: {machine()}; source: {source()}", flush=True)
     if args.what == "record":
         record(args.building, args.map_seed, args.to, args.sim_speed)
         return
-    for path in args.files:
-        r = replay(path, loops=args.loops)
-        print(f"{path.name}: {r.get('rooms', '-')} rooms of {r.get('real_rooms', '-')} "
+    for path, seed in [(path, seed) for path in args.files for seed in range(args.perturb + 1)]:
+        r = replay(path, loops=args.loops, perturb=seed)
+        moved = f" moved {seed}" if seed else ""
+        print(f"{path.name}{moved}: {r.get('rooms', '-')} rooms of {r.get('real_rooms', '-')} "
               f"(named right {r.get('named_right', '-')}/{r.get('marked_rooms', '-')}), "
               f"map {100 * r.get('within_5cm', 0):.0f} % within 0.05 m, "
               f"{100 * r.get('within_10cm', 0):.0f} % within 0.10 m "
