@@ -18,7 +18,7 @@ import paho.mqtt.client as mqtt
 
 from giraff_console.fleet.broker_link import Broker as BrokerAddress
 from giraff_console.fleet.messages import Headers, encode
-from giraff_console.fleet.topics import Topic, VehicleId, parse_topic
+from giraff_console.fleet.topics import Topic, VehicleId, every_vehicle, parse_topic
 from giraff_console.fleet.vehicle import FleetVehicle
 from giraff_console.runtime.options import RobotOptions
 from giraff_console.runtime.robot import Robot
@@ -26,6 +26,8 @@ from giraff_console.settings import FleetSettings, Settings
 from tests.fleet.broker import Broker
 
 WAIT_S = 30.0
+# What the vehicles send, as a master control subscribes to it.
+VEHICLES_SAY = (Topic.STATE, Topic.VISUALIZATION, Topic.CONNECTION, Topic.FACTSHEET)
 
 
 @dataclass
@@ -102,14 +104,20 @@ class Watcher:
     """Everything every vehicle says on the broker, as a master control hears it; and a
     master's way to send orders and instant actions."""
 
-    def __init__(self, broker: Broker, name: str = "watcher") -> None:
+    def __init__(
+        self, broker: Broker, name: str = "watcher", kinds: tuple[Topic, ...] = tuple(Topic)
+    ) -> None:
+        """`kinds`: what it hears; all by default, orders and instant actions too."""
         self.heard: list[Heard] = []
         self._lock = threading.Lock()
         self._changed = threading.Condition(self._lock)
         self._client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id=name)
         self._client.on_message = self._on_message
         self._client.connect("127.0.0.1", broker.port)
-        self._client.subscribe("uagv/v2/+/+/+", qos=1)
+        if set(kinds) == set(Topic):
+            self._client.subscribe("uagv/v2/+/+/+", qos=1)
+        else:
+            self._client.subscribe([(every_vehicle(kind), 1) for kind in kinds])
         self._client.loop_start()
         self._headers: dict[VehicleId, Headers] = {}
 

@@ -6,9 +6,7 @@ the robot stands; and the room the robot stands in is said wherever it was drive
 
 from __future__ import annotations
 
-import json
 import math
-import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -21,17 +19,22 @@ from giraff_console.robot.loop_events import MissionChanged
 from giraff_console.robot.mission import Outcome
 from giraff_console.service import commands as c
 from tests.fleet.broker import Broker
-from tests.fleet.fleet_site import FleetRobot, Watcher, fleet_robots
+from tests.fleet.fleet_site import VEHICLES_SAY, FleetRobot, Watcher, fleet_robots
+from tests.fleet.order_flood import flooding
 
 pytestmark = pytest.mark.timeout(150)
 
 NURSE = "console of nurse Ada"
 NEAR, NEXT = "w-15", "w-14"
+# Seconds for the flood's process to start and fill the vehicle's inbox.
+FLOOD_S = 15.0
 
 
 @pytest.fixture
 def one(broker: Broker, wing: Path, tmp_path: Path) -> Iterator[tuple[FleetRobot, Watcher]]:
-    watcher = Watcher(broker)
+    # As a master control hears them: what the vehicles say, not the orders sent them
+    # (the flood's, which a watcher in the robot's process would spend its time on).
+    watcher = Watcher(broker, kinds=VEHICLES_SAY)
     try:
         with fleet_robots(broker, wing, tmp_path, 1) as robots:
             watcher.wait(lambda: watcher.latest(robots[0].id, Topic.STATE) is not None)
@@ -44,38 +47,7 @@ def state(watcher: Watcher, robot: FleetRobot) -> dict:
     return watcher.latest(robot.id, Topic.STATE)
 
 
-def flood(watcher: Watcher, robot: FleetRobot, stop: threading.Event) -> None:
-    """Long orders as fast as the broker takes them: each is read and refused (another
-    order runs), and takes the vehicle a while to check."""
-    nodes = [
-        {"nodeId": "w-15", "sequenceId": 2 * i, "released": True, "actions": []} for i in range(100)
-    ]
-    edges = [
-        {
-            "edgeId": f"e{i}",
-            "sequenceId": 2 * i + 1,
-            "released": True,
-            "startNodeId": "w-15",
-            "endNodeId": "w-15",
-            "actions": [],
-        }
-        for i in range(99)
-    ]
-    header = {
-        "headerId": 1,
-        "timestamp": "2026-11-28T00:00:00.00Z",
-        "version": "2.1.0",
-        "manufacturer": robot.id.manufacturer,
-        "serialNumber": robot.id.serial_number,
-    }
-    payload = json.dumps(
-        {**header, "orderId": "flood", "orderUpdateId": 0, "nodes": nodes, "edges": edges}
-    ).encode()
-    while not stop.is_set():
-        watcher.send_raw(robot.id.topic(Topic.ORDER), payload)
-
-
-def test_a_take_ends_the_fleet_s_order_at_once_even_in_a_flood(one, wing):
+def test_a_take_ends_the_fleet_s_order_at_once_even_in_a_flood(one, broker, wing, tmp_path):
     robot, watcher = one
     service = robot.robot.service
     service.attach(NURSE, take=False)
@@ -85,11 +57,12 @@ def test_a_take_ends_the_fleet_s_order_at_once_even_in_a_flood(one, wing):
     )
     watcher.order(robot.id, "o1", ["dock", NEXT])
     watcher.wait(lambda: state(watcher, robot)["driving"], what="driving")
-    stop = threading.Event()
-    flooding = threading.Thread(target=flood, args=(watcher, robot, stop), daemon=True)
-    flooding.start()
-    try:
-        time.sleep(2.0)  # the vehicle's inbox full
+    with flooding(broker.port, robot.id, tmp_path / "flood.log"):
+        deadline = time.monotonic() + FLOOD_S
+        while robot.vehicle.dropped == 0:
+            assert time.monotonic() < deadline, "no flood: see flood.log"
+            time.sleep(0.05)
+        time.sleep(2.0)  # the vehicle's inbox kept full a while
         taken = time.monotonic()
         assert service.execute(c.TakeControls(), NURSE).ok
         deadline = time.monotonic() + 2.0
@@ -103,9 +76,6 @@ def test_a_take_ends_the_fleet_s_order_at_once_even_in_a_flood(one, wing):
         watcher.instant(robot.id, "cancelOrder", "cx")
         time.sleep(1.0)
         assert service.started_by() == NURSE and robot.robot.control.mission is not None
-    finally:
-        stop.set()
-        flooding.join(5.0)
     watcher.wait(
         lambda: (
             state(watcher, robot)["lastNodeId"] == NEAR and not state(watcher, robot)["driving"]
