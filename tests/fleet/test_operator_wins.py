@@ -21,6 +21,7 @@ from giraff_console.service import commands as c
 from tests.fleet.broker import Broker
 from tests.fleet.fleet_site import VEHICLES_SAY, FleetRobot, Watcher, fleet_robots
 from tests.fleet.order_flood import flooding
+from tests.service.daemon_rig import wait_until
 
 pytestmark = pytest.mark.timeout(150)
 
@@ -71,11 +72,21 @@ def test_a_take_ends_the_fleet_s_order_at_once_even_in_a_flood(one, broker, wing
             time.sleep(0.01)
         assert ends[0].end is not None and ends[0].end.outcome is Outcome.STOPPED_BY_OPERATOR
         assert time.monotonic() - taken < 0.5
-        # The nurse's own mission: the fleet's cancel never touches it.
         assert service.execute(c.Go(NEAR), NURSE).ok
-        watcher.instant(robot.id, "cancelOrder", "cx")
-        time.sleep(1.0)
-        assert service.started_by() == NURSE and robot.robot.control.mission is not None
+    # The nurse's own mission: the fleet's cancel never touches it. Sent once the flood's
+    # wake has passed (the broker delivers what it holds for a few seconds after the
+    # flood's end, and the vehicle drops what does not fit its inbox: a cancel sent then
+    # is never read), and waited for until the vehicle has answered it.
+    calm = time.monotonic() + FLOOD_S
+    dropped, since = robot.vehicle.dropped, time.monotonic()
+    while time.monotonic() - since < 1.0:
+        assert time.monotonic() < calm, "the flood's wake went on"
+        time.sleep(0.05)
+        if robot.vehicle.dropped != dropped:
+            dropped, since = robot.vehicle.dropped, time.monotonic()
+    watcher.instant(robot.id, "cancelOrder", "cx")
+    watcher.wait(lambda: action(watcher, robot, "cx") == "FAILED", 10, "the cancel refused")
+    assert service.started_by() == NURSE and robot.robot.control.mission is not None
     watcher.wait(
         lambda: (
             state(watcher, robot)["lastNodeId"] == NEAR and not state(watcher, robot)["driving"]
@@ -84,6 +95,14 @@ def test_a_take_ends_the_fleet_s_order_at_once_even_in_a_flood(one, broker, wing
         "the nurse's go done",
     )
     assert math.dist(_xy(robot), load_floorplan(wing).rooms[NEAR].at) <= 0.1
+    wait_until(lambda: len(ends) == 2, 10, "the nurse's go's end")
+    assert ends[1].end is not None and ends[1].end.outcome is Outcome.ARRIVED, ends
+
+
+def action(watcher: Watcher, robot: FleetRobot, action_id: str) -> str | None:
+    """The status the vehicle last said of its action `action_id`, if it said any."""
+    said = {a["actionId"]: a["actionStatus"] for a in state(watcher, robot)["actionStates"]}
+    return said.get(action_id)
 
 
 def test_an_operator_s_stop_holds_the_fleet_until_release(one):
