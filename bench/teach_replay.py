@@ -31,7 +31,7 @@ import pickle
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -147,13 +147,14 @@ def perturbed(kept: Recording, seed: int) -> Recording:
         (t, Pose(pose.x + dx, pose.y + dy, pose.heading), sigma, true)
         for (t, pose, sigma, true), (dx, dy) in zip(kept.ticks, moved, strict=True)
     ]
-    return Recording(kept.building, kept.map_seed, kept.start, ticks, kept.scans, kept.marks)
+    return replace(kept, ticks=ticks)
 
 
-def replay(path: Path, quiet: bool = False, loops: bool = False, perturb: int = 0) -> dict:
+def replay(path: Path, quiet: bool = False, loops: bool = False, perturb_seed: int = 0) -> dict:
+    """The drive in `path` replayed, its poses moved by `perturbed` if `perturb_seed`."""
     kept: Recording = pickle.loads(path.read_bytes())
-    if perturb:
-        kept = perturbed(kept, perturb)
+    if perturb_seed:
+        kept = perturbed(kept, perturb_seed)
     folder = Path(tempfile.mkdtemp(prefix="teach-replay-"))
     teaching = BUILDINGS[kept.building](folder)
     truth = load_floorplan(teaching.truth)
@@ -230,22 +231,29 @@ def main() -> None:
     if args.what == "record":
         record(args.building, args.map_seed, args.to, args.sim_speed)
         return
-    for path, seed in [(path, seed) for path in args.files for seed in range(args.perturb + 1)]:
-        r = replay(path, loops=args.loops, perturb=seed)
-        moved = f" moved {seed}" if seed else ""
-        print(f"{path.name}{moved}: {r.get('rooms', '-')} rooms of {r.get('real_rooms', '-')} "
-              f"(named right {r.get('named_right', '-')}/{r.get('marked_rooms', '-')}), "
-              f"map {100 * r.get('within_5cm', 0):.0f} % within 0.05 m, "
-              f"{100 * r.get('within_10cm', 0):.0f} % within 0.10 m "
-              f"({r.get('occupied_cells', 0)} cells); pose error median "
-              f"{r['pos_median_m']:.3f} m p95 {r['pos_p95_m']:.3f} worst {r['pos_worst_m']:.2f}, "
-              f"heading median {r['head_median_deg']:.1f}° p95 {r['head_p95_deg']:.1f}° worst "
-              f"{r['head_worst_deg']:.0f}°; {r['laid_in']} of {r['revolutions']} laid in "
-              f"({r['turning']} turning, {r['uncertain']} uncertain), {r['ms_per_rev']:.1f} ms each"
-              + (f"; loops: {r['keyframes']} keyframes, {r['loops']} closures, "
-                 f"{r['outliers']} left out, {r['loop_s']:.1f} s" if "loops" in r else "")
-              + (f"; {r['error']}" if "error" in r else "")
-              + (f"; {r['plan']}" if "plan" in r else ""), flush=True)  # fmt: skip
+    if args.perturb < 0:
+        parser.error(f"--perturb: a number of replays, 0 or more, not {args.perturb}")
+    for path in args.files:
+        for seed in range(args.perturb + 1):
+            report(path, seed, replay(path, loops=args.loops, perturb_seed=seed))
+
+
+def report(path: Path, seed: int, r: dict) -> None:
+    """One replay's line."""
+    moved = f" moved {seed}" if seed else ""
+    print(f"{path.name}{moved}: {r.get('rooms', '-')} rooms of {r.get('real_rooms', '-')} "
+          f"(named right {r.get('named_right', '-')}/{r.get('marked_rooms', '-')}), "
+          f"map {100 * r.get('within_5cm', 0):.0f} % within 0.05 m, "
+          f"{100 * r.get('within_10cm', 0):.0f} % within 0.10 m "
+          f"({r.get('occupied_cells', 0)} cells); pose error median "
+          f"{r['pos_median_m']:.3f} m p95 {r['pos_p95_m']:.3f} worst {r['pos_worst_m']:.2f}, "
+          f"heading median {r['head_median_deg']:.1f}° p95 {r['head_p95_deg']:.1f}° worst "
+          f"{r['head_worst_deg']:.0f}°; {r['laid_in']} of {r['revolutions']} laid in "
+          f"({r['turning']} turning, {r['uncertain']} uncertain), {r['ms_per_rev']:.1f} ms each"
+          + (f"; loops: {r['keyframes']} keyframes, {r['loops']} closures, "
+             f"{r['outliers']} left out, {r['loop_s']:.1f} s" if "loops" in r else "")
+          + (f"; {r['error']}" if "error" in r else "")
+          + (f"; {r['plan']}" if "plan" in r else ""), flush=True)  # fmt: skip
 
 
 if __name__ == "__main__":

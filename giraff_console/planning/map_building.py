@@ -82,8 +82,10 @@ MAX_DEPTH_STEP, MAX_DEPTH_STEP_M = 0.2, 0.2
 # met it at this one (`_short_of_hits`): at most a cell over sin(8 degrees), 0.36 m; the
 # floor that near a wall seen along it is left to other looks.
 MIN_INCIDENCE = math.radians(8.0)
-# A hit's surface runs from the hit this many beams before it to the one as many after.
-SURFACE_SPAN = 2
+# A hit's surface runs from the hit this far round before it to as far after: two beams
+# of a 360-beam sensor, more of a denser one (whose neighbours' ranges differ by less
+# than their noise), at least SURFACE_SPAN_BEAMS.
+SURFACE_SPAN, SURFACE_SPAN_BEAMS = math.radians(2.0), 2
 # Log-odds in hundredths: a hit, a beam through, and their bound. One hit makes a cell
 # occupied; four beams through it make it free. A miss weighs less than a hit because a
 # wall's cells are grazed by beams drawn at poses a few centimetres off: at -75 a miss,
@@ -399,7 +401,11 @@ class MapBuilder:
         fx, fy = reach * np.cos(bearing), reach * np.sin(bearing)
         xs = np.append(pose.x + c * fx - s * fy, pose.x)
         ys = np.append(pose.y + s * fx + c * fy, pose.y)
-        rows, cols = self._window(xs, ys, BODY_RADIUS_M + self.resolution)
+        hx = pose.x + c * points[hit, 0] - s * points[hit, 1]
+        hy = pose.y + s * points[hit, 0] + c * points[hit, 1]
+        # Round the outline, the robot's footprint and the hits (up to 0.36 m beyond it).
+        rows, cols = self._window(np.append(xs, hx), np.append(ys, hy),
+                                  BODY_RADIUS_M + self.resolution)  # fmt: skip
         delta = np.zeros((rows.stop - rows.start, cols.stop - cols.start), dtype=np.int16)
         left = (self._left + cols.start) * self.resolution
         top = self._top() - rows.start * self.resolution
@@ -413,8 +419,6 @@ class MapBuilder:
         # The robot stands on its own footprint: that floor is free.
         radius = round(BODY_RADIUS_M / self.resolution * one)
         cv2.circle(delta, centre, radius, MISS, thickness=-1, lineType=cv2.LINE_8, shift=_SHIFT)
-        hx = pose.x + c * points[hit, 0] - s * points[hit, 1]
-        hy = pose.y + s * points[hit, 0] + c * points[hit, 1]
         hit_cols = np.floor((hx - left) / self.resolution).astype(np.intp)
         hit_rows = np.floor((top - hy) / self.resolution).astype(np.intp)
         delta[hit_rows, hit_cols] = HIT
@@ -453,36 +457,47 @@ def _short_of_hits(points: np.ndarray, hit: np.ndarray, length: np.ndarray,
     scan, a wall seen edge-on from along a hall was cleared from both sides, the doorway
     beside it drawn twice its width and two rooms made one (tests/teaching's flat: the
     lounge's 0.8 m door mapped 1.45 m wide). So each hit is pulled back by a cell over the
-    sine of the angle between its beam and the surface, the surface being the line
-    through the hits SURFACE_SPAN beams either side of it on the same surface (no range
-    step, no gap); a hit with neither is taken as hit square on."""
+    sine of the angle between its beam and the surface. The surface is the line through
+    the hits SURFACE_SPAN either side of it (or the one side), every beam between them a
+    hit on the same surface (no range step, no gap); a hit with neither side, or a scan
+    too short to have sides, is taken as hit square on."""
     count = len(length)
-    if count < 2 * SURFACE_SPAN + 1:
+    # The beams in SURFACE_SPAN (a millionth off, so that 2 degrees over 1 is 2, not 3).
+    beams = math.ceil(SURFACE_SPAN / max(_spacing(bearing), 1e-9) - 1e-6)
+    span = max(SURFACE_SPAN_BEAMS, beams)
+    if count <= 2 * span:
         return np.where(hit, np.maximum(length - cell, 0.0), length)
-
-    after = _same_surface(hit, length, bearing, SURFACE_SPAN)
-    before = _same_surface(hit, length, bearing, -SURFACE_SPAN)
-    ahead = np.where(after[:, None], np.roll(points, -SURFACE_SPAN, axis=0), points)
-    behind = np.where(before[:, None], np.roll(points, SURFACE_SPAN, axis=0), points)
+    # Each beam and the next on one surface; a run of `span` of them either side, by
+    # counting the breaks in a window (twice round, for the circle's wrap).
+    joined = hit & np.roll(hit, -1) & ~_range_steps(length) & (_gaps(bearing) <= MAX_BEAM_GAP)
+    breaks = np.concatenate([[0], np.cumsum(np.tile(~joined, 2))])
+    index = np.arange(count)
+    after = breaks[index + span] == breaks[index]
+    before = breaks[index + count] == breaks[index + count - span]
+    ahead = np.where(after[:, None], np.roll(points, -span, axis=0), points)
+    behind = np.where(before[:, None], np.roll(points, span, axis=0), points)
     along = ahead - behind
-    span = np.hypot(along[:, 0], along[:, 1])
+    chord = np.hypot(along[:, 0], along[:, 1])
     across = np.abs(points[:, 0] * along[:, 1] - points[:, 1] * along[:, 0])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        sine = np.where(span > 0, across / (np.maximum(length, 1e-9) * span), 1.0)
+    # `length` is at least MIN_RANGE_M (`_beams`); a chord of 0 has no surface.
+    sine = across / (length * np.where(chord > 0, chord, 1.0))
+    sine = np.where(chord > 0, sine, 1.0)
     pull = cell / np.maximum(sine, math.sin(MIN_INCIDENCE))
     return np.where(hit, np.maximum(length - pull, 0.0), length)
 
 
-def _same_surface(hit: np.ndarray, length: np.ndarray, bearing: np.ndarray,
-                  offset: int) -> np.ndarray:  # fmt: skip
-    """Whether each hit and the hit `offset` beams on from it lie on one surface: no
-    range step between them (as `_stepped` sees one) and no gap in the beams."""
-    other = np.roll(length, -offset)
-    step = np.abs(other - length) > np.maximum(
-        MAX_DEPTH_STEP_M, MAX_DEPTH_STEP * np.minimum(other, length)
+def _range_steps(ranges: np.ndarray) -> np.ndarray:
+    """Whether each beam's range and the next's (the last's and the first's) step by
+    more than MAX_DEPTH_STEP: two surfaces, one behind the other."""
+    following = np.roll(ranges, -1)
+    return np.abs(following - ranges) > np.maximum(
+        MAX_DEPTH_STEP_M, MAX_DEPTH_STEP * np.minimum(ranges, following)
     )
-    apart = np.abs(np.mod(np.roll(bearing, -offset) - bearing + math.pi, math.tau) - math.pi)
-    return hit & np.roll(hit, -offset) & ~step & (apart <= abs(offset) * MAX_BEAM_GAP)
+
+
+def _gaps(bearing: np.ndarray) -> np.ndarray:
+    """The angle from each beam to the next, round the circle from the last to the first."""
+    return np.diff(bearing, append=bearing[0] + math.tau)
 
 
 def _fans(corners: np.ndarray, centre: tuple[int, int], bearing: np.ndarray) -> list[np.ndarray]:
@@ -492,7 +507,7 @@ def _fans(corners: np.ndarray, centre: tuple[int, int], bearing: np.ndarray) -> 
     count = len(bearing)
     if count < 2:
         return []
-    gap = np.diff(bearing, append=bearing[0] + math.tau) > MAX_BEAM_GAP  # after each beam
+    gap = _gaps(bearing) > MAX_BEAM_GAP  # after each beam
     if not gap.any():
         return [corners]
     after = (int(np.argmax(gap)) + 1) % count  # start the circle just after a gap
@@ -516,9 +531,7 @@ def _stepped(reach: np.ndarray, bearing: np.ndarray,
     if len(ranges) < 2:
         return reach, bearing
     following = np.roll(ranges, -1)
-    step = np.abs(following - ranges) > np.maximum(
-        MAX_DEPTH_STEP_M, MAX_DEPTH_STEP * np.minimum(ranges, following)
-    )
+    step = _range_steps(ranges)
     step[-1] = False  # the outline closes from the last beam to the first as it is
     after = np.flatnonzero(step)
     if not len(after):

@@ -13,6 +13,7 @@ told at the loop's next tick, once came 0.59 s late (test_operator_wins.py).
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import time
@@ -27,6 +28,10 @@ from giraff_console.fleet.topics import Topic, VehicleId
 NODES = 100
 SEND_S = 5.0
 END_S = 5.0
+# The flood ends itself this long after it began, or as soon as its parent is gone: a
+# test process killed outright leaves no flooder behind for a later test's broker.
+LIFETIME_S = 120.0
+ROOT = Path(__file__).resolve().parents[2]  # where `tests` is a package
 
 
 @contextmanager
@@ -37,7 +42,7 @@ def flooding(port: int, vehicle: VehicleId, log: Path) -> Iterator[subprocess.Po
         process = subprocess.Popen(
             [sys.executable, "-m", "tests.fleet.order_flood", str(port),
              vehicle.manufacturer, vehicle.serial_number],
-            stdin=subprocess.DEVNULL, stdout=said, stderr=said,
+            stdin=subprocess.DEVNULL, stdout=said, stderr=said, cwd=ROOT,
         )  # fmt: skip
     try:
         yield process
@@ -81,11 +86,13 @@ def long_order(vehicle: VehicleId) -> bytes:
 
 
 def flood(port: int, vehicle: VehicleId) -> None:
+    parent, ends = os.getppid(), time.monotonic() + LIFETIME_S
     client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id="order-flood")
     client.connect("127.0.0.1", port)
     client.loop_start()
     topic, payload = vehicle.topic(Topic.ORDER), long_order(vehicle)
-    while True:  # until ended: each as soon as the broker has taken the last
+    # Until ended (or orphaned, or LIFETIME_S on): each as soon as the broker took the last.
+    while os.getppid() == parent and time.monotonic() < ends:
         try:
             client.publish(topic, payload, qos=0).wait_for_publish(SEND_S)
         except (RuntimeError, ValueError):

@@ -29,6 +29,8 @@ NURSE = "console of nurse Ada"
 NEAR, NEXT = "w-15", "w-14"
 # Seconds for the flood's process to start and fill the vehicle's inbox.
 FLOOD_S = 15.0
+# Seconds the broker may go on delivering what it held once the flood has ended.
+WAKE_S = 15.0
 
 
 @pytest.fixture
@@ -58,10 +60,12 @@ def test_a_take_ends_the_fleet_s_order_at_once_even_in_a_flood(one, broker, wing
     )
     watcher.order(robot.id, "o1", ["dock", NEXT])
     watcher.wait(lambda: state(watcher, robot)["driving"], what="driving")
-    with flooding(broker.port, robot.id, tmp_path / "flood.log"):
+    log = tmp_path / "flood.log"
+    with flooding(broker.port, robot.id, log) as flood:
         deadline = time.monotonic() + FLOOD_S
         while robot.vehicle.dropped == 0:
-            assert time.monotonic() < deadline, "no flood: see flood.log"
+            assert flood.poll() is None, f"the flood ended: see {log}"
+            assert time.monotonic() < deadline, f"no flood: see {log}"
             time.sleep(0.05)
         time.sleep(2.0)  # the vehicle's inbox kept full a while
         taken = time.monotonic()
@@ -77,7 +81,7 @@ def test_a_take_ends_the_fleet_s_order_at_once_even_in_a_flood(one, broker, wing
     # wake has passed (the broker delivers what it holds for a few seconds after the
     # flood's end, and the vehicle drops what does not fit its inbox: a cancel sent then
     # is never read), and waited for until the vehicle has answered it.
-    calm = time.monotonic() + FLOOD_S
+    calm = time.monotonic() + WAKE_S
     dropped, since = robot.vehicle.dropped, time.monotonic()
     while time.monotonic() - since < 1.0:
         assert time.monotonic() < calm, "the flood's wake went on"

@@ -284,6 +284,22 @@ def test_a_wall_seen_along_its_face_keeps_its_doorway_its_own_width() -> None:
         runs = np.diff(np.flatnonzero(np.diff(np.concatenate([[0], open_, [0]]))))[::2]
         assert runs.max() <= round(DOOR_M / grid.resolution), seed
         seen.append(score(grid, np.array(between, dtype=np.float64)).seen)
-    # The wall's faces within 0.10 m of an occupied cell: 0.84-1.00 of them in these
-    # drives, 0.91 on average (before, 0.70-0.92, 0.79).
-    assert np.mean(seen) >= 0.88, seen
+    # The wall's faces within 0.10 m of an occupied cell: 0.87-1.00 of them in these
+    # drives, 0.94 on average (before, 0.70-0.92, 0.79).
+    assert np.mean(seen) >= 0.9, seen
+
+
+def test_a_scan_whose_farthest_hits_glance_off_a_wall_is_drawn() -> None:
+    """Seven beams meeting a wall 0.51 m away at 5-8 degrees, nothing else: each hit's
+    end is pulled back 0.36 m along its beam, beyond the margin round the outline the
+    drawing's window once took (an IndexError for some of these 20 placements)."""
+    bearings = np.radians(np.arange(5.0, 8.01, 0.5))
+    glancing = Sweep(12.0, tuple((0.51 / math.sin(b), float(b)) for b in bearings))
+    for k in range(20):
+        builder = MapBuilder(match_scans=False)
+        at = Pose(0.0025 * k, 0.0013 + 0.0025 * k, 0.0)  # no hit on a cell's edge
+        builder.add(at, glancing, 0.0)
+        grid = builder.grid()
+        for distance, bearing in glancing.beams:
+            hit = (at.x + distance * math.cos(bearing), at.y + distance * math.sin(bearing))
+            assert grid.cells[grid.cell_of(*hit)] == OCCUPIED
