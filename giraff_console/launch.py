@@ -26,11 +26,13 @@ import os
 import signal
 import sys
 
-from giraff_console.private_files import PRIVATE_UMASK
+# private_files.PRIVATE_UMASK, held equal by tests/test_private_files.py: that module
+# loads pathlib and typing, which `stop` (below) has no use for.
+UMASK = 0o077
 
 
 def main() -> int:
-    os.umask(PRIVATE_UMASK)
+    os.umask(UMASK)
     if sys.argv[1:2] == ["stop"]:
         # The operator's stop, in a hurry: its own module alone, no signals blocked (it
         # starts no thread), nothing else of the package loaded (cli/stop.py).

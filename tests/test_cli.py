@@ -65,6 +65,8 @@ STOP_HEAVY = (
     "numpy", "cv2", "scipy", "textual", "rich", "yaml",
     "giraff_console.robot", "giraff_console.link", "giraff_console.service.commands",
     "giraff_console.service.console_hello", "giraff_console.cli.main",
+    # Nor, typed as meant, its parser or our file helpers (cli/stop.py, launch.py).
+    "argparse", "shutil", "giraff_console.private_files",
 )  # fmt: skip
 STOP_ALONE = """
 import sys

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from giraff_console import launch
 from giraff_console.camera.source import Frame
 from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import Navigator
@@ -40,6 +41,7 @@ from giraff_console.missions.sessions import Sessions
 from giraff_console.planning.floorplan import load_floorplan
 from giraff_console.planning.marker_pages import write_pages
 from giraff_console.planning.route_planner import walls_of
+from giraff_console.private_files import PRIVATE_UMASK
 from giraff_console.recording.session import RecordingSetup
 from giraff_console.robot.pose_keeper import PoseKeeper
 from tests.buildings.scanned_home import home_image
@@ -175,3 +177,8 @@ def test_nothing_the_robot_writes_can_be_read_by_a_second_user(
     assert child.returncode == 0, child.stderr
     # The operator's own folder is open to all: the second user got that far.
     assert json.loads(child.stdout) == [str(operators_folder)]
+
+
+def test_the_program_starts_with_the_private_umask() -> None:
+    # launch.py sets it without loading private_files (the operator's stop's start-up).
+    assert launch.UMASK == PRIVATE_UMASK

@@ -122,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
         # entry point blocked them for the console's own watcher (launch.py).
         signal.pthread_sigmask(signal.SIG_UNBLOCK, SIGNALS)
     if args.command == "stop":
-        return run_stop(args)
+        return run_stop(shutdown=args.daemon)
     if args.command == "status":
         return run_status(args)
     if args.command == "watch":
