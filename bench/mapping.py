@@ -37,8 +37,8 @@ from giraff_console.planning.map_building import (
     MISS,
     MapBuilder,
     RangeScan,
-    _beams,
 )
+from giraff_console.planning.scan_outline import usable_beams
 from giraff_console.robot.odometry import Pose
 from tests.mapping.buildings import (
     CORRIDOR_DRIVE,
@@ -76,7 +76,7 @@ class PerBeamGrid:
         self.odds = np.zeros((rows, cols), dtype=np.int16)
 
     def add(self, pose: Pose, scan: RangeScan, stamp: float) -> Pose:
-        distance, bearing, hit = _beams(scan.beams, scan.range_max)
+        distance, bearing, hit = usable_beams(scan.beams, scan.range_max)
         rows = self.odds.shape[0]
         angle = pose.heading + bearing
         u = (pose.x + distance * np.cos(angle) - self.left) / self.resolution

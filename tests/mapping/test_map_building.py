@@ -13,13 +13,13 @@ import pytest
 
 from giraff_console.planning.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from giraff_console.planning.map_building import (
-    CLEAR_NO_HIT_M,
     MAX_BEAMS,
     MapBuilder,
     MapTooLarge,
     MatchedPose,
 )
 from giraff_console.planning.scan_matching import MatchOutcome
+from giraff_console.planning.scan_outline import CLEAR_NO_HIT_M
 from giraff_console.robot.odometry import Pose
 from tests.mapping.buildings import (
     CORRIDOR_DRIVE,
@@ -88,7 +88,7 @@ class Bound:
 # but shifted, which the scores below count against it.
 #
 # Since the free floor stops at the nearer surface where neighbouring beams step in
-# range (map_building._stepped: the simulator's lidar lost the walls beside doorways
+# range (scan_outline.stepped: the simulator's lidar lost the walls beside doorways
 # without it, the small flat's map 69 % within 0.10 m of the truth, 93 % with it), the
 # room's seeds 2-4 are better (0.78 / 1.00 / 0.93-0.96) and seed 1 worse: 0.34 / 0.71
 # / 0.88 / 0.16 m / 1.45 deg, its drive settling 0.16 m off while it enters the room;
