@@ -49,13 +49,6 @@ MAX_WAITING = 4
 # deviations of what the heading may have turned, unseen, since the last revolution
 # (the casters after a turn on the spot, §3.2.1.5), and COARSE_TURN at least.
 TURN_SIGMAS = 3.0
-# A revolution taken while the robot turns faster than this is not laid in: the sensor
-# sweeps for a fifth of a second, and a turn on the spot at teleop's 45 degrees a second
-# smears it by 8 degrees (a wall 5 m off by 0.7 m); the turn itself is the wheels' to
-# measure, which they do well on the spot (§3.2.1.5: it is the casters afterwards).
-MAX_TURN_RATE = math.radians(15.0)
-# Over this much time before a revolution's end the turn rate is taken.
-TURN_RATE_S = 0.2
 # Seconds the run's thread waits for a revolution before it looks whether to stop.
 WAIT_S = 0.2
 
@@ -227,13 +220,12 @@ class MappingRun:
             with self._lock:
                 self._unplaced += 1
             return
-        before = self.trail.at(stamp - TURN_RATE_S)
-        if before is not None:
-            turned = abs(math.remainder(pose.heading - before.heading, math.tau))
-            if turned > MAX_TURN_RATE * TURN_RATE_S:
-                with self._lock:
-                    self._turning += 1
-                return
+        if self.trail.turning(stamp):
+            # Smeared: the turn itself is the wheels' to measure, which they do well on
+            # the spot (§3.2.1.5: it is the casters afterwards).
+            with self._lock:
+                self._turning += 1
+            return
         sigma = self.trail.heading_sigma(stamp)
         # The heading's variance grows by what it may have turned since the last one.
         grown = math.sqrt(max(0.0, sigma**2 - self._sigma**2)) if self._sigma is not None else 0.0

@@ -592,7 +592,7 @@ class PathMission:
             )
             return []
         first = not self._set_off
-        if self._replan(tick.pose, tick.estimate) and not first:
+        if self._replan(tick.pose, tick.estimate, again=True) and not first:
             self._progress_watch.replanned(self.executor.remaining())
         return []
 
@@ -760,12 +760,15 @@ class PathMission:
 
     # -- planning -----------------------------------------------------------------------
 
-    def _replan(self, pose: Pose, estimate: Estimate | None, turned: bool = False) -> bool:
+    def _replan(self, pose: Pose, estimate: Estimate | None, turned: bool = False,
+                again: bool = False) -> bool:  # fmt: skip
         """DRIVING a new plan from `pose`, its start slowly while `estimate` is unsure,
         and after a turn on the spot (`turned`: a look) while the casters settle; False,
         with the mission ended BLOCKED, if there is no way. Before the robot has moved (a
         first look moved the pose it assumed) this is the mission's first plan, not a new
-        way: its progress is watched from here."""
+        way: its progress is watched from here; but one made `again` after a stop before
+        setting off (something in the way at once) is a plan that came to nothing,
+        counted, or a way blocked from the start would be planned for ever."""
         first = not self._set_off
         self._traces.append(self.executor.trace)
         self._unsure_start = estimate is not None and estimate.unsure
@@ -781,13 +784,16 @@ class PathMission:
             # MAX_CONTACTS bounds the tries), never given up for a belief of its own.
             self._forget_felt()
             self.notify(f"{self.name}: no other way; trying the same way again")
-            return self._replan(pose, estimate, turned)
+            return self._replan(pose, estimate, turned, again)
         self._stage = Stage.DRIVING
         self._recovery.replanned(self.executor.remaining())
         if first:
             self.time_optimal = self.executor.time_optimal
-            self._progress_watch = ProgressWatch(self._progress_watch.patience, self._now,
-                                                 self.executor.remaining())  # fmt: skip
+            if again:
+                self._progress_watch.replanned(self.executor.remaining())
+            else:
+                self._progress_watch = ProgressWatch(self._progress_watch.patience, self._now,
+                                                     self.executor.remaining())  # fmt: skip
             return True
         self.replans += 1
         through = f" through {', '.join(self._doors)}" if self._doors else ""

@@ -19,6 +19,12 @@ from giraff_console.robot.odometry import Pose
 
 # How far back the trail reaches: a scan older than this is too late to place.
 TRAIL_S = 3.0
+# A revolution taken while the robot turns faster than this is smeared: the sensor
+# sweeps for a fifth of a second, and a turn on the spot at teleop's 45 degrees a second
+# smears it by 8 degrees (a wall 5 m off by 0.7 m).
+MAX_TURN_RATE = math.radians(15.0)
+# Over this much time before a revolution's end the turn rate is taken.
+TURN_RATE_S = 0.2
 # The most poses it holds (a 20 Hz loop fills 60 in TRAIL_S; a stepped one may tick
 # faster), so that it is bounded whatever the clock does.
 MAX_POSES = 1000
@@ -79,3 +85,13 @@ class PoseTrail:
             before.y + share * (after.y - before.y),
             before.heading + share * turn,
         )
+
+    def turning(self, time: float) -> bool:
+        """Whether the robot turned faster than MAX_TURN_RATE over the TURN_RATE_S before
+        `time`: a revolution that ended then is smeared (False where the trail does not
+        reach that far back)."""
+        after, before = self.at(time), self.at(time - TURN_RATE_S)
+        if after is None or before is None:
+            return False
+        turned = abs(math.remainder(after.heading - before.heading, math.tau))
+        return turned > MAX_TURN_RATE * TURN_RATE_S

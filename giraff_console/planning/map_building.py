@@ -64,8 +64,6 @@ MAX_CELLS = 6400 * 3400
 MAX_KEPT_BYTES = 128 * 1024 * 1024
 # The most beams a scan may have: an RPLIDAR's densest mode gives about 1600 a turn.
 MAX_BEAMS = 8192
-# The most hits a scan is matched with (an A2's densest turn has 1600; 800 fix a pose).
-MAX_MATCHED_HITS = 800
 # Log-odds in hundredths: a hit, a beam through, and their bound. One hit makes a cell
 # occupied; four beams through it make it free. A miss weighs less than a hit because a
 # wall's cells are grazed by beams drawn at poses a few centimetres off: at -75 a miss,
@@ -345,11 +343,6 @@ class MapBuilder:
             return Match(MatchOutcome.MATCHING_OFF, prior, 0.0)
         if len(points) < MIN_HITS:
             return Match(MatchOutcome.TOO_FEW_HITS, prior, 0.0)
-        if len(points) > MAX_MATCHED_HITS:
-            # Thinned evenly: the matcher's lattice holds an index per hit and candidate
-            # pose, 8 bytes each, 200 MB for 8192 hits at its widest turn.
-            step = math.ceil(len(points) / MAX_MATCHED_HITS)
-            points, spacing = points[::step], spacing * step
         c, s = math.cos(prior.heading), math.sin(prior.heading)
         xs = prior.x + c * points[:, 0] - s * points[:, 1]
         ys = prior.y + s * points[:, 0] + c * points[:, 1]

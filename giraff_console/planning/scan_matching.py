@@ -50,6 +50,8 @@ FINE_TURN, FINE_TURN_STEP = math.radians(0.75), math.radians(0.25)
 COARSE_SIGMA_M, FINE_SIGMA_M = 0.10, 0.05
 # A scan with fewer hits than this says too little to be matched.
 MIN_HITS = 40
+# The most hits a scan is matched with (an A2's densest turn has 1600; 800 fix a pose).
+MAX_MATCHED_HITS = 800
 # The occupied cells the map must have round the scan to match against (2.5 m of wall).
 MIN_MAP_CELLS = 50
 # The metres of wall facing a direction that pin the pose along it.
@@ -88,6 +90,8 @@ class Match:
     outcome: MatchOutcome
     pose: Pose  # the pose to draw the scan at
     quality: float  # the mean likelihood of the hits at that pose, 0 to 1
+    # ACROSS_ONLY: the unit direction (map frame) along which the scan fits anywhere.
+    along: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -169,6 +173,11 @@ def match(field: LikelihoodField, prior: Pose, points: np.ndarray, spacing: floa
     otherwise `prior`, and why."""
     if len(points) < MIN_HITS:
         return Match(MatchOutcome.TOO_FEW_HITS, prior, 0.0)
+    if len(points) > MAX_MATCHED_HITS:
+        # Thinned evenly: the lattice holds an index per hit and candidate pose, 8 bytes
+        # each, 200 MB for 8192 hits at its widest turn.
+        step = math.ceil(len(points) / MAX_MATCHED_HITS)
+        points, spacing = points[::step], spacing * step
     pins = pinning(points, spacing)
     if pins.most < MIN_PINNING_M:
         return Match(MatchOutcome.FEATURELESS, prior, 0.0)
@@ -195,7 +204,8 @@ def match(field: LikelihoodField, prior: Pose, points: np.ndarray, spacing: floa
     wx, wy = c * pins.weak[0] - s * pins.weak[1], s * pins.weak[0] + c * pins.weak[1]
     along = (best.x - prior.x) * wx + (best.y - prior.y) * wy
     return Match(MatchOutcome.ACROSS_ONLY,
-                 Pose(best.x - along * wx, best.y - along * wy, best.heading), quality)  # fmt: skip
+                 Pose(best.x - along * wx, best.y - along * wy, best.heading), quality,
+                 (wx, wy))  # fmt: skip
 
 
 def _steps(reach: float, step: float) -> np.ndarray:

@@ -534,11 +534,11 @@ class PoseFilter:
         self.rejected_in_a_row += 1
         return False
 
-    def _update(self, state: np.ndarray, p: np.ndarray, sighting: Observation) -> None:
+    def _update(self, state: np.ndarray, p: np.ndarray, time: float) -> None:
         self._x = state
         self._p = (p + p.T) / 2
         self.rejected_in_a_row = 0
-        self.corrected_at = sighting.time
+        self.corrected_at = time
 
     def _pose_innovation(
         self, sighting: Observation, at: Pose, sigma: Sigma
@@ -546,9 +546,14 @@ class PoseFilter:
         """The pose the sighting implies less the estimate, its covariance, and the
         sighting's own covariance in pose space."""
         measured, noise = self._implied_pose(sighting, at, sigma)
+        return *self._pose_residual(measured, noise), noise
+
+    def _pose_residual(self, measured: np.ndarray, noise: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+        """A measured pose less the estimate, and its covariance."""
         v = measured - self._x[:3]
         v[2] = wrap(v[2])
-        return v, self._p[:3, :3] + noise, noise
+        return v, self._p[:3, :3] + noise
 
     def _correct_pose(self, sighting: Observation, at: Pose, sigma: Sigma) -> bool:
         """A sighting with its facing gives the whole pose (place_from's inverse), so the
@@ -559,7 +564,21 @@ class PoseFilter:
         about the estimate, which after a long blind stretch with the casters' heading
         error can be a metre and tens of degrees off, where the linearised gate would
         reject every good sighting and the robot would stay lost."""
-        v, s, noise = self._pose_innovation(sighting, at, sigma)
+        measured, noise = self._implied_pose(sighting, at, sigma)
+        return self._measured_pose(measured, noise, sighting.time)
+
+    def correct_pose(self, measured: Pose, noise: np.ndarray, time: float) -> bool:
+        """Correct the estimate by a measurement of the whole pose (a range scan fitted
+        to the map, robot/localisation.py), known to `noise` (3x3: metres, radians),
+        taken at `time`. False, and the filter untouched, when the gate rejects it or the
+        filter is not placed yet."""
+        if not self.placed:
+            return False
+        return self._measured_pose(np.array([measured.x, measured.y, measured.heading]),
+                                   noise, time)  # fmt: skip
+
+    def _measured_pose(self, measured: np.ndarray, noise: np.ndarray, time: float) -> bool:
+        v, s = self._pose_residual(measured, noise)
         if not self._accept(v, s):
             return False
         p = self._p
@@ -567,7 +586,7 @@ class PoseFilter:
         gain = p[:, :3] @ np.linalg.inv(s)
         keep = np.eye(4) - gain @ _POSE
         # Joseph form: stays symmetric and positive definite whatever the rounding.
-        self._update(self._x + gain @ v, keep @ p @ keep.T + gain @ noise @ gain.T, sighting)
+        self._update(self._x + gain @ v, keep @ p @ keep.T + gain @ noise @ gain.T, time)
         return True
 
     def _range_bearing_innovation(
@@ -606,7 +625,7 @@ class PoseFilter:
             state = prior + gain @ (v - jac @ (prior - state))
         noise = self._range_bearing_noise(sighting, at, state, sigma)
         keep = np.eye(4) - gain @ jac
-        self._update(state, keep @ p @ keep.T + gain @ noise @ gain.T, sighting)
+        self._update(state, keep @ p @ keep.T + gain @ noise @ gain.T, sighting.time)
         return True
 
     def _implied_pose(self, sighting: Observation, at: Pose,

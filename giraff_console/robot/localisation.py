@@ -112,6 +112,7 @@ class PoseBasis(enum.Enum):
     """Who last said where the robot is; see the module docstring."""
 
     MARKER = "marker"  # a marker placed or confirmed it
+    SCAN = "scan"  # the range sensor's scan, fitted to the plan's map, confirmed it
     GIVEN = "given"  # the operator: `place`, or a simulator started on its dock
     ASSUMED = "assumed"  # nobody: kept on disk by a restarted daemon, or the dock assumed
 
@@ -131,9 +132,10 @@ class Estimate:
     `sigma_heading` the heading's (radians); `ellipse` the 1-sigma position ellipse:
     semi-major and semi-minor axes (metres) and the major axis's direction (radians
     from +x). `landmarks`: the plan has markers to find the robot by; `found`: a marker
-    has placed or confirmed the pose since the start. `seen` and `rejected` are the
-    ids of the markers used, and rejected by the gate, in the last RECENT_S seconds;
-    `corrected_at` when a marker last corrected the pose, on the loop's clock."""
+    (or a range scan fitted to the plan's map) has placed or confirmed the pose since
+    the start. `seen` and `rejected` are the ids of the markers used, and rejected by
+    the gate, in the last RECENT_S seconds; `corrected_at` when a marker or a scan last
+    corrected the pose, on the loop's clock."""
 
     pose: Pose
     odometry: Pose
@@ -171,6 +173,16 @@ class Estimate:
         return self.landmarks and (not self.found or self.sigma_m > SLOW_SIGMA_M)
 
 
+@dataclass(frozen=True)
+class PoseFix:
+    """Where a range scan taken at `time` (the loop's clock) fits the plan's map: the
+    robot's `pose` then, known to `covariance` (3x3: metres, radians)."""
+
+    time: float
+    pose: Pose
+    covariance: np.ndarray
+
+
 def start_covariance() -> np.ndarray:
     return np.diag([START_SIGMA_M**2, START_SIGMA_M**2, START_SIGMA_HEADING**2])
 
@@ -204,6 +216,7 @@ class Localisation:
         # (time, odometry pose) after each step followed, for moving frames to the present.
         self._history: collections.deque[tuple[float, Pose]] = collections.deque()
         self._sightings: queue.SimpleQueue[list[Observation]] = queue.SimpleQueue()
+        self._fixes: queue.SimpleQueue[PoseFix] = queue.SimpleQueue()
         self._seen: dict[int, float] = {}
         self._rejected: dict[int, float] = {}
         self._unknown_reported: set[int] = set()
@@ -211,6 +224,8 @@ class Localisation:
         # patrol's report and the localisation benchmark count.
         self.used: collections.Counter[int] = collections.Counter()
         self.rejections: collections.Counter[int] = collections.Counter()
+        # The scans' fixes used and rejected by the gate, likewise.
+        self.scan_fixes = collections.Counter[bool]()
         self.use_markers(markers or {})
 
     def casters_turn_up_to(self, worst: float) -> None:
@@ -288,6 +303,10 @@ class Localisation:
         if frame:
             self._sightings.put(frame)
 
+    def scan_fitted(self, fix: PoseFix) -> None:
+        """A range scan fitted to the plan's map (missions/scan_fixing.py)."""
+        self._fixes.put(fix)
+
     # -- on the loop's thread -----------------------------------------------------------
 
     def place(self, pose: Pose, covariance: np.ndarray | None = None,
@@ -341,11 +360,18 @@ class Localisation:
             self._history.popleft()
 
     def correct(self) -> None:
-        """Take in the markers seen since the last call, each moved to the present."""
+        """Take in the scans' fixes and the markers seen since the last call, each moved
+        to the present."""
         since = self.now() - RECENT_S
         for recent in (self._seen, self._rejected):
             for marker_id in [i for i, at in recent.items() if at < since]:
                 del recent[marker_id]
+        while True:
+            try:
+                fix = self._fixes.get_nowait()
+            except queue.Empty:
+                break
+            self._take_fix(fix)
         while True:
             try:
                 frame = self._sightings.get_nowait()
@@ -415,6 +441,26 @@ class Localisation:
         if note is not None:
             self.report(note)
         return present
+
+    def _take_fix(self, fix: PoseFix) -> None:
+        """A scan's fix, moved to the present, corrects the pose. A scan is fitted to
+        the map only near where the robot was believed to be (the matcher's lattice,
+        planning/scan_matching.py), and a building has many places alike: it confirms a
+        pose somebody has said, never places one only assumed (a restarted daemon's)."""
+        if not self.basis.verified:
+            return
+        then = self._odometry_at(fix.time)
+        if then is None:
+            return
+        now = self.now()
+        present = _compose(fix.pose, _between(then, self.odometry.pose))
+        used = self.filter.correct_pose(present, fix.covariance, now)
+        self.scan_fixes[used] += 1
+        if used:
+            self.found = True
+            self.basis = PoseBasis.SCAN
+            self.since_fix_m = 0.0
+            self.contact = False
 
     def _placed_by(self, marker_id: int, present: Observation, at: Pose,
                    sigma: np.ndarray, now: float) -> Observation:  # fmt: skip

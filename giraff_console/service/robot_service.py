@@ -33,8 +33,10 @@ from giraff_console.missions.drive_setup import DriveSetup
 from giraff_console.missions.navigation import NavigationState
 from giraff_console.missions.patrol_report import PatrolReports, Sight
 from giraff_console.missions.route_book import RouteBook
+from giraff_console.missions.scan_fixing import ScanFixer
 from giraff_console.missions.sessions import Sessions
 from giraff_console.planning.floorplan import is_id
+from giraff_console.planning.grid import OccupancyGrid
 from giraff_console.planning.room_graph import PlanningError
 from giraff_console.planning.room_names import RenameError, rename_in_file
 from giraff_console.protocol import CommandError, GiraffError, parse_command
@@ -173,6 +175,13 @@ class RobotService:
         self._shared: tuple[np.ndarray, SharedFrame] | None = None
         # The building mapped as it is driven (issue 29), with the range sensor's turns.
         self.building_map = BuildingMap(control, self.navigator, sensor, self._tell)
+        # Its revolutions fitted to the plan's map correct the pose (missions/
+        # scan_fixing.py).
+        self.sensor = sensor
+        self.scan_fixes: ScanFixer | None = None
+        if sensor is not None and self.navigator is not None:
+            self.scan_fixes = ScanFixer(self._walls_to_fit, control.localisation.scan_fitted)
+            sensor.subscribe(self.scan_fixes.scan)
         control.subscribe(self._heard)
 
     def post(self, request: c.Request, answered: Answered = lambda reply: None) -> None:
@@ -185,6 +194,9 @@ class RobotService:
         if self.sessions is not None:
             self.sessions.stop_recording()
         self.building_map.close()
+        if self.scan_fixes is not None and self.sensor is not None:
+            self.sensor.unsubscribe(self.scan_fixes.scan)
+            self.scan_fixes.close()
 
     # -- listening ----------------------------------------------------------------------
 
@@ -218,6 +230,9 @@ class RobotService:
     def _heard(self, event: LoopEvent) -> None:
         if isinstance(event, Telemetry):
             self.telemetry = event
+            if self.scan_fixes is not None:
+                sigma = event.estimate.sigma_heading if event.estimate is not None else 0.0
+                self.scan_fixes.pose(self.control.clock.now(), event.pose, sigma)
             navigator = self.navigator
             # Patrols' legs, replans and obstacles change the route without a request.
             if navigator is not None and navigator.state is not self._route_shown:
@@ -226,6 +241,13 @@ class RobotService:
         elif isinstance(event, MissionChanged):
             last = self._missions[1]
             self._missions = (event.name, last) if event.running else (None, event)
+
+    def _walls_to_fit(self) -> OccupancyGrid | None:
+        """The plan's walls, for the scans to be fitted to; none while a map is being
+        made (the plan it will be is not drawn yet)."""
+        if self.building_map.mapping or self.navigator is None:
+            return None
+        return self.navigator.walls
 
     # -- consoles and the controls ------------------------------------------------------
 

@@ -226,3 +226,18 @@ def test_a_look_or_a_back_off_that_never_ends_is_ended_at_its_limit(navigator, s
     assert mission._overstayed(10.0 + limit) is None
     ended = mission._overstayed(10.0 + limit + TICK)
     assert ended is not None and ended[0] is outcome and "took over" in ended[1]
+
+
+def test_a_go_hemmed_in_before_it_sets_off_stops_too(navigator):
+    # Blocked at the first look, every new plan is blocked again before the robot has
+    # moved: each one still counts, or the mission stops and plans for ever (seen with
+    # a lidar in a mapped home: 200 stops in a doorway, and no end).
+    site = Site(navigator)
+    mission = hemmed_go(site, "room-113", Patience(stuck_s=600, max_replans=3))
+    mission.hemmed = True
+    site.run(120)
+    assert site.ended, "a mission that gets no nearer must end"
+    why = site.ended[0]
+    assert why.startswith("stopped: stuck near (")
+    assert "after 3 new ways in a row that got no nearer" in why
+    assert_stays_stopped(site)

@@ -6,12 +6,13 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from giraff_console.clock import VirtualClock
 from giraff_console.link.motor_state import MotorState
 from giraff_console.robot.ekf import Observation, PoseFilter
-from giraff_console.robot.localisation import LOOK_SIGMA_M, Localisation, PoseBasis
+from giraff_console.robot.localisation import LOOK_SIGMA_M, Localisation, PoseBasis, PoseFix
 from giraff_console.robot.odometry import Odometry, Pose
 from giraff_console.robot.wheel_odometers import Reading
 
@@ -247,3 +248,62 @@ def test_a_robot_whose_casters_do_not_turn_it_is_not_steered_against_them():
     wheels.drive(1.5, 1.5, 30, localisation)
     estimate = localisation.estimate()
     assert estimate.pose.heading == pytest.approx(estimate.odometry.heading, abs=1e-6)
+
+
+# A scan's fix as planning/scan_matching.py's matcher gives one: 3 cm and a degree.
+FIX_COVARIANCE = np.diag([0.03**2, 0.03**2, math.radians(1.0) ** 2])
+
+
+def test_a_scan_fix_corrects_a_pose_given_and_is_a_fresh_fix():
+    localisation, wheels, clock = make(markers={})
+    localisation.place(Pose(2.0, 0.0, 0.0), basis=PoseBasis.GIVEN)
+    wheels.drive(1.0, 1.0, 20, localisation)  # 1 m on: the odometry says (3, 0)
+    assert localisation.estimate().since_fix_m == pytest.approx(1.0)
+    # The scan, taken now, fits the map 6 cm to the left and a degree turned.
+    fitted = Pose(3.0, 0.06, math.radians(1.0))
+    localisation.scan_fitted(PoseFix(clock.now(), fitted, FIX_COVARIANCE))
+    localisation.correct()
+    estimate = localisation.estimate()
+    assert estimate.basis is PoseBasis.SCAN and estimate.found
+    assert estimate.since_fix_m == 0.0
+    # Weighed against the odometry's metre: most of the way to the fix.
+    assert 0.03 < estimate.pose.y < 0.06
+    assert localisation.scan_fixes == {True: 1}
+
+
+def test_a_scan_fix_is_moved_to_the_present_by_the_odometry_since_its_revolution():
+    localisation, wheels, clock = make(markers={})
+    localisation.place(Pose(2.0, 0.0, 0.0), basis=PoseBasis.GIVEN)
+    taken_at = clock.now()
+    # The robot drives on 0.3 m before the revolution's match is ready.
+    wheels.drive(0.3, 0.3, 6, localisation)
+    localisation.scan_fitted(PoseFix(taken_at, Pose(2.0, 0.05, 0.0), FIX_COVARIANCE))
+    localisation.correct()
+    pose = localisation.estimate().pose
+    # Taken as it is, the fix would pull the estimate back towards x = 2.
+    assert pose.x == pytest.approx(2.3, abs=0.005)
+    assert pose.y > 0.02
+
+
+def test_a_scan_fix_never_places_a_pose_only_assumed():
+    # A restarted daemon's kept pose: the matcher looked only round it, and a building
+    # has many places alike, so a fit there says nothing of where the robot is.
+    localisation, _wheels, clock = make(markers={})
+    localisation.scan_fitted(PoseFix(clock.now(), Pose(2.1, 0.0, 0.0), FIX_COVARIANCE))
+    localisation.correct()
+    estimate = localisation.estimate()
+    assert estimate.basis is PoseBasis.ASSUMED and not estimate.found
+    assert estimate.pose == Pose(2.0, 0.0, 0.0)
+    assert not localisation.scan_fixes
+
+
+def test_a_scan_fix_far_from_a_well_known_pose_is_rejected_by_the_gate():
+    localisation, _wheels, clock = make()
+    localisation.sighted([sighting(Pose(2.0, 0.0, 0.0), WALL_MARKER, 7, clock.now())])
+    localisation.correct()
+    found = localisation.estimate().pose
+    localisation.scan_fitted(PoseFix(clock.now(), Pose(2.5, 0.0, 0.0), FIX_COVARIANCE))
+    localisation.correct()
+    estimate = localisation.estimate()
+    assert estimate.pose == found and estimate.basis is PoseBasis.MARKER
+    assert localisation.scan_fixes == {False: 1}

@@ -1,0 +1,149 @@
+"""The range sensor's revolutions fitted to the plan's map (missions/scan_fixing.py): a
+fix where the robot really is, from a filter pose decimetres off; none more often than
+the robot moves; none while there is no map to fit; and a corridor's fix says nothing
+along it."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from giraff_console.missions.scan_fixing import (
+    ALONG_SIGMA_M,
+    FIX_EVERY_M,
+    FIX_SIGMA_M,
+    ScanFixer,
+)
+from giraff_console.planning.grid import FREE, OCCUPIED, OccupancyGrid
+from giraff_console.robot.localisation import PoseFix
+from giraff_console.robot.odometry import Pose
+from tests.mapping.buildings import Walls, furnished_room, long_corridor, sweeps
+
+RESOLUTION = 0.05
+
+
+@dataclass(frozen=True)
+class Revolution:
+    range_max: float
+    beams: tuple[tuple[float, float], ...]
+    taken_at: float
+
+
+def grid_of(walls: Walls) -> OccupancyGrid:
+    """The walls drawn into 5 cm cells, as a plan's grid has them."""
+    left, bottom = walls[:, [0, 2]].min() - 1.0, walls[:, [1, 3]].min() - 1.0
+    cols = math.ceil((walls[:, [0, 2]].max() + 1.0 - left) / RESOLUTION)
+    rows = math.ceil((walls[:, [1, 3]].max() + 1.0 - bottom) / RESOLUTION)
+    cells = np.full((rows, cols), FREE, dtype=np.uint8)
+    for x0, y0, x1, y1 in walls:
+        t = np.linspace(0.0, 1.0, max(2, math.ceil(math.hypot(x1 - x0, y1 - y0) / 0.01)))
+        col = np.floor((x0 + t * (x1 - x0) - left) / RESOLUTION).astype(int)
+        row = rows - 1 - np.floor((y0 + t * (y1 - y0) - bottom) / RESOLUTION).astype(int)
+        cells[row, col] = OCCUPIED
+    return OccupancyGrid(cells, RESOLUTION, (left, bottom))
+
+
+def revolution(walls: Walls, true: Pose, taken_at: float, seed: int) -> Revolution:
+    (sweep,) = sweeps(walls, [true], 360, seed)
+    return Revolution(sweep.range_max, sweep.beams, taken_at)
+
+
+def believed(fixer: ScanFixer, pose: Pose, until: float) -> None:
+    """The filter's pose, the same for the second before `until`, ticked at 20 Hz."""
+    for k in range(20, -1, -1):
+        fixer.pose(until - k * 0.05, pose, math.radians(1.0))
+
+
+def fixer_of(grid: OccupancyGrid | None) -> tuple[ScanFixer, list[PoseFix]]:
+    heard: list[PoseFix] = []
+    return ScanFixer(lambda: grid, heard.append), heard
+
+
+def test_a_scan_fixes_the_pose_where_the_robot_really_is() -> None:
+    walls = furnished_room()
+    fixer, _ = fixer_of(grid_of(walls))
+    try:
+        true = Pose(4.0, 2.5, math.radians(30))
+        off = Pose(true.x + 0.15, true.y - 0.1, true.heading + math.radians(2.5))
+        believed(fixer, off, 10.0)
+        fix = fixer.fit(revolution(walls, true, 10.0, 1))
+        assert fix is not None and fix.time == 10.0
+        # Within a step of the matcher's fine lattice each way, as the mapping's match.
+        assert math.dist((fix.pose.x, fix.pose.y), (true.x, true.y)) < 0.036
+        assert abs(math.degrees(fix.pose.heading - true.heading)) <= 0.5
+        assert np.allclose(np.diag(fix.covariance)[:2], FIX_SIGMA_M**2)
+    finally:
+        fixer.close()
+
+
+def test_a_scan_fixes_again_only_once_the_robot_has_moved() -> None:
+    walls = furnished_room()
+    fixer, _ = fixer_of(grid_of(walls))
+    try:
+        true = Pose(4.0, 2.5, 0.0)
+        believed(fixer, true, 10.0)
+        assert fixer.fit(revolution(walls, true, 10.0, 1)) is not None
+        # Standing still: the same walls again would only repeat their errors.
+        believed(fixer, true, 10.2)
+        assert fixer.fit(revolution(walls, true, 10.2, 2)) is None
+        moved = Pose(true.x + FIX_EVERY_M + 0.01, true.y, 0.0)
+        believed(fixer, moved, 10.5)
+        assert fixer.fit(revolution(walls, moved, 10.5, 3)) is not None
+        assert fixer.fixes == 2
+    finally:
+        fixer.close()
+
+
+def test_no_fix_without_a_map_or_while_turning() -> None:
+    walls = furnished_room()
+    fixer, _ = fixer_of(None)  # mapping: the plan is not drawn yet
+    try:
+        true = Pose(4.0, 2.5, 0.0)
+        believed(fixer, true, 10.0)
+        assert fixer.fit(revolution(walls, true, 10.0, 1)) is None
+    finally:
+        fixer.close()
+    fixer, _ = fixer_of(grid_of(walls))
+    try:
+        # Turning on the spot at 45 degrees a second: the revolution is smeared.
+        for k in range(21):
+            fixer.pose(9.0 + k * 0.05, Pose(4.0, 2.5, math.radians(45) * k * 0.05), 0.01)
+        assert fixer.fit(revolution(walls, Pose(4.0, 2.5, math.radians(45)), 10.0, 1)) is None
+    finally:
+        fixer.close()
+
+
+def test_a_corridors_fix_says_nothing_along_it() -> None:
+    walls = long_corridor()
+    fixer, _ = fixer_of(grid_of(walls))
+    try:
+        true = Pose(15.0, 1.0, 0.0)
+        believed(fixer, Pose(15.3, 0.9, math.radians(2.0)), 10.0)
+        fix = fixer.fit(revolution(walls, true, 10.0, 1))
+        assert fix is not None
+        assert abs(fix.pose.y - true.y) < 0.036  # across: fixed
+        assert abs(math.degrees(fix.pose.heading)) <= 0.5
+        assert abs(fix.pose.x - 15.3) < 0.001  # along: the filter's, as it was
+        assert fix.covariance[0, 0] >= 0.9 * ALONG_SIGMA_M**2
+        assert fix.covariance[1, 1] < 2 * FIX_SIGMA_M**2
+    finally:
+        fixer.close()
+
+
+def test_the_fixers_thread_hands_each_fix_on() -> None:
+    walls = furnished_room()
+    fixer, heard = fixer_of(grid_of(walls))
+    try:
+        true = Pose(4.0, 2.5, 0.0)
+        believed(fixer, true, 10.0)
+        fixer.scan(revolution(walls, true, 10.0, 1))
+        waited = time.monotonic() + 2.0
+        while not heard and time.monotonic() < waited:
+            time.sleep(0.02)
+        assert len(heard) == 1 and heard[0].time == 10.0
+    finally:
+        fixer.close()
+    assert not fixer._thread.is_alive()
