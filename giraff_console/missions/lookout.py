@@ -28,6 +28,7 @@ import numpy as np
 from scipy.ndimage import distance_transform_edt  # type: ignore[import-untyped]
 
 from giraff_console.missions.navigation import Navigator
+from giraff_console.missions.pose_trail import PoseTrail
 from giraff_console.motion.executor import Executor
 from giraff_console.motion.path import Drive
 from giraff_console.planning.grid import FREE, OccupancyGrid
@@ -52,6 +53,10 @@ class Scan(Protocol):
     @property
     def sees_walls(self) -> bool:
         """Whether the sensor sees the building's walls as well as what is in the way."""
+
+    @property
+    def taken_at(self) -> float | None:
+        """When the sweep ended, on the loop's clock; None for one read on the tick."""
 
 
 Sense = Callable[[], Scan]
@@ -79,16 +84,32 @@ class Lookout:
         self._leg: Leg | None = None
         self._leg_index = -1
         self._walls: KnownWalls | None = None  # made when a sensor that sees walls first says
+        self._trail = PoseTrail()  # where the robot was, for a revolution taken before now
 
     def new_plan(self, planned: PlannedPath | None) -> None:
         """The mission drives a new plan (its route, for the legs' D* Lite planners)."""
         self._planned = planned
         self._leg, self._leg_index = None, -1
 
-    def sweep(self, pose: Pose) -> None:
-        """Put what the range finder sees from `pose` into the grid, and take out what
-        its beams now see through; the leg under way replans from the cells changed."""
+    def sweep(self, pose: Pose, now: float) -> None:
+        """Put what the range finder sees into the grid, and take out what its beams now
+        see through; the leg under way replans from the cells changed. `pose` is the
+        robot's at `now`, the tick's time.
+
+        A lidar's revolution was taken up to a turn and a tick before it is read, and
+        seen from the pose now, a wall 1.5 m off would move 0.25 m for each 10 degrees
+        the robot has turned since: out of KNOWN_WALL_M, into the way (a robot turning
+        on its dock to set off saw a wall of phantoms round it, and stopped and planned
+        again for ever). So it is seen from where the robot was when it ended; and one
+        taken while the robot turned fast (pose_trail.py's MAX_TURN_RATE) is smeared, and
+        changes nothing."""
+        self._trail.add(now, pose)
         scan = self.sense()
+        if scan.taken_at is not None:
+            then = self._trail.at(scan.taken_at)
+            if then is None or self._trail.turning(scan.taken_at):
+                return
+            pose = then
         hits: list[Point] = []
         free: list[Point] = []
         walls = self._known_walls() if scan.sees_walls else None

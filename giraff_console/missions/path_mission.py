@@ -855,7 +855,7 @@ class PathMission:
         again (D* Lite across this room, else the room graph)."""
         assert self._lookout is not None
         pose = tick.pose
-        self._lookout.sweep(pose)
+        self._lookout.sweep(pose, tick.now)
         if self._stage is Stage.DRIVING and self._lookout.blocks(self.executor):
             self.notify(f"{self.name}: something in the way ahead of ({pose.x:.1f}, "
                         f"{pose.y:.1f}); stopping to plan again")  # fmt: skip

@@ -39,8 +39,10 @@ class Scan:
 
     range_max: float
     beams: tuple[tuple[float, float], ...]
-    # It senses only what is in the way, never the building's walls (missions/lookout.py).
+    # It senses only what is in the way, never the building's walls (missions/lookout.py),
+    # and is read on the tick.
     sees_walls: ClassVar[bool] = False
+    taken_at: ClassVar[None] = None
 
     @property
     def hits(self) -> list[tuple[float, float]]:

@@ -15,6 +15,7 @@ from giraff_console.missions.scan_fixing import (
     ALONG_SIGMA_M,
     FIX_EVERY_M,
     FIX_SIGMA_M,
+    REVOLUTION_S,
     ScanFixer,
 )
 from giraff_console.planning.grid import FREE, OCCUPIED, OccupancyGrid
@@ -70,7 +71,8 @@ def test_a_scan_fixes_the_pose_where_the_robot_really_is() -> None:
         off = Pose(true.x + 0.15, true.y - 0.1, true.heading + math.radians(2.5))
         believed(fixer, off, 10.0)
         fix = fixer.fit(revolution(walls, true, 10.0, 1))
-        assert fix is not None and fix.time == 10.0
+        # Timed half a revolution before its stamp, when its samples were taken.
+        assert fix is not None and fix.time == 10.0 - REVOLUTION_S / 2
         # Within a step of the matcher's fine lattice each way, as the mapping's match.
         assert math.dist((fix.pose.x, fix.pose.y), (true.x, true.y)) < 0.036
         assert abs(math.degrees(fix.pose.heading - true.heading)) <= 0.5
@@ -143,7 +145,26 @@ def test_the_fixers_thread_hands_each_fix_on() -> None:
         waited = time.monotonic() + 2.0
         while not heard and time.monotonic() < waited:
             time.sleep(0.02)
-        assert len(heard) == 1 and heard[0].time == 10.0
+        assert len(heard) == 1 and heard[0].time == 10.0 - REVOLUTION_S / 2
     finally:
         fixer.close()
     assert not fixer._thread.is_alive()
+
+
+def test_a_fix_is_timed_by_the_sensors_own_turn() -> None:
+    # A sensor turning 5 times a second: its revolutions' middles are 0.1 s before them.
+    walls = furnished_room()
+    fixer, heard = fixer_of(grid_of(walls))
+    try:
+        for k in range(41):  # the robot drives along x at 0.4 m/s for 2 s
+            t = 9.0 + k * 0.05
+            fixer.pose(t, Pose(3.0 + 0.4 * (t - 9.0), 2.5, 0.0), math.radians(1.0))
+        for stamp in (10.6, 10.8):
+            fixer.scan(revolution(walls, Pose(3.0 + 0.4 * (stamp - 0.1 - 9.0), 2.5, 0.0), stamp, 1))
+        waited = time.monotonic() + 2.0
+        while not any(abs(fix.time - 10.7) < 1e-9 for fix in heard) and time.monotonic() < waited:
+            time.sleep(0.02)
+        assert abs(heard[-1].time - 10.7) < 1e-9
+        assert abs(heard[-1].pose.x - 3.68) < 0.036
+    finally:
+        fixer.close()
