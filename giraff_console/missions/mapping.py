@@ -11,15 +11,13 @@ the map so far where that helps and keeps the correction it found. `mark NAME` n
 where the robot stands, in the corrected frame, for the room there to take NAME when
 the plan is written (planning/mapped_plan.py).
 
-The work is done on the run's own thread, never the control loop's: a revolution
-takes milliseconds to lay in, and the loop must tick on time whatever the sensor sends
-(design.md). Revolutions that come faster than they are laid in are dropped, the
-oldest first, and counted.
+The work is done on the run's own thread (revolution_queue.py), never the control
+loop's: a revolution takes milliseconds to lay in, and the loop must tick on time
+whatever the sensor sends (design.md).
 """
 
 from __future__ import annotations
 
-import collections
 import logging
 import math
 import threading
@@ -29,6 +27,7 @@ from typing import Protocol
 
 from giraff_console.missions.lookout import Scan
 from giraff_console.missions.pose_trail import PoseTrail
+from giraff_console.missions.revolution_queue import RevolutionQueue
 from giraff_console.planning.floorplan import Point
 from giraff_console.planning.grid import OccupancyGrid
 from giraff_console.planning.loop_closure import Closed, close_loops, moved, redrawn
@@ -49,8 +48,6 @@ MAX_WAITING = 4
 # deviations of what the heading may have turned, unseen, since the last revolution
 # (the casters after a turn on the spot, §3.2.1.5), and COARSE_TURN at least.
 TURN_SIGMAS = 3.0
-# Seconds the run's thread waits for a revolution before it looks whether to stop.
-WAIT_S = 0.2
 
 
 class StampedScan(Scan, Protocol):
@@ -92,17 +89,13 @@ class MappingRun:
         self.note = note
         self.after = after
         self.trail = PoseTrail()
-        self._waiting: collections.deque[StampedScan] = collections.deque(maxlen=MAX_WAITING)
-        self._ready = threading.Condition()
         self._lock = threading.Lock()
         # The builder's grid grows on this run's thread; it is read on others.
         self._building = threading.Lock()
         self._marks: dict[str, MapMark] = {}
-        self._scans = self._dropped = self._unplaced = self._turning = 0
+        self._scans = self._unplaced = self._turning = 0
         self._sigma: float | None = None  # the heading's, at the last revolution laid in
-        self._running = True
-        self._thread = threading.Thread(target=self._run, name="mapping", daemon=True)
-        self._thread.start()
+        self._queue = RevolutionQueue("mapping", MAX_WAITING, self._laid_in, self._failed)
 
     # -- fed by the loop and the sensor ----------------------------------------------
 
@@ -113,11 +106,7 @@ class MappingRun:
 
     def scan(self, scan: StampedScan) -> None:
         """A whole revolution, on the sensor's thread: queued, never waited on."""
-        with self._ready:
-            if len(self._waiting) == self._waiting.maxlen:
-                self._dropped += 1
-            self._waiting.append(scan)
-            self._ready.notify()
+        self._queue.put(scan)
 
     # -- asked by the service ------------------------------------------------------
 
@@ -166,7 +155,7 @@ class MappingRun:
 
     def status(self) -> MappingStatus:
         with self._lock:
-            return MappingStatus(self._scans, self._dropped, self._unplaced, self._turning,
+            return MappingStatus(self._scans, self._queue.dropped, self._unplaced, self._turning,
                                  tuple(self._marks.values()))  # fmt: skip
 
     def grid(self) -> OccupancyGrid:
@@ -176,39 +165,23 @@ class MappingRun:
 
     def close(self) -> None:
         """Stop laying revolutions in; what is laid in stays."""
-        with self._ready:
-            self._running = False
-            self._ready.notify()
-        self._thread.join(timeout=5.0)
+        self._queue.close()
 
     # -- the run's thread ------------------------------------------------------------
 
-    def _run(self) -> None:
-        while True:
-            with self._ready:
-                if not self._waiting and self._running:
-                    self._ready.wait(WAIT_S)
-                if not self._running:
-                    return
-                if not self._waiting:
-                    continue
-                scan = self._waiting.popleft()
-            try:
-                self.lay_in(scan)
-            except Exception:
-                # A bug: the map stops growing, and the operator is told; the robot
-                # drives on as before, since mapping only listens.
-                log.exception("mapping failed")
-                self.note("mapping stopped: an internal error (logged); `map save NAME` "
-                          "keeps what was mapped")  # fmt: skip
-                with self._ready:
-                    self._running = False
-                return
-            try:
-                self.after(self)
-            except Exception:
-                # The screens' picture failed (a listener's bug): the map grows on.
-                log.exception("mapping: telling of the map failed")
+    def _laid_in(self, scan: StampedScan) -> None:
+        self.lay_in(scan)
+        try:
+            self.after(self)
+        except Exception:
+            # The screens' picture failed (a listener's bug): the map grows on.
+            log.exception("mapping: telling of the map failed")
+
+    def _failed(self) -> None:
+        # A bug: the map stops growing, and the operator is told; the robot drives on as
+        # before, since mapping only listens.
+        self.note("mapping stopped: an internal error (logged); `map save NAME` keeps what "
+                  "was mapped")  # fmt: skip
 
     def lay_in(self, scan: StampedScan) -> None:
         """Lay `scan` into the map now, on the caller's thread: the run's thread does,
@@ -237,8 +210,7 @@ class MappingRun:
                 stopped_keeping = keeping and not self.builder.keep
         except MapTooLarge as error:
             self.note(f"mapping stopped: {error}; `map save NAME` keeps what was mapped")
-            with self._ready:
-                self._running = False
+            self._queue.stop()
             return
         except ValueError:
             # A revolution the builder cannot use (one stamped before the last): dropped.

@@ -19,22 +19,21 @@ Why not every revolution
     fix is taken after every FIX_EVERY_M driven or FIX_EVERY_TURN turned, as AMCL's
     update_min_d and update_min_a, and its noise is the map's, not the scan's.
 
-The work is done on the fixer's own thread, never the control loop's: a match takes
-milliseconds. Revolutions that come while one is matched are dropped but the newest.
+The work is done on the fixer's own thread (revolution_queue.py), never the control
+loop's: a match takes milliseconds. Of the revolutions that come while one is matched,
+the newest waits.
 """
 
 from __future__ import annotations
 
-import collections
-import logging
 import math
-import threading
 from collections.abc import Callable
 
 import numpy as np
 
 from giraff_console.missions.mapping import StampedScan
 from giraff_console.missions.pose_trail import PoseTrail
+from giraff_console.missions.revolution_queue import RevolutionQueue
 from giraff_console.planning.grid import OCCUPIED, OccupancyGrid
 from giraff_console.planning.scan_matching import (
     COARSE_TURN,
@@ -47,8 +46,6 @@ from giraff_console.planning.scan_matching import (
 from giraff_console.planning.scan_outline import beam_spacing, usable_beams
 from giraff_console.robot.localisation import PoseFix
 from giraff_console.robot.odometry import Pose
-
-log = logging.getLogger(__name__)
 
 # A fix after this much driving or turning since the last revolution fitted (above).
 FIX_EVERY_M = 0.10
@@ -65,8 +62,6 @@ ALONG_SIGMA_M = 1.0
 # How far round the filter's heading the match looks: this many of the filter's
 # heading standard deviations, and COARSE_TURN at least (the mapping's TURN_SIGMAS).
 TURN_SIGMAS = 3.0
-# Seconds the thread waits for a revolution before it looks whether to stop.
-WAIT_S = 0.2
 # A revolution is stamped when its last sample comes, but its samples were taken over
 # the whole turn, and the pose it fits is where the robot was half way through (on the
 # teaching drives the matched poses lag their stamps by 0.05 to 0.10 s, 2 to 3 cm at
@@ -91,11 +86,7 @@ class ScanFixer:
         self._last: Pose | None = None  # the filter's pose at the last revolution fitted
         self._stamp: float | None = None  # the last revolution's
         self._revolution_s = REVOLUTION_S
-        self._waiting: collections.deque[StampedScan] = collections.deque(maxlen=1)
-        self._ready = threading.Condition()
-        self._running = True
-        self._thread = threading.Thread(target=self._run, name="scan fixes", daemon=True)
-        self._thread.start()
+        self._queue = RevolutionQueue("scan fixes", 1, self._fitted, lambda: None)
 
     def pose(self, time: float, pose: Pose, heading_sigma: float) -> None:
         """The filter's pose at `time` (the loop's clock): called every tick."""
@@ -103,18 +94,13 @@ class ScanFixer:
 
     def scan(self, scan: StampedScan) -> None:
         """A whole revolution, on the sensor's thread: queued, never waited on."""
-        with self._ready:
-            if self._stamp is not None and 0 < scan.taken_at - self._stamp <= MAX_REVOLUTION_S:
-                self._revolution_s = scan.taken_at - self._stamp
-            self._stamp = scan.taken_at
-            self._waiting.append(scan)
-            self._ready.notify()
+        if self._stamp is not None and 0 < scan.taken_at - self._stamp <= MAX_REVOLUTION_S:
+            self._revolution_s = scan.taken_at - self._stamp
+        self._stamp = scan.taken_at
+        self._queue.put(scan)
 
     def close(self) -> None:
-        with self._ready:
-            self._running = False
-            self._ready.notify()
-        self._thread.join(timeout=5.0)
+        self._queue.close()
 
     def fit(self, scan: StampedScan) -> PoseFix | None:
         """The fix `scan` gives, if it gives one, on the caller's thread (the fixer's
@@ -153,21 +139,9 @@ class ScanFixer:
             self._field = (grid, made)
         return self._field[1]
 
-    def _run(self) -> None:
-        while True:
-            with self._ready:
-                if not self._waiting and self._running:
-                    self._ready.wait(WAIT_S)
-                if not self._running:
-                    return
-                if not self._waiting:
-                    continue
-                scan = self._waiting.popleft()
-            try:
-                fix = self.fit(scan)
-                if fix is not None:
-                    self.fitted(fix)
-            except Exception:
-                # A bug: the robot goes on by its markers and odometry, as without a lidar.
-                log.exception("fitting a scan to the map failed; no more scan fixes")
-                return
+    def _fitted(self, scan: StampedScan) -> None:
+        # An exception here is a bug: logged, and the robot goes on by its markers and
+        # odometry, as without a lidar.
+        fix = self.fit(scan)
+        if fix is not None:
+            self.fitted(fix)
