@@ -331,3 +331,23 @@ def test_a_broken_grid_is_reported_once_not_as_markers_off_their_walls(tmp_path,
         path.write_text(path.read_text().replace("resolution: 0.05", "resolution: -1"))
     problems = [problem.message for problem in check_floorplan(path)]
     assert len(problems) == 1 and problems[0].startswith("grid"), problems
+
+
+def test_a_marker_faces_into_its_room_across_a_mapped_walls_unknown_fringe(tmp_path):
+    # A map made by driving: a wall, the cells along its face unknown (each beam's free
+    # floor ends a cell short of its hit), the room beyond free.
+    cells = np.full((60, 80), 254, dtype=np.uint8)
+    cells[:28, :] = 0  # the wall, up to y = 1.6 m
+    cells[28, :] = 205  # a cell of unknown along its face
+    cv2.imwrite(str(tmp_path / "mapped.pgm"), cells)
+    (tmp_path / "mapped.yaml").write_text(
+        "name: mapped\nrooms:\n  lounge: {at: [2.0, 0.8]}\ndoors: []\n"
+        "grid: {image: mapped.pgm, resolution: 0.05, origin: [0.0, 0.0, 0.0]}\n"
+    )
+    plan = load_floorplan(tmp_path / "mapped.yaml")
+    walls = grid_walls(plan)
+    assert walls is not None
+    room = walls.room_ahead((2.0, 1.6), 270.0, 0.25)
+    assert room is not None and room.id == "lounge"
+    # Facing into the wall it is on, it still faces into no room.
+    assert walls.room_ahead((2.0, 1.6), 90.0, 0.25) is None
