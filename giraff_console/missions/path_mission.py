@@ -579,8 +579,10 @@ class PathMission:
         else:
             self.problem = why
 
-    def _plan_again(self, tick: Tick) -> list[Command]:
-        """From a stop: a new way from here, unless too many came to nothing."""
+    def _plan_again(self, tick: Tick, blocked: bool = False) -> list[Command]:
+        """From a stop: a new way from here, unless too many came to nothing. `blocked`:
+        the stop was for something in the way, which before the robot set off counts
+        too (_replan's `again`)."""
         if self._progress_watch.out_of_replans():
             self._end(
                 Outcome.BLOCKED,
@@ -592,7 +594,7 @@ class PathMission:
             )
             return []
         first = not self._set_off
-        if self._replan(tick.pose, tick.estimate, again=True) and not first:
+        if self._replan(tick.pose, tick.estimate, again=blocked) and not first:
             self._progress_watch.replanned(self.executor.remaining())
         return []
 
@@ -766,8 +768,8 @@ class PathMission:
         and after a turn on the spot (`turned`: a look) while the casters settle; False,
         with the mission ended BLOCKED, if there is no way. Before the robot has moved (a
         first look moved the pose it assumed) this is the mission's first plan, not a new
-        way: its progress is watched from here; but one made `again` after a stop before
-        setting off (something in the way at once) is a plan that came to nothing,
+        way: its progress is watched from here; but one made `again` after a stop for
+        something in the way before setting off is a plan that came to nothing,
         counted, or a way blocked from the start would be planned for ever."""
         first = not self._set_off
         self._traces.append(self.executor.trace)
@@ -860,7 +862,10 @@ class PathMission:
             self.notify(f"{self.name}: something in the way ahead of ({pose.x:.1f}, "
                         f"{pose.y:.1f}); stopping to plan again")  # fmt: skip
             self._arrival.anew()
-            self._stop_then(tick.now, "something in the way", self._plan_again)
+            self._stop_then(tick.now, "something in the way", self._plan_again_blocked)
+
+    def _plan_again_blocked(self, tick: Tick) -> list[Command]:
+        return self._plan_again(tick, blocked=True)
 
 
 def _door_zones(drive: Drive, doors: list[tuple[float, float]], speed: float) -> list[SlowZone]:

@@ -59,10 +59,6 @@ class RevolutionQueue(Generic[Revolution]):
         if threading.current_thread() is not self._thread:
             self._thread.join(timeout=JOIN_S)
 
-    @property
-    def alive(self) -> bool:
-        return self._thread.is_alive()
-
     def _run(self) -> None:
         while True:
             with self._ready:

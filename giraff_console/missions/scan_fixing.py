@@ -16,8 +16,10 @@ Why not every revolution
     Each match of the same walls repeats their errors (a wall drawn a few centimetres
     off is that far off in every scan of it), so fused at 5.5 a second the filter would
     soon believe itself to the millimetre and its gate refuse a marker that is right. A
-    fix is taken after every FIX_EVERY_M driven or FIX_EVERY_TURN turned, as AMCL's
-    update_min_d and update_min_a, and its noise is the map's, not the scan's.
+    fix is taken after every FIX_EVERY_M or FIX_EVERY_TURN of the filter's pose, as
+    AMCL's update_min_d and update_min_a, its noise is the map's, not the scan's, and
+    the localisation fuses none into a pose already known better than the map
+    (robot/localisation.py's SCAN_FLOOR_M).
 
 The work is done on the fixer's own thread (revolution_queue.py), never the control
 loop's: a match takes milliseconds. Of the revolutions that come while one is matched,
@@ -31,14 +33,17 @@ from collections.abc import Callable
 
 import numpy as np
 
+from giraff_console.lidar.scan import REVOLUTION_S
 from giraff_console.missions.mapping import StampedScan
 from giraff_console.missions.pose_trail import PoseTrail
 from giraff_console.missions.revolution_queue import RevolutionQueue
 from giraff_console.planning.grid import OCCUPIED, OccupancyGrid
 from giraff_console.planning.scan_matching import (
+    COARSE_REACH_M,
     COARSE_TURN,
+    MAX_COARSE_TURN,
+    MIN_MAP_CELLS,
     USED,
-    LikelihoodField,
     MatchOutcome,
     likelihood_field,
     match,
@@ -66,47 +71,54 @@ TURN_SIGMAS = 3.0
 # the whole turn, and the pose it fits is where the robot was half way through (on the
 # teaching drives the matched poses lag their stamps by 0.05 to 0.10 s, 2 to 3 cm at
 # walking pace): a fix is timed at its middle. The turn's time is the time since the
-# revolution before; until there is one, an RPLIDAR's 5.5 turns a second.
-REVOLUTION_S = 1 / 5.5
+# revolution before (a gap of more is a revolution missed); until there is one,
+# lidar/scan.py's REVOLUTION_S.
 MAX_REVOLUTION_S = 0.5
+# The map is matched in a window round the filter's pose: the hits' reach, the
+# matcher's, and this much more.
+WINDOW_MARGIN_M = 0.5
 
 
 class ScanFixer:
     """Fits revolutions to the plan's map; safe to call from any thread."""
 
     def __init__(self, walls: Callable[[], OccupancyGrid | None],
-                 fitted: Callable[[PoseFix], None]) -> None:  # fmt: skip
-        """`walls`: the grid to fit to now (None: fit nothing, as while mapping);
-        `fitted`: hears each fix, on the fixer's thread."""
+                 fitted: Callable[[PoseFix], None],
+                 note: Callable[[str], None] = lambda text: None) -> None:  # fmt: skip
+        """`walls`: the grid to fit to now (None: fit nothing, as while mapping or
+        surveying); `fitted`: hears each fix, on the fixer's thread; `note`: told if
+        fitting stops."""
         self.walls = walls
         self.fitted = fitted
+        self.note = note
         self.trail = PoseTrail()
         self.fixes = 0
-        self._field: tuple[OccupancyGrid, LikelihoodField] | None = None
         self._last: Pose | None = None  # the filter's pose at the last revolution fitted
-        self._stamp: float | None = None  # the last revolution's
+        self._stamp: float | None = None  # the last revolution's, on the sensor's thread
         self._revolution_s = REVOLUTION_S
-        self._queue = RevolutionQueue("scan fixes", 1, self._fitted, lambda: None)
+        self._queue: RevolutionQueue[tuple[StampedScan, float]] = RevolutionQueue(
+            "scan fixes", 1, self._fitted, self._failed
+        )
 
     def pose(self, time: float, pose: Pose, heading_sigma: float) -> None:
         """The filter's pose at `time` (the loop's clock): called every tick."""
         self.trail.add(time, pose, heading_sigma)
 
     def scan(self, scan: StampedScan) -> None:
-        """A whole revolution, on the sensor's thread: queued, never waited on."""
+        """A whole revolution, on the sensor's thread: queued, with the time of its
+        middle, never waited on."""
         if self._stamp is not None and 0 < scan.taken_at - self._stamp <= MAX_REVOLUTION_S:
             self._revolution_s = scan.taken_at - self._stamp
         self._stamp = scan.taken_at
-        self._queue.put(scan)
+        self._queue.put((scan, scan.taken_at - self._revolution_s / 2))
 
     def close(self) -> None:
         self._queue.close()
 
-    def fit(self, scan: StampedScan) -> PoseFix | None:
-        """The fix `scan` gives, if it gives one, on the caller's thread (the fixer's
-        own calls it for each revolution)."""
+    def fit(self, scan: StampedScan, middle: float) -> PoseFix | None:
+        """The fix `scan`, taken round `middle`, gives, if it gives one, on the caller's
+        thread (the fixer's own calls it for each revolution)."""
         grid = self.walls()
-        middle = scan.taken_at - self._revolution_s / 2
         prior = self.trail.at(middle)
         if grid is None or prior is None or self.trail.turning(scan.taken_at):
             return None
@@ -118,9 +130,15 @@ class ScanFixer:
             return None
         distance, bearing, hit = usable_beams(scan.beams, float(scan.range_max))
         points = np.column_stack([distance * np.cos(bearing), distance * np.sin(bearing)])
-        reach = max(COARSE_TURN, TURN_SIGMAS * self.trail.heading_sigma(middle))
-        found = match(self._field_of(grid), prior, points[hit], beam_spacing(bearing), reach)
+        turns = TURN_SIGMAS * self.trail.heading_sigma(middle)
         self._last = prior
+        reach = float(np.max(distance[hit], initial=0.0)) + COARSE_REACH_M + WINDOW_MARGIN_M
+        window = _window(grid, prior, reach)
+        if window is None:
+            return None
+        occupied, left, top = window
+        field = likelihood_field(occupied, left, top, grid.resolution)
+        found = match(field, prior, points[hit], beam_spacing(bearing), max(COARSE_TURN, turns))
         if found.outcome not in USED or found.quality < FIX_QUALITY:
             return None
         covariance = np.diag([FIX_SIGMA_M**2, FIX_SIGMA_M**2, FIX_SIGMA_RAD**2])
@@ -128,20 +146,35 @@ class ScanFixer:
             along = np.array(found.along)
             covariance[:2, :2] += (ALONG_SIGMA_M**2 - FIX_SIGMA_M**2) * np.outer(along, along)
         self.fixes += 1
-        return PoseFix(middle, found.pose, covariance)
+        # Pinned: every way, and the heading searched as far as the filter says it may
+        # be off (after a contact's pivot, further than the matcher looks).
+        pinned = found.outcome is MatchOutcome.MATCHED and turns <= MAX_COARSE_TURN
+        return PoseFix(middle, found.pose, covariance, pinned)
 
-    def _field_of(self, grid: OccupancyGrid) -> LikelihoodField:
-        """The matcher's field of `grid`'s walls, made once for each grid."""
-        if self._field is None or self._field[0] is not grid:
-            rows = grid.cells.shape[0]
-            top = grid.origin[1] + rows * grid.resolution
-            made = likelihood_field(grid.cells == OCCUPIED, grid.origin[0], top, grid.resolution)
-            self._field = (grid, made)
-        return self._field[1]
-
-    def _fitted(self, scan: StampedScan) -> None:
-        # An exception here is a bug: logged, and the robot goes on by its markers and
-        # odometry, as without a lidar.
-        fix = self.fit(scan)
+    def _fitted(self, queued: tuple[StampedScan, float]) -> None:
+        fix = self.fit(*queued)
         if fix is not None:
             self.fitted(fix)
+
+    def _failed(self) -> None:
+        # A bug (logged): the robot goes on by its markers and odometry, as without a lidar.
+        self.note("scan fixes stopped: an internal error (logged); the robot goes on by "
+                  "its markers")  # fmt: skip
+
+
+def _window(grid: OccupancyGrid, at: Pose, reach: float
+            ) -> tuple[np.ndarray, float, float] | None:  # fmt: skip
+    """The grid's occupied cells within `reach` of `at` each way, and the window's
+    left and top in the map; None if it holds too few to match against."""
+    rows, cols = grid.cells.shape
+    res = grid.resolution
+    first = max(0, int((at.x - reach - grid.origin[0]) / res))
+    last = min(cols, int((at.x + reach - grid.origin[0]) / res) + 1)
+    top_row = max(0, rows - 1 - int((at.y + reach - grid.origin[1]) / res))
+    bottom_row = min(rows, rows - int((at.y - reach - grid.origin[1]) / res))
+    if first >= last or top_row >= bottom_row:
+        return None
+    occupied = grid.cells[top_row:bottom_row, first:last] == OCCUPIED
+    if np.count_nonzero(occupied) < MIN_MAP_CELLS:
+        return None
+    return occupied, grid.origin[0] + first * res, grid.origin[1] + (rows - top_row) * res

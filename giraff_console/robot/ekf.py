@@ -577,6 +577,14 @@ class PoseFilter:
         return self._measured_pose(np.array([measured.x, measured.y, measured.heading]),
                                    noise, time)  # fmt: skip
 
+    def agrees(self, measured: Pose, noise: np.ndarray) -> bool:
+        """Whether a measurement of the whole pose, known to `noise`, passes the gate
+        correct_pose would weigh it with; the filter untouched."""
+        if not self.placed:
+            return False
+        v, s = self._pose_residual(np.array([measured.x, measured.y, measured.heading]), noise)
+        return float(v @ np.linalg.solve(s, v)) <= self.gate(len(v))
+
     def _measured_pose(self, measured: np.ndarray, noise: np.ndarray, time: float) -> bool:
         v, s = self._pose_residual(measured, noise)
         if not self._accept(v, s):

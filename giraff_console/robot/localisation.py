@@ -89,6 +89,12 @@ IN_PLACE_FRACTION = 0.1
 # Another marker corrected the pose this recently: it vouches for where the robot is,
 # against a marker the gate keeps rejecting (marker_map.py, MOVED).
 VOUCHED_S = 1.0
+# A scan's fix is not fused into a position known better than this: the same walls
+# matched again repeat their errors, and fused every 0.1 m the filter would soon believe
+# itself to a centimetre (0.008 m after 3 m), finer than the map it is fitted to is
+# drawn, and refuse a marker that is right (missions/scan_fixing.py). Within the gate,
+# it still confirms the pose.
+SCAN_FLOOR_M = 0.02
 
 
 # After a contact (a stall against something) the pose may be off by what the robot was
@@ -176,11 +182,14 @@ class Estimate:
 @dataclass(frozen=True)
 class PoseFix:
     """Where a range scan taken at `time` (the loop's clock) fits the plan's map: the
-    robot's `pose` then, known to `covariance` (3x3: metres, radians)."""
+    robot's `pose` then, known to `covariance` (3x3: metres, radians); `pinned` if the
+    scan's walls pinned it every way (not a corridor's, known across it only) and the
+    heading was searched as far as it may be off."""
 
     time: float
     pose: Pose
     covariance: np.ndarray
+    pinned: bool = True
 
 
 def start_covariance() -> np.ndarray:
@@ -320,6 +329,8 @@ class Localisation:
         self._wheels = self.odometry.wheels
         self._history.clear()
         self._history.append((self.now(), pose))
+        while not self._fixes.empty():  # fitted round the pose before
+            self._fixes.get_nowait()
         self.found = False
         self.basis = basis
         self.since_fix_m = 0.0
@@ -446,19 +457,28 @@ class Localisation:
         """A scan's fix, moved to the present, corrects the pose. A scan is fitted to
         the map only near where the robot was believed to be (the matcher's lattice,
         planning/scan_matching.py), and a building has many places alike: it confirms a
-        pose somebody has said, never places one only assumed (a restarted daemon's)."""
+        pose somebody has said, never places one only assumed (a restarted daemon's),
+        and in a plan with markers it never stands for one (`found`: until a marker has
+        confirmed the pose, one that disagrees places the robot). Only a pinned fix
+        makes the fix fresh again, and after a contact vouches for the pose."""
         if not self.basis.verified:
             return
         then = self._odometry_at(fix.time)
         if then is None:
             return
-        now = self.now()
         present = _compose(fix.pose, _between(then, self.odometry.pose))
-        used = self.filter.correct_pose(present, fix.covariance, now)
+        f = self.filter
+        if f.sigma_m < SCAN_FLOOR_M:
+            used = f.agrees(present, fix.covariance)
+        else:
+            used = f.correct_pose(present, fix.covariance, self.now())
         self.scan_fixes[used] += 1
-        if used:
+        if not used:
+            return
+        self.basis = PoseBasis.SCAN
+        if not self.map.known():
             self.found = True
-            self.basis = PoseBasis.SCAN
+        if fix.pinned:
             self.since_fix_m = 0.0
             self.contact = False
 

@@ -180,7 +180,8 @@ class RobotService:
         self.sensor = sensor
         self.scan_fixes: ScanFixer | None = None
         if sensor is not None and self.navigator is not None:
-            self.scan_fixes = ScanFixer(self._walls_to_fit, control.localisation.scan_fitted)
+            self.scan_fixes = ScanFixer(self._walls_to_fit, control.localisation.scan_fitted,
+                                        control.note)  # fmt: skip
             sensor.subscribe(self.scan_fixes.scan)
         control.subscribe(self._heard)
 
@@ -230,7 +231,8 @@ class RobotService:
     def _heard(self, event: LoopEvent) -> None:
         if isinstance(event, Telemetry):
             self.telemetry = event
-            if self.scan_fixes is not None:
+            if self.scan_fixes is not None and event.playback is None:
+                # A playback's poses are the recording's, not where the robot is.
                 sigma = event.estimate.sigma_heading if event.estimate is not None else 0.0
                 self.scan_fixes.pose(self.control.clock.now(), event.pose, sigma)
             navigator = self.navigator
@@ -244,8 +246,11 @@ class RobotService:
 
     def _walls_to_fit(self) -> OccupancyGrid | None:
         """The plan's walls, for the scans to be fitted to; none while a map is being
-        made (the plan it will be is not drawn yet)."""
-        if self.building_map.mapping or self.navigator is None:
+        made (the plan it will be is not drawn yet), nor during a survey (its graph
+        knows the wheels and the markers only: a pose the scans moved would not be the
+        one it solves)."""
+        if (self.building_map.mapping or self.navigator is None
+                or self.control.localisation.survey is not None):  # fmt: skip
             return None
         return self.navigator.walls
 

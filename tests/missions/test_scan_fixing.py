@@ -7,16 +7,15 @@ from __future__ import annotations
 
 import math
 import threading
-import time
 from dataclasses import dataclass
 
 import numpy as np
 
+from giraff_console.lidar.scan import REVOLUTION_S
 from giraff_console.missions.scan_fixing import (
     ALONG_SIGMA_M,
     FIX_EVERY_M,
     FIX_SIGMA_M,
-    REVOLUTION_S,
     ScanFixer,
 )
 from giraff_console.planning.grid import FREE, OCCUPIED, OccupancyGrid
@@ -25,6 +24,7 @@ from giraff_console.robot.odometry import Pose
 from tests.mapping.buildings import Walls, furnished_room, long_corridor, sweeps
 
 RESOLUTION = 0.05
+HALF = REVOLUTION_S / 2  # a revolution's middle, before its stamp
 
 
 @dataclass(frozen=True)
@@ -71,9 +71,8 @@ def test_a_scan_fixes_the_pose_where_the_robot_really_is() -> None:
         true = Pose(4.0, 2.5, math.radians(30))
         off = Pose(true.x + 0.15, true.y - 0.1, true.heading + math.radians(2.5))
         believed(fixer, off, 10.0)
-        fix = fixer.fit(revolution(walls, true, 10.0, 1))
-        # Timed half a revolution before its stamp, when its samples were taken.
-        assert fix is not None and fix.time == 10.0 - REVOLUTION_S / 2
+        fix = fixer.fit(revolution(walls, true, 10.0, 1), 10.0 - HALF)
+        assert fix is not None and fix.time == 10.0 - HALF and fix.pinned
         # Within a step of the matcher's fine lattice each way, as the mapping's match.
         assert math.dist((fix.pose.x, fix.pose.y), (true.x, true.y)) < 0.036
         assert abs(math.degrees(fix.pose.heading - true.heading)) <= 0.5
@@ -88,13 +87,13 @@ def test_a_scan_fixes_again_only_once_the_robot_has_moved() -> None:
     try:
         true = Pose(4.0, 2.5, 0.0)
         believed(fixer, true, 10.0)
-        assert fixer.fit(revolution(walls, true, 10.0, 1)) is not None
+        assert fixer.fit(revolution(walls, true, 10.0, 1), 10.0 - HALF) is not None
         # Standing still: the same walls again would only repeat their errors.
         believed(fixer, true, 10.2)
-        assert fixer.fit(revolution(walls, true, 10.2, 2)) is None
+        assert fixer.fit(revolution(walls, true, 10.2, 2), 10.2 - HALF) is None
         moved = Pose(true.x + FIX_EVERY_M + 0.01, true.y, 0.0)
         believed(fixer, moved, 10.5)
-        assert fixer.fit(revolution(walls, moved, 10.5, 3)) is not None
+        assert fixer.fit(revolution(walls, moved, 10.5, 3), 10.5 - HALF) is not None
         assert fixer.fixes == 2
     finally:
         fixer.close()
@@ -106,7 +105,7 @@ def test_no_fix_without_a_map_or_while_turning() -> None:
     try:
         true = Pose(4.0, 2.5, 0.0)
         believed(fixer, true, 10.0)
-        assert fixer.fit(revolution(walls, true, 10.0, 1)) is None
+        assert fixer.fit(revolution(walls, true, 10.0, 1), 10.0 - HALF) is None
     finally:
         fixer.close()
     fixer, _ = fixer_of(grid_of(walls))
@@ -114,7 +113,8 @@ def test_no_fix_without_a_map_or_while_turning() -> None:
         # Turning on the spot at 45 degrees a second: the revolution is smeared.
         for k in range(21):
             fixer.pose(9.0 + k * 0.05, Pose(4.0, 2.5, math.radians(45) * k * 0.05), 0.01)
-        assert fixer.fit(revolution(walls, Pose(4.0, 2.5, math.radians(45)), 10.0, 1)) is None
+        turned = Pose(4.0, 2.5, math.radians(45))
+        assert fixer.fit(revolution(walls, turned, 10.0, 1), 10.0 - HALF) is None
     finally:
         fixer.close()
 
@@ -125,28 +125,34 @@ def test_a_corridors_fix_says_nothing_along_it() -> None:
     try:
         true = Pose(15.0, 1.0, 0.0)
         believed(fixer, Pose(15.3, 0.9, math.radians(2.0)), 10.0)
-        fix = fixer.fit(revolution(walls, true, 10.0, 1))
+        fix = fixer.fit(revolution(walls, true, 10.0, 1), 10.0 - HALF)
         assert fix is not None
         assert abs(fix.pose.y - true.y) < 0.036  # across: fixed
         assert abs(math.degrees(fix.pose.heading)) <= 0.5
         assert abs(fix.pose.x - 15.3) < 0.001  # along: the filter's, as it was
         assert fix.covariance[0, 0] >= 0.9 * ALONG_SIGMA_M**2
         assert fix.covariance[1, 1] < 2 * FIX_SIGMA_M**2
+        assert not fix.pinned  # it refreshes nothing it did not measure
     finally:
         fixer.close()
 
 
 def test_the_fixers_thread_hands_each_fix_on() -> None:
     walls = furnished_room()
-    fixer, heard = fixer_of(grid_of(walls))
+    heard: list[PoseFix] = []
+    came = threading.Event()
+
+    def fitted(fix: PoseFix) -> None:
+        heard.append(fix)
+        came.set()
+
+    fixer = ScanFixer(lambda: grid_of(walls), fitted)
     try:
         true = Pose(4.0, 2.5, 0.0)
         believed(fixer, true, 10.0)
         fixer.scan(revolution(walls, true, 10.0, 1))
-        waited = time.monotonic() + 2.0
-        while not heard and time.monotonic() < waited:
-            time.sleep(0.02)
-        assert len(heard) == 1 and heard[0].time == 10.0 - REVOLUTION_S / 2
+        assert came.wait(5.0)
+        assert len(heard) == 1 and heard[0].time == 10.0 - HALF
     finally:
         fixer.close()
     assert not any(thread.name == "scan fixes" for thread in threading.enumerate())
@@ -155,7 +161,14 @@ def test_the_fixers_thread_hands_each_fix_on() -> None:
 def test_a_fix_is_timed_by_the_sensors_own_turn() -> None:
     # A sensor turning 5 times a second: its revolutions' middles are 0.1 s before them.
     walls = furnished_room()
-    fixer, heard = fixer_of(grid_of(walls))
+    heard: list[PoseFix] = []
+    came = threading.Semaphore(0)
+
+    def fitted(fix: PoseFix) -> None:
+        heard.append(fix)
+        came.release()
+
+    fixer = ScanFixer(lambda: grid_of(walls), fitted)
 
     def at(t: float) -> Pose:  # driving along x at 0.6 m/s
         return Pose(3.0 + 0.6 * (t - 9.0), 2.5, 0.0)
@@ -165,10 +178,7 @@ def test_a_fix_is_timed_by_the_sensors_own_turn() -> None:
             fixer.pose(9.0 + k * 0.05, at(9.0 + k * 0.05), math.radians(1.0))
         for count, stamp in enumerate((10.6, 10.8), start=1):
             fixer.scan(revolution(walls, at(stamp - 0.1), stamp, count))
-            waited = time.monotonic() + 2.0
-            while len(heard) < count and time.monotonic() < waited:
-                time.sleep(0.02)
-        assert len(heard) == 2
+            assert came.acquire(timeout=5.0)
         assert abs(heard[1].time - 10.7) < 1e-9
         assert abs(heard[1].pose.x - at(10.7).x) < 0.036
     finally:

@@ -12,7 +12,13 @@ import pytest
 from giraff_console.clock import VirtualClock
 from giraff_console.link.motor_state import MotorState
 from giraff_console.robot.ekf import Observation, PoseFilter
-from giraff_console.robot.localisation import LOOK_SIGMA_M, Localisation, PoseBasis, PoseFix
+from giraff_console.robot.localisation import (
+    LOOK_SIGMA_M,
+    SCAN_FLOOR_M,
+    Localisation,
+    PoseBasis,
+    PoseFix,
+)
 from giraff_console.robot.odometry import Odometry, Pose
 from giraff_console.robot.wheel_odometers import Reading
 
@@ -307,3 +313,51 @@ def test_a_scan_fix_far_from_a_well_known_pose_is_rejected_by_the_gate():
     estimate = localisation.estimate()
     assert estimate.pose == found and estimate.basis is PoseBasis.MARKER
     assert localisation.scan_fixes == {False: 1}
+
+
+def test_a_scan_fix_does_not_stand_for_a_marker_that_would_place_the_robot():
+    # Placed by hand 0.6 m short of where it stands; the scan, matched round the wrong
+    # place, agrees with it. The first marker still places the robot where it is.
+    localisation, _wheels, clock = make()
+    localisation.place(Pose(2.0, 0.0, 0.0), basis=PoseBasis.GIVEN)
+    localisation.scan_fitted(PoseFix(clock.now(), Pose(2.0, 0.0, 0.0), FIX_COVARIANCE))
+    localisation.correct()
+    assert localisation.estimate().basis is PoseBasis.SCAN
+    assert not localisation.estimate().found
+    true = Pose(2.6, 0.0, 0.0)
+    localisation.sighted([sighting(true, WALL_MARKER, 7, clock.now())])
+    localisation.correct()
+    estimate = localisation.estimate()
+    assert estimate.found and estimate.basis is PoseBasis.MARKER
+    assert abs(estimate.pose.x - 2.6) < 0.01
+
+
+def test_a_corridors_scan_fix_refreshes_nothing_it_did_not_measure():
+    localisation, wheels, clock = make(markers={})
+    localisation.place(Pose(2.0, 0.0, 0.0), basis=PoseBasis.GIVEN)
+    wheels.drive(1.0, 1.0, 20, localisation)
+    localisation.touched()
+    along_x = FIX_COVARIANCE.copy()
+    along_x[0, 0] = 1.0  # a corridor along x: known across it only
+    localisation.scan_fitted(PoseFix(clock.now(), Pose(3.0, 0.02, 0.0), along_x, pinned=False))
+    localisation.correct()
+    estimate = localisation.estimate()
+    assert localisation.scan_fixes == {True: 1}
+    assert estimate.since_fix_m == pytest.approx(1.0) and estimate.contact
+
+
+def test_scan_fixes_do_not_make_the_filter_surer_than_the_map():
+    # The same walls every 0.1 m for 3 m: fused each time, the filter would believe
+    # itself to a centimetre (the review measured 0.016 m).
+    localisation, wheels, clock = make(markers={})
+    localisation.place(Pose(2.0, 0.0, 0.0), basis=PoseBasis.GIVEN)
+    for step in range(30):
+        wheels.drive(0.1, 0.1, 2, localisation)
+        fitted = Pose(2.1 + 0.1 * step, 0.0, 0.0)
+        localisation.scan_fitted(PoseFix(clock.now(), fitted, FIX_COVARIANCE))
+        localisation.correct()
+    estimate = localisation.estimate()
+    # The last fix fused from just above the floor takes it a little below.
+    assert estimate.sigma_m >= 0.8 * SCAN_FLOOR_M
+    assert estimate.since_fix_m == 0.0  # each still confirmed the pose
+    assert localisation.scan_fixes == {True: 30}
