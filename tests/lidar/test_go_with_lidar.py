@@ -56,3 +56,14 @@ def test_go_through_a_narrow_door_with_the_lidar_on(capsys, narrow_door):
     assert clear["duration_s"] < 1.6 * clear["time_optimal_s"]
     # The box was seen and driven round: more ways planned than without it.
     assert blocked["replans"] > clear["replans"]
+
+
+def test_without_markers_the_lidar_finds_the_robot_by_the_plans_walls(capsys):
+    # No markers: without the lidar the estimate is the odometry's; with it, each
+    # revolution fitted to the plan's grid corrects it (missions/scan_fixing.py).
+    report = go(capsys, "room-113", "--sim", "--imperfect", "--seed", "2", "--lidar",
+                "--sim-speed", SPEED, "--json", "--no-landmarks", *SMALL_EYE)  # fmt: skip
+    assert report["outcome"] in ("arrived", "arrived_unverified"), report["detail"]
+    # Fixed within the last metre (on the odometry alone: the whole way).
+    assert report["since_fix_m"] < 1.0
+    assert report["error_m"] < 0.10
