@@ -13,8 +13,11 @@ since. Here, once the drive is done (at `map save`):
   drive's poses (locally true).
 - Edges: each keyframe to the next, by the drive's own relative pose; and each keyframe
   to every submap made long before (LOOP_GAP_S earlier) that lies round it, by matching
-  its revolution against that submap (scan_matching.py's matcher). A match is an edge
-  from the submap's first keyframe, robust (a room can look like another).
+  its revolution against that submap (scan_matching.py's matcher), which says the place
+  is the one seen then. The edges themselves are from the submap's PLACE_EDGES
+  keyframes nearest, each measured by matching the revolution once more against that
+  keyframe's place: the few revolutions round it alone (`_place`). Robust (a room can
+  look like another).
 - Solved (pose_chain.py), the keyframes' corrections spread over the revolutions
   between them, and every revolution drawn again, in order, at its corrected pose.
 """
@@ -49,6 +52,25 @@ LOOP_QUALITY = 0.5
 # The edges' standard deviations: the drive's own, per keyframe step, and a loop's.
 STEP_SIGMA_M, STEP_SIGMA_RAD = 0.02, math.radians(0.5)
 LOOP_SIGMA_M, LOOP_SIGMA_RAD = 0.03, math.radians(1.0)
+# A loop edge's place: the revolutions this many either side of one of the submap's
+# keyframes (about 2 s of the drive, 0.5 m at walking pace), and the submap's keyframes
+# (within LOOP_REACH_M) that each matched keyframe is tied to, nearest first. A submap
+# spans 10 keyframes (3 m of drive) and is drawn at poses that drift within it, so an
+# edge measured against the whole submap, from its first keyframe, carried that drift.
+# Against the truth (bench/teach_replay.py's recordings, the truth taken 0.09 s before
+# each stamp, the half revolution the poses are found to lag it by), such edges were
+# off by 0.040 m rms (0.063 at the 90th percentile), by up to 0.035 m on average in the
+# flats; an edge to the nearest keyframe's place by 0.021 m rms (0.031), 0.4 degree.
+# Over home1, flat1 and flat3, each replayed 12 times (--perturb 11), the mean pose
+# error at each plan's room goals, its worst room's averaged over the replays, went
+# from 0.184 / 0.079 / 0.088 m to 0.159 / 0.069 / 0.068 m with 3 places, the median
+# pose error from 0.067 / 0.050 / 0.047 to 0.047 / 0.048 / 0.044 m; but 3 of the 36
+# plans came out a room short (home1 moved 6 and 10: room-7 and room-11 as one; flat1
+# moved 11), which none of the old ones did. One place (the nearest alone), 4, 3
+# within 2.5 m, PLACE_REVS 3, 4 or 8, or looser loop sigmas kept that loss or made
+# the flats worse. loop_s on home1: 3 -> 7 s.
+PLACE_REVS = 6
+PLACE_EDGES = 3
 
 
 @dataclass(frozen=True)
@@ -97,10 +119,13 @@ def close_loops(laid: list[Laid], resolution: float) -> Closed:
     edges = [_edge(n, n + 1, relative(start[n], start[n + 1]), STEP_SIGMA_M, STEP_SIGMA_RAD)
              for n in range(len(keys) - 1)]  # fmt: skip
     submaps = _submaps(laid, keys, resolution)
+    places: dict[int, LikelihoodField | None] = {}
     loops = 0
     for n, key in enumerate(keys):
         scan = laid[key]
         here = start[n]
+        hits = scan.hits
+        spacing = float(np.median(np.diff(scan.bearing[scan.hit]))) if len(hits) > 1 else 0.0
         for first, last, ended, field in submaps:
             if ended > scan.stamp - LOOP_GAP_S:
                 break
@@ -108,14 +133,23 @@ def close_loops(laid: list[Laid], resolution: float) -> Closed:
                             start[first : last + 1, 1] - here[1])  # fmt: skip
             if near.min() > LOOP_REACH_M:
                 continue
-            hits = scan.hits
-            spacing = float(np.median(np.diff(scan.bearing[scan.hit]))) if len(hits) > 1 else 0.0
             found = match(field, scan.pose, hits, spacing, COARSE_TURN)
             if found.outcome is not MatchOutcome.MATCHED or found.quality < LOOP_QUALITY:
                 continue
-            edges.append(_edge(first, n, relative(start[first], _array(found.pose)),
-                               LOOP_SIGMA_M, LOOP_SIGMA_RAD, robust=True))  # fmt: skip
-            loops += 1
+            for anchor in first + np.argsort(near)[:PLACE_EDGES]:
+                if np.hypot(*(start[anchor, :2] - here[:2])) > LOOP_REACH_M:
+                    break
+                if anchor not in places:
+                    places[anchor] = _place(laid, keys[anchor], resolution)
+                place = places[anchor]
+                if place is None:
+                    continue
+                fit = match(place, scan.pose, hits, spacing, COARSE_TURN)
+                if fit.outcome is not MatchOutcome.MATCHED or fit.quality < LOOP_QUALITY:
+                    continue
+                edges.append(_edge(int(anchor), n, relative(start[anchor], _array(fit.pose)),
+                                   LOOP_SIGMA_M, LOOP_SIGMA_RAD, robust=True))  # fmt: skip
+                loops += 1
     if not loops:
         return Closed(poses, len(keys), 0, 0)
     solved = solve(start, edges)
@@ -177,3 +211,15 @@ def _spread(laid: list[Laid], keys: list[int], before: np.ndarray,
                               moved[2] + share * turn])  # fmt: skip
         poses.append(Pose(float(moved[0]), float(moved[1]), float(moved[2])))
     return poses
+
+
+def _place(laid: list[Laid], key: int, resolution: float) -> LikelihoodField | None:
+    """The likelihood field of the revolutions within PLACE_REVS of revolution `key`,
+    drawn at the drive's poses; None if they drew too little."""
+    builder = MapBuilder(resolution, match_scans=False)
+    for index in range(max(0, key - PLACE_REVS), min(len(laid), key + PLACE_REVS + 1)):
+        builder.draw_laid(laid[index], laid[index].pose)
+    occupied, left, top = builder.occupied_window()
+    if np.count_nonzero(occupied) < 50:
+        return None
+    return likelihood_field(occupied, left, top, resolution)
