@@ -58,9 +58,12 @@ FIX_EVERY_TURN = math.radians(5.0)
 # The least mean likelihood of a fix's hits on the map (loop_closure.py's LOOP_QUALITY):
 # most of the hits on the map's walls. Furniture moved, people and open doors lower it.
 FIX_QUALITY = 0.5
-# A fix's standard deviations: the map's cells (0.05 m) and the matcher's finest step
-# (0.025 m, 0.25 degrees) each way; where the scan fits anywhere along a corridor
-# (ACROSS_ONLY), it says nothing along it.
+# A fix's standard deviations: the map's own error, not the matcher's step (0.025 m,
+# 0.25 degrees). A map made by driving is off by 5-10 cm where its loops did not pull it
+# in, and markers surveyed on it as far the other way: at 0.03 m and 1 degree, once a
+# marker had fixed the pose the gate refused every fix (squared distances 15-100) and
+# the robot, past the markers, was lost; at these a marker near by still outweighs them.
+# Where the scan fits anywhere along a corridor (ACROSS_ONLY), it says nothing along it.
 FIX_SIGMA_M = 0.07
 FIX_SIGMA_RAD = math.radians(2.0)
 ALONG_SIGMA_M = 1.0
