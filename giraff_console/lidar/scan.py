@@ -18,10 +18,6 @@ from typing import ClassVar
 
 import numpy as np
 
-# An RPLIDAR A1/A2 turns 5.5 times a second (the datasheets' typical rate): the samples of
-# a revolution were taken over the 0.18 s before its stamp, its last sample's time.
-REVOLUTION_S = 1 / 5.5
-
 
 @dataclass(frozen=True)
 class Mount:

@@ -27,9 +27,8 @@ from typing import Protocol
 import numpy as np
 from scipy.ndimage import distance_transform_edt  # type: ignore[import-untyped]
 
-from giraff_console.lidar.scan import REVOLUTION_S
 from giraff_console.missions.navigation import Navigator
-from giraff_console.missions.pose_trail import PoseTrail
+from giraff_console.missions.pose_trail import REVOLUTION_S, PoseTrail
 from giraff_console.motion.executor import Executor
 from giraff_console.motion.path import Drive
 from giraff_console.planning.grid import FREE, OccupancyGrid

@@ -19,6 +19,10 @@ from giraff_console.robot.odometry import Pose
 
 # How far back the trail reaches: a scan older than this is too late to place.
 TRAIL_S = 3.0
+# A range sensor's revolution is stamped with its last sample's time, its samples taken
+# over the turn before: an RPLIDAR A1/A2 turns 5.5 times a second (the datasheets'
+# typical rate).
+REVOLUTION_S = 1 / 5.5
 # A revolution taken while the robot turns faster than this is smeared: the sensor
 # sweeps for a fifth of a second, and a turn on the spot at teleop's 45 degrees a second
 # smears it by 8 degrees (a wall 5 m off by 0.7 m).

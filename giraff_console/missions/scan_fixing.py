@@ -33,9 +33,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from giraff_console.lidar.scan import REVOLUTION_S
 from giraff_console.missions.mapping import StampedScan
-from giraff_console.missions.pose_trail import PoseTrail
+from giraff_console.missions.pose_trail import REVOLUTION_S, PoseTrail
 from giraff_console.missions.revolution_queue import RevolutionQueue
 from giraff_console.planning.grid import OCCUPIED, OccupancyGrid
 from giraff_console.planning.scan_matching import (
@@ -75,7 +74,7 @@ TURN_SIGMAS = 3.0
 # teaching drives the matched poses lag their stamps by 0.05 to 0.10 s, 2 to 3 cm at
 # walking pace): a fix is timed at its middle. The turn's time is the time since the
 # revolution before (a gap of more is a revolution missed); until there is one,
-# lidar/scan.py's REVOLUTION_S.
+# pose_trail.py's REVOLUTION_S.
 MAX_REVOLUTION_S = 0.5
 # The map is matched in a window round the filter's pose: the hits' reach, the
 # matcher's, and this much more.

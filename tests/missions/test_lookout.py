@@ -8,9 +8,10 @@ import math
 
 import numpy as np
 
-from giraff_console.lidar.scan import REVOLUTION_S, LidarScan
+from giraff_console.lidar.scan import LidarScan
 from giraff_console.missions.lookout import Lookout
 from giraff_console.missions.navigation import Navigator
+from giraff_console.missions.pose_trail import REVOLUTION_S
 from giraff_console.planning.route_planner import walls_of
 from giraff_console.robot.odometry import Pose
 from tests.missions.site import PLAN

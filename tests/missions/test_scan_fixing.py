@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from giraff_console.lidar.scan import REVOLUTION_S
+from giraff_console.missions.pose_trail import REVOLUTION_S
 from giraff_console.missions.scan_fixing import (
     ALONG_SIGMA_M,
     FIX_EVERY_M,
