@@ -177,7 +177,6 @@ class RobotService:
         self.building_map = BuildingMap(control, self.navigator, sensor, self._tell)
         # Its revolutions fitted to the plan's map correct the pose (missions/
         # scan_fixing.py).
-        self.sensor = sensor
         self.scan_fixes: ScanFixer | None = None
         if sensor is not None and self.navigator is not None:
             self.scan_fixes = ScanFixer(self._walls_to_fit, control.localisation.scan_fitted,
@@ -195,8 +194,9 @@ class RobotService:
         if self.sessions is not None:
             self.sessions.stop_recording()
         self.building_map.close()
-        if self.scan_fixes is not None and self.sensor is not None:
-            self.sensor.unsubscribe(self.scan_fixes.scan)
+        sensor = self.building_map.sensor
+        if self.scan_fixes is not None and sensor is not None:
+            sensor.unsubscribe(self.scan_fixes.scan)
             self.scan_fixes.close()
 
     # -- listening ----------------------------------------------------------------------
