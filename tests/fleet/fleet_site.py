@@ -60,7 +60,7 @@ def fleet_robots(
     numbers `prefix`01, `prefix`02, ... (from `first`: several processes on one broker,
     as bench/fleet.py runs them); `eye`: the simulated cameras' frames a second and size
     (as `--eye-fps` and `--eye-size` say; the defaults without it); `before_start` sees each
-    before it starts; started, and closed afterwards (OFFLINE said)."""
+    before it starts; started and on the broker, and closed afterwards (OFFLINE said)."""
     settings = Settings(fleet=fleet or FleetSettings())
     address = BrokerAddress.parse(broker.url)
     with ExitStack() as stack:
@@ -87,6 +87,12 @@ def fleet_robots(
         for each in robots:
             each.robot.start()
             each.vehicle.start()
+        # Each on the broker before a master comes: amqtt 0.12 hands a client that
+        # connects every retained message matching anyone's subscription, so a vehicle
+        # connecting after a master's wildcards (a busy machine) is handed the others'
+        # connection and factsheet, which it rightly refuses (counted in `bad`).
+        for each in robots:
+            assert each.vehicle.link.wait_up(WAIT_S), f"{each.id.name} not on the broker"
         yield robots
 
 
