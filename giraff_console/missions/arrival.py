@@ -8,8 +8,9 @@ ARRIVAL_TRIES of those it settles for what it has, within the bounds every stop 
 keep (claimed only with two sigma to spare), or gives up and says how far off it is.
 The claim itself is honest (issue 25): ARRIVED only on a trusted estimate, a fresh
 marker fix within the arrival bounds; otherwise ARRIVED_UNVERIFIED, with the metres
-driven since a marker last said where the robot was. Without markers there is only the
-odometry: arrived, unverified, at once.
+driven since a marker (or the range sensor's fit to the plan) last fixed the pose.
+Without markers there is only the odometry, and the range sensor's fits where there is
+one: arrived, unverified, at once.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from giraff_console.missions.certainty import (
 )
 from giraff_console.motion.path import wrap
 from giraff_console.motion.shaping import ALIGNED_RAD
-from giraff_console.robot.localisation import Estimate
+from giraff_console.robot.localisation import Estimate, PoseBasis
 from giraff_console.robot.odometry import Pose
 
 Point = tuple[float, float]
@@ -129,16 +130,22 @@ def unconfirmed(estimate: Estimate) -> str:
     return (
         f"arrived, unconfirmed: known to ±{estimate.sigma_m:.2f} m and "
         f"±{math.degrees(estimate.sigma_heading):.1f}°, "
-        f"{estimate.since_fix_m:.1f} m driven since a marker last corrected it"
+        f"{estimate.since_fix_m:.1f} m driven since its last fix"
         f"{contact}"
     )
 
 
 def by_odometry(estimate: Estimate | None) -> str:
-    """What an arrival without markers to confirm it says of it."""
+    """What an arrival without markers to confirm it says of it: by the odometry, and
+    by the range sensor's fits to the plan's walls if they fixed the pose."""
     if estimate is None:
         return "arrived by the odometry alone"
+    if estimate.basis is PoseBasis.SCAN:
+        return (
+            "arrived by the odometry and the range sensor's fits to the plan: "
+            f"{estimate.since_fix_m:.1f} m driven since its last fix"
+        )
     return (
         f"arrived by the odometry alone: {estimate.since_fix_m:.1f} m driven since "
-        f"{'a marker' if estimate.found else 'the start'} last said where it was"
+        "the start last said where it was"
     )

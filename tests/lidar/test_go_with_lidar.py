@@ -64,6 +64,7 @@ def test_without_markers_the_lidar_finds_the_robot_by_the_plans_walls(capsys):
     report = go(capsys, "room-113", "--sim", "--imperfect", "--seed", "2", "--lidar",
                 "--sim-speed", SPEED, "--json", "--no-landmarks", *SMALL_EYE)  # fmt: skip
     assert report["outcome"] in ("arrived", "arrived_unverified"), report["detail"]
-    # Fixed within the last metre (on the odometry alone: the whole way).
+    # Fixed within the last metre (on the odometry alone: the whole way), and it says so.
     assert report["since_fix_m"] < 1.0
+    assert "range sensor's fits" in report["detail"], report["detail"]
     assert report["error_m"] < 0.10
