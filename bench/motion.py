@@ -143,7 +143,7 @@ def drive(plan: FloorPlan, room: str, make: MakeMission, url: str) -> Run:
     control.run_mission(mission, ended.append)
     while not ended:
         if clock.now() - started > TIMEOUT_S:
-            control.stop_mission("timed out")
+            control.stop_mission(Outcome.FAILED, f"timed out after {TIMEOUT_S:g} s")
         control.tick()
         clock.advance(TICK_S)
     travel = clock.now() - TICK_S - started  # the tick that ended it ran before the advance

@@ -67,7 +67,10 @@ def console_on(path: str) -> tuple[GiraffConsole, ControlLoop, list[tuple[float,
     wire: list[tuple[float, str]] = []
     control.subscribe(ExchangeTap(lambda e: wire.append((e.sent_at, e.command))))
     robot = RobotService(control, DriveSetup.on_loop(control, None))
-    return GiraffConsole(robot, clock=clock, control=control, simulator=False), control, wire
+    # The screen is given the service and callables to start and stop the loop (issue 26).
+    app = GiraffConsole(robot, clock=clock, simulator=False, started=control.start,
+                        stop=control.stop)  # fmt: skip
+    return app, control, wire
 
 
 def motion(command: str) -> bool:
@@ -94,7 +97,7 @@ async def wait_for(wire: list[tuple[float, str]], wanted, after: float, limit: f
 
 
 async def latencies(path: str, trials: int) -> dict[str, list[float]]:
-    app, _, wire = console_on(path)
+    app, control, wire = console_on(path)
     results: dict[str, list[float]] = {
         "key to first command": [], "key to set p": [], "last repeat to stop": [],
     }  # fmt: skip
@@ -108,12 +111,15 @@ async def latencies(path: str, trials: int) -> dict[str, list[float]]:
             results["key to set p"].append(await wait_for(wire, target, pressed) - pressed)
             await asyncio.sleep(0.5 - (time.monotonic() - pressed))
             last = time.monotonic()
+            driver = app._driver  # what a terminal's repeats come through
+            assert driver is not None
             while time.monotonic() < pressed + 1.0:  # terminal auto-repeat
-                app._driver.send_message(events.Key("up", None))
+                driver.send_message(events.Key("up", None))
                 last = time.monotonic()
                 await asyncio.sleep(0.033)
             results["last repeat to stop"].append(await wait_for(wire, stop, last) - last)
             await asyncio.sleep(1.2)  # braked to a stop
+    control.stop()  # the console's own leaving stops it; a test's does not
     return results
 
 
@@ -134,6 +140,7 @@ async def jitter(path: str, seconds: float) -> list[float]:
         control.subscribe(lateness)
         app.set_interval(0.05, busy)
         await asyncio.sleep(seconds)
+    control.stop()
     return late[20:]
 
 
