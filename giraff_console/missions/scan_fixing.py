@@ -36,7 +36,7 @@ import numpy as np
 from giraff_console.missions.mapping import StampedScan
 from giraff_console.missions.pose_trail import REVOLUTION_S, PoseTrail
 from giraff_console.missions.revolution_queue import RevolutionQueue
-from giraff_console.planning.grid import OCCUPIED, OccupancyGrid
+from giraff_console.planning.grid import OccupancyGrid
 from giraff_console.planning.scan_matching import (
     COARSE_REACH_M,
     COARSE_TURN,
@@ -135,10 +135,9 @@ class ScanFixer:
         turns = TURN_SIGMAS * self.trail.heading_sigma(middle)
         self._last = prior
         reach = float(np.max(distance[hit], initial=0.0)) + COARSE_REACH_M + WINDOW_MARGIN_M
-        window = _window(grid, prior, reach)
-        if window is None:
+        occupied, left, top = grid.occupied_around(prior.x, prior.y, reach)
+        if np.count_nonzero(occupied) < MIN_MAP_CELLS:
             return None
-        occupied, left, top = window
         field = likelihood_field(occupied, left, top, grid.resolution)
         found = match(field, prior, points[hit], beam_spacing(bearing), max(COARSE_TURN, turns))
         if found.outcome not in USED or found.quality < FIX_QUALITY:
@@ -162,21 +161,3 @@ class ScanFixer:
         # A bug (logged): the robot goes on by its markers and odometry, as without a lidar.
         self.note("scan fixes stopped: an internal error (logged); the robot goes on by "
                   "its markers")  # fmt: skip
-
-
-def _window(grid: OccupancyGrid, at: Pose, reach: float
-            ) -> tuple[np.ndarray, float, float] | None:  # fmt: skip
-    """The grid's occupied cells within `reach` of `at` each way, and the window's
-    left and top in the map; None if it holds too few to match against."""
-    rows, cols = grid.cells.shape
-    res = grid.resolution
-    first = max(0, int((at.x - reach - grid.origin[0]) / res))
-    last = min(cols, int((at.x + reach - grid.origin[0]) / res) + 1)
-    top_row = max(0, rows - 1 - int((at.y + reach - grid.origin[1]) / res))
-    bottom_row = min(rows, rows - int((at.y - reach - grid.origin[1]) / res))
-    if first >= last or top_row >= bottom_row:
-        return None
-    occupied = grid.cells[top_row:bottom_row, first:last] == OCCUPIED
-    if np.count_nonzero(occupied) < MIN_MAP_CELLS:
-        return None
-    return occupied, grid.origin[0] + first * res, grid.origin[1] + (rows - top_row) * res

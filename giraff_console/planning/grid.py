@@ -104,6 +104,19 @@ class OccupancyGrid:
         y = self.origin[1] + (rows - row - 0.5) * self.resolution
         return x, y
 
+    def occupied_around(self, x: float, y: float,
+                        reach: float) -> tuple[np.ndarray, float, float]:  # fmt: skip
+        """The occupied cells within `reach` of map point (x, y) each way (clipped to the
+        map; empty off it), and the map (left, top) of the window's top-left corner."""
+        rows, cols = self.cells.shape
+        res = self.resolution
+        first = max(0, int(np.floor((x - reach - self.origin[0]) / res)))
+        last = min(cols, int(np.floor((x + reach - self.origin[0]) / res)) + 1)
+        top = max(0, rows - 1 - int(np.floor((y + reach - self.origin[1]) / res)))
+        bottom = min(rows, rows - int(np.floor((y - reach - self.origin[1]) / res)))
+        occupied = self.cells[top : max(top, bottom), first : max(first, last)] == OCCUPIED
+        return occupied, self.origin[0] + first * res, self.origin[1] + (rows - top) * res
+
     def blocked(self, unknown_blocks: bool = True) -> np.ndarray:
         """A boolean array of the cells a planner must not enter."""
         if unknown_blocks:

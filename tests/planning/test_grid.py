@@ -166,3 +166,22 @@ def test_blocked_changes_lists_the_cells_that_differ():
 def test_cells_must_be_one_of_the_three_states():
     with pytest.raises(ValueError, match="FREE, OCCUPIED or UNKNOWN"):
         OccupancyGrid(np.array([[0, 50]], dtype=np.uint8), 0.05)
+
+
+@given(st.integers(0, 2**32 - 1), st.floats(-3.0, 9.0), st.floats(-3.0, 9.0), st.floats(0.0, 4.0))
+def test_the_occupied_cells_round_a_point_are_those_within_reach(seed, x, y, reach):
+    rng = np.random.default_rng(seed)
+    res = 0.1
+    grid = OccupancyGrid(rng.choice([FREE, OCCUPIED, UNKNOWN], size=(60, 80)), res, (-0.5, 0.3))
+    occupied, left, top = grid.occupied_around(x, y, reach)
+    # Each cell of the window is the map's cell where its corner says, occupied as that
+    # one is, and within reach (and a cell) of the point...
+    for r, c in np.ndindex(occupied.shape):
+        cx, cy = left + (c + 0.5) * res, top - (r + 0.5) * res
+        assert occupied[r, c] == (grid.cells[grid.cell_of(cx, cy)] == OCCUPIED)
+        assert abs(cx - x) <= reach + res and abs(cy - y) <= reach + res
+    # ...and every occupied cell well within reach is in it.
+    for row, col in zip(*np.nonzero(grid.cells == OCCUPIED), strict=True):
+        cx, cy = grid.centre_of(int(row), int(col))
+        if abs(cx - x) <= reach - res and abs(cy - y) <= reach - res:
+            assert occupied[int((top - cy) / res), int((cx - left) / res)]
