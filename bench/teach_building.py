@@ -146,6 +146,25 @@ def judge_map(out: Path, truth: FloorPlan) -> dict:
             "within_10cm": judged.within_10cm}  # fmt: skip
 
 
+def teach(teaching: Teaching, folder: Path, map_seed: int, sim_speed: float) -> Path | None:
+    """Map the building and survey its markers; the plan made, or None if none was saved."""
+    mapped = map_it(teaching, folder, map_seed, sim_speed)
+    print("mapping:", json.dumps(mapped, indent=1), flush=True)
+    if not mapped.get("saved"):
+        print("NOT MET: the map was not saved")
+        return None
+    plan_path = Path(mapped["plan"])
+    truth = load_floorplan(teaching.truth)
+    assert truth.landmarks is not None  # put up by main
+    # The plan made has no markers' family and size: the building's are given.
+    surveyed = survey(plan_path, teaching.truth, map_seed, "--sim-building",
+                      str(teaching.truth), "--family", truth.landmarks.family,
+                      "--size", str(truth.landmarks.size))  # fmt: skip
+    print("survey:", json.dumps({k: v for k, v in surveyed.items() if k != "markers"}),
+          f"{len(surveyed.get('markers', []))} markers", flush=True)  # fmt: skip
+    return plan_path
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--building", choices=sorted(BUILDINGS), default="flat")
@@ -157,7 +176,12 @@ def main() -> None:
     parser.add_argument("--sim-speed", type=float, default=2.0,
                         help="the mapping drive's clock against the wall's (1: the lidar's "
                              "own pace, for a busy machine)")  # fmt: skip
+    parser.add_argument("--patrols-only", action="store_true",
+                        help="patrol the plan a run before taught and surveyed in --folder, "
+                             "without mapping or surveying again")  # fmt: skip
     args = parser.parse_args()
+    if args.patrols_only and args.folder is None:
+        parser.error("--patrols-only needs the --folder a run before taught")
     folder = args.folder or Path(tempfile.mkdtemp(prefix="teach-building-"))
     folder.mkdir(parents=True, exist_ok=True)
     print(f"machine: {machine()}; source: {source()}; folder {folder}", flush=True)
@@ -168,19 +192,15 @@ def main() -> None:
           f"{markers.placed} markers put up; the tour marks {len(teaching.tour)} stops",
           flush=True)  # fmt: skip
 
-    mapped = map_it(teaching, folder, args.map_seed, args.sim_speed)
-    print("mapping:", json.dumps(mapped, indent=1), flush=True)
-    if not mapped.get("saved"):
-        print("NOT MET: the map was not saved")
-        return
-    plan_path = Path(mapped["plan"])
-    assert truth.landmarks is not None  # put up above
-    # The plan made has no markers' family and size: the building's are given.
-    surveyed = survey(plan_path, teaching.truth, args.map_seed, "--sim-building",
-                      str(teaching.truth), "--family", truth.landmarks.family,
-                      "--size", str(truth.landmarks.size))  # fmt: skip
-    print("survey:", json.dumps({k: v for k, v in surveyed.items() if k != "markers"}),
-          f"{len(surveyed.get('markers', []))} markers", flush=True)  # fmt: skip
+    if args.patrols_only:
+        plan_path: Path | None = folder / f"{teaching.name}-mapped.yaml"
+        if not plan_path.is_file():
+            print(f"NOT RUN: no {plan_path}; teach the building first (without --patrols-only)")
+            return
+    else:
+        plan_path = teach(teaching, folder, args.map_seed, args.sim_speed)
+        if plan_path is None:
+            return
     plan = load_floorplan(plan_path)
     runs = []
     for seed in seeds_of(args.seeds):

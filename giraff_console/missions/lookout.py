@@ -15,6 +15,11 @@ its beam counts as seen through up to it, and nothing is blocked. A sensor that 
 only what is in the way (the simulator's range finder) has every hit counted: the
 price of the filter, an obstacle against a wall missed, is paid only where it buys
 something.
+
+Its walls, the doorways' jambs among them, show where each doorway really is
+(door_sighting.py): the navigator keeps that for the crossings it plans, and a doorway
+ahead that a plan made now would cross elsewhere (`doorway_off`) is a reason to stop
+and plan again too, once for each door.
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ from typing import Protocol
 import numpy as np
 from scipy.ndimage import distance_transform_edt  # type: ignore[import-untyped]
 
+from giraff_console.missions.door_sighting import Revolution
 from giraff_console.missions.navigation import Navigator
 from giraff_console.missions.pose_trail import REVOLUTION_S, PoseTrail
 from giraff_console.motion.executor import Executor
@@ -71,6 +77,17 @@ MARGIN_TOLERANCE_M = 0.01
 # over a few metres, and a degree or two, which at 1.5 m moves a wall 5 cm more). An
 # obstacle this close to a wall is missed; one in a 0.8 m doorway's middle is not.
 KNOWN_WALL_M = 0.25
+# A doorway seen so that a plan made now would cross it more than this off where the plan
+# under way does (door_sighting.py) is worth a stop to plan the crossing again...
+RESIGHT_M = 0.02
+# ...while the robot is still this far from it: not yet on the crossing's straight run in
+# (APPROACH_M's longest, 0.9 m), or near its start, where the new plan lines up on the
+# crossing before the door (route_planner.py's LINE_UP_M). Coming along a corridor to a
+# door in its side, the lidar sees the far jamb only from about here: at a glancing
+# angle its beams are too far apart on the wall.
+RESIGHT_FROM_M = 1.0
+# Within this of a doorway's middle the robot is in it, or its body is.
+IN_DOORWAY_M = 0.6
 
 
 class Lookout:
@@ -85,6 +102,8 @@ class Lookout:
         self._leg_index = -1
         self._walls: KnownWalls | None = None  # made when a sensor that sees walls first says
         self._trail = PoseTrail()  # where the robot was, for a revolution taken before now
+        self._doorways_moved: set[str] = set()  # seen to move, not yet weighed (`doorway_off`)
+        self._resighted: set[str] = set()  # doors this mission stopped to cross anew, once each
 
     def new_plan(self, planned: PlannedPath | None) -> None:
         """The mission drives a new plan (its route, for the legs' D* Lite planners)."""
@@ -113,6 +132,7 @@ class Lookout:
         hits: list[Point] = []
         free: list[Point] = []
         walls = self._known_walls() if scan.sees_walls else None
+        met: list[Point] = []  # every hit, the walls' too
         for distance, bearing in scan.beams:
             if math.isnan(distance):
                 continue  # a failed measurement (REP 117) says nothing either way
@@ -122,11 +142,58 @@ class Lookout:
             end = (pose.x + reach * math.cos(angle), pose.y + reach * math.sin(angle))
             known = seen and walls is not None and walls.near(end)
             (hits if seen and not known else free).append(end)
+            if seen:
+                met.append(end)
+        if scan.sees_walls and met and scan.taken_at is not None:
+            self._see_doorways(pose, scan.taken_at, met)
         changes = self.navigator.report_obstacles(hits, (pose.x, pose.y), free)
         if changes:
             leg = self._current_leg(pose)
             if leg is not None:
                 leg.update(changes)
+
+    def _see_doorways(self, pose: Pose, taken_at: float, hits: list[Point]) -> None:
+        """The doorways a revolution taken from `pose` shows (door_sighting.py), and how
+        the robot moved and turned while it was taken, which can smear them."""
+        start = self._trail.at(taken_at - REVOLUTION_S)
+        end = self._trail.at(taken_at)
+        moved = (end.x - start.x, end.y - start.y) if start and end else (0.0, 0.0)
+        revolution = Revolution(np.asarray(hits), (pose.x, pose.y), taken_at, moved,
+                                self._trail.turning(taken_at))  # fmt: skip
+        self._doorways_moved.update(self.navigator.see_doorways(revolution))
+
+    def doorway_off(self, pose: Pose, doors: Sequence[str],
+                    crossings: frozenset[Point]) -> tuple[str, float] | None:  # fmt: skip
+        """A door of the plan under way (`doors`, crossed at `crossings`) whose doorway
+        has been seen since so that a plan made now would cross it more than RESIGHT_M
+        from where this one does, and how far: while the door is still ahead and
+        RESIGHT_FROM_M or more away, and the robot stands in no doorway, where a stop to
+        plan again would leave it turning in the door frame. Once for each door in a
+        mission; None if there is none."""
+        pending = self._doorways_moved & set(doors)
+        if not pending:
+            return None
+        plan = self.navigator.plan
+        here = (pose.x, pose.y)
+        if any(math.dist(here, door.at) < IN_DOORWAY_M for door in plan.doors):
+            return None  # weighed once out of it
+        self._doorways_moved = set()
+        heading = (math.cos(pose.heading), math.sin(pose.heading))
+        for door in plan.doors:
+            if door.id not in pending or door.id in self._resighted or not crossings:
+                continue
+            dx, dy = door.at[0] - pose.x, door.at[1] - pose.y
+            if dx * heading[0] + dy * heading[1] <= 0 or math.hypot(dx, dy) < RESIGHT_FROM_M:
+                continue  # passed, or too near to stop short of its crossing
+            planned = min(crossings, key=lambda point: math.dist(point, door.at))
+            middle = self.navigator.crossing_middle(door.id)
+            if middle is None or math.dist(planned, door.at) > door.width / 2:
+                continue
+            off = math.dist(planned, middle)
+            if off > RESIGHT_M:
+                self._resighted.add(door.id)
+                return door.id, off
+        return None
 
     def _known_walls(self) -> KnownWalls | None:
         if self._walls is None and self.navigator.walls is not None:

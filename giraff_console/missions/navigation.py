@@ -18,6 +18,7 @@ import threading
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
+from giraff_console.missions.door_sighting import Doorway, Revolution, Sightings
 from giraff_console.planning.floorplan import FloorPlan, Point
 from giraff_console.planning.grid import Cell, OccupancyGrid
 from giraff_console.planning.landmarks import marker_walls
@@ -55,6 +56,8 @@ class Navigator:
         self.state = NavigationState(closed=frozenset(self.planner.graph.closed))
         # Where the goal is when it is not a room's point (the dock), for replanning.
         self._arrival: Arrival | None = None
+        self._sightings = Sightings()
+        self._doorways: list[Doorway] | None = None  # the plan's doors in walls, once asked
 
     @property
     def walls(self) -> OccupancyGrid | None:
@@ -127,9 +130,10 @@ class Navigator:
 
     def use_plan(self, plan: FloorPlan) -> None:
         """Plan on `plan` from now on: the same building with its rooms renamed
-        (planning/room_names.py keeps the door ids). The same grid, doors shut and
-        obstacles sensed carry over; the route shown does not (the caller has no mission
-        running). The new planner is made whole before it replaces the old."""
+        (planning/room_names.py keeps the door ids). The same grid, doors shut, obstacles
+        sensed and the doorways' middles a range sensor saw (door_sighting.py) carry
+        over; the route shown does not (the caller has no mission running). The new
+        planner is made whole before it replaces the old."""
         with self._lock:
             before = self.planner
             planner = RoutePlanner(plan, before.walls, before.robot_radius)
@@ -141,6 +145,9 @@ class Navigator:
             if before.legs is not None and planner.legs is not None and before.legs.sensed:
                 radius = before.robot_radius + CLEARANCE_M
                 planner.legs.block(list(before.legs.sensed.values()), radius)
+            for door_id, middle in before.seen_middles().items():
+                planner.seen_middle(door_id, middle)
+            self._doorways = None
             self.plan, self.planner = plan, planner
             self._arrival = None
             closed = frozenset(planner.graph.closed)
@@ -154,6 +161,7 @@ class Navigator:
             planner = RoutePlanner(plan, walls, self.planner.robot_radius)
             self.plan, self.planner = plan, planner
             self._arrival = None
+            self._sightings, self._doorways = Sightings(), None
             self.state = NavigationState(closed=frozenset(planner.graph.closed))
 
     def forget(self) -> None:
@@ -193,6 +201,31 @@ class Navigator:
             if before != cleared or cleared != len(legs.sensed):
                 self.state = replace(self.state, obstacles=tuple(legs.sensed.values()))
             return changes
+
+    def see_doorways(self, revolution: Revolution) -> list[str]:
+        """A revolution of a range sensor that sees walls: the doorways it shows are
+        crossed at the middle it shows from now on (door_sighting.py). Returns the ids
+        of the doors whose middle moved."""
+        with self._lock:
+            if self._doorways is None:
+                self._doorways = []
+                for door in self.plan.doors:
+                    wall = self.planner.wall_at(door)
+                    if wall is not None:  # a door in open floor has no jambs to see
+                        self._doorways.append(Doorway.in_wall(door, wall[0], wall[1]))
+            width = 2 * self.planner.robot_radius
+            moved = self._sightings.see(self._doorways, revolution, width)
+            by_id = {doorway.door.id: doorway for doorway in self._doorways}
+            for door_id, middle in moved.items():
+                self.planner.seen_middle(door_id, by_id[door_id].middle_at(middle))
+            return list(moved)
+
+    def crossing_middle(self, door_id: str) -> Point | None:
+        """Where a plan made now crosses `door_id`'s doorway from its approach (from a
+        start within the crossing, it may cross beside it); None if not straight."""
+        with self._lock:
+            door = next((door for door in self.plan.doors if door.id == door_id), None)
+            return None if door is None else self.planner.crossing_middle(door)
 
     def forget_obstacles(self, points: list[Point], margin: float = 0.0) -> None:
         """Obstacles reported at `points` (with `margin`) are no longer believed: their

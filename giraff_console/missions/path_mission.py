@@ -176,6 +176,7 @@ class PathMission:
     # Set by _plan, which __init__ calls.
     _sections: tuple[Section, ...]
     _closed: frozenset[str]
+    _crossings: frozenset[Point]
 
     def __init__(
         self,
@@ -829,6 +830,7 @@ class PathMission:
         plan = self.navigator.plan if self.navigator is not None else None
         doors = [door.at for door in plan.doors if door.id in course.doors] if plan else []
         self._sections, self._door_points = sections, doors
+        self._crossings = course.doorways
         return self._executor_for(sections)
 
     def _executor_for(self, sections: Sequence[Section]) -> Executor:
@@ -854,15 +856,26 @@ class PathMission:
     def _watch(self, tick: Tick) -> None:
         """The range finder's sweep into the grid (while stopping too, so that the new
         plan knows all it can); if the grid now blocks the path ahead, stop and plan
-        again (D* Lite across this room, else the room graph)."""
+        again (D* Lite across this room, else the room graph); and so, once for each
+        door, if a doorway ahead is seen off where the plan crosses it."""
         assert self._lookout is not None
         pose = tick.pose
         self._lookout.sweep(pose, tick.now)
-        if self._stage is Stage.DRIVING and self._lookout.blocks(self.executor):
+        if self._stage is not Stage.DRIVING:
+            return
+        if self._lookout.blocks(self.executor):
             self.notify(f"{self.name}: something in the way ahead of ({pose.x:.1f}, "
                         f"{pose.y:.1f}); stopping to plan again")  # fmt: skip
             self._arrival.anew()
             self._stop_then(tick.now, "something in the way", self._plan_again_blocked)
+            return
+        off = self._lookout.doorway_off(pose, self._doors, self._crossings)
+        if off is not None:
+            door, over = off
+            self.notify(f"{self.name}: {door}'s doorway seen off the plan, its crossing "
+                        f"{100 * over:.0f} cm over; stopping to plan again")  # fmt: skip
+            self._arrival.anew()
+            self._stop_then(tick.now, "a doorway seen off the plan", self._plan_again)
 
     def _plan_again_blocked(self, tick: Tick) -> list[Command]:
         return self._plan_again(tick, blocked=True)

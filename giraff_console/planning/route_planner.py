@@ -36,6 +36,13 @@ CLEARANCE_M = 0.05
 # driven through as the grid's ways go, or "square" to a wall that is not there would
 # add a sideways hop out and back (issue 16: 6.28 m became 9.87 m).
 APPROACH_M = (0.9, 0.7, 0.5)
+# A crossing that cannot pass a doorway where it was seen is tried this much nearer the
+# plan's middle at a time: a fifth of a 5 cm cell.
+SHIFT_STEP_M = 0.01
+# A robot standing in a crossing's run in this far or more short of the doorway's middle
+# drives to the middle first, and straight on from there: a line from it at 10 cm aside
+# turns by 11 degrees, and straight on at the middle by as much, well clear of the frame.
+LINE_UP_M = 0.5
 
 
 @dataclass(frozen=True)
@@ -63,7 +70,9 @@ class PlannedPath:
     route: Route
     legs: tuple[tuple[Point, ...], ...]  # each leg's polyline, ends included
     goal_heading: float | None  # radians counter-clockwise from +x, if the room asks one
-    doorways: frozenset[Point] = frozenset()  # door centres crossed straight, square on
+    # The doorways' middles crossed straight, square on: the plan's, or where a range
+    # sensor saw them (`RoutePlanner.seen_middle`).
+    doorways: frozenset[Point] = frozenset()
 
     @property
     def path(self) -> list[Point]:
@@ -83,6 +92,15 @@ class PlannedPath:
         data["length_m"] = round(self.length_m, 3)
         data["path"] = [[round(x, 3), round(y, 3)] for x, y in self.path]
         return data
+
+
+def _short_of(start: Point, middle: Point, exit_: Point) -> bool:
+    """Whether `start` is LINE_UP_M or more short of `middle`, along the crossing that
+    runs from it to `exit_`."""
+    reach = math.dist(middle, exit_)
+    along = ((start[0] - middle[0]) * (exit_[0] - middle[0])
+             + (start[1] - middle[1]) * (exit_[1] - middle[1])) / reach  # fmt: skip
+    return along <= -LINE_UP_M
 
 
 def walls_of(plan: FloorPlan) -> OccupancyGrid | None:
@@ -122,12 +140,32 @@ class RoutePlanner:
         }
         self._doors_at = {door.at: door for door in plan.doors}
         self._walls_at: dict[str, tuple[Point, Point, str | None] | None] = {}
+        # Where a range sensor has seen a doorway's middle (missions/door_sighting.py),
+        # by door id: the way through is crossed there rather than at the plan's.
+        self._seen_middles: dict[str, Point] = {}
 
     def close(self, door_id: str) -> None:
         self.graph.close(door_id)
 
     def open(self, door_id: str) -> None:
         self.graph.open(door_id)
+
+    def seen_middle(self, door_id: str, middle: Point) -> None:
+        """A range sensor sees `door_id`'s doorway's middle at `middle`: its crossing is
+        planned there from now on, as near as the plan's own walls leave clear."""
+        self._seen_middles[door_id] = middle
+
+    def crossing_middle(self, door: Door) -> Point | None:
+        """Where a straight crossing of `door` passes its doorway now (either way: the
+        same line); None when it is not crossed straight (`_approach`)."""
+        if self.legs is None:
+            return None
+        crossing = self._approach(door, *door.between)
+        return None if crossing is None else crossing[1]
+
+    def seen_middles(self) -> dict[str, Point]:
+        """The doorways' middles as seen, by door id (`seen_middle`)."""
+        return dict(self._seen_middles)
 
     def room_at(self, point: Point) -> str:
         """The room that `point` is in: the outline holding it, else the nearest outline,
@@ -200,9 +238,9 @@ class RoutePlanner:
     def _legs(
         self, route: Route, arrival: Arrival | None = None
     ) -> tuple[tuple[tuple[Point, ...], ...], frozenset[Point]] | None:
-        """The route's legs on the grid, and the door centres crossed square on; None if
-        a leg has no way across its room. With `arrival`, the last leg ends there
-        instead of at the room's point."""
+        """The route's legs on the grid, and the doorways' middles crossed square on;
+        None if a leg has no way across its room. With `arrival`, the last leg ends
+        there instead of at the room's point."""
         last_room = route.leg_rooms[-1] if route.leg_rooms else self.room_at(route.path[0])
         ending = self._ending(arrival, last_room)
         if self.legs is None:
@@ -222,20 +260,28 @@ class RoutePlanner:
         for i, point in enumerate(route.path[1:-1], start=1):
             before, after = route.leg_rooms[i - 1], route.leg_rooms[i]
             door = self._doors_at.get(point)
-            ends = self._approach(door, before, after) if door and before != after else None
-            if ends is None:
+            crossing = self._approach(door, before, after) if door and before != after else None
+            if crossing is None:
                 waypoints.append((point, before))
-            elif i == 1 and door is not None and self._within_crossing(route.path[0], door, ends):
+            elif i == 1 and door is not None and self._within_crossing(route.path[0], door,
+                                                                       crossing):  # fmt: skip
                 # The robot already stands in this crossing (in the doorway, or between
                 # the approach point and it): going back to the approach point would
                 # drive it backwards into the room it was leaving and turn it round on
                 # the spot in the doorway, where the casters then turn it unseen (up to
-                # 45 degrees, §3.2.1.5) into the door frame. Straight on out instead.
-                waypoints.append((ends[1], None))
-                doorways.add(point)
+                # 45 degrees, §3.2.1.5) into the door frame. Straight on out instead, by
+                # its middle when still LINE_UP_M short of it: a robot that stopped to
+                # plan a doorway seen off the plan (missions/lookout.py) would otherwise
+                # cross it half way between the old line and the new.
+                entry, middle, exit_ = crossing
+                if _short_of(route.path[0], middle, exit_):
+                    waypoints.append((middle, None))
+                waypoints.append((exit_, None))
+                doorways.add(middle)
             else:
-                waypoints += [(ends[0], before), (point, None), (ends[1], None)]
-                doorways.add(point)
+                entry, middle, exit_ = crossing
+                waypoints += [(entry, before), (middle, None), (exit_, None)]
+                doorways.add(middle)
         if arrival is None:
             waypoints.append((route.path[-1], last_room))
         else:
@@ -264,35 +310,56 @@ class RoutePlanner:
             )
         return [arrival.approach, arrival.point]
 
-    def _approach(self, door: Door, before: str, after: str) -> tuple[Point, Point] | None:
-        """Where to start and end a straight crossing of `door`, square to its wall, from
-        room `before` to room `after`; None when it is in no wall, or when no crossing is
-        clear."""
+    def _approach(self, door: Door, before: str, after: str) -> tuple[Point, Point, Point] | None:
+        """Where to start, pass the middle of, and end a straight crossing of `door`,
+        square to its wall, from room `before` to room `after`; None when it is in no
+        wall, or when no crossing is clear.
+
+        Through the plan's middle of the doorway, or, where a range sensor has seen the
+        doorway (`seen_middle`), through the middle it saw, or as near it along the wall
+        as the plan's walls (grown by the radius and CLEARANCE_M) leave the crossing
+        clear: a taught map's doorways are a few centimetres narrower than the real ones
+        and off their middles, where a 0.8 m door leaves a 0.6 m robot 10 cm a side."""
         assert self.legs is not None
         normal = self._door_normal(door, before, after)
         if normal is None:
             return None
-        at = door.at
-        for reach in APPROACH_M:
-            entry = (at[0] - normal[0] * reach, at[1] - normal[1] * reach)
-            exit_ = (at[0] + normal[0] * reach, at[1] + normal[1] * reach)
-            if self.legs.clear(entry, exit_):
-                return entry, exit_
+        # Nearest the middle seen first, at any reach: a chair on the long run in must
+        # not put the crossing back where the plan has the doorway.
+        for at in self._middles(door):
+            for reach in APPROACH_M:
+                entry = (at[0] - normal[0] * reach, at[1] - normal[1] * reach)
+                exit_ = (at[0] + normal[0] * reach, at[1] + normal[1] * reach)
+                if self.legs.clear(entry, exit_):
+                    return entry, at, exit_
         return None
 
-    def _within_crossing(self, start: Point, door: Door, ends: tuple[Point, Point]) -> bool:
-        """Whether `start` lies in the straight crossing of `door` from `ends[0]` to
-        `ends[1]` (past the approach point, short of the exit, and no further to the side
-        of the door's centre line than the robot's body still fits through the doorway),
-        and the straight way from it to the exit is clear.
+    def _middles(self, door: Door) -> list[Point]:
+        """Where a crossing of `door` may pass its doorway, best first: the middle seen,
+        then steps of SHIFT_STEP_M back along the wall to the plan's middle."""
+        seen = self._seen_middles.get(door.id)
+        if seen is None:
+            return [door.at]
+        (x, y), (sx, sy) = door.at, seen
+        steps = math.ceil(math.dist(door.at, seen) / SHIFT_STEP_M)
+        return [(sx + (x - sx) * i / steps, sy + (y - sy) * i / steps) for i in range(steps)] + [
+            door.at
+        ]
 
-        The way out is then straight from `start` to the exit, not by the door's centre:
-        from beside the centre, and close to it, the leg to the centre would be a short
-        hop sideways with a turn on the spot at its end, in the doorway. The straight
-        line from `start` to the exit is never further from the centre line than
-        `start` is, so it keeps to the doorway too."""
+    def _within_crossing(self, start: Point, door: Door,
+                         crossing: tuple[Point, Point, Point]) -> bool:  # fmt: skip
+        """Whether `start` lies in the straight `crossing` of `door` (its entry, middle and
+        exit: past the entry, short of the exit, and no further to the side of the line
+        through its middle than the robot's body still fits through the doorway), and
+        the straight way from it to the exit is clear.
+
+        The way out is then straight from `start` to the exit, not by the middle: from
+        beside it, and close to it, the leg to the middle would be a short hop sideways
+        with a turn on the spot at its end, in the doorway. The straight line from
+        `start` to the exit is never further from the middle's line than `start` is, so
+        it keeps to the doorway too."""
         assert self.legs is not None
-        at, exit_ = door.at, ends[1]
+        _, at, exit_ = crossing
         reach = math.dist(at, exit_)
         if reach == 0:
             return False
@@ -309,7 +376,7 @@ class RoutePlanner:
     def _door_normal(self, door: Door, before: str, after: str) -> Point | None:
         """The unit vector square to the wall `door` is in, from `before` to `after`; None
         when there is no wall at the door to cross."""
-        wall = self._wall_at(door)
+        wall = self.wall_at(door)
         if wall is None:
             return None
         (ax, ay), (bx, by), room_id = wall
@@ -333,7 +400,7 @@ class RoutePlanner:
         sign = 1.0 if across > 0 else -1.0
         return normal[0] * sign, normal[1] * sign
 
-    def _wall_at(self, door: Door) -> tuple[Point, Point, str | None] | None:
+    def wall_at(self, door: Door) -> tuple[Point, Point, str | None] | None:
         """Two points along the wall `door` is in, and the room whose outline it is an
         edge of (None for a wall on the grid); None when the door is in no wall: neither
         room's outline passes through it, and the grid has no occupied cells on both
