@@ -57,7 +57,7 @@ class Navigator:
         # Where the goal is when it is not a room's point (the dock), for replanning.
         self._arrival: Arrival | None = None
         self._sightings = Sightings()
-        self._doorways: list[Doorway] | None = None  # the plan's doors in walls, once asked
+        self._doorways: dict[str, Doorway] | None = None  # the plan's doors in walls, by id
 
     @property
     def walls(self) -> OccupancyGrid | None:
@@ -208,16 +208,15 @@ class Navigator:
         of the doors whose middle moved."""
         with self._lock:
             if self._doorways is None:
-                self._doorways = []
+                self._doorways = {}
                 for door in self.plan.doors:
                     wall = self.planner.wall_at(door)
                     if wall is not None:  # a door in open floor has no jambs to see
-                        self._doorways.append(Doorway.in_wall(door, wall[0], wall[1]))
+                        self._doorways[door.id] = Doorway.in_wall(door, wall[0], wall[1])
             width = 2 * self.planner.robot_radius
-            moved = self._sightings.see(self._doorways, revolution, width)
-            by_id = {doorway.door.id: doorway for doorway in self._doorways}
+            moved = self._sightings.see(list(self._doorways.values()), revolution, width)
             for door_id, middle in moved.items():
-                self.planner.seen_middle(door_id, by_id[door_id].middle_at(middle))
+                self.planner.seen_middle(door_id, self._doorways[door_id].middle_at(middle))
             return list(moved)
 
     def crossing_middle(self, door_id: str) -> Point | None:
