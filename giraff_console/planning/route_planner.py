@@ -43,6 +43,11 @@ SHIFT_STEP_M = 0.01
 # drives to the middle first, and straight on from there: a line from it at 10 cm aside
 # turns by 11 degrees, and straight on at the middle by as much, well clear of the frame.
 LINE_UP_M = 0.5
+# Nearer, or too far aside to go straight on out, it drives to the middle if the line
+# there turns it by no more than this: a robot backed off a door frame it clipped stands
+# about 0.3 m short and 0.1 m aside, 19 degrees. A turn on the spot charges the casters
+# in proportion to its angle (§3.2.1.5): this one a third of what turning round does.
+LINE_UP_TURN = math.radians(30.0)
 
 
 @dataclass(frozen=True)
@@ -92,15 +97,6 @@ class PlannedPath:
         data["length_m"] = round(self.length_m, 3)
         data["path"] = [[round(x, 3), round(y, 3)] for x, y in self.path]
         return data
-
-
-def _short_of(start: Point, middle: Point, exit_: Point) -> bool:
-    """Whether `start` is LINE_UP_M or more short of `middle`, along the crossing that
-    runs from it to `exit_`."""
-    reach = math.dist(middle, exit_)
-    along = ((start[0] - middle[0]) * (exit_[0] - middle[0])
-             + (start[1] - middle[1]) * (exit_[1] - middle[1])) / reach  # fmt: skip
-    return along <= -LINE_UP_M
 
 
 def walls_of(plan: FloorPlan) -> OccupancyGrid | None:
@@ -263,21 +259,13 @@ class RoutePlanner:
             crossing = self._approach(door, before, after) if door and before != after else None
             if crossing is None:
                 waypoints.append((point, before))
-            elif i == 1 and door is not None and self._within_crossing(route.path[0], door,
-                                                                       crossing):  # fmt: skip
-                # The robot already stands in this crossing (in the doorway, or between
-                # the approach point and it): going back to the approach point would
-                # drive it backwards into the room it was leaving and turn it round on
-                # the spot in the doorway, where the casters then turn it unseen (up to
-                # 45 degrees, §3.2.1.5) into the door frame. Straight on out instead, by
-                # its middle when still LINE_UP_M short of it: a robot that stopped to
-                # plan a doorway seen off the plan (missions/lookout.py) would otherwise
-                # cross it half way between the old line and the new.
-                entry, middle, exit_ = crossing
-                if _short_of(route.path[0], middle, exit_):
-                    waypoints.append((middle, None))
-                waypoints.append((exit_, None))
-                doorways.add(middle)
+            elif (
+                i == 1
+                and door is not None
+                and (way_on := self._way_on(route.path[0], door, crossing))
+            ):
+                waypoints += [(corner, None) for corner in way_on]
+                doorways.add(crossing[1])
             else:
                 entry, middle, exit_ = crossing
                 waypoints += [(entry, before), (middle, None), (exit_, None)]
@@ -346,32 +334,44 @@ class RoutePlanner:
             door.at
         ]
 
-    def _within_crossing(self, start: Point, door: Door,
-                         crossing: tuple[Point, Point, Point]) -> bool:  # fmt: skip
-        """Whether `start` lies in the straight `crossing` of `door` (its entry, middle and
-        exit: past the entry, short of the exit, and no further to the side of the line
-        through its middle than the robot's body still fits through the doorway), and
-        the straight way from it to the exit is clear.
+    def _way_on(self, start: Point, door: Door,
+                crossing: tuple[Point, Point, Point]) -> list[Point] | None:  # fmt: skip
+        """The straight way on, from `start` standing in `door`'s `crossing` (its entry,
+        middle and exit: past the entry and short of the exit), to the exit; None when it
+        stands elsewhere or has no clear way on.
 
-        The way out is then straight from `start` to the exit, not by the middle: from
-        beside it, and close to it, the leg to the middle would be a short hop sideways
-        with a turn on the spot at its end, in the doorway. The straight line from
-        `start` to the exit is never further from the middle's line than `start` is, so
-        it keeps to the doorway too."""
+        Going back to the entry would drive the robot backwards into the room it was
+        leaving and turn it round on the spot, twice, in or just before the doorway,
+        where the casters then turn it unseen (up to 45 degrees, §3.2.1.5) into the door
+        frame. Instead:
+        - No further to the side of the middle's line than the body still fits between
+          the posts: straight on to the exit. From beside the middle and close to it a
+          leg to the middle would be a hop sideways with a turn in the doorway, and the
+          line to the exit is never further from the middle's line than `start` is. By
+          the middle when still LINE_UP_M short of it: a robot that stopped to plan a
+          doorway seen off the plan (missions/lookout.py) would otherwise cross it half
+          way between the old line and the new.
+        - Further aside, short of the doorway: by the middle, if the line there turns it
+          by LINE_UP_TURN or less."""
         assert self.legs is not None
         _, at, exit_ = crossing
         reach = math.dist(at, exit_)
         if reach == 0:
-            return False
+            return None
         normal = ((exit_[0] - at[0]) / reach, (exit_[1] - at[1]) / reach)
         dx, dy = start[0] - at[0], start[1] - at[1]
         along = dx * normal[0] + dy * normal[1]
         aside = abs(dx * normal[1] - dy * normal[0])
+        if not -reach < along < reach:
+            return None
         # The robot's radius as the margin: the body, not just its centre, fits between
         # the door posts along the whole stretch.
-        if not (-reach < along < reach and aside <= door.width / 2 - self.robot_radius):
-            return False
-        return self.legs.clear(start, exit_)
+        if aside <= door.width / 2 - self.robot_radius and self.legs.clear(start, exit_):
+            return [at, exit_] if along <= -LINE_UP_M else [exit_]
+        if (along < 0 and math.atan2(aside, -along) <= LINE_UP_TURN
+                and self.legs.clear(start, at) and self.legs.clear(at, exit_)):  # fmt: skip
+            return [at, exit_]
+        return None
 
     def _door_normal(self, door: Door, before: str, after: str) -> Point | None:
         """The unit vector square to the wall `door` is in, from `before` to `after`; None

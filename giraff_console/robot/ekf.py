@@ -577,6 +577,21 @@ class PoseFilter:
         return self._measured_pose(np.array([measured.x, measured.y, measured.heading]),
                                    noise, time)  # fmt: skip
 
+    def correct_heading(self, measured: Pose, noise: np.ndarray, time: float) -> bool:
+        """Correct the heading alone by a measurement of the whole pose, known to `noise`
+        (3x3, as correct_pose's), taken at `time`: for a position already known better
+        than the measurement's source is drawn (robot/localisation.py's SCAN_FLOOR_M).
+        The whole pose is gated, as correct_pose gates it; the position moves only as
+        far as it is tied to the heading. False, and the filter untouched, when the gate
+        rejects it or the filter is not placed yet."""
+        if not self.placed:
+            return False
+        v, s = self._pose_residual(np.array([measured.x, measured.y, measured.heading]), noise)
+        if not self._accept(v, s):
+            return False
+        self._fuse(v[2:], noise[2:, 2:], _POSE[2:], time)
+        return True
+
     def agrees(self, measured: Pose, noise: np.ndarray) -> bool:
         """Whether a measurement of the whole pose, known to `noise`, passes the gate
         correct_pose would weigh it with; the filter untouched."""
@@ -589,13 +604,18 @@ class PoseFilter:
         v, s = self._pose_residual(measured, noise)
         if not self._accept(v, s):
             return False
+        self._fuse(v, noise, _POSE, time)
+        return True
+
+    def _fuse(self, v: np.ndarray, noise: np.ndarray, h: np.ndarray, time: float) -> None:
+        """The Kalman update by a measurement `h` of the state (rows of _POSE), its
+        innovation `v` and noise `noise`, already gated."""
         p = self._p
         # The casters' turn to come is corrected too, by its covariance with the pose.
-        gain = p[:, :3] @ np.linalg.inv(s)
-        keep = np.eye(4) - gain @ _POSE
+        gain = p @ h.T @ np.linalg.inv(h @ p @ h.T + noise)
+        keep = np.eye(4) - gain @ h
         # Joseph form: stays symmetric and positive definite whatever the rounding.
         self._update(self._x + gain @ v, keep @ p @ keep.T + gain @ noise @ gain.T, time)
-        return True
 
     def _range_bearing_innovation(
         self, sighting: Observation, at: Pose, state: np.ndarray, sigma: Sigma

@@ -182,6 +182,22 @@ def test_a_robot_further_in_the_room_still_lines_up_at_the_approach_point():
     assert path.index(ENTRY) + 1 == path.index(DOORWAY)  # straight on from the entry
 
 
+def test_a_robot_short_of_the_door_and_beside_its_line_lines_up_on_the_middle_not_back():
+    # Backed off a door frame it clipped, the robot stood in the run in a little too
+    # far aside for its body to pass the posts going straight on. The plan took it back
+    # to the approach point: round on the spot, and round again, in front of the door,
+    # and the casters then turned it 14 degrees unseen into the frame (tests/lidar's
+    # doorway drawn off). Now it drives to the middle, a turn of 28 degrees.
+    planner = example_planner()
+    start = (40.6, 16.32)
+    planned = planner.from_point(start, "day-room")
+    assert planned.legs[0] == (start, DOORWAY)
+    assert all(math.dist(point, ENTRY) > 0.3 for point in planned.path)
+    assert all(x <= start[0] for x, _ in planned.path)  # only ever west, towards the door
+    assert DOORWAY in planned.doorways
+    assert_clear(planner, planned.path)
+
+
 def test_a_robot_beside_the_crossing_still_lines_up_at_the_approach_point():
     # Too far to the side of the door's centre line for the body to clear the posts
     # going straight: it lines up at the approach point first, as before.
