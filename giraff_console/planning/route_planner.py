@@ -44,9 +44,11 @@ SHIFT_STEP_M = 0.01
 # turns by 11 degrees, and straight on at the middle by as much, well clear of the frame.
 LINE_UP_M = 0.5
 # Nearer, or too far aside to go straight on out, it drives to the middle if the line
-# there turns it by no more than this: a robot backed off a door frame it clipped stands
-# about 0.3 m short and 0.1 m aside, 19 degrees. A turn on the spot charges the casters
-# in proportion to its angle (§3.2.1.5): this one a third of what turning round does.
+# there turns it by no more than this: a robot backed off a door frame it clipped stood
+# 0.31 m short and 0.11 m aside, 19 degrees. It turns back at the middle, in the
+# doorway, where its round body sweeps nothing more; the turn charges the casters in
+# proportion to its angle (§3.2.1.5), a third of what turning round does at most, and
+# they let go as it leaves the doorway.
 LINE_UP_TURN = math.radians(30.0)
 
 
@@ -264,8 +266,9 @@ class RoutePlanner:
                 and door is not None
                 and (way_on := self._way_on(route.path[0], door, crossing))
             ):
+                _, middle, _ = crossing
                 waypoints += [(corner, None) for corner in way_on]
-                doorways.add(crossing[1])
+                doorways.add(middle)
             else:
                 entry, middle, exit_ = crossing
                 waypoints += [(entry, before), (middle, None), (exit_, None)]
@@ -351,8 +354,10 @@ class RoutePlanner:
           the middle when still LINE_UP_M short of it: a robot that stopped to plan a
           doorway seen off the plan (missions/lookout.py) would otherwise cross it half
           way between the old line and the new.
-        - Further aside, short of the doorway: by the middle, if the line there turns it
-          by LINE_UP_TURN or less."""
+        - Further aside, or with the straight line blocked, short of the doorway: by the
+          middle, if the line there turns it by LINE_UP_TURN or less. Where the path
+          then bends at the middle it may cut the corner by a few centimetres (shaping's
+          curve), within the crossing's clearance."""
         assert self.legs is not None
         _, at, exit_ = crossing
         reach = math.dist(at, exit_)

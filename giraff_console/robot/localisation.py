@@ -470,14 +470,15 @@ class Localisation:
         f = self.filter
         if f.sigma_m >= SCAN_FLOOR_M:
             used = f.correct_pose(present, fix.covariance, self.now())
-        elif f.sigma_heading**2 > fix.covariance[2, 2]:
+        elif fix.pinned and f.sigma_heading**2 > fix.covariance[2, 2]:
             # The position known better than the map, the heading not: the casters'
             # turn after a turn on the spot (§3.2.1.5) comes over the next decimetres,
             # unseen by the wheels, and may be 10 to 15 degrees more or less than
             # expected while the position is known to 2 cm. Left to the filter, the
             # robot drove its run in to a 0.8 m door 14 degrees off its line, and its
             # lidar saw the jamb 0.2 m into the doorway (tests/lidar's doorway drawn
-            # off, on a busy machine).
+            # off, on a busy machine). A pinned fix only: one whose heading search was
+            # cut short (missions/scan_fixing.py) may have stopped at its edge.
             used = f.correct_heading(present, fix.covariance, self.now())
         else:
             used = f.agrees(present, fix.covariance)

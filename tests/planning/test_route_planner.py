@@ -198,6 +198,13 @@ def test_a_robot_short_of_the_door_and_beside_its_line_lines_up_on_the_middle_no
     assert_clear(planner, planned.path)
 
 
+def test_a_robot_short_of_the_door_and_further_aside_still_lines_up_at_the_approach_point():
+    # 35 degrees to the middle: more than LINE_UP_TURN.
+    planner = example_planner()
+    planned = planner.from_point((40.5, 16.35), "day-room")
+    assert ENTRY in planned.path and DOORWAY in planned.path
+
+
 def test_a_robot_beside_the_crossing_still_lines_up_at_the_approach_point():
     # Too far to the side of the door's centre line for the body to clear the posts
     # going straight: it lines up at the approach point first, as before.

@@ -388,17 +388,35 @@ def test_a_scan_fix_corrects_a_heading_the_casters_made_unsure_below_the_floor()
     # map, is not fused. Only confirming the pose here, the robot drove its run in to a
     # door 14 degrees off its line and clipped the frame (tests/lidar's doorway drawn
     # off, on a busy machine).
-    localisation, clock, before = unsure_heading_below_the_floor()
-    turned = Pose(before.pose.x, before.pose.y, before.pose.heading + math.radians(8.0))
-    localisation.scan_fitted(PoseFix(clock.now(), turned, FIX_COVARIANCE))
-    localisation.correct()
-    after = localisation.estimate()
-    assert localisation.scan_fixes == {True: 31}
+    def fixed(aside: float):
+        localisation, clock, before = unsure_heading_below_the_floor()
+        p = before.pose
+        turned = Pose(p.x + aside, p.y, p.heading + math.radians(8.0))
+        localisation.scan_fitted(PoseFix(clock.now(), turned, FIX_COVARIANCE))
+        localisation.correct()
+        assert localisation.scan_fixes == {True: 31}
+        return before, localisation.estimate(), localisation.filter.sigma_heading
+
+    before, after, sigma_heading = fixed(0.0)
     assert math.degrees(after.pose.heading - before.pose.heading) > 7.0
-    assert localisation.filter.sigma_heading < math.radians(1.5)
-    # The position moved only as far as it is tied to the heading, and is no surer.
-    assert math.dist((after.pose.x, after.pose.y), (before.pose.x, before.pose.y)) < 0.01
+    assert sigma_heading < math.radians(1.5)
+    # The position moved only as far as it is tied to the heading, and is no surer; a
+    # fix 3 cm to the side, which it says no better than the map, moves it no more.
+    moved = math.hypot(after.pose.x - before.pose.x, after.pose.y - before.pose.y)
+    assert moved < 0.01
     assert after.sigma_m >= 0.95 * before.sigma_m
+    _, aside, _ = fixed(0.03)
+    assert aside.pose == after.pose
+
+
+def test_a_heading_fix_from_a_search_cut_short_only_confirms_below_the_floor():
+    localisation, clock, before = unsure_heading_below_the_floor()
+    p = before.pose
+    turned = Pose(p.x, p.y, p.heading + math.radians(8.0))
+    localisation.scan_fitted(PoseFix(clock.now(), turned, FIX_COVARIANCE, pinned=False))
+    localisation.correct()
+    assert localisation.scan_fixes == {True: 31}
+    assert localisation.estimate().pose == p
 
 
 def test_a_heading_fix_whose_position_is_far_off_is_rejected_whole():
