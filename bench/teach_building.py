@@ -43,6 +43,7 @@ from bench.any_building import (
     Run,
     counts,
     machine,
+    misclaimed,
     patrol_command,
     patrol_rooms,
     run_patrol,
@@ -221,10 +222,7 @@ def main() -> None:
     for run in done:
         if run.problem:
             print(f"  seed {run.seed}: {run.problem}")
-        for stop in run.stops:
-            if not stop.get("arrived") or stop.get("outcome") not in (None, "arrived"):
-                print(f"  seed {run.seed} {stop.get('room')}: {stop.get('outcome')} "
-                      f"{stop.get('why', '')}")  # fmt: skip
+        misclaimed(run, plan, ("false arrival", "heading off", "failed"))
 
 
 if __name__ == "__main__":
