@@ -32,6 +32,7 @@ from __future__ import annotations
 import collections
 import math
 import statistics
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -143,7 +144,7 @@ class Sightings:
         self._medians: dict[str, float] = {}
         self._last_at: float | None = None
 
-    def see(self, doorways: list[Doorway], revolution: Revolution,
+    def see(self, doorways: Iterable[Doorway], revolution: Revolution,
             robot_width: float) -> dict[str, float]:  # fmt: skip
         """The doorways within SIGHT_M that `revolution` shows: those whose middle moved
         by MOVED_M or more, with the middle now (metres along the wall from the plan's)."""

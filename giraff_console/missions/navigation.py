@@ -214,7 +214,7 @@ class Navigator:
                     if wall is not None:  # a door in open floor has no jambs to see
                         self._doorways[door.id] = Doorway.in_wall(door, wall[0], wall[1])
             width = 2 * self.planner.robot_radius
-            moved = self._sightings.see(list(self._doorways.values()), revolution, width)
+            moved = self._sightings.see(self._doorways.values(), revolution, width)
             for door_id, middle in moved.items():
                 self.planner.seen_middle(door_id, self._doorways[door_id].middle_at(middle))
             return list(moved)

@@ -108,6 +108,8 @@ CHI_SQUARE = {
 _SETTLED_RAD2 = 1e-12
 # The pose's part of the state (x, y, heading, the casters' turn to come).
 _POSE = np.eye(3, 4)
+# Which of a measured pose's (x, y, heading) a correction fuses.
+_WHOLE_POSE, _HEADING = slice(0, 3), slice(2, 3)
 # How well a marker is known, where the map says: the 3x3 covariance of its centre and
 # facing (metres, radians); None for the tape measure's (FilterNoise).
 Sigma = np.ndarray | None
@@ -586,11 +588,8 @@ class PoseFilter:
         rejects it or the filter is not placed yet."""
         if not self.placed:
             return False
-        v, s = self._pose_residual(np.array([measured.x, measured.y, measured.heading]), noise)
-        if not self._accept(v, s):
-            return False
-        self._fuse(v[2:], noise[2:, 2:], _POSE[2:], time)
-        return True
+        return self._measured_pose(np.array([measured.x, measured.y, measured.heading]),
+                                   noise, time, _HEADING)  # fmt: skip
 
     def agrees(self, measured: Pose, noise: np.ndarray) -> bool:
         """Whether a measurement of the whole pose, known to `noise`, passes the gate
@@ -600,22 +599,19 @@ class PoseFilter:
         v, s = self._pose_residual(np.array([measured.x, measured.y, measured.heading]), noise)
         return float(v @ np.linalg.solve(s, v)) <= self.gate(len(v))
 
-    def _measured_pose(self, measured: np.ndarray, noise: np.ndarray, time: float) -> bool:
+    def _measured_pose(self, measured: np.ndarray, noise: np.ndarray, time: float,
+                       fused: slice = _WHOLE_POSE) -> bool:  # fmt: skip
+        """The whole pose `measured`, gated; the `fused` part of it corrects the state."""
         v, s = self._pose_residual(measured, noise)
         if not self._accept(v, s):
             return False
-        self._fuse(v, noise, _POSE, time)
-        return True
-
-    def _fuse(self, v: np.ndarray, noise: np.ndarray, h: np.ndarray, time: float) -> None:
-        """The Kalman update by a measurement `h` of the state (rows of _POSE), its
-        innovation `v` and noise `noise`, already gated."""
-        p = self._p
+        p, h, r = self._p, _POSE[fused], noise[fused, fused]
         # The casters' turn to come is corrected too, by its covariance with the pose.
-        gain = p @ h.T @ np.linalg.inv(h @ p @ h.T + noise)
+        gain = p @ h.T @ np.linalg.inv(h @ p @ h.T + r)
         keep = np.eye(4) - gain @ h
         # Joseph form: stays symmetric and positive definite whatever the rounding.
-        self._update(self._x + gain @ v, keep @ p @ keep.T + gain @ noise @ gain.T, time)
+        self._update(self._x + gain @ v[fused], keep @ p @ keep.T + gain @ r @ gain.T, time)
+        return True
 
     def _range_bearing_innovation(
         self, sighting: Observation, at: Pose, state: np.ndarray, sigma: Sigma
