@@ -114,7 +114,7 @@ def map_it(teaching: Teaching, folder: Path, seed: int, sim_speed: float = 2.0) 
                     "lines": list(saved.lines), "revolutions": revolutions}  # fmt: skip
     if status is not None:
         report |= {"laid_in": status.scans, "dropped": status.dropped,
-                   "unplaced": status.unplaced}  # fmt: skip
+                   "unplaced": status.unplaced, "broken": status.broken}  # fmt: skip
     # Of a core, over the wall's seconds; the simulated clock runs `sim_speed` times as
     # fast, and the lidar's revolutions with it (5.5 a simulated second when it keeps up).
     report["revolutions_per_sim_s"] = revolutions / (drive.seconds * sim_speed)

@@ -184,7 +184,7 @@ def replay(path: Path, quiet: bool = False, loops: bool = False, perturb_seed: i
     status = run.status()
     report: dict = {"building": kept.building, "laid_in": status.scans,
                     "turning": status.turning,
-                    "uncertain": getattr(status, "uncertain", 0),
+                    "broken": status.broken,
                     "revolutions": len(kept.scans),
                     "ms_per_rev": 1000 * cpu / max(1, status.scans)}  # fmt: skip
     laid = list(run.builder.laid)
@@ -249,7 +249,8 @@ def report(path: Path, seed: int, r: dict) -> None:
           f"{r['pos_median_m']:.3f} m p95 {r['pos_p95_m']:.3f} worst {r['pos_worst_m']:.2f}, "
           f"heading median {r['head_median_deg']:.1f}° p95 {r['head_p95_deg']:.1f}° worst "
           f"{r['head_worst_deg']:.0f}°; {r['laid_in']} of {r['revolutions']} laid in "
-          f"({r['turning']} turning, {r['uncertain']} uncertain), {r['ms_per_rev']:.1f} ms each"
+          f"({r['turning']} turning, {r['broken']} with samples lost), "
+          f"{r['ms_per_rev']:.1f} ms each"
           + (f"; loops: {r['keyframes']} keyframes, {r['loops']} closures, "
              f"{r['outliers']} left out, {r['loop_s']:.1f} s" if "loops" in r else "")
           + (f"; {r['error']}" if "error" in r else "")

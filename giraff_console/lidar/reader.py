@@ -10,7 +10,11 @@ typed value (`LidarStatus`), the operator hears a note when it changes, and the 
 opens the port again after a wait that doubles up to MAX_BACKOFF_S. Every read has the
 port's timeout, so nothing hangs on a silent sensor; bytes out of step (a sample's
 start flags or check bit wrong, protocol/rplidar.py) are stepped over one at a time
-until whole samples come again, and the revolution they fell in is dropped. A scan
+until whole samples come again, and the revolution they fell in is dropped. Samples
+lost between whole ones (a reader that fell behind: the package drops what piles up
+beyond MAX_BUFFERED, and the simulator what its host did not read) leave a revolution
+with a gap, or two turns run together: it is handed on marked not `whole`, for the
+obstacle sensing to look at but not for a map or a fix to be drawn from. A scan
 older than `stale_s` is not handed to the missions: `readings()` then says nothing is
 known (no beams) rather than what was there a while ago.
 """
@@ -30,7 +34,7 @@ import serial
 from adafruit_rplidar import SCAN_TYPE_NORMAL, RPLidarException
 
 from giraff_console.lidar.device import LineSilent, Opener, RplidarDevice
-from giraff_console.lidar.scan import LidarScan, Mount, robot_beams
+from giraff_console.lidar.scan import LidarScan, Mount, robot_beams, whole_turn
 from giraff_console.protocol.rplidar import SAMPLE_LEN, Health
 
 log = logging.getLogger(__name__)
@@ -229,7 +233,8 @@ class LidarReader:
         settings = self.settings
         beams = robot_beams(np.array(angles), np.array(distances), np.array(qualities),
                             settings.mount, settings.range_min, settings.range_max)  # fmt: skip
-        scan = LidarScan(settings.range_max, beams, self.clock(), len(angles))
+        scan = LidarScan(settings.range_max, beams, self.clock(), len(angles),
+                         whole_turn(np.array(angles)))  # fmt: skip
         self._latest = scan
         self.revolutions += 1
         with self._lock:

@@ -18,6 +18,11 @@ from typing import ClassVar
 
 import numpy as np
 
+# A step of the sensor's angle from one sample to the next more than this many times a
+# revolution's usual step is samples lost: a sensor measures at an even pace (an A1
+# about every degree, an A3 every quarter degree), a reader that fell behind loses runs.
+LOST_STEPS = 3.0
+
 
 @dataclass(frozen=True)
 class Mount:
@@ -38,6 +43,10 @@ class LidarScan:
     beams: tuple[tuple[float, float], ...]
     taken_at: float
     samples: int
+    # Whether its samples swept the turn once with none lost (`whole_turn`): a reader
+    # that fell behind loses samples, and what is left is a piece of a turn or two
+    # turns run together, which may be looked at for obstacles but not fitted to a map.
+    whole: bool = True
     # A lidar sees the building's walls as well as what is in the way (missions/lookout.py).
     sees_walls: ClassVar[bool] = True
 
@@ -70,4 +79,22 @@ def within(scan: LidarScan, range_m: float) -> LidarScan:
     if range_m >= scan.range_max:
         return scan
     beams = tuple((d if d <= range_m else math.inf, b) for d, b in scan.beams)
-    return LidarScan(range_m, beams, scan.taken_at, scan.samples)
+    return LidarScan(range_m, beams, scan.taken_at, scan.samples, scan.whole)
+
+
+def whole_turn(angle_deg: np.ndarray) -> bool:
+    """Whether a revolution's samples, their angles in the order read (from its start
+    flag), swept the turn once with none lost: round from the first, never back by
+    more than a usual step (an angle's jitter; two turns run together, the start flag
+    between them lost, go back by a whole turn), no step on over LOST_STEPS usual ones,
+    and round to within one and a half of the first."""
+    angles = np.asarray(angle_deg, dtype=float)
+    if len(angles) < 2:
+        return False
+    # From the first sample, as the sensor turned: a first angle of 359.9 is followed
+    # by 0.3, a step of 0.4.
+    swept = np.mod(angles - angles[0], 360.0)
+    steps = np.diff(swept)
+    usual = float(np.median(steps))
+    return bool(usual > 0 and np.all(steps >= -usual) and np.all(steps <= LOST_STEPS * usual)
+                and swept[-1] + 1.5 * usual >= 360.0)  # fmt: skip

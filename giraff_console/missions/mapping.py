@@ -56,6 +56,10 @@ class StampedScan(Scan, Protocol):
     @property
     def taken_at(self) -> float: ...
 
+    @property
+    def whole(self) -> bool:
+        """Whether its samples swept the turn once with none lost (lidar/scan.py)."""
+
 
 @dataclass(frozen=True)
 class MapMark:
@@ -74,6 +78,7 @@ class MappingStatus:
     dropped: int  # revolutions that came faster than they could be laid in
     unplaced: int  # revolutions too old or too new for the trail's poses
     turning: int  # revolutions taken while the robot turned, left out
+    broken: int  # revolutions with samples lost (a reader that fell behind), left out
     marks: tuple[MapMark, ...]
 
 
@@ -93,7 +98,7 @@ class MappingRun:
         # The builder's grid grows on this run's thread; it is read on others.
         self._building = threading.Lock()
         self._marks: dict[str, MapMark] = {}
-        self._scans = self._unplaced = self._turning = 0
+        self._scans = self._unplaced = self._turning = self._broken = 0
         self._sigma: float | None = None  # the heading's, at the last revolution laid in
         self._queue = RevolutionQueue("mapping", MAX_WAITING, self._laid_in, self._failed)
 
@@ -156,7 +161,7 @@ class MappingRun:
     def status(self) -> MappingStatus:
         with self._lock:
             return MappingStatus(self._scans, self._queue.dropped, self._unplaced, self._turning,
-                                 tuple(self._marks.values()))  # fmt: skip
+                                 self._broken, tuple(self._marks.values()))  # fmt: skip
 
     def grid(self) -> OccupancyGrid:
         """The map so far."""
@@ -187,6 +192,13 @@ class MappingRun:
         """Lay `scan` into the map now, on the caller's thread: the run's thread does,
         for each revolution it is given; a drive replayed (bench/teach_replay.py) calls
         it in turn, none dropped."""
+        if not scan.whole:
+            # A piece of a turn, or two run together: drawn at one pose it smears the
+            # walls, and matched it may jump the map's pose (in a recorded teaching
+            # drive, bench/teach_replay.py, a piece of 76 samples moved it 0.33 m).
+            with self._lock:
+                self._broken += 1
+            return
         stamp = scan.taken_at
         pose = self.trail.at(stamp)
         if pose is None:

@@ -122,7 +122,8 @@ class ScanFixer:
         thread (the fixer's own calls it for each revolution)."""
         grid = self.walls()
         prior = self.trail.at(middle)
-        if grid is None or prior is None or self.trail.turning(scan.taken_at):
+        if (grid is None or prior is None or not scan.whole
+                or self.trail.turning(scan.taken_at)):  # fmt: skip
             return None
         last = self._last
         if last is not None and (

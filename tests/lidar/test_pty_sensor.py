@@ -133,3 +133,25 @@ def test_a_protection_stop_is_reported(lidar_sim, readers):
     assert wait_for(lambda: reader.status.state == LidarState.UNHEALTHY, 10.0), reader.status
     assert reader.status.health == Health.ERROR and reader.status.error_code != 0
     assert reader.latest() is None and not reader.readings().beams
+
+
+def test_a_reader_that_falls_behind_marks_the_revolutions_it_lost_samples_of(lidar_sim, readers):
+    # A listener holding the reader's thread for a second, as a starved process would:
+    # more than MAX_BUFFERED samples pile up and the package drops them, whole samples
+    # at a time, so the line stays in step but the revolution under way has a gap.
+    sim = lidar_sim("--floorplan", str(TWO_ROOMS))
+    reader = readers(sim.lidar)
+    heard: list[LidarScan] = []
+
+    def listen(scan: LidarScan) -> None:
+        heard.append(scan)
+        if len(heard) == 3:
+            time.sleep(1.0)
+
+    reader.subscribe(listen)
+    assert wait_for(lambda: len(heard) >= 10, 15.0), reader.status
+    before, after = heard[:3], heard[3:]
+    assert all(scan.whole and scan.samples == 360 for scan in before)
+    assert [scan for scan in after if not scan.whole], [s.samples for s in after]
+    # Whole again once it keeps up.
+    assert after[-1].whole and after[-1].samples == 360

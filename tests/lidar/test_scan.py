@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from giraff_console.lidar.scan import LidarScan, Mount, robot_beams, within
+from giraff_console.lidar.scan import LidarScan, Mount, robot_beams, whole_turn, within
 
 
 def beams(angles, distances, quality=None, mount=None):
@@ -63,3 +63,18 @@ def test_lidar_without_a_port_on_a_real_robot_is_a_usage_error(capsys):
 
     code = main(["go", "kitchen", "--port", "/dev/null", "--lidar"])
     assert code == 2 and "--lidar: give its port" in capsys.readouterr().err
+
+
+def test_a_whole_turn_is_one_sweep_with_no_sample_lost():
+    a1 = np.arange(360) * 1.0 + 0.3  # an A1's samples, from just past its start flag
+    assert whole_turn(a1)
+    assert whole_turn(np.arange(16) * 22.5)  # a sparse sensor's, evenly spaced
+    # The angles' jitter, unsorted, and a first sample just short of the turn's end.
+    assert whole_turn(a1 + np.random.default_rng(1).uniform(-0.4, 0.4, 360))
+    assert whole_turn(np.mod(a1 - 0.5, 360.0))
+    # Samples lost: a run of them in the middle, the turn's end, or the start flag
+    # between two turns (the next turn's angles run on from 0 in the same revolution).
+    assert not whole_turn(np.delete(a1, range(100, 120)))
+    assert not whole_turn(a1[:300])
+    assert not whole_turn(np.concatenate([a1, a1]))
+    assert not whole_turn(a1[:1])

@@ -174,6 +174,8 @@ def test_a_drive_longer_than_the_scans_kept_keeps_none_and_says_so(
 
 
 class _Stamped:
+    whole = True
+
     def __init__(self, range_max: float, beams: tuple, taken_at: float) -> None:
         self.range_max, self.beams, self.taken_at = range_max, beams, taken_at
         self.hits = [beam for beam in beams if math.isfinite(beam[0])]

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -32,6 +32,7 @@ class Revolution:
     range_max: float
     beams: tuple[tuple[float, float], ...]
     taken_at: float
+    whole: bool = True
 
 
 def grid_of(walls: Walls) -> OccupancyGrid:
@@ -117,6 +118,21 @@ def test_no_fix_without_a_map_or_while_turning() -> None:
         assert fixer.fit(revolution(walls, turned, 10.0, 1), 10.0 - HALF) is None
     finally:
         fixer.close()
+
+
+def test_no_fix_from_a_revolution_with_samples_lost() -> None:
+    # A piece of a turn, or two run together (lidar/scan.py's whole_turn): the same
+    # beams that fix the pose when whole give no fix.
+    walls = furnished_room()
+    true = Pose(4.0, 2.5, 0.0)
+    whole = revolution(walls, true, 10.0, 1)
+    for scan, fixes in ((replace(whole, whole=False), False), (whole, True)):
+        fixer, _ = fixer_of(grid_of(walls))
+        try:
+            believed(fixer, true, 10.0)
+            assert (fixer.fit(scan, 10.0 - HALF) is not None) is fixes
+        finally:
+            fixer.close()
 
 
 def test_a_corridors_fix_says_nothing_along_it() -> None:
