@@ -303,3 +303,38 @@ def test_a_scan_whose_farthest_hits_glance_off_a_wall_is_drawn() -> None:
         for distance, bearing in glancing.beams:
             hit = (at.x + distance * math.cos(bearing), at.y + distance * math.sin(bearing))
             assert grid.cells[grid.cell_of(*hit)] == OCCUPIED
+
+
+def test_a_wall_seen_well_outlasts_a_few_revolutions_and_a_thing_moved_away_goes():
+    # The bound on a cell's log-odds is the map's memory. A trolley seen for 20
+    # revolutions, then wheeled away: its cells are still an obstacle after 20
+    # revolutions seeing through them (so a wall is not replaced by a few drawn at a
+    # pose gone astray: at a bound of 400 it was, and the map followed the drift), and
+    # no longer one after 24.
+    room = box(0, 0, 6, 4)
+    trolley = box(3.525, 1.825, 4.525, 2.325)  # its face mid-cell: every hit in one
+    here = [Pose(1.5, 2.0, 0.0)] * 20
+    builder = MapBuilder(match_scans=False)
+    stamp = 0.0
+    for sweep in sweeps(np.array(room + trolley, dtype=float), here, 360, 1):
+        builder.add(here[0], sweep, stamp)
+        stamp += 0.2
+
+    def trolley_cells() -> np.ndarray:
+        grid = builder.grid()
+        rows, cols = np.nonzero(grid.cells == OCCUPIED)
+        xs = grid.origin[0] + (cols + 0.5) * grid.resolution
+        ys = grid.origin[1] + (grid.shape[0] - rows - 0.5) * grid.resolution
+        return (xs > 3.4) & (xs < 4.6) & (ys > 1.7) & (ys < 2.4)
+
+    seen = int(np.count_nonzero(trolley_cells()))
+    assert seen >= 5
+    gone = sweeps(np.array(room, dtype=float), here * 2, 360, 2)
+    for sweep in gone[:20]:
+        builder.add(here[0], sweep, stamp)
+        stamp += 0.2
+    assert np.count_nonzero(trolley_cells()) >= seen // 2
+    for sweep in gone[20:24]:
+        builder.add(here[0], sweep, stamp)
+        stamp += 0.2
+    assert not np.any(trolley_cells())
