@@ -20,13 +20,19 @@ from tests.fleet.test_vehicle import assert_every_message_valid
 pytestmark = pytest.mark.timeout(150)
 
 NEAR = "w-15"
+# The simulator's clock: sixteen times real time, as the daemon's tests run theirs. No
+# test here acts on the robot while it drives (each action is sent with it standing),
+# and the robot is stepped on that clock, so the drives are the same, only shorter.
+SIM_SPEED = 16.0
 
 
 @pytest.fixture
 def later(broker: Broker, wing: Path, tmp_path: Path) -> Iterator[tuple[FleetRobot, Watcher]]:
     watcher = Watcher(broker)
     try:
-        with fleet_robots(broker, wing, tmp_path, 1, firmware="later") as robots:
+        with fleet_robots(
+            broker, wing, tmp_path, 1, firmware="later", sim_speed=SIM_SPEED
+        ) as robots:
             watcher.wait(lambda: watcher.latest(robots[0].id, Topic.STATE) is not None)
             yield robots[0], watcher
             assert_every_message_valid(watcher)
