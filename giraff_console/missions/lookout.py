@@ -30,7 +30,6 @@ from itertools import pairwise
 from typing import Protocol
 
 import numpy as np
-from scipy.ndimage import distance_transform_edt  # type: ignore[import-untyped]
 
 from giraff_console.missions.door_sighting import Revolution
 from giraff_console.missions.navigation import Navigator
@@ -280,6 +279,11 @@ class KnownWalls:
 
     def __init__(self, grid: OccupancyGrid) -> None:
         self.grid = grid
+        # Imported here, not with the module: every command that reads the settings
+        # imports this module, and scipy.ndimage costs each one's start a seventh of a
+        # second, more on a loaded PC (as room_graph.py's scipy, issue 26, item 6).
+        from scipy.ndimage import distance_transform_edt  # type: ignore[import-untyped]
+
         # Metres from each cell to the nearest blocked one (0 on the blocked ones).
         self._distance = distance_transform_edt(grid.cells == FREE) * grid.resolution
 
