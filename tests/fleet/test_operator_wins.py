@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -33,17 +34,39 @@ FLOOD_S = 15.0
 WAKE_S = 15.0
 
 
-@pytest.fixture
-def one(broker: Broker, wing: Path, tmp_path: Path) -> Iterator[tuple[FleetRobot, Watcher]]:
+# The simulator's clock for the test that drives whole legs and refuses an order only
+# while a 4 m go is under way: eight times real time leaves that go about 5 s of wall
+# time (at 16x, 3 s), the refusal's round trip over the broker a fraction of one. The
+# others keep fleet_robots's four: a flood must start while the robot still drives.
+LEGS_SPEED = 8.0
+
+
+@contextmanager
+def watched_robot(
+    broker: Broker, wing: Path, tmp_path: Path, sim_speed: float
+) -> Iterator[tuple[FleetRobot, Watcher]]:
     # As a master control hears them: what the vehicles say, not the orders sent them
     # (the flood's, which a watcher in the robot's process would spend its time on).
     watcher = Watcher(broker, kinds=VEHICLES_SAY)
     try:
-        with fleet_robots(broker, wing, tmp_path, 1) as robots:
+        with fleet_robots(broker, wing, tmp_path, 1, sim_speed=sim_speed) as robots:
             watcher.wait(lambda: watcher.latest(robots[0].id, Topic.STATE) is not None)
             yield robots[0], watcher
     finally:
         watcher.close()
+
+
+@pytest.fixture
+def one(broker: Broker, wing: Path, tmp_path: Path) -> Iterator[tuple[FleetRobot, Watcher]]:
+    with watched_robot(broker, wing, tmp_path, 4.0) as it:
+        yield it
+
+
+@pytest.fixture
+def one_on_legs(broker: Broker, wing: Path, tmp_path: Path) -> Iterator[tuple[FleetRobot, Watcher]]:
+    """`one`, on a clock LEGS_SPEED times real time."""
+    with watched_robot(broker, wing, tmp_path, LEGS_SPEED) as it:
+        yield it
 
 
 def state(watcher: Watcher, robot: FleetRobot) -> dict:
@@ -163,8 +186,8 @@ def test_the_fleet_keeps_no_controls_while_the_robot_stands(one):
     assert service.controls().holder == NURSE  # a console that comes takes them
 
 
-def test_the_room_it_stands_in_is_said_wherever_it_was_driven_since(one):
-    robot, watcher = one
+def test_the_room_it_stands_in_is_said_wherever_it_was_driven_since(one_on_legs):
+    robot, watcher = one_on_legs
     service = robot.robot.service
     watcher.order(robot.id, "o1", ["dock", NEAR])
     watcher.wait(
