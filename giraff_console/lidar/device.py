@@ -24,7 +24,7 @@ from collections.abc import Callable
 import serial
 from adafruit_rplidar import RPLidar, RPLidarException
 
-from giraff_console.protocol.rplidar import Health
+from giraff_console.protocol.rplidar import SAMPLE_LEN, Health
 
 # The package's words for GET_HEALTH's status, as the protocol's values.
 HEALTH_WORDS = {"Good": Health.GOOD, "Warning": Health.WARNING, "Error": Health.ERROR}
@@ -84,6 +84,16 @@ class RplidarDevice(RPLidar):
         except KeyError:  # a status byte the protocol does not have: a garbled reply
             raise RPLidarException("a health reply with an unknown status") from None
         return HEALTH_WORDS[words], code
+
+    def drop_backlog(self, most: int) -> bool:
+        """Drop the whole samples waiting unread if more than `most` are (as the
+        package's own max_buf_meas would, but said); whether any were dropped."""
+        port = self._port()
+        waiting = port.in_waiting
+        if waiting <= most * SAMPLE_LEN:
+            return False
+        port.read(waiting // SAMPLE_LEN * SAMPLE_LEN)
+        return True
 
     def skip(self, count: int) -> None:
         """Drop `count` bytes of the stream: a step towards the next whole sample."""

@@ -11,10 +11,11 @@ opens the port again after a wait that doubles up to MAX_BACKOFF_S. Every read h
 port's timeout, so nothing hangs on a silent sensor; bytes out of step (a sample's
 start flags or check bit wrong, protocol/rplidar.py) are stepped over one at a time
 until whole samples come again, and the revolution they fell in is dropped. Samples
-lost between whole ones (a reader that fell behind: the package drops what piles up
-beyond MAX_BUFFERED, and the simulator what its host did not read) leave a revolution
-with a gap, or two turns run together: it is handed on marked not `whole`, for the
-obstacle sensing to look at but not for a map or a fix to be drawn from. A scan
+lost between whole ones leave a revolution with a gap, or two turns run together: a
+reader that fell behind drops what piled up beyond MAX_BUFFERED (whole samples, so the
+line stays in step), the simulator what its host did not read. Such a revolution is
+handed on marked not `whole` (lidar/scan.py), for the obstacle sensing to look at but
+not for a map, a fix or a doorway to be drawn from. A scan
 older than `stale_s` is not handed to the missions: `readings()` then says nothing is
 known (no beams) rather than what was there a while ago.
 """
@@ -51,8 +52,8 @@ MAX_SAMPLES = 4000
 # Bytes stepped over in a row before the stream is given up and the port opened again:
 # two revolutions of an A1's samples.
 MAX_SKIPPED = 2 * 360 * SAMPLE_LEN
-# Samples the package may let pile up unread before it drops them (about two A1
-# revolutions): a reader that falls behind skips ahead rather than lagging for ever.
+# Samples let pile up unread before they are dropped (about two A1 revolutions): a
+# reader that falls behind skips ahead rather than lagging for ever.
 MAX_BUFFERED = 720
 
 
@@ -122,11 +123,11 @@ class LidarReader:
         return self._status
 
     def latest(self) -> LidarScan | None:
-        """The last whole revolution, however old."""
+        """The last revolution, however old."""
         return self._latest
 
     def readings(self) -> LidarScan:
-        """The last whole revolution, if it is fresh; else a scan with no beams, which
+        """The last revolution, if it is fresh; else a scan with no beams, which
         says nothing either way (missions/lookout.py then changes nothing)."""
         scan = self._latest
         if scan is None or self.clock() - scan.taken_at > self.settings.stale_s:
@@ -134,7 +135,7 @@ class LidarReader:
         return scan
 
     def subscribe(self, listener: Callable[[LidarScan], None]) -> None:
-        """`listener` hears every whole revolution, on the reader's thread: it must be
+        """`listener` hears every revolution, on the reader's thread: it must be
         quick, or hand the scan on (a queue)."""
         with self._lock:
             self._listeners.append(listener)
@@ -202,15 +203,18 @@ class LidarReader:
         qualities: list[int] = []
         skipped = 0
         whole = False  # whether the revolution under way started at its start flag
+        lost = False  # whether samples of it were dropped, unread
         while not self._exit.is_set():
             try:
-                for new_scan, quality, angle, distance in device.iter_measurements(MAX_BUFFERED):
+                # The backlog is dropped here, not by the package (its max_buf_meas):
+                # so the revolution it falls in is known to have lost samples.
+                for new_scan, quality, angle, distance in device.iter_measurements(0):
                     skipped = 0
                     if new_scan:
                         if whole and len(angles) >= MIN_SAMPLES:
-                            self._publish(angles, distances, qualities)
+                            self._publish(angles, distances, qualities, intact=not lost)
                         angles, distances, qualities = [], [], []
-                        whole = True
+                        whole, lost = True, False
                     angles.append(angle)
                     distances.append(distance)
                     qualities.append(quality or 0)
@@ -218,6 +222,8 @@ class LidarReader:
                         raise RPLidarException("a revolution with no start: not a scan")
                     if self._exit.is_set():
                         return
+                    if device.drop_backlog(MAX_BUFFERED):
+                        lost = True
             except LineSilent:
                 raise
             except RPLidarException:
@@ -229,12 +235,15 @@ class LidarReader:
                 device.skip(1)
                 angles, distances, qualities, whole = [], [], [], False
 
-    def _publish(self, angles: list[float], distances: list[float], qualities: list[int]) -> None:
+    def _publish(self, angles: list[float], distances: list[float], qualities: list[int],
+                 intact: bool) -> None:  # fmt: skip
+        """Hand a revolution on; `intact`: none of its samples were dropped unread."""
         settings = self.settings
-        beams = robot_beams(np.array(angles), np.array(distances), np.array(qualities),
+        distance_mm = np.array(distances)
+        beams = robot_beams(np.array(angles), distance_mm, np.array(qualities),
                             settings.mount, settings.range_min, settings.range_max)  # fmt: skip
-        scan = LidarScan(settings.range_max, beams, self.clock(), len(angles),
-                         whole_turn(np.array(angles)))  # fmt: skip
+        whole = intact and whole_turn(np.array(angles), distance_mm > 0)
+        scan = LidarScan(settings.range_max, beams, self.clock(), len(angles), whole)
         self._latest = scan
         self.revolutions += 1
         with self._lock:

@@ -18,9 +18,10 @@ from typing import ClassVar
 
 import numpy as np
 
-# A step of the sensor's angle from one sample to the next more than this many times a
-# revolution's usual step is samples lost: a sensor measures at an even pace (an A1
-# about every degree, an A3 every quarter degree), a reader that fell behind loses runs.
+# A move of the sensor's angle, between two samples that measured a distance, of more
+# than this many usual steps for each sample read between them is samples lost: a
+# sensor measures at an even pace (an A1 about every degree, an A3 every quarter), a
+# reader that fell behind loses runs of them.
 LOST_STEPS = 3.0
 
 
@@ -82,19 +83,23 @@ def within(scan: LidarScan, range_m: float) -> LidarScan:
     return LidarScan(range_m, beams, scan.taken_at, scan.samples, scan.whole)
 
 
-def whole_turn(angle_deg: np.ndarray) -> bool:
+def whole_turn(angle_deg: np.ndarray, measured: np.ndarray) -> bool:
     """Whether a revolution's samples, their angles in the order read (from its start
-    flag), swept the turn once with none lost: round from the first, never back by
-    more than a usual step (an angle's jitter; two turns run together, the start flag
-    between them lost, go back by a whole turn), no step on over LOST_STEPS usual ones,
-    and round to within one and a half of the first."""
+    flag), swept the turn once with none lost. Judged on the samples that measured a
+    distance (`measured`): the sensor's own SDK takes the angle of one that did not for
+    no angle. Between two of them the angle moves on by at most LOST_STEPS usual steps
+    for each sample read, and back by no more than one (jitter; two turns run together,
+    the start flag between them lost, go back by a whole turn); from the last round to
+    the first, the same. A turn holds a fraction of a sample more or less than a whole
+    number, so its last sample may end up to two steps short of the first's angle."""
     angles = np.asarray(angle_deg, dtype=float)
-    if len(angles) < 2:
+    index = np.flatnonzero(np.asarray(measured, dtype=bool))
+    if len(index) < 2:
         return False
-    # From the first sample, as the sensor turned: a first angle of 359.9 is followed
-    # by 0.3, a step of 0.4.
-    swept = np.mod(angles - angles[0], 360.0)
-    steps = np.diff(swept)
-    usual = float(np.median(steps))
-    return bool(usual > 0 and np.all(steps >= -usual) and np.all(steps <= LOST_STEPS * usual)
-                and swept[-1] + 1.5 * usual >= 360.0)  # fmt: skip
+    # From the first, as the sensor turned: a first angle of 359.9 is followed by 0.3.
+    swept = np.mod(angles[index] - angles[index[0]], 360.0)
+    moved, read = np.diff(swept), np.diff(index)
+    usual = float(np.median(moved / read))
+    closing, closing_read = 360.0 - swept[-1], len(angles) - index[-1] + index[0]
+    return bool(usual > 0 and np.all(moved >= -usual) and np.all(moved <= LOST_STEPS * usual * read)
+                and closing <= LOST_STEPS * usual * closing_read)  # fmt: skip

@@ -63,6 +63,11 @@ class Scan(Protocol):
     def taken_at(self) -> float | None:
         """When the sweep ended, on the loop's clock; None for one read on the tick."""
 
+    @property
+    def whole(self) -> bool:
+        """Whether it swept the turn once with no sample lost (lidar/scan.py): a piece
+        of one still shows what is in the way, but not where a doorway is."""
+
 
 Sense = Callable[[], Scan]
 
@@ -143,7 +148,7 @@ class Lookout:
             (hits if seen and not known else free).append(end)
             if seen:
                 met.append(end)
-        if scan.sees_walls and met and scan.taken_at is not None:
+        if scan.sees_walls and scan.whole and met and scan.taken_at is not None:
             self._see_doorways(pose, scan.taken_at, met)
         changes = self.navigator.report_obstacles(hits, (pose.x, pose.y), free)
         if changes:

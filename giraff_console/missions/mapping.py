@@ -56,10 +56,6 @@ class StampedScan(Scan, Protocol):
     @property
     def taken_at(self) -> float: ...
 
-    @property
-    def whole(self) -> bool:
-        """Whether its samples swept the turn once with none lost (lidar/scan.py)."""
-
 
 @dataclass(frozen=True)
 class MapMark:
@@ -110,8 +106,11 @@ class MappingRun:
         self.trail.add(time, pose, heading_sigma)
 
     def scan(self, scan: StampedScan) -> None:
-        """A whole revolution, on the sensor's thread: queued, never waited on."""
-        self._queue.put(scan)
+        """A revolution, on the sensor's thread: queued, never waited on; one with
+        samples lost is counted and left out at once, so that it takes no whole one's
+        place in the queue."""
+        if not self._left_out(scan):
+            self._queue.put(scan)
 
     # -- asked by the service ------------------------------------------------------
 
@@ -174,6 +173,17 @@ class MappingRun:
 
     # -- the run's thread ------------------------------------------------------------
 
+    def _left_out(self, scan: StampedScan) -> bool:
+        """Whether `scan` has samples lost (counted if so). A piece of a turn, or two
+        run together: drawn at one pose it smears the walls, and matched it may jump
+        the map's pose (in a recorded teaching drive, bench/teach_replay.py, a piece of
+        76 samples moved it 0.33 m)."""
+        if scan.whole:
+            return False
+        with self._lock:
+            self._broken += 1
+        return True
+
     def _laid_in(self, scan: StampedScan) -> None:
         self.lay_in(scan)
         try:
@@ -192,12 +202,7 @@ class MappingRun:
         """Lay `scan` into the map now, on the caller's thread: the run's thread does,
         for each revolution it is given; a drive replayed (bench/teach_replay.py) calls
         it in turn, none dropped."""
-        if not scan.whole:
-            # A piece of a turn, or two run together: drawn at one pose it smears the
-            # walls, and matched it may jump the map's pose (in a recorded teaching
-            # drive, bench/teach_replay.py, a piece of 76 samples moved it 0.33 m).
-            with self._lock:
-                self._broken += 1
+        if self._left_out(scan):
             return
         stamp = scan.taken_at
         pose = self.trail.at(stamp)

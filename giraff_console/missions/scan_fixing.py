@@ -107,8 +107,11 @@ class ScanFixer:
         self.trail.add(time, pose, heading_sigma)
 
     def scan(self, scan: StampedScan) -> None:
-        """A whole revolution, on the sensor's thread: queued, with the time of its
-        middle, never waited on."""
+        """A revolution, on the sensor's thread: queued, with the time of its middle,
+        never waited on; one with samples lost (lidar/scan.py) is no fix, nor a measure
+        of how long a turn takes."""
+        if not scan.whole:
+            return
         if self._stamp is not None and 0 < scan.taken_at - self._stamp <= MAX_REVOLUTION_S:
             self._revolution_s = scan.taken_at - self._stamp
         self._stamp = scan.taken_at

@@ -43,6 +43,7 @@ class Scan:
     # and is read on the tick.
     sees_walls: ClassVar[bool] = False
     taken_at: ClassVar[None] = None
+    whole: ClassVar[bool] = True  # cast at once
 
     @property
     def hits(self) -> list[tuple[float, float]]:

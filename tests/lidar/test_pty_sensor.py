@@ -137,8 +137,8 @@ def test_a_protection_stop_is_reported(lidar_sim, readers):
 
 def test_a_reader_that_falls_behind_marks_the_revolutions_it_lost_samples_of(lidar_sim, readers):
     # A listener holding the reader's thread for a second, as a starved process would:
-    # more than MAX_BUFFERED samples pile up and the package drops them, whole samples
-    # at a time, so the line stays in step but the revolution under way has a gap.
+    # more than MAX_BUFFERED samples pile up and the reader drops them, whole samples at
+    # a time, so the line stays in step but the revolution under way has a gap.
     sim = lidar_sim("--floorplan", str(TWO_ROOMS))
     reader = readers(sim.lidar)
     heard: list[LidarScan] = []

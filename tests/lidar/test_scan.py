@@ -66,15 +66,35 @@ def test_lidar_without_a_port_on_a_real_robot_is_a_usage_error(capsys):
 
 
 def test_a_whole_turn_is_one_sweep_with_no_sample_lost():
+    def whole(angles, measured=None):
+        angles = np.asarray(angles, float)
+        return whole_turn(angles, np.ones(len(angles), bool) if measured is None else measured)
+
     a1 = np.arange(360) * 1.0 + 0.3  # an A1's samples, from just past its start flag
-    assert whole_turn(a1)
-    assert whole_turn(np.arange(16) * 22.5)  # a sparse sensor's, evenly spaced
+    assert whole(a1)
+    assert whole(np.arange(16) * 22.5)  # a sparse sensor's, evenly spaced
     # The angles' jitter, unsorted, and a first sample just short of the turn's end.
-    assert whole_turn(a1 + np.random.default_rng(1).uniform(-0.4, 0.4, 360))
-    assert whole_turn(np.mod(a1 - 0.5, 360.0))
+    assert whole(a1 + np.random.default_rng(1).uniform(-0.4, 0.4, 360))
+    assert whole(np.mod(a1 - 0.5, 360.0))
+    # A real sensor's turn holds no whole number of samples (an A1 330 to 400, an A3
+    # about 1450), read to 1/64 degree and cut at the start flag: every turn whole.
+    for per_turn in (330.8, 363.6, 395.7, 1450.6):
+        swept = np.arange(int(per_turn * 20)) * (360.0 / per_turn) + 0.17
+        turn = np.floor(swept / 360.0)
+        for k in range(1, 19):
+            angles = np.round(np.mod(swept[turn == k], 360.0) * 64) / 64
+            assert whole(angles), (per_turn, k)
+    # A sample that measured nothing carries no angle to go by (the sensor's own SDK
+    # rewrites it): one out of place is passed over.
+    odd = a1.copy()
+    odd[100] = 262.0
+    measured = np.ones(360, bool)
+    assert not whole(odd)
+    measured[100] = False
+    assert whole(odd, measured)
     # Samples lost: a run of them in the middle, the turn's end, or the start flag
     # between two turns (the next turn's angles run on from 0 in the same revolution).
-    assert not whole_turn(np.delete(a1, range(100, 120)))
-    assert not whole_turn(a1[:300])
-    assert not whole_turn(np.concatenate([a1, a1]))
-    assert not whole_turn(a1[:1])
+    assert not whole(np.delete(a1, range(100, 104)))
+    assert not whole(a1[:300])
+    assert not whole(np.concatenate([a1, a1]))
+    assert not whole(a1[:1])

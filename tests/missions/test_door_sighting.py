@@ -7,6 +7,7 @@ a crossing seen off its plan again, only where it can still line up on it."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -73,11 +74,12 @@ def crossing_y(navigator: Navigator) -> float:
     return middle[1]
 
 
-def sweep(lookout: Lookout, truth: OccupancyGrid, revolutions: int) -> None:
+def sweep(lookout: Lookout, truth: OccupancyGrid, revolutions: int, whole: bool = True) -> None:
     """`revolutions` of the real building read by `lookout` from the hall, each at two
     ticks, as the loop reads the latest; the first, taken before the mission's first
-    tick, is not placed at all."""
-    scans = [revolution(truth, HALL, taken_at=0.2 * i) for i in range(revolutions + 1)]
+    tick, is not placed at all. Not `whole`: each marked as having lost samples."""
+    scans = [replace(revolution(truth, HALL, taken_at=0.2 * i), whole=whole)
+             for i in range(revolutions + 1)]  # fmt: skip
     reading = iter(scan for scan in scans for _ in range(2))
     lookout.sense = lambda: next(reading)
     for scan in scans:
@@ -85,8 +87,8 @@ def sweep(lookout: Lookout, truth: OccupancyGrid, revolutions: int) -> None:
             lookout.sweep(HALL, scan.taken_at + late)
 
 
-def seen(tmp_path: Path, plan_width: float, revolutions: int,
-         real_width: float | None = None) -> tuple[Navigator, Lookout]:  # fmt: skip
+def seen(tmp_path: Path, plan_width: float, revolutions: int, real_width: float | None = None,
+         whole: bool = True) -> tuple[Navigator, Lookout]:  # fmt: skip
     """The navigator of a plan whose door is `plan_width` wide at y 1.5, after a lookout
     has read `revolutions` of the real building (its door `real_width`, else as wide, at
     REAL_Y), and the lookout."""
@@ -95,7 +97,7 @@ def seen(tmp_path: Path, plan_width: float, revolutions: int,
     assert truth is not None
     navigator = Navigator(plan, walls_of(plan))
     lookout = Lookout(navigator, lambda: revolution(truth, HALL, 0.0))
-    sweep(lookout, truth, revolutions)
+    sweep(lookout, truth, revolutions, whole)
     return navigator, lookout
 
 
@@ -103,6 +105,13 @@ def test_a_doorway_seen_off_the_plans_middle_is_crossed_where_it_was_seen(tmp_pa
     # The plan's door 0.9 m wide, as is the real one: its middle is within its clearance.
     assert crossing_y(seen(tmp_path, 0.9, 0)[0]) == pytest.approx(1.5)
     assert crossing_y(seen(tmp_path, 0.9, MIN_SIGHTINGS)[0]) == pytest.approx(REAL_Y, abs=0.02)
+
+
+def test_revolutions_with_samples_lost_do_not_move_the_crossing(tmp_path):
+    # Pieces of turns (lidar/scan.py's whole_turn) show what is in the way, not where
+    # a doorway is: as many as move it when whole leave the plan's crossing.
+    navigator, _ = seen(tmp_path, 0.9, MIN_SIGHTINGS + 2, whole=False)
+    assert crossing_y(navigator) == pytest.approx(1.5)
 
 
 def test_a_few_revolutions_do_not_move_the_crossing(tmp_path):

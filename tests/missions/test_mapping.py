@@ -25,3 +25,15 @@ def test_a_revolution_with_samples_lost_is_left_out_and_counted() -> None:
     assert status.scans + status.turning + status.broken == len(truth)
     laid = {round(scan.stamp * RATE) for scan in run.builder.laid}
     assert laid and not laid & broken
+
+
+def test_a_revolution_with_samples_lost_is_counted_as_it_comes_never_queued() -> None:
+    # On the sensor's thread, at once: queued, it could push a whole one out of the
+    # run's short queue (MAX_WAITING, the newest kept).
+    walls = care_home_wing()
+    (pose,) = drive(WING_DRIVE, RATE)[:1]
+    (sweep,) = sweeps(walls, [pose], 360, 1)
+    run = MappingRun(MapBuilder(), lambda text: None, pose)
+    run.close()  # nothing queued is laid in from here on
+    run.scan(LidarScan(sweep.range_max, tuple(sweep.beams), 0.0, 360, whole=False))
+    assert run.status().broken == 1
