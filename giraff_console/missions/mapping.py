@@ -143,7 +143,7 @@ class MappingRun:
                 return None
             laid = list(old.laid)
             closed = close_loops(laid, old.resolution)
-            if not closed.loops:
+            if not closed.corrected:
                 return closed
             builder = redrawn(laid, closed.poses, old.resolution)
             builder.match_scans = old.match_scans

@@ -109,6 +109,11 @@ class Closed:
     outliers: int  # of those and the squared, left out by the solve
     squared: int  # keyframes tied to the building's square
 
+    @property
+    def corrected(self) -> bool:
+        """Whether the poses were solved for: a loop closed or a keyframe squared."""
+        return bool(self.loops or self.squared)
+
 
 def _array(pose: Pose) -> np.ndarray:
     return np.array([pose.x, pose.y, pose.heading])
