@@ -194,7 +194,8 @@ def replay(path: Path, quiet: bool = False, loops: bool = False, perturb_seed: i
         closed = run.close_loops()
         assert closed is not None
         report |= {"loop_s": time.process_time() - began, "keyframes": closed.keyframes,
-                   "loops": closed.loops, "outliers": closed.outliers}  # fmt: skip
+                   "loops": closed.loops, "squared": closed.squared,
+                   "outliers": closed.outliers}  # fmt: skip
         poses = closed.poses
     grid = run.grid()
     marks = [(m.name, m.at) for m in run.status().marks]
@@ -252,7 +253,8 @@ def report(path: Path, seed: int, r: dict) -> None:
           f"({r['turning']} turning, {r['broken']} with samples lost), "
           f"{r['ms_per_rev']:.1f} ms each"
           + (f"; loops: {r['keyframes']} keyframes, {r['loops']} closures, "
-             f"{r['outliers']} left out, {r['loop_s']:.1f} s" if "loops" in r else "")
+             f"{r['squared']} squared, {r['outliers']} left out, {r['loop_s']:.1f} s"
+             if "loops" in r else "")
           + (f"; {r['error']}" if "error" in r else "")
           + (f"; {r['plan']}" if "plan" in r else ""), flush=True)  # fmt: skip
 
