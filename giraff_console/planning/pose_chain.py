@@ -3,15 +3,14 @@ teaching map's loop closure (loop_closure.py) asks it where each keyframe of the
 was, given the motion between neighbours and the places the drive came back to.
 
 Pure numpy and scipy's sparse LU; no I/O. Each edge says "pose j, seen from pose i, is
-at (dx, dy, dheading)" with a standard deviation for the distance (one along i's heading
-and one across it, the same unless given) and one for the turn; its residual is the
-difference in i's frame, whitened. An infinite deviation leaves that part unsaid.
-Gauss-Newton on the whole chain, the first pose held where it is (the map's dock).
-Edges marked `robust` (a loop closure may be wrong: a room that looks like another) are
-weighted by Cauchy's loss on their squared Mahalanobis distance, renewed at every step
-(IRLS), as the survey's pose graph weighs its sightings (robot/pose_graph_solve.py says
-why IRLS and not scipy's least_squares); those left beyond the outlier bound at the end
-are dropped and the chain solved once more without them.
+at (dx, dy, dheading)" with a standard deviation for the distance and one for the
+turn; its residual is the difference in i's frame, whitened. Gauss-Newton on the whole
+chain, the first pose held where it is (the map's dock). Edges marked `robust` (a loop
+closure may be wrong: a room that looks like another) are weighted by Cauchy's loss on
+their squared Mahalanobis distance, renewed at every step (IRLS), as the survey's pose
+graph weighs its sightings (robot/pose_graph_solve.py says why IRLS and not scipy's
+least_squares); those left beyond the outlier bound at the end are dropped and the
+chain solved once more without them.
 """
 
 from __future__ import annotations
@@ -38,10 +37,9 @@ class Edge:
     dx: float
     dy: float
     dheading: float
-    sigma_m: float  # along pose i's heading, and across it unless sigma_across_m
+    sigma_m: float
     sigma_rad: float
     robust: bool = False
-    sigma_across_m: float | None = None
 
 
 @dataclass(frozen=True)
@@ -78,8 +76,7 @@ def solve(start: np.ndarray, edges: list[Edge]) -> Solved:
         return Solved(x, 0, ())
     e = np.array([(d.i, d.j) for d in edges], dtype=np.intp)
     z = np.array([(d.dx, d.dy, d.dheading) for d in edges], dtype=float)
-    w = np.array([(1 / d.sigma_m, 1 / (d.sigma_m if d.sigma_across_m is None else d.sigma_across_m),
-                   1 / d.sigma_rad) for d in edges])  # fmt: skip
+    w = np.array([(1 / d.sigma_m, 1 / d.sigma_m, 1 / d.sigma_rad) for d in edges])
     robust = np.array([d.robust for d in edges], dtype=bool)
     kept = np.ones(len(edges), dtype=bool)
     iterations = 0

@@ -70,6 +70,20 @@ def furnished_room() -> Walls:
     return np.array(walls, dtype=np.float64)
 
 
+def turned(walls: Walls, angle: float, about: tuple[float, float] = (0.0, 0.0)) -> Walls:
+    """`walls` turned by `angle` about the point `about`."""
+    c, s = math.cos(angle), math.sin(angle)
+    x1, y1, x2, y2 = walls.T - np.array([*about, *about])[:, None]
+    return np.column_stack([c * x1 - s * y1, s * x1 + c * y1, c * x2 - s * y2,
+                            s * x2 + c * y2]) + np.array([*about, *about])  # fmt: skip
+
+
+def turned_poses(poses: Sequence[Pose], angle: float) -> list[Pose]:
+    """`poses` turned by `angle` about the origin, as `turned` turns walls."""
+    c, s = math.cos(angle), math.sin(angle)
+    return [Pose(c * p.x - s * p.y, s * p.x + c * p.y, p.heading + angle) for p in poses]
+
+
 @dataclass(frozen=True)
 class Sweep:
     """One scan, as a range sensor's reader gives it (planning/map_building.RangeScan)."""

@@ -22,7 +22,17 @@ from giraff_console.planning.loop_closure import (
 from giraff_console.planning.map_building import MapBuilder
 from giraff_console.planning.pose_chain import Edge, compose, relative, solve
 from giraff_console.robot.odometry import Pose
-from tests.mapping.buildings import WING_DRIVE, care_home_wing, drifted, drive, score, sweeps
+from tests.mapping.buildings import (
+    WING_DRIVE,
+    box,
+    care_home_wing,
+    drifted,
+    drive,
+    score,
+    sweeps,
+    turned,
+    turned_poses,
+)
 
 RATE = 5.5
 
@@ -134,17 +144,6 @@ def test_a_drive_that_never_comes_back_is_left_where_it_was() -> None:
                for p, t in zip(closed.poses, truth, strict=True)) < math.radians(0.1)  # fmt: skip
 
 
-def turned(walls: np.ndarray, angle: float) -> np.ndarray:
-    c, s = math.cos(angle), math.sin(angle)
-    x1, y1, x2, y2 = walls.T
-    return np.column_stack([c * x1 - s * y1, s * x1 + c * y1, c * x2 - s * y2, s * x2 + c * y2])
-
-
-def turned_poses(poses: list[Pose], angle: float) -> list[Pose]:
-    c, s = math.cos(angle), math.sin(angle)
-    return [Pose(c * p.x - s * p.y, s * p.x + c * p.y, p.heading + angle) for p in poses]
-
-
 def heading_off(poses: list[Pose], truth: list[Pose]) -> float:
     return max(abs(math.degrees(math.remainder(p.heading - t.heading, math.tau)))
                for p, t in zip(poses, truth, strict=True))  # fmt: skip
@@ -160,26 +159,26 @@ def laid_drive(walls: np.ndarray, truth: list[Pose], poses: list[Pose]) -> MapBu
     return builder
 
 
-@pytest.mark.parametrize("degrees", [0.0, 30.0])
+@pytest.mark.parametrize("degrees", [0.0, 30.0, 45.0])
 def test_a_heading_that_drifts_in_a_wing_driven_once_is_held_to_the_buildings_square(
     degrees: float,
 ) -> None:
     """Into a room and out, then on to the end of the corridor: no place seen twice long
-    enough apart to close a loop, the heading creeping 0.15 degree a metre; the building
+    enough apart to close a loop, the heading creeping 0.1 degree a metre; the building
     turned or not, its square is the dock's."""
     angle = math.radians(degrees)
     walls = turned(care_home_wing(), angle)
     truth = turned_poses(drive([(1, 1), (5.95, 1), (5.95, 3.6), (5.95, 1), (15, 1)], RATE), angle)
-    builder = laid_drive(walls, truth, drifted(truth, 0.005, 0.15, 0.0))
+    builder = laid_drive(walls, truth, drifted(truth, 0.005, 0.1, 0.0))
     truth = [truth[0]] * 11 + truth
     before = [laid.pose for laid in builder.laid]
     closed = close_loops(builder.laid, builder.resolution)
     assert closed.loops == 0 and closed.squared > 0
-    # Measured: 2.9 degrees and 0.38 m off at worst before; 0.07 degree and 0.07 m after
+    # Measured: 1.9 degrees and 0.26 m off at worst before; 0.14 degree and 0.07 m after
     # (the odometry's distance, 0.5 % long, is all that is left).
-    assert heading_off(before, truth) > 2.5
+    assert heading_off(before, truth) > 1.5
     assert heading_off(closed.poses, truth) < 0.3
-    assert worst(before, truth) > 0.3
+    assert worst(before, truth) > 0.2
     assert worst(closed.poses, truth) < 0.1
 
 
@@ -277,28 +276,36 @@ def test_a_step_scan_matching_pulled_is_as_loose_as_the_pull() -> None:
     wheels = straight(6)
     matched = wheels.copy()
     matched[3:, 1] += 0.08  # pulled 8 cm sideways between keyframes 2 and 3
-    steps = [edge for edge in drive_edges(matched, wheels) if edge.sigma_rad < math.inf]
+    steps = drive_edges(matched, wheels)
     assert [edge.sigma_m for edge in steps] == pytest.approx(
         [STEP_SIGMA_M, STEP_SIGMA_M, 0.08, STEP_SIGMA_M, STEP_SIGMA_M]
     )
 
 
-def test_the_wheels_say_only_the_distance_and_only_where_the_drive_went_straight() -> None:
-    wheels = straight(4)
-    wheels[2:, 2] = math.radians(20)  # a turn between keyframes 1 and 2
-    said = [edge for edge in drive_edges(wheels, wheels) if edge.sigma_rad == math.inf]
-    assert [(edge.i, edge.j) for edge in said] == [(0, 1), (2, 3)]
-    for edge in said:
-        assert edge.dx == pytest.approx(relative(wheels[edge.i], wheels[edge.j])[0])
-        assert edge.dy == 0 and edge.sigma_across_m == math.inf
-
-
-def test_the_wheels_distance_takes_out_scan_matchings_slip_along_a_corridor() -> None:
-    """Down a bare corridor scan matching has little to hold the distance by: here it
-    makes each step 3 % short; the wheels' distance is right, held to 3 mm a step."""
-    truth = straight(30)
-    matched = truth * [0.97, 1.0, 1.0]
-    solved = solve(matched, drive_edges(matched, truth))
-    # Measured: 0.26 m short at the end before, 0.02 m after.
-    assert off(matched, truth) > 0.25
-    assert off(solved.poses, truth) < 0.03
+@pytest.mark.parametrize("degrees", [2.5, 4.0])
+def test_a_room_built_off_the_square_is_not_bent_onto_it(degrees: float) -> None:
+    """A day room through a door off the dock's room, built a few degrees off its square:
+    every revolution in it agrees on the wrong square; the drive, drawn at its true
+    poses, stays where it was."""
+    angle, door = math.radians(degrees), (6.0, 2.0)
+    dock_room = [(0, 0, 6, 0), (0, 4, 6, 4), (0, 0, 0, 4), (6, 0, 6, 1.5), (6, 2.5, 6, 4)]
+    day_room = [(6, -2, 6, 1.5), (6, 2.5, 6, 6), (6, -2, 16, -2), (6, 6, 16, 6),
+                (16, -2, 16, 6), *box(9, 0.5, 10, 1.0), *box(13, 3, 14.5, 3.8)]  # fmt: skip
+    walls = np.concatenate([np.array(dock_room, dtype=np.float64),
+                            turned(np.array(day_room, dtype=np.float64), angle, door)])  # fmt: skip
+    stops = np.array([(x, y, x, y) for x, y in [(12, 2), (12, 4.5), (8, 4.5), (8, 0), (14.5, 0)]],
+                     dtype=np.float64)  # fmt: skip
+    way = [
+        (1.0, 2.0),
+        (5.0, 2.0),
+        *[(float(x), float(y)) for x, y, _, _ in turned(stops, angle, door)],
+    ]
+    truth = drive(way, RATE)
+    builder = laid_drive(walls, truth, truth)
+    closed = close_loops(builder.laid, builder.resolution)
+    truth = [truth[0]] * 11 + truth
+    # Measured, with every keyframe square to its walls tied (a reach of 4 degrees):
+    # 2.5 and 4.0 degrees off, 0.36 and 0.60 m; as it is, at most 0.4 degree and 0.06 m
+    # (keyframes in the doorway, seeing both rooms, are squared between the two).
+    assert heading_off(closed.poses, truth) < 0.6
+    assert worst(closed.poses, truth) < 0.1
