@@ -239,10 +239,10 @@ class LidarReader:
                  intact: bool) -> None:  # fmt: skip
         """Hand a revolution on; `intact`: none of its samples were dropped unread."""
         settings = self.settings
-        distance_mm = np.array(distances)
-        beams = robot_beams(np.array(angles), distance_mm, np.array(qualities),
+        angle_deg, distance_mm = np.array(angles), np.array(distances)
+        beams = robot_beams(angle_deg, distance_mm, np.array(qualities),
                             settings.mount, settings.range_min, settings.range_max)  # fmt: skip
-        whole = intact and whole_turn(np.array(angles), distance_mm > 0)
+        whole = intact and whole_turn(angle_deg, distance_mm > 0)
         scan = LidarScan(settings.range_max, beams, self.clock(), len(angles), whole)
         self._latest = scan
         self.revolutions += 1
