@@ -20,6 +20,16 @@ from giraff_console.protocol import parse_reply
 from giraff_console.sim import BoardConfig, GiraffBoard
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    """Ctrl-C as at a terminal. A shell without job control starts an asynchronous
+    command (`pytest &`, a CI runner's) with SIGINT ignored, and every process a test
+    starts inherits that: Python then installs no handler of its own, and the tests that
+    Ctrl-C a client (`stop`, `watch`) wait out their timeouts. An operator presses Ctrl-C
+    at a foreground job, which has the default."""
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 @pytest.fixture(autouse=True, scope="session")
 def private_runtime_folder() -> Iterator[Path]:
     """A runtime folder of the tests' own: no console or command under test attaches to
