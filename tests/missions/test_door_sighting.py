@@ -18,6 +18,7 @@ from giraff_console.lidar.scan import LidarScan
 from giraff_console.missions.door_sighting import (
     MAX_SHIFT_M,
     MIN_SIGHTINGS,
+    SIDE_M,
     Doorway,
     Revolution,
     Sightings,
@@ -168,10 +169,30 @@ def test_one_jamb_says_nothing():
     assert opening_middle(doorway(), hits[hits[:, 1] < 1.5], WIDTH) is None
 
 
-def test_someone_in_the_doorway_is_not_its_jamb():
-    # Standing in it, at the wall's face: narrower than the plan's door.
+def test_a_doorway_drawn_wider_than_the_real_one_is_crossed_where_it_was_seen(tmp_path):
+    # A taught map's 1.10 m for a real 0.80 m: the opening seen is narrower than the
+    # plan's, and still the doorway (before, refused as something standing in it).
+    navigator, _ = seen(tmp_path, 1.1, MIN_SIGHTINGS, real_width=0.8)
+    assert crossing_y(navigator) == pytest.approx(REAL_Y, abs=0.02)
+
+
+def test_someone_at_the_side_of_a_doorway_is_passed_furthest_from():
+    # At the wall's face in the 0.8 m opening, 10 cm in from its jamb: the middle of
+    # what is left (to the wall's first hit past the far jamb, at 1.92), further from
+    # them. Before, an opening narrower than the plan's was refused.
+    hits = np.vstack([wall_with_opening(1.1, 1.9), [(4.95, 1.2)]])
+    assert opening_middle(doorway(), hits, WIDTH) == pytest.approx((1.2 + 1.92) / 2 - 1.5)
+
+
+def test_an_opening_the_robot_cannot_pass_says_nothing():
+    # Someone standing in the doorway, at the wall's face: 0.68 m left beside them, less
+    # than the robot and SIDE_M a side.
     hits = np.vstack([wall_with_opening(REAL_Y - 0.4, REAL_Y + 0.4), [(4.95, 1.3)]])
     assert opening_middle(doorway(), hits, WIDTH) is None
+    left = REAL_Y + 0.4 - 1.3
+    assert left < WIDTH + 2 * SIDE_M
+    wider = np.vstack([wall_with_opening(REAL_Y - 0.4, REAL_Y + 0.4), [(4.95, 1.24)]])
+    assert opening_middle(doorway(), wider, WIDTH) is not None
 
 
 def test_something_in_front_of_the_wall_is_not_its_jamb():
