@@ -22,7 +22,7 @@ from giraff_console.sim import BoardConfig, GiraffBoard
 
 def pytest_configure(config: pytest.Config) -> None:
     """Ctrl-C as at a terminal. A shell without job control starts an asynchronous
-    command (`pytest &`, a CI runner's) with SIGINT ignored, and every process a test
+    command (`sh -c 'pytest &'`) with SIGINT ignored, and every process a test
     starts inherits that: Python then installs no handler of its own, and the tests that
     Ctrl-C a client (`stop`, `watch`) wait out their timeouts. An operator presses Ctrl-C
     at a foreground job, which has the default."""

@@ -18,19 +18,21 @@ middle is the median of MIN_SIGHTINGS revolutions in a row, from within SIGHT_M,
 agree within AGREE_M. The route planner crosses the doorway there from then on, as near
 as the plan's walls leave clear (planning/route_planner.py).
 
-A taught map draws a door narrower than it is, or wider: 1.10 m for a real 0.80 (a wall
-10 cm off), and then a crossing at the plan's middle meets the real jamb, which, 0.3 m
-inside the plan's doorway, the lookout takes for something in the way: a patrol planned
-new ways round it until it gave up (docs/performance.md). So the opening seen is taken
-at any width the robot passes with SIDE_M a side: something standing at the side of a
-doorway (a person, a door's leaf) narrows it too, and the middle of what is left is
-then where to pass, furthest from it. A revolution says nothing of a doorway whose
-opening it does not show both ends of, or shows narrower than that (nothing passes) or
-much wider than the plan's, or with its middle more than MAX_SHIFT_M from the plan's (it
-has seen something else); nor does one taken while the robot turned, or moved
-along the doorway's wall by more than SMEAR_M: its beams, each taken at its own moment
-of the turn, are placed from the pose half way through it (missions/lookout.py), and the
-jambs' by up to half that motion off.
+A taught map draws a door narrower than it is, or wider: 1.10 m for a real 0.80. A real
+jamb then stands up to 0.3 m inside the plan's doorway, beyond KNOWN_WALL_M of the
+plan's wall, where the lookout takes it for something in the way (missions/lookout.py);
+a crossing at the plan's middle meets it, and patrols planned new ways round something
+at that door until they gave up (docs/performance.md). So an opening seen is taken at
+any width that leaves the robot SIDE_M a side. Something standing at a doorway's side (a
+person, a door's leaf, a walker) at the wall's face narrows it the same way: the middle
+seen is then the middle of what is left, part of the real opening, and crossing there
+the robot keeps clear of the real jambs and of the thing, whether it stays or goes. A
+revolution says nothing of a doorway whose opening it does not show both ends of, or
+shows narrower than that (nothing passes) or much wider than the plan's, or with its
+middle more than MAX_SHIFT_M from the plan's (it has seen something else); nor does one
+taken while the robot turned, or moved along the doorway's wall by more than SMEAR_M:
+its beams, each taken at its own moment of the turn, are placed from the pose half way
+through it (missions/lookout.py), and the jambs' by up to half that motion off.
 """
 
 from __future__ import annotations
@@ -57,9 +59,11 @@ WALL_BAND_M = 0.25
 JAMB_DEPTH_M = 0.15
 # The opening's ends are looked for this far beyond the plan's jambs.
 JAMB_SEARCH_M = 0.25
-# An opening that leaves the robot less than this a side is no way through: a real 0.8 m
-# door leaves a 0.6 m robot 0.1 m, and a sparse revolution sees it wider, not narrower.
-SIDE_M = 0.05
+# An opening seen to leave the robot less than this a side is no way through. A sparse
+# revolution sees it up to a beam's spacing wider at each end (3.5 cm from SIGHT_M), so
+# one taken leaves the robot 4 cm a side at least; a real 0.8 m door (0.1 m a side for
+# a 0.6 m robot) is seen 0.75 m wide or wider, on the simulator's 5 cm cells too.
+SIDE_M = 0.075
 # A middle further than this from the plan's is not this doorway's (the taught home's
 # worst was 15 cm).
 MAX_SHIFT_M = 0.2

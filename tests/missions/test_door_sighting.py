@@ -18,7 +18,6 @@ from giraff_console.lidar.scan import LidarScan
 from giraff_console.missions.door_sighting import (
     MAX_SHIFT_M,
     MIN_SIGHTINGS,
-    SIDE_M,
     Doorway,
     Revolution,
     Sightings,
@@ -89,12 +88,12 @@ def sweep(lookout: Lookout, truth: OccupancyGrid, revolutions: int, whole: bool 
 
 
 def seen(tmp_path: Path, plan_width: float, revolutions: int, real_width: float | None = None,
-         whole: bool = True) -> tuple[Navigator, Lookout]:  # fmt: skip
+         whole: bool = True, real_y: float = REAL_Y) -> tuple[Navigator, Lookout]:  # fmt: skip
     """The navigator of a plan whose door is `plan_width` wide at y 1.5, after a lookout
     has read `revolutions` of the real building (its door `real_width`, else as wide, at
-    REAL_Y), and the lookout."""
+    `real_y`), and the lookout."""
     plan = two_rooms(tmp_path, "plan", 1.5, plan_width)
-    truth = walls_of(two_rooms(tmp_path, "truth", REAL_Y, real_width or plan_width))
+    truth = walls_of(two_rooms(tmp_path, "truth", real_y, real_width or plan_width))
     assert truth is not None
     navigator = Navigator(plan, walls_of(plan))
     lookout = Lookout(navigator, lambda: revolution(truth, HALL, 0.0))
@@ -169,30 +168,38 @@ def test_one_jamb_says_nothing():
     assert opening_middle(doorway(), hits[hits[:, 1] < 1.5], WIDTH) is None
 
 
-def test_a_doorway_drawn_wider_than_the_real_one_is_crossed_where_it_was_seen(tmp_path):
+@pytest.mark.parametrize("real_y", [REAL_Y, 1.65])
+def test_a_doorway_drawn_wider_than_the_real_one_is_crossed_where_it_was_seen(tmp_path, real_y):
     # A taught map's 1.10 m for a real 0.80 m: the opening seen is narrower than the
-    # plan's, and still the doorway (before, refused as something standing in it).
-    navigator, _ = seen(tmp_path, 1.1, MIN_SIGHTINGS, real_width=0.8)
-    assert crossing_y(navigator) == pytest.approx(REAL_Y, abs=0.02)
+    # plan's less 5 cm, and still the doorway (before, refused as something standing in
+    # it). At 1.65 a real jamb (1.25) stands 0.3 m inside the plan's doorway (0.95-2.05),
+    # beyond KNOWN_WALL_M of its wall: something in the way to the lookout, which before
+    # left no straight crossing at all.
+    navigator, _ = seen(tmp_path, 1.1, MIN_SIGHTINGS, real_width=0.8, real_y=real_y)
+    assert bool(navigator.state.obstacles) == (real_y == 1.65)
+    y = crossing_y(navigator)
+    # Nearest the middle seen that the jamb sensed leaves clear: the body passes both
+    # real jambs by the clearance.
+    assert y == pytest.approx(real_y, abs=0.03)
+    assert y - ROBOT_RADIUS_M - (real_y - 0.4) >= CLEARANCE_M
+    assert real_y + 0.4 - (y + ROBOT_RADIUS_M) >= CLEARANCE_M
 
 
 def test_someone_at_the_side_of_a_doorway_is_passed_furthest_from():
-    # At the wall's face in the 0.8 m opening, 10 cm in from its jamb: the middle of
-    # what is left (to the wall's first hit past the far jamb, at 1.92), further from
-    # them. Before, an opening narrower than the plan's was refused.
-    hits = np.vstack([wall_with_opening(1.1, 1.9), [(4.95, 1.2)]])
-    assert opening_middle(doorway(), hits, WIDTH) == pytest.approx((1.2 + 1.92) / 2 - 1.5)
+    # A 0.96 m opening seen (0.99-1.95), someone at the wall's face 11 cm in from its
+    # jamb: the middle of what is left, further from them.
+    clear = wall_with_opening(1.0, 1.95)
+    hits = np.vstack([clear, [(4.95, 1.1)]])
+    assert opening_middle(doorway(), clear, WIDTH) == pytest.approx((0.99 + 1.95) / 2 - 1.5)
+    assert opening_middle(doorway(), hits, WIDTH) == pytest.approx((1.1 + 1.95) / 2 - 1.5)
 
 
 def test_an_opening_the_robot_cannot_pass_says_nothing():
-    # Someone standing in the doorway, at the wall's face: 0.68 m left beside them, less
-    # than the robot and SIDE_M a side.
-    hits = np.vstack([wall_with_opening(REAL_Y - 0.4, REAL_Y + 0.4), [(4.95, 1.3)]])
-    assert opening_middle(doorway(), hits, WIDTH) is None
-    left = REAL_Y + 0.4 - 1.3
-    assert left < WIDTH + 2 * SIDE_M
-    wider = np.vstack([wall_with_opening(REAL_Y - 0.4, REAL_Y + 0.4), [(4.95, 1.24)]])
-    assert opening_middle(doorway(), wider, WIDTH) is not None
+    # Someone standing in the doorway, at the wall's face, leaves 0.68 m (1.3-1.98): less
+    # than the robot and SIDE_M a side (0.75 m); 0.78 m (1.2-1.98) is enough.
+    wall = wall_with_opening(REAL_Y - 0.4, REAL_Y + 0.4)
+    assert opening_middle(doorway(), np.vstack([wall, [(4.95, 1.3)]]), WIDTH) is None
+    assert opening_middle(doorway(), np.vstack([wall, [(4.95, 1.2)]]), WIDTH) is not None
 
 
 def test_something_in_front_of_the_wall_is_not_its_jamb():
